@@ -1,0 +1,175 @@
+# SPDX-License-Identifier: MIT
+# drgate: `make` builds, `make check` runs every test, `make demo` shows it
+# working, `make install` installs. See README.md.
+
+VERSION      := 0.1.0
+SOVERSION    := 0
+
+PREFIX       ?= /usr/local
+BINDIR       ?= $(PREFIX)/bin
+LIBDIR       ?= $(PREFIX)/lib
+INCLUDEDIR   ?= $(PREFIX)/include
+MANDIR       ?= $(PREFIX)/share/man
+DATADIR      ?= $(PREFIX)/share/drgate
+UNITDIR      ?= $(PREFIX)/lib/systemd/system
+PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
+DESTDIR      ?=
+
+CROSS_COMPILE ?=
+ifeq ($(origin CC),default)
+CC := $(CROSS_COMPILE)gcc
+endif
+ifeq ($(origin AR),default)
+AR := $(CROSS_COMPILE)ar
+endif
+PKG_CONFIG ?= pkg-config
+PYTHON     ?= python3
+
+# Build directory: the sanitizer and cross builds use their own.
+B ?= build
+
+CFLAGS  ?= -O2 -g
+WERROR  ?= -Werror
+WARN    := -std=c99 -Wall -Wextra -Wpedantic $(WERROR) -Wshadow \
+           -Wstrict-prototypes -Wmissing-prototypes -Wcast-align \
+           -Wpointer-arith -Wformat=2 -Wvla
+HARDEN  ?= -fstack-protector-strong -D_FORTIFY_SOURCE=2
+ALL_CPPFLAGS := -Ilib/include -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
+ALL_CFLAGS   := $(WARN) $(HARDEN) $(CFLAGS)
+ALL_LDFLAGS  := -Wl,-z,relro,-z,now $(LDFLAGS)
+
+pc = $(shell $(PKG_CONFIG) $(1) $(2) 2>/dev/null)
+
+# ---- library -------------------------------------------------------------
+LIB_CODEC_SRC := lib/fields.c lib/codec.c lib/path.c lib/status.c
+LIB_SRC       := $(LIB_CODEC_SRC) lib/text.c
+LIB_OBJ       := $(LIB_SRC:%.c=$(B)/%.o)
+LIB_A         := $(B)/libdrgate.a
+LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
+LIB_SO        := $(B)/libdrgate.so.$(VERSION)
+LIB_HDR       := $(wildcard lib/include/drgate/*.h)
+
+# ---- programs --------------------------------------------------------------
+JSON_CFLAGS := $(call pc,--cflags,jansson)
+JSON_LIBS   := $(call pc,--libs,jansson)
+CLI_SRC     := cli/drcli.c
+CLI_BIN     := $(B)/drcli
+BINS        := $(CLI_BIN)
+
+# ---- tests -----------------------------------------------------------------
+CMOCKA_CFLAGS := $(call pc,--cflags,cmocka)
+CMOCKA_LIBS   := $(call pc,--libs,cmocka)
+TEST_SRC      := $(wildcard tests/test_*.c)
+TEST_BIN      := $(TEST_SRC:tests/%.c=$(B)/tests/%)
+TEST_SUPPORT  := $(wildcard tests/support/*.c)
+
+.PHONY: all lib clean install uninstall check check-unit check-docs \
+        check-cm4 check-be check-asan demo deps docs bench check-summary
+.DEFAULT_GOAL := all
+
+all: lib $(BINS)
+lib: $(LIB_A) $(LIB_SO)
+
+$(B)/%.o: %.c $(LIB_HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC -c $< -o $@
+
+$(LIB_A): $(LIB_OBJ)
+	rm -f $@
+	$(AR) rcs $@ $^
+
+$(LIB_SO): $(LIB_OBJ)
+	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,$(LIB_SO_NAME) $(ALL_LDFLAGS) -o $@ $^ -lm
+	ln -sf $(notdir $@) $(B)/$(LIB_SO_NAME)
+	ln -sf $(LIB_SO_NAME) $(B)/libdrgate.so
+
+$(CLI_BIN): $(CLI_SRC) $(LIB_A) $(LIB_HDR)
+	$(CC) $(ALL_CPPFLAGS) $(JSON_CFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
+	    -o $@ $(CLI_SRC) $(LIB_A) $(JSON_LIBS) -lm
+
+$(B)/tests/%: tests/%.c $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
+	    -o $@ $< $(TEST_SUPPORT) $(LIB_A) $(CMOCKA_LIBS) -lm
+
+# ---- dependencies ----------------------------------------------------------
+# Installs missing Debian packages (as root) and the Python test peers
+# (tests/requirements.txt, pinned) into .venv. Says what it installs.
+deps:
+	@sh mk/deps.sh
+
+# ---- tests -----------------------------------------------------------------
+RESULTS := $(B)/check-results
+
+check: deps
+	@rm -f $(RESULTS)
+	$(MAKE) --no-print-directory all
+	$(MAKE) --no-print-directory check-unit check-docs
+	$(MAKE) --no-print-directory check-cm4 check-be
+	$(MAKE) --no-print-directory check-asan
+	@$(MAKE) --no-print-directory check-summary
+
+check-unit: $(TEST_BIN)
+	@sh tests/run-tests.sh "$(RESULTS)" "$(TEST_RUNNER)" $(TEST_BIN)
+
+check-docs: $(CLI_BIN)
+	@sh mk/gen-docs.sh --check $(CLI_BIN) "$(RESULTS)"
+
+docs: $(CLI_BIN)
+	@sh mk/gen-docs.sh --write $(CLI_BIN)
+
+# The codec must build for a Cortex-M4 with no OS; its size goes to docs.
+check-cm4:
+	@sh mk/cross-cm4.sh "$(RESULTS)" $(LIB_CODEC_SRC)
+
+# The unit tests on a big-endian CPU (s390x under qemu-user).
+check-be:
+	$(MAKE) --no-print-directory B=$(B)/s390x CROSS_COMPILE=s390x-linux-gnu- \
+	    PKG_CONFIG=true CMOCKA_LIBS=-lcmocka HARDEN= \
+	    TEST_RUNNER="qemu-s390x -L /usr/s390x-linux-gnu" \
+	    RESULTS=$(abspath $(RESULTS)) check-unit
+
+# The whole suite again under AddressSanitizer + UBSan.
+SAN_FLAGS := -O1 -g -fsanitize=address,undefined -fno-sanitize-recover=all \
+             -fno-omit-frame-pointer
+check-asan:
+	$(MAKE) --no-print-directory B=$(B)/asan CFLAGS="$(SAN_FLAGS)" \
+	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
+	    RESULTS=$(abspath $(RESULTS)) check-unit
+
+check-summary:
+	@awk '{p += $$1; f += $$2} END {printf "check: %d passed, %d failed\n", p, f; exit (f > 0)}' $(RESULTS)
+
+# ---- benchmarks and demo -------------------------------------------------
+bench: $(B)/bench/bench_codec
+	$(B)/bench/bench_codec
+
+$(B)/bench/%: bench/%.c $(LIB_A) $(LIB_HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CPPFLAGS) $(WARN) -O2 -g $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+
+demo: deps all
+	@sh mk/demo.sh $(B)
+
+# ---- install ---------------------------------------------------------------
+install: all
+	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/drgate \
+	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1
+	install -m 644 $(LIB_A) $(DESTDIR)$(LIBDIR)/
+	install -m 755 $(LIB_SO) $(DESTDIR)$(LIBDIR)/
+	ln -sf libdrgate.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(LIB_SO_NAME)
+	ln -sf $(LIB_SO_NAME) $(DESTDIR)$(LIBDIR)/libdrgate.so
+	install -m 644 $(LIB_HDR) $(DESTDIR)$(INCLUDEDIR)/drgate/
+	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
+	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
+	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
+	install -m 644 $(wildcard man/*.1) $(DESTDIR)$(MANDIR)/man1/
+
+uninstall:
+	rm -f $(DESTDIR)$(LIBDIR)/libdrgate.* $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
+	rm -rf $(DESTDIR)$(INCLUDEDIR)/drgate
+	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(notdir $(BINS)))
+	rm -f $(addprefix $(DESTDIR)$(MANDIR)/man1/,$(notdir $(wildcard man/*.1)))
+
+clean:
+	rm -rf build

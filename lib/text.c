@@ -1,0 +1,174 @@
+/* SPDX-License-Identifier: MIT */
+/* Values as text and back (see drgate/text.h). */
+#include <errno.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "drgate/text.h"
+
+static dr_status_t fit(int n, size_t size)
+{
+    return (n < 0 || (size_t)n >= size) ? DR_ENOSPACE : DR_OK;
+}
+
+dr_status_t dr_text_real(float f, char *out, size_t size)
+{
+    if (out == NULL || size == 0)
+        return DR_EINVAL;
+    if (f != f)
+        return fit(snprintf(out, size, "nan"), size);
+    if (f > 3.4028235e38f || f < -3.4028235e38f)
+        return fit(snprintf(out, size, f > 0 ? "inf" : "-inf"), size);
+    /* The shortest precision whose text reads back to the same float;
+     * 9 significant digits always do for binary32. */
+    for (int prec = 1; prec <= 9; prec++) {
+        char tmp[32];
+        snprintf(tmp, sizeof tmp, "%.*g", prec, (double)f);
+        if (strtof(tmp, NULL) == f || prec == 9)
+            return fit(snprintf(out, size, "%s", tmp), size);
+    }
+    return DR_EINVAL; /* not reached */
+}
+
+static int hex_digits(unsigned bits)
+{
+    return (int)((bits + 3u) / 4u);
+}
+
+dr_status_t dr_text_format(dr_ref_t ref, const dr_value_t *v, unsigned flags,
+                           char *out, size_t size)
+{
+    if (ref.field == NULL || v == NULL || out == NULL || size == 0)
+        return DR_EINVAL;
+    const dr_field_t *f = ref.field;
+    int n;
+
+    switch (dr_ref_type(ref)) {
+    case DR_VAL_BOOL:
+        n = snprintf(out, size, "%u", (unsigned)(v->u != 0));
+        break;
+    case DR_VAL_UINT:
+        if (f->kind == DR_KIND_ENUM) {
+            const char *name = dr_robot_state_name((unsigned)v->u);
+            n = name != NULL
+                    ? snprintf(out, size, "%s (%u)", name, (unsigned)v->u)
+                    : snprintf(out, size, "UNKNOWN(%u)", (unsigned)v->u);
+        } else if (f->kind == DR_KIND_BITS) {
+            n = snprintf(out, size, "%" PRIu64 " (0x%0*" PRIx64 ")", v->u,
+                         hex_digits(f->count), v->u);
+        } else {
+            n = snprintf(out, size, "%" PRIu64, v->u);
+        }
+        break;
+    case DR_VAL_INT:
+        n = snprintf(out, size, "%" PRId64, v->i);
+        break;
+    default: {
+        dr_status_t st = dr_text_real((float)v->f, out, size);
+        if (st != DR_OK)
+            return st;
+        n = (int)strlen(out);
+        break;
+    }
+    }
+    if (fit(n, size) != DR_OK)
+        return DR_ENOSPACE;
+    if ((flags & DR_TEXT_UNIT) && f->unit[0] != '\0') {
+        size_t len = strlen(out);
+        return fit(snprintf(out + len, size - len, " %s", f->unit), size - len);
+    }
+    return DR_OK;
+}
+
+/* Whole-string integer in decimal or 0x hex. */
+static dr_status_t parse_int(const char *s, bool is_signed, dr_value_t *v)
+{
+    char *end;
+    if (*s == '\0' || *s == ' ' || *s == '\t' || *s == '+')
+        return DR_ESYNTAX;
+    errno = 0;
+    if (is_signed) {
+        long long x = strtoll(s, &end, 0);
+        if (*end != '\0')
+            return DR_ESYNTAX;
+        if (errno == ERANGE)
+            return DR_ERANGE;
+        *v = dr_value_int((int64_t)x);
+    } else {
+        if (*s == '-')
+            return DR_ERANGE;
+        unsigned long long x = strtoull(s, &end, 0);
+        if (*end != '\0')
+            return DR_ESYNTAX;
+        if (errno == ERANGE)
+            return DR_ERANGE;
+        *v = dr_value_uint((uint64_t)x);
+    }
+    /* "08" would be read as octal by strtol's base 0: refuse that. */
+    if (s[0] == '0' && s[1] >= '0' && s[1] <= '9')
+        return DR_ESYNTAX;
+    if (s[0] == '-' && s[1] == '0' && s[2] >= '0' && s[2] <= '9')
+        return DR_ESYNTAX;
+    return DR_OK;
+}
+
+static dr_status_t parse_real(const char *s, dr_value_t *v)
+{
+    char *end;
+    if (*s == '\0' || *s == ' ' || *s == '\t')
+        return DR_ESYNTAX;
+    errno = 0;
+    double f = strtod(s, &end);
+    if (*end != '\0')
+        return DR_ESYNTAX;
+    *v = dr_value_real(f);
+    return DR_OK;
+}
+
+dr_status_t dr_text_parse(dr_ref_t ref, const char *text, unsigned flags,
+                          dr_value_t *out)
+{
+    if (ref.field == NULL || text == NULL || out == NULL)
+        return DR_EINVAL;
+    dr_value_t v;
+    dr_status_t st;
+
+    switch (dr_ref_type(ref)) {
+    case DR_VAL_BOOL:
+        if (strcmp(text, "true") == 0)
+            v = dr_value_uint(1);
+        else if (strcmp(text, "false") == 0)
+            v = dr_value_uint(0);
+        else if ((st = parse_int(text, false, &v)) != DR_OK)
+            return st;
+        v.type = DR_VAL_BOOL;
+        break;
+    case DR_VAL_UINT:
+        st = DR_ESYNTAX;
+        if (ref.field->kind == DR_KIND_ENUM) {
+            for (unsigned i = 0; dr_robot_state_name(i) != NULL; i++) {
+                if (strcmp(text, dr_robot_state_name(i)) == 0) {
+                    v = dr_value_uint(i);
+                    st = DR_OK;
+                }
+            }
+        }
+        if (st != DR_OK && (st = parse_int(text, false, &v)) != DR_OK)
+            return st;
+        break;
+    case DR_VAL_INT:
+        if ((st = parse_int(text, true, &v)) != DR_OK)
+            return st;
+        break;
+    default:
+        if ((st = parse_real(text, &v)) != DR_OK)
+            return st;
+        break;
+    }
+    st = dr_value_check(ref, &v, flags);
+    if (st == DR_OK)
+        *out = v;
+    return st;
+}

@@ -1,0 +1,120 @@
+/* SPDX-License-Identifier: MIT */
+/* Values as text and back: formatting people read, parsing they type. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "drgate/text.h"
+
+static dr_ref_t ref_of(const char *path)
+{
+    dr_ref_t r = {NULL, 0};
+    assert_int_equal(dr_path_parse(path, &r), DR_OK);
+    return r;
+}
+
+static void expect_format(const char *path, dr_value_t v, unsigned flags, const char *want)
+{
+    char out[64];
+    assert_int_equal(dr_text_format(ref_of(path), &v, flags, out, sizeof out), DR_OK);
+    assert_string_equal(out, want);
+}
+
+static void test_format(void **state)
+{
+    (void)state;
+    expect_format("io_state.robot_state", dr_value_uint(2), 0, "OPERATING (2)");
+    expect_format("io_state.robot_state", dr_value_uint(13), 0, "UNKNOWN(13)");
+    expect_format("io_state.cb_di", dr_value_uint(5), 0, "5 (0x0005)");
+    expect_format("io_state.tool_do", dr_value_uint(0x21), 0, "33 (0x21)");
+    expect_format("bit_in", dr_value_uint(1), 0, "1 (0x0000000000000001)");
+    expect_format("io_state.cb_di[5]", dr_value_uint(1), 0, "1");
+    expect_format("joint_state.position[3]", dr_value_real(31.5), DR_TEXT_UNIT, "31.5 degree");
+    expect_format("joint_state.position[3]", dr_value_real(31.5), 0, "31.5");
+    expect_format("float_in[0]", dr_value_real((float)0.1), DR_TEXT_UNIT, "0.1");
+    expect_format("int_in[0]", dr_value_int(-42), 0, "-42");
+    expect_format("joint_state.motor_temperature[1]", dr_value_real(NAN), DR_TEXT_UNIT, "nan degC");
+    char tiny[4];
+    dr_value_t v = dr_value_uint(2);
+    assert_int_equal(dr_text_format(ref_of("io_state.robot_state"), &v, 0, tiny, sizeof tiny), DR_ENOSPACE);
+}
+
+/* Shortest round trip: the text reads back to the same float, and one
+ * digit fewer would not. */
+static void test_real_shortest(void **state)
+{
+    (void)state;
+    static const float cases[] = {0.1f, 1.0f / 3.0f, 123456.0f, -1e-7f, 3.4028235e38f, 1.17549435e-38f, 0.0f, 31.5f};
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char out[32];
+        assert_int_equal(dr_text_real(cases[i], out, sizeof out), DR_OK);
+        assert_true(strtof(out, NULL) == cases[i]);
+    }
+    char out[32];
+    dr_text_real(0.1f, out, sizeof out);
+    assert_string_equal(out, "0.1");
+    dr_text_real(1.0f / 3.0f, out, sizeof out);
+    assert_string_equal(out, "0.33333334");
+    dr_text_real(-(float)INFINITY, out, sizeof out);
+    assert_string_equal(out, "-inf");
+}
+
+static void test_parse(void **state)
+{
+    (void)state;
+    dr_value_t v;
+    assert_int_equal(dr_text_parse(ref_of("io_state.robot_state"), "SAFE_STOP", 0, &v), DR_OK);
+    assert_int_equal(v.u, 5);
+    assert_int_equal(dr_text_parse(ref_of("io_state.robot_state"), "7", 0, &v), DR_OK);
+    assert_int_equal(v.u, 7);
+    assert_int_equal(dr_text_parse(ref_of("io_control.cb_do"), "0xA5A5", 0, &v), DR_OK);
+    assert_int_equal(v.u, 0xA5A5);
+    assert_int_equal(dr_text_parse(ref_of("io_control.cb_do[2]"), "true", 0, &v), DR_OK);
+    assert_int_equal(v.u, 1);
+    assert_int_equal(v.type, DR_VAL_BOOL);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), "-2147483648", 0, &v), DR_OK);
+    assert_true(v.i == INT32_MIN);
+    assert_int_equal(dr_text_parse(ref_of("float_in[3]"), "-1.25e3", 0, &v), DR_OK);
+    assert_true(v.f == -1250.0);
+}
+
+static void test_parse_errors(void **state)
+{
+    (void)state;
+    dr_value_t v = dr_value_uint(99);
+    assert_int_equal(dr_text_parse(ref_of("io_control.cb_do[2]"), "2", 0, &v), DR_ERANGE);
+    assert_int_equal(dr_text_parse(ref_of("io_control.cb_do[2]"), "yes", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("io_control.cb_do"), "65536", 0, &v), DR_ERANGE);
+    assert_int_equal(dr_text_parse(ref_of("io_control.cb_do"), "-1", 0, &v), DR_ERANGE);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), "2147483648", 0, &v), DR_ERANGE);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), "99999999999999999999999", 0, &v), DR_ERANGE);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), "12abc", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), "1.5", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), "", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), " 1", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("int_in[3]"), "010", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("float_in[3]"), "nan", 0, &v), DR_ENONFINITE);
+    assert_int_equal(dr_text_parse(ref_of("float_in[3]"), "inf", 0, &v), DR_ENONFINITE);
+    assert_int_equal(dr_text_parse(ref_of("float_in[3]"), "1e40", 0, &v), DR_ERANGE);
+    assert_int_equal(dr_text_parse(ref_of("float_in[3]"), "1,5", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("io_state.robot_state"), "operating", 0, &v), DR_ESYNTAX);
+    assert_int_equal(dr_text_parse(ref_of("io_state.robot_state"), "256", 0, &v), DR_ERANGE);
+    assert_int_equal(dr_text_parse(ref_of("float_out[3]"), "1", DR_SET_O2T_ONLY, &v), DR_EREADONLY);
+    assert_int_equal(v.u, 99); /* never written on error */
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_format),
+        cmocka_unit_test(test_real_shortest),
+        cmocka_unit_test(test_parse),
+        cmocka_unit_test(test_parse_errors),
+    };
+    return cmocka_run_group_tests_name("text", tests, NULL, NULL);
+}
