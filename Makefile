@@ -42,7 +42,7 @@ pc = $(shell $(PKG_CONFIG) $(1) $(2) 2>/dev/null)
 
 # ---- library -------------------------------------------------------------
 LIB_CODEC_SRC := lib/fields.c lib/codec.c lib/path.c lib/status.c
-LIB_SRC       := $(LIB_CODEC_SRC) lib/text.c
+LIB_SRC       := $(sort $(wildcard lib/*.c))
 LIB_OBJ       := $(LIB_SRC:%.c=$(B)/%.o)
 LIB_A         := $(B)/libdrgate.a
 LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
