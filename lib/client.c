@@ -1,0 +1,1238 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * EtherNet/IP originator: session, explicit messaging, Class 1 I/O.
+ * Portable: all OS access goes through dr_transport_t.
+ *
+ * Shape: one non-blocking state machine driven by dr_client_process().
+ * The session (TCP) and each Class 1 connection have their own state;
+ * explicit requests are matched to replies by the 8-byte sender context.
+ */
+#include <stdlib.h>
+#include <string.h>
+
+#include "drgate/client.h"
+
+#define MAX_REQS 8
+#define TX_BUF 2048
+#define UDP_BUF 600
+#define FO_TIMEOUT_MULT_DEFAULT 2 /* x16 */
+#define FIRST_PACKET_GRACE_US 2000000u /* first T->O may lag the open */
+#define CLOSE_WAIT_US 500000u
+
+typedef enum { S_IDLE, S_CONNECTING, S_REGISTERING, S_READY, S_BACKOFF } sess_t;
+
+typedef enum { R_USER, R_FWD_OPEN, R_FWD_CLOSE, R_LIST_IDENTITY } req_kind_t;
+
+typedef struct {
+    bool active, done;
+    req_kind_t kind;
+    uint64_t context;
+    uint64_t deadline;
+    dr_conn_t *conn;
+    dr_status_t status;
+    uint8_t *rsp;
+    size_t cap;
+    size_t rsp_len;
+} req_t;
+
+struct dr_conn {
+    dr_client_t *client;
+    bool used;
+    dr_conn_config_t cfg;
+    dr_conn_state_t state;
+    dr_conn_stats_t stats;
+    uint16_t o2t_size, t2o_size; /* assembly bytes */
+    uint16_t conn_serial;
+    bool large_now;
+    dr_sockaddr_t o2t_to;
+    uint16_t o2t_seq16;
+    uint32_t o2t_seq32;
+    uint16_t t2o_seq16;
+    bool have_t2o_seq;
+    uint64_t next_tx_us, rx_deadline_us, retry_us;
+    uint32_t timeout_us;
+    uint32_t backoff_ms;
+    unsigned dup_retries;
+    bool run, have_in;
+    uint8_t out[DR_ASM_MAX_SIZE];
+    uint8_t in[DR_ASM_MAX_SIZE];
+};
+
+struct dr_client {
+    dr_client_config_t cfg;
+    char host[256];
+    dr_transport_t tp;
+    int tcp, udp, timer;
+    sess_t state;
+    bool started; /* reconnect by itself */
+    uint32_t session;
+    dr_status_t sess_error;
+    dr_sockaddr_t peer;
+    uint32_t local_udp_addr;
+    uint64_t sess_deadline, retry_at;
+    uint32_t backoff_ms;
+    uint8_t rx[DR_ENCAP_MAX_LEN];
+    size_t rx_len;
+    uint8_t tx[TX_BUF];
+    size_t tx_len;
+    req_t reqs[MAX_REQS];
+    uint64_t next_context;
+    uint16_t next_serial;
+    uint32_t next_t2o_cid;
+    uint64_t armed;
+    const char *step;
+    dr_conn_t conns[DR_CLIENT_MAX_CONNS];
+};
+
+/* ---- helpers ----------------------------------------------------------- */
+
+static uint64_t now_us(dr_client_t *c)
+{
+    return c->tp.ops->now_us(c->tp.ctx);
+}
+
+static uint32_t min_u32(uint32_t a, uint32_t b)
+{
+    return a < b ? a : b;
+}
+
+static void conn_set_state(dr_conn_t *cn, dr_conn_state_t s, dr_status_t why)
+{
+    if (cn->state == s)
+        return;
+    cn->state = s;
+    if (cn->cfg.on_state != NULL)
+        cn->cfg.on_state(cn, s, why, cn->cfg.user);
+}
+
+const char *dr_conn_state_name(dr_conn_state_t s)
+{
+    switch (s) {
+    case DR_CONN_IDLE: return "idle";
+    case DR_CONN_OPENING: return "opening";
+    case DR_CONN_ESTABLISHED: return "connected";
+    case DR_CONN_TIMED_OUT: return "timed out";
+    case DR_CONN_RECONNECTING: return "reconnecting";
+    case DR_CONN_CLOSED: return "closed";
+    }
+    return "?";
+}
+
+/* ---- lifecycle ----------------------------------------------------------- */
+
+dr_client_t *dr_client_new(const dr_client_config_t *cfg)
+{
+    if (cfg == NULL || cfg->host == NULL || strlen(cfg->host) >= 256)
+        return NULL;
+    dr_client_t *c = calloc(1, sizeof *c);
+    if (c == NULL)
+        return NULL;
+    c->cfg = *cfg;
+    memcpy(c->host, cfg->host, strlen(cfg->host) + 1);
+    c->cfg.host = c->host;
+    c->cfg.local_addr = NULL; /* resolved below, not kept */
+    if (c->cfg.tcp_port == 0) c->cfg.tcp_port = DR_ENIP_TCP_PORT;
+    if (c->cfg.udp_port == 0) c->cfg.udp_port = DR_ENIP_UDP_PORT;
+    if (c->cfg.local_udp_port == 0) c->cfg.local_udp_port = DR_ENIP_UDP_PORT;
+    if (c->cfg.timeout_ms == 0) c->cfg.timeout_ms = 2000;
+    if (c->cfg.vendor_id == 0) c->cfg.vendor_id = 0xFFFE;
+    if (c->cfg.backoff_min_ms == 0) c->cfg.backoff_min_ms = 100;
+    if (c->cfg.backoff_max_ms == 0) c->cfg.backoff_max_ms = 5000;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (c->cfg.instance[a] == 0)
+            c->cfg.instance[a] = DR_ASM_DEFAULT_INSTANCE(a);
+    if (c->cfg.transport.ops == NULL)
+        c->tp = dr_transport_posix();
+    else
+        c->tp = c->cfg.transport;
+    c->tcp = c->udp = c->timer = -1;
+    uint64_t t = now_us(c);
+    if (c->cfg.serial == 0)
+        c->cfg.serial = (uint32_t)(t ^ (t >> 32)) | 1u;
+    c->next_serial = (uint16_t)(t >> 4);
+    c->next_t2o_cid = (uint32_t)(t << 8) | 0x01000000u;
+    c->backoff_ms = c->cfg.backoff_min_ms;
+    c->step = "";
+    if (cfg->local_addr != NULL &&
+        c->tp.ops->resolve(c->tp.ctx, cfg->local_addr, &c->local_udp_addr) != DR_OK) {
+        free(c);
+        return NULL;
+    }
+    if (c->tp.ops->timer_open(c->tp.ctx, &c->timer) != DR_OK) {
+        free(c);
+        return NULL;
+    }
+    return c;
+}
+
+static void complete_all(dr_client_t *c, dr_status_t st);
+static void session_fail(dr_client_t *c, dr_status_t st);
+
+static void close_handle(dr_client_t *c, int *h)
+{
+    if (*h >= 0)
+        c->tp.ops->close(c->tp.ctx, *h);
+    *h = -1;
+}
+
+void dr_client_free(dr_client_t *c)
+{
+    if (c == NULL)
+        return;
+    dr_client_close(c);
+    close_handle(c, &c->timer);
+    free(c);
+}
+
+uint16_t dr_client_instance(const dr_client_t *c, dr_asm_t a)
+{
+    return (unsigned)a < DR_ASM_COUNT ? c->cfg.instance[a] : 0;
+}
+
+const char *dr_client_last_step(const dr_client_t *c)
+{
+    return c->step;
+}
+
+bool dr_client_ready(const dr_client_t *c)
+{
+    return c->state == S_READY;
+}
+
+/* ---- TCP output ---------------------------------------------------------- */
+
+static void flush_tx(dr_client_t *c)
+{
+    while (c->tx_len > 0 && c->tcp >= 0) {
+        size_t sent = 0;
+        dr_status_t st = c->tp.ops->tcp_send(c->tp.ctx, c->tcp, c->tx, c->tx_len, &sent);
+        if (st == DR_EAGAIN)
+            return;
+        if (st != DR_OK) {
+            session_fail(c, st);
+            return;
+        }
+        memmove(c->tx, c->tx + sent, c->tx_len - sent);
+        c->tx_len -= sent;
+    }
+}
+
+/* Queue one encapsulated message: header + body built by the caller in
+ * body[0..body_len). */
+static dr_status_t send_encap(dr_client_t *c, uint16_t cmd, uint64_t context,
+                              const uint8_t *body, size_t body_len)
+{
+    if (c->tcp < 0)
+        return DR_ESESSION;
+    if (TX_BUF - c->tx_len < DR_ENCAP_HEADER_LEN + body_len)
+        return DR_EFULL;
+    dr_encap_t h;
+    memset(&h, 0, sizeof h);
+    h.command = cmd;
+    h.session = c->session;
+    for (unsigned i = 0; i < 8; i++)
+        h.context[i] = (uint8_t)(context >> (8 * i));
+    uint8_t *frame = c->tx + c->tx_len;
+    dr_status_t st = dr_encap_write(frame, TX_BUF - c->tx_len, &h, body_len);
+    if (st != DR_OK)
+        return st;
+    memcpy(frame + DR_ENCAP_HEADER_LEN, body, body_len);
+    c->tx_len += DR_ENCAP_HEADER_LEN + body_len;
+    flush_tx(c);
+    return DR_OK;
+}
+
+/* ---- requests ------------------------------------------------------------ */
+
+static req_t *req_alloc(dr_client_t *c, req_kind_t kind)
+{
+    for (unsigned i = 0; i < MAX_REQS; i++) {
+        req_t *r = &c->reqs[i];
+        if (!r->active) {
+            memset(r, 0, sizeof *r);
+            r->active = true;
+            r->kind = kind;
+            r->context = ++c->next_context;
+            r->deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
+            return r;
+        }
+    }
+    return NULL;
+}
+
+static req_t *req_find(dr_client_t *c, uint64_t context)
+{
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        if (c->reqs[i].active && !c->reqs[i].done && c->reqs[i].context == context)
+            return &c->reqs[i];
+    return NULL;
+}
+
+static void conn_on_reply(dr_conn_t *cn, req_t *r, const dr_cip_rsp_t *rsp,
+                          const dr_cpf_t *cpf);
+
+/* A request got its answer (or failed): user requests keep the result
+ * until the waiting call collects it; connection requests act at once. */
+static void req_finish(dr_client_t *c, req_t *r, dr_status_t st,
+                       const dr_cip_rsp_t *rsp, const dr_cpf_t *cpf)
+{
+    r->status = st;
+    r->done = true;
+    if (r->kind == R_USER || r->kind == R_LIST_IDENTITY) {
+        if (rsp != NULL && r->rsp != NULL) {
+            if (rsp->data_len > r->cap) {
+                r->status = st == DR_OK ? DR_ENOSPACE : st;
+            } else {
+                memcpy(r->rsp, rsp->data, rsp->data_len);
+                r->rsp_len = rsp->data_len;
+            }
+        }
+        return; /* collected by wait_req */
+    }
+    r->active = false;
+    if (r->conn != NULL)
+        conn_on_reply(r->conn, r, st == DR_OK || rsp != NULL ? rsp : NULL, cpf);
+    (void)c;
+}
+
+static void complete_all(dr_client_t *c, dr_status_t st)
+{
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        if (c->reqs[i].active && !c->reqs[i].done) {
+            c->reqs[i].status = st;
+            req_finish(c, &c->reqs[i], st, NULL, NULL);
+        }
+}
+
+/* SendRRData with a UCMM message (optionally wrapped in Unconnected Send)
+ * and, for a Forward Open, our T->O socket address when not 2222. */
+static dr_status_t send_rr(dr_client_t *c, req_t *r, const uint8_t *msg,
+                           size_t msg_len, bool with_sockaddr)
+{
+    uint8_t body[DR_ENCAP_MAX_LEN];
+    uint8_t wrapped[DR_ENCAP_MAX_LEN];
+    dr_wr_t w;
+
+    if (c->cfg.route) {
+        /* Unconnected Send to the Connection Manager, route: port 1, slot 0 */
+        static const uint8_t cm_path[] = {0x20, 0x06, 0x24, 0x01};
+        static const uint8_t route[] = {0x01, 0x00};
+        uint8_t data[DR_ENCAP_MAX_LEN];
+        dr_wr_t d;
+        dr_wr_init(&d, data, sizeof data);
+        dr_ucmm_send_write(&d, msg, msg_len, route, sizeof route);
+        dr_wr_init(&w, wrapped, sizeof wrapped);
+        dr_cip_req_write(&w, DR_CIP_SVC_UNCONNECTED_SEND, cm_path, sizeof cm_path,
+                         data, d.len);
+        if (d.overflow || w.overflow)
+            return DR_ENOSPACE;
+        msg = wrapped;
+        msg_len = w.len;
+    }
+    dr_wr_init(&w, body, sizeof body);
+    dr_wr_u32(&w, 0); /* interface handle: CIP */
+    dr_wr_u16(&w, 0); /* timeout: the UCMM's own */
+    dr_cpf_begin(&w, with_sockaddr ? 3 : 2);
+    size_t m = dr_cpf_item_begin(&w, DR_CPF_NULL);
+    dr_cpf_item_end(&w, m);
+    m = dr_cpf_item_begin(&w, DR_CPF_UNCONNECTED_DATA);
+    dr_wr_bytes(&w, msg, msg_len);
+    dr_cpf_item_end(&w, m);
+    if (with_sockaddr) {
+        dr_sockaddr_t sa = {c->local_udp_addr, c->cfg.local_udp_port};
+        dr_cpf_sockaddr_write(&w, DR_CPF_SOCKADDR_T2O, sa);
+    }
+    if (w.overflow)
+        return DR_ENOSPACE;
+    return send_encap(c, DR_ENCAP_SEND_RR_DATA, r->context, body, w.len);
+}
+
+/* ---- session --------------------------------------------------------------- */
+
+static void conn_schedule_retry(dr_conn_t *cn, dr_status_t why);
+
+static void session_fail(dr_client_t *c, dr_status_t st)
+{
+    close_handle(c, &c->tcp);
+    c->tx_len = 0;
+    c->rx_len = 0;
+    c->sess_error = st;
+    sess_t was = c->state;
+    c->state = S_IDLE;
+    complete_all(c, st);
+    /* Class 1 connections live on without the session (CIP Vol. 2:
+     * closing TCP does not close Class 1 connections); only those still
+     * opening need a new try. */
+    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
+        if (c->conns[i].used && c->conns[i].state == DR_CONN_OPENING)
+            conn_schedule_retry(&c->conns[i], st);
+    if (c->started) {
+        c->state = S_BACKOFF;
+        c->retry_at = now_us(c) + (uint64_t)c->backoff_ms * 1000u;
+        c->backoff_ms = min_u32(c->backoff_ms * 2u, c->cfg.backoff_max_ms);
+    }
+    (void)was;
+}
+
+static dr_status_t ensure_udp(dr_client_t *c)
+{
+    if (c->udp >= 0)
+        return DR_OK;
+    dr_sockaddr_t local = {c->local_udp_addr, c->cfg.local_udp_port};
+    return c->tp.ops->udp_open(c->tp.ctx, local, &c->udp);
+}
+
+static dr_status_t begin_session(dr_client_t *c)
+{
+    uint32_t addr;
+    close_handle(c, &c->tcp);
+    c->tx_len = c->rx_len = 0;
+    c->session = 0;
+    c->step = "resolve";
+    dr_status_t st = c->tp.ops->resolve(c->tp.ctx, c->host, &addr);
+    if (st == DR_OK) {
+        c->peer.addr = addr;
+        c->peer.port = c->cfg.tcp_port;
+        c->step = "connect";
+        st = c->tp.ops->tcp_connect(c->tp.ctx, c->peer, &c->tcp);
+    }
+    if (st != DR_OK) {
+        session_fail(c, st);
+        return st;
+    }
+    c->state = S_CONNECTING;
+    c->sess_deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
+    return DR_OK;
+}
+
+static void send_register(dr_client_t *c)
+{
+    uint8_t body[4];
+    dr_put_le16(body, 1); /* protocol version */
+    dr_put_le16(body + 2, 0); /* options */
+    c->step = "register session";
+    c->state = S_REGISTERING;
+    c->sess_deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
+    dr_status_t st = send_encap(c, DR_ENCAP_REGISTER_SESSION, 0, body, sizeof body);
+    if (st != DR_OK)
+        session_fail(c, st);
+}
+
+dr_status_t dr_client_start(dr_client_t *c)
+{
+    c->started = true;
+    if (c->state == S_IDLE || c->state == S_BACKOFF)
+        (void)begin_session(c); /* a failure is retried with backoff */
+    return DR_OK;
+}
+
+/* ---- Class 1 connections ------------------------------------------------- */
+
+static uint64_t conn_backoff_us(dr_conn_t *cn)
+{
+    dr_client_t *c = cn->client;
+    uint64_t d = (uint64_t)cn->backoff_ms * 1000u;
+    cn->backoff_ms = min_u32(cn->backoff_ms * 2u, c->cfg.backoff_max_ms);
+    return d;
+}
+
+static void conn_schedule_retry(dr_conn_t *cn, dr_status_t why)
+{
+    cn->retry_us = now_us(cn->client) + conn_backoff_us(cn);
+    conn_set_state(cn, DR_CONN_RECONNECTING, why);
+}
+
+static size_t conn_path(const dr_conn_t *cn, uint8_t *buf, size_t cap)
+{
+    const dr_client_t *c = cn->client;
+    uint16_t o2t = cn->cfg.o2t_asm >= 0 ? c->cfg.instance[cn->cfg.o2t_asm]
+                                        : cn->cfg.heartbeat_instance;
+    return dr_conn_path_write(buf, cap, cn->cfg.config_instance, o2t,
+                              c->cfg.instance[cn->cfg.t2o_asm]);
+}
+
+static void send_forward_open(dr_conn_t *cn)
+{
+    dr_client_t *c = cn->client;
+    dr_status_t ust = ensure_udp(c);
+    if (ust != DR_OK) {
+        c->step = "bind UDP";
+        conn_schedule_retry(cn, ust);
+        return;
+    }
+    req_t *r = req_alloc(c, R_FWD_OPEN);
+    if (r == NULL) {
+        cn->retry_us = now_us(c) + 10000u; /* request slots busy: soon again */
+        return;
+    }
+    r->conn = cn;
+    uint8_t path[32];
+    dr_fwd_open_t fo;
+    memset(&fo, 0, sizeof fo);
+    fo.large = cn->large_now;
+    fo.priority_tick = 0x0A;
+    fo.timeout_ticks = 0x05;
+    fo.o2t_cid = 0; /* the target chooses for point-to-point */
+    fo.t2o_cid = c->next_t2o_cid++;
+    cn->conn_serial = c->next_serial++; /* fresh on every attempt */
+    fo.conn_serial = cn->conn_serial;
+    fo.vendor = c->cfg.vendor_id;
+    fo.orig_serial = c->cfg.serial;
+    fo.timeout_mult = cn->cfg.timeout_mult;
+    fo.o2t_rpi_us = cn->cfg.rpi_us;
+    fo.t2o_rpi_us = cn->cfg.rpi_us;
+    fo.o2t.type = DR_CONN_TYPE_P2P;
+    fo.o2t.priority = 2; /* scheduled */
+    fo.o2t.size = (uint16_t)(cn->o2t_size + 2u + (cn->cfg.o2t_asm >= 0 ? 4u : 0u));
+    fo.t2o.type = DR_CONN_TYPE_P2P;
+    fo.t2o.priority = 2;
+    fo.t2o.size = (uint16_t)(cn->t2o_size + 2u + (cn->cfg.t2o_run_idle ? 4u : 0u));
+    fo.transport = 0x01; /* class 1, cyclic, client */
+    fo.path = path;
+    fo.path_len = conn_path(cn, path, sizeof path);
+
+    uint8_t data[128], msg[160];
+    dr_wr_t w;
+    dr_wr_init(&w, data, sizeof data);
+    dr_fwd_open_write(&w, &fo);
+    static const uint8_t cm_path[] = {0x20, 0x06, 0x24, 0x01};
+    dr_wr_t m;
+    dr_wr_init(&m, msg, sizeof msg);
+    dr_cip_req_write(&m, cn->large_now ? DR_CIP_SVC_LARGE_FORWARD_OPEN : DR_CIP_SVC_FORWARD_OPEN,
+                     cm_path, sizeof cm_path, data, w.len);
+    cn->stats.t2o_cid = fo.t2o_cid;
+    cn->stats.opens++;
+    c->step = "forward open";
+    conn_set_state(cn, DR_CONN_OPENING, DR_OK);
+    bool sockaddr = c->cfg.local_udp_port != DR_ENIP_UDP_PORT;
+    dr_status_t st = send_rr(c, r, msg, m.len, sockaddr);
+    if (st != DR_OK) {
+        r->active = false;
+        conn_schedule_retry(cn, st);
+    }
+}
+
+static void send_forward_close(dr_conn_t *cn)
+{
+    dr_client_t *c = cn->client;
+    if (c->state != S_READY)
+        return; /* the target times the connection out by itself */
+    req_t *r = req_alloc(c, R_FWD_CLOSE);
+    if (r == NULL)
+        return;
+    uint8_t path[32], data[64], msg[96];
+    dr_fwd_close_t fc;
+    fc.priority_tick = 0x0A;
+    fc.timeout_ticks = 0x05;
+    fc.conn_serial = cn->conn_serial;
+    fc.vendor = c->cfg.vendor_id;
+    fc.orig_serial = c->cfg.serial;
+    fc.path = path;
+    fc.path_len = conn_path(cn, path, sizeof path);
+    dr_wr_t w, m;
+    dr_wr_init(&w, data, sizeof data);
+    dr_fwd_close_write(&w, &fc);
+    static const uint8_t cm_path[] = {0x20, 0x06, 0x24, 0x01};
+    dr_wr_init(&m, msg, sizeof msg);
+    dr_cip_req_write(&m, DR_CIP_SVC_FORWARD_CLOSE, cm_path, sizeof cm_path, data, w.len);
+    if (send_rr(c, r, msg, m.len, false) != DR_OK)
+        r->active = false;
+}
+
+static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
+                             const dr_cpf_t *cpf)
+{
+    dr_client_t *c = cn->client;
+    uint64_t t = now_us(c);
+    cn->stats.o2t_cid = rp->o2t_cid;
+    cn->stats.t2o_cid = rp->t2o_cid;
+    cn->stats.o2t_api_us = rp->o2t_api_us ? rp->o2t_api_us : cn->cfg.rpi_us;
+    cn->stats.t2o_api_us = rp->t2o_api_us ? rp->t2o_api_us : cn->cfg.rpi_us;
+    /* Timers run from the APIs the target granted, not what we asked. */
+    cn->timeout_us = cn->stats.t2o_api_us * (4u << cn->cfg.timeout_mult);
+    cn->o2t_to.addr = c->peer.addr;
+    cn->o2t_to.port = c->cfg.udp_port;
+    const dr_cpf_item_t *it = cpf ? dr_cpf_find(cpf, DR_CPF_SOCKADDR_O2T) : NULL;
+    dr_sockaddr_t sa;
+    if (it != NULL && dr_cpf_sockaddr_parse(it, &sa) == DR_OK) {
+        if (sa.addr != 0)
+            cn->o2t_to.addr = sa.addr;
+        if (sa.port != 0)
+            cn->o2t_to.port = sa.port;
+    }
+    cn->have_t2o_seq = false;
+    cn->next_tx_us = t;
+    cn->rx_deadline_us = t + cn->timeout_us + FIRST_PACKET_GRACE_US;
+    cn->backoff_ms = c->cfg.backoff_min_ms;
+    cn->dup_retries = 0;
+    conn_set_state(cn, DR_CONN_ESTABLISHED, DR_OK);
+}
+
+static void conn_on_reply(dr_conn_t *cn, req_t *r, const dr_cip_rsp_t *rsp,
+                          const dr_cpf_t *cpf)
+{
+    if (r->kind == R_FWD_CLOSE || !cn->used || cn->state != DR_CONN_OPENING)
+        return;
+    dr_status_t st = r->status;
+    if (rsp != NULL && st == DR_OK) {
+        dr_fwd_open_reply_t rp;
+        st = dr_fwd_open_reply_parse(rsp->data, rsp->data_len, &rp);
+        if (st == DR_OK) {
+            conn_established(cn, &rp, cpf);
+            return;
+        }
+    }
+    if (rsp != NULL && rsp->general == 0x01 && rsp->ext_count >= 2 &&
+        rsp->ext[0] == 0x0109)
+        cn->stats.size_wanted = rsp->ext[1];
+    if (st == DR_CIP(0x01, 0x0100) && cn->dup_retries++ < 3) {
+        send_forward_open(cn); /* a fresh serial is enough */
+        return;
+    }
+    if (cn->large_now && (st == DR_CIP(0x08, 0) || st == DR_CIP(0x01, 0x0108) ||
+                          st == DR_CIP(0x01, 0x0111))) {
+        cn->large_now = false; /* the target may not know 0x5B */
+        send_forward_open(cn);
+        return;
+    }
+    conn_schedule_retry(cn, st);
+}
+
+dr_conn_t *dr_client_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
+                              dr_status_t *err)
+{
+    dr_status_t st = DR_EINVAL;
+    dr_conn_t *cn = NULL;
+    const dr_asm_info_t *t2o = cfg ? dr_asm_info(cfg->t2o_asm) : NULL;
+    const dr_asm_info_t *o2t = cfg && cfg->o2t_asm >= 0 ? dr_asm_info((dr_asm_t)cfg->o2t_asm) : NULL;
+    if (t2o == NULL || t2o->dir != DR_DIR_T2O || (cfg->o2t_asm >= 0 && (o2t == NULL || o2t->dir != DR_DIR_O2T)) ||
+        cfg->rpi_us == 0 || cfg->timeout_mult > 7)
+        goto out;
+    st = DR_EFULL;
+    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS && cn == NULL; i++)
+        if (!c->conns[i].used)
+            cn = &c->conns[i];
+    if (cn == NULL)
+        goto out;
+    memset(cn, 0, sizeof *cn);
+    cn->used = true;
+    cn->client = c;
+    cn->cfg = *cfg;
+    if (cn->cfg.config_instance == 0) cn->cfg.config_instance = 1;
+    if (cn->cfg.heartbeat_instance == 0) cn->cfg.heartbeat_instance = 198;
+    cn->o2t_size = o2t ? o2t->size : 0;
+    cn->t2o_size = t2o->size;
+    cn->run = true;
+    cn->backoff_ms = c->cfg.backoff_min_ms;
+    cn->state = DR_CONN_IDLE;
+    cn->retry_us = 0; /* open as soon as the session is up */
+    st = DR_OK;
+out:
+    if (err != NULL)
+        *err = st;
+    return st == DR_OK ? cn : NULL;
+}
+
+void dr_conn_remove(dr_conn_t *cn)
+{
+    if (cn == NULL || !cn->used)
+        return;
+    if (cn->state == DR_CONN_ESTABLISHED)
+        send_forward_close(cn);
+    conn_set_state(cn, DR_CONN_CLOSED, DR_OK);
+    /* Requests still in flight for it must not call back into the slot. */
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        if (cn->client->reqs[i].conn == cn)
+            cn->client->reqs[i].conn = NULL;
+    cn->used = false;
+}
+
+dr_status_t dr_conn_set_output(dr_conn_t *cn, const uint8_t *data, size_t len)
+{
+    if (cn == NULL || cn->cfg.o2t_asm < 0 || data == NULL)
+        return DR_EINVAL;
+    if (len != cn->o2t_size)
+        return DR_ELENGTH;
+    memcpy(cn->out, data, len);
+    return DR_OK;
+}
+
+void dr_conn_set_run(dr_conn_t *cn, bool run)
+{
+    cn->run = run;
+}
+
+dr_conn_state_t dr_conn_state(const dr_conn_t *cn)
+{
+    return cn->state;
+}
+
+const dr_conn_stats_t *dr_conn_stats(const dr_conn_t *cn)
+{
+    return &cn->stats;
+}
+
+void *dr_conn_user(const dr_conn_t *cn)
+{
+    return cn->cfg.user;
+}
+
+const uint8_t *dr_conn_input(const dr_conn_t *cn, size_t *len)
+{
+    if (!cn->have_in)
+        return NULL;
+    if (len != NULL)
+        *len = cn->t2o_size;
+    return cn->in;
+}
+
+static void conn_produce(dr_conn_t *cn, uint64_t t)
+{
+    dr_client_t *c = cn->client;
+    uint8_t frame[UDP_BUF];
+    size_t len;
+    dr_io_frame_t f;
+    cn->o2t_seq16++;
+    cn->o2t_seq32++;
+    f.cid = cn->stats.o2t_cid;
+    f.encap_seq = cn->o2t_seq32;
+    f.cip_seq = cn->o2t_seq16;
+    f.has_run_idle = cn->cfg.o2t_asm >= 0;
+    f.run_idle = cn->run ? 1u : 0u;
+    f.data = cn->out;
+    f.data_len = cn->o2t_size;
+    if (dr_io_frame_write(frame, sizeof frame, &f, &len) == DR_OK &&
+        c->udp >= 0 &&
+        c->tp.ops->udp_send(c->tp.ctx, c->udp, frame, len, cn->o2t_to) == DR_OK)
+        cn->stats.tx_packets++;
+    /* Absolute deadlines: the next packet is due one API after the last
+     * deadline, not after now, so the rate does not drift. After a stall
+     * of more than one period, start again from now instead of bursting. */
+    uint64_t api = cn->stats.o2t_api_us;
+    cn->next_tx_us += api;
+    if (cn->next_tx_us <= t)
+        cn->next_tx_us = t + api;
+}
+
+static void conn_timers(dr_conn_t *cn, uint64_t t)
+{
+    dr_client_t *c = cn->client;
+    switch (cn->state) {
+    case DR_CONN_ESTABLISHED:
+        if (t >= cn->rx_deadline_us) {
+            cn->stats.timeouts++;
+            conn_set_state(cn, DR_CONN_TIMED_OUT, DR_ETIMEDOUT);
+            send_forward_close(cn); /* so the new open is not a duplicate */
+            conn_schedule_retry(cn, DR_ETIMEDOUT);
+            break;
+        }
+        if (t >= cn->next_tx_us)
+            conn_produce(cn, t);
+        break;
+    case DR_CONN_IDLE:
+    case DR_CONN_RECONNECTING:
+    case DR_CONN_TIMED_OUT:
+        if (c->state == S_READY && t >= cn->retry_us) {
+            cn->large_now = cn->cfg.large;
+            send_forward_open(cn);
+        }
+        break;
+    default:
+        break;
+    }
+}
+
+static uint64_t conn_deadline(const dr_conn_t *cn)
+{
+    switch (cn->state) {
+    case DR_CONN_ESTABLISHED:
+        return cn->next_tx_us < cn->rx_deadline_us ? cn->next_tx_us : cn->rx_deadline_us;
+    case DR_CONN_IDLE:
+    case DR_CONN_RECONNECTING:
+    case DR_CONN_TIMED_OUT:
+        return cn->client->state == S_READY ? cn->retry_us : UINT64_MAX;
+    default:
+        return UINT64_MAX;
+    }
+}
+
+/* ---- inbound ---------------------------------------------------------------- */
+
+static uint64_t context_of(const dr_encap_t *h)
+{
+    uint64_t v = 0;
+    for (unsigned i = 0; i < 8; i++)
+        v |= (uint64_t)h->context[i] << (8 * i);
+    return v;
+}
+
+/* A SendRRData reply: CPF with the UCMM reply in an 0x00B2 item. */
+static void on_rr_reply(dr_client_t *c, req_t *r, const uint8_t *body, size_t len)
+{
+    dr_cpf_t cpf;
+    dr_cip_rsp_t rsp;
+    const dr_cpf_item_t *it;
+    dr_status_t st = DR_EMALFORMED;
+    if (len >= 6 && dr_cpf_parse(body + 6, len - 6, &cpf) == DR_OK &&
+        (it = dr_cpf_find(&cpf, DR_CPF_UNCONNECTED_DATA)) != NULL &&
+        dr_cip_rsp_parse(it->data, it->length, &rsp) == DR_OK) {
+        req_finish(c, r, dr_cip_rsp_status(&rsp), &rsp, &cpf);
+        return;
+    }
+    req_finish(c, r, st, NULL, NULL);
+}
+
+static void on_frame(dr_client_t *c, const uint8_t *frame, size_t len)
+{
+    dr_encap_t h;
+    const uint8_t *body;
+    if (dr_encap_parse(frame, len, &h, &body) != DR_OK) {
+        session_fail(c, DR_EMALFORMED);
+        return;
+    }
+    if (h.command == DR_ENCAP_REGISTER_SESSION) {
+        if (c->state != S_REGISTERING)
+            return;
+        if (h.status != 0 || h.session == 0) {
+            session_fail(c, h.status != 0 ? DR_ENCAP(h.status) : DR_EMALFORMED);
+            return;
+        }
+        c->session = h.session;
+        c->state = S_READY;
+        c->backoff_ms = c->cfg.backoff_min_ms;
+        c->sess_error = DR_OK;
+        return;
+    }
+    req_t *r = req_find(c, context_of(&h));
+    if (r == NULL)
+        return; /* a late reply to a request that timed out */
+    if (h.status != 0) {
+        req_finish(c, r, DR_ENCAP(h.status), NULL, NULL);
+        if (h.status == 0x64) /* invalid session: register again */
+            session_fail(c, DR_ENCAP(h.status));
+        return;
+    }
+    if (h.command == DR_ENCAP_LIST_IDENTITY && r->kind == R_LIST_IDENTITY) {
+        dr_cip_rsp_t raw = {0, 0, 0, {0, 0}, body, h.length};
+        req_finish(c, r, DR_OK, &raw, NULL);
+    } else if (h.command == DR_ENCAP_SEND_RR_DATA) {
+        on_rr_reply(c, r, body, h.length);
+    } else {
+        req_finish(c, r, DR_EMISMATCH, NULL, NULL);
+    }
+}
+
+static void read_tcp(dr_client_t *c)
+{
+    while (c->tcp >= 0) {
+        size_t got = 0;
+        dr_status_t st = c->tp.ops->tcp_recv(c->tp.ctx, c->tcp, c->rx + c->rx_len,
+                                             sizeof c->rx - c->rx_len, &got);
+        if (st == DR_EAGAIN)
+            return;
+        if (st != DR_OK) {
+            session_fail(c, st);
+            return;
+        }
+        c->rx_len += got;
+        size_t total;
+        while (c->tcp >= 0 && (st = dr_encap_frame_len(c->rx, c->rx_len, &total)) == DR_OK &&
+               total <= c->rx_len) {
+            on_frame(c, c->rx, total);
+            if (c->tcp < 0)
+                return;
+            memmove(c->rx, c->rx + total, c->rx_len - total);
+            c->rx_len -= total;
+        }
+        if (st == DR_ELONG) {
+            session_fail(c, DR_ELONG); /* the stream cannot be trusted */
+            return;
+        }
+    }
+}
+
+static dr_conn_t *conn_by_t2o_cid(dr_client_t *c, uint32_t cid)
+{
+    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
+        if (c->conns[i].used && c->conns[i].state == DR_CONN_ESTABLISHED &&
+            c->conns[i].stats.t2o_cid == cid)
+            return &c->conns[i];
+    return NULL;
+}
+
+static void on_datagram(dr_client_t *c, const uint8_t *buf, size_t len, uint64_t t)
+{
+    dr_io_frame_t f;
+    if (dr_io_frame_parse(buf, len, false, &f) != DR_OK)
+        return;
+    dr_conn_t *cn = conn_by_t2o_cid(c, f.cid);
+    if (cn == NULL)
+        return;
+    if (cn->cfg.t2o_run_idle && dr_io_frame_parse(buf, len, true, &f) != DR_OK) {
+        cn->stats.rx_bad++;
+        return;
+    }
+    if (f.data_len != cn->t2o_size) {
+        cn->stats.rx_bad++;
+        return;
+    }
+    /* Duplicates and stale packets: wrap-safe compare of the sequence count. */
+    if (cn->have_t2o_seq && !dr_seq16_newer(f.cip_seq, cn->t2o_seq16)) {
+        cn->stats.rx_dropped_seq++;
+        return;
+    }
+    cn->have_t2o_seq = true;
+    cn->t2o_seq16 = f.cip_seq;
+    memcpy(cn->in, f.data, f.data_len);
+    cn->have_in = true;
+    cn->stats.rx_packets++;
+    cn->stats.last_rx_us = t;
+    cn->rx_deadline_us = t + cn->timeout_us;
+    if (cn->cfg.on_data != NULL)
+        cn->cfg.on_data(cn, cn->in, f.data_len, cn->cfg.user);
+}
+
+static void read_udp(dr_client_t *c, uint64_t t)
+{
+    uint8_t buf[UDP_BUF];
+    for (unsigned n = 0; c->udp >= 0 && n < 1000; n++) {
+        size_t got;
+        dr_sockaddr_t from;
+        dr_status_t st = c->tp.ops->udp_recv(c->tp.ctx, c->udp, buf, sizeof buf, &got, &from);
+        if (st == DR_EAGAIN)
+            return;
+        if (st == DR_OK)
+            on_datagram(c, buf, got, t);
+    }
+}
+
+/* ---- the loop -------------------------------------------------------------- */
+
+static void session_timers(dr_client_t *c, uint64_t t)
+{
+    if (c->state == S_CONNECTING) {
+        dr_status_t st = c->tp.ops->tcp_finish(c->tp.ctx, c->tcp);
+        if (st == DR_OK)
+            send_register(c);
+        else if (st != DR_EAGAIN)
+            session_fail(c, st);
+        else if (t >= c->sess_deadline)
+            session_fail(c, DR_ETIMEDOUT);
+    } else if (c->state == S_REGISTERING && t >= c->sess_deadline) {
+        session_fail(c, DR_ETIMEDOUT);
+    } else if (c->state == S_BACKOFF && c->started && t >= c->retry_at) {
+        (void)begin_session(c);
+    }
+    for (unsigned i = 0; i < MAX_REQS; i++) {
+        req_t *r = &c->reqs[i];
+        if (r->active && !r->done && t >= r->deadline)
+            req_finish(c, r, DR_ETIMEDOUT, NULL, NULL);
+    }
+}
+
+uint64_t dr_client_next_deadline(const dr_client_t *c)
+{
+    uint64_t d = UINT64_MAX;
+    if (c->state == S_CONNECTING || c->state == S_REGISTERING)
+        d = c->sess_deadline;
+    else if (c->state == S_BACKOFF && c->started)
+        d = c->retry_at;
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        if (c->reqs[i].active && !c->reqs[i].done && c->reqs[i].deadline < d)
+            d = c->reqs[i].deadline;
+    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++) {
+        if (!c->conns[i].used)
+            continue;
+        uint64_t cd = conn_deadline(&c->conns[i]);
+        if (cd < d)
+            d = cd;
+    }
+    return d;
+}
+
+dr_status_t dr_client_process(dr_client_t *c)
+{
+    uint64_t t = now_us(c);
+    if (c->tcp >= 0 && c->state != S_CONNECTING) {
+        flush_tx(c);
+        read_tcp(c);
+    }
+    read_udp(c, t);
+    t = now_us(c);
+    session_timers(c, t);
+    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
+        if (c->conns[i].used)
+            conn_timers(&c->conns[i], t);
+    uint64_t d = dr_client_next_deadline(c);
+    if (d != c->armed && d != UINT64_MAX) {
+        c->tp.ops->timer_arm(c->tp.ctx, c->timer, d);
+        c->armed = d;
+    }
+    return DR_OK;
+}
+
+int dr_client_pollfds(const dr_client_t *c, dr_pollfd_t *fds, int max)
+{
+    int n = 0;
+    if (c->tcp >= 0 && n < max) {
+        fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->tcp);
+        fds[n].events = (short)(DR_POLL_IN |
+                                (c->state == S_CONNECTING || c->tx_len > 0 ? DR_POLL_OUT : 0));
+        n++;
+    }
+    if (c->udp >= 0 && n < max) {
+        fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->udp);
+        fds[n].events = DR_POLL_IN;
+        n++;
+    }
+    if (c->timer >= 0 && n < max) {
+        fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->timer);
+        fds[n].events = DR_POLL_IN;
+        n++;
+    }
+    return n;
+}
+
+/* Wait for any of our handles, at most until `deadline`, then process. */
+static void wait_and_process(dr_client_t *c, uint64_t deadline)
+{
+    int h[3];
+    bool out[3];
+    int n = 0;
+    if (c->tcp >= 0) {
+        h[n] = c->tcp;
+        out[n++] = c->state == S_CONNECTING || c->tx_len > 0;
+    }
+    if (c->udp >= 0) {
+        h[n] = c->udp;
+        out[n++] = false;
+    }
+    uint64_t d = dr_client_next_deadline(c);
+    if (deadline < d)
+        d = deadline;
+    c->tp.ops->wait(c->tp.ctx, h, out, n, d);
+    dr_client_process(c);
+}
+
+dr_status_t dr_client_run_once(dr_client_t *c, int timeout_ms)
+{
+    wait_and_process(c, now_us(c) + (uint64_t)(timeout_ms < 0 ? 0 : timeout_ms) * 1000u);
+    return DR_OK;
+}
+
+/* ---- synchronous explicit messaging ----------------------------------------- */
+
+dr_status_t dr_client_connect_sync(dr_client_t *c)
+{
+    if (c->state == S_READY)
+        return DR_OK;
+    dr_status_t st = begin_session(c);
+    if (st != DR_OK)
+        return st;
+    uint64_t deadline = now_us(c) + 2u * (uint64_t)c->cfg.timeout_ms * 1000u;
+    while (c->state == S_CONNECTING || c->state == S_REGISTERING) {
+        if (now_us(c) >= deadline) {
+            session_fail(c, DR_ETIMEDOUT);
+            break;
+        }
+        wait_and_process(c, deadline);
+    }
+    return c->state == S_READY ? DR_OK : c->sess_error;
+}
+
+/* Run the loop until request r is done; collect and free it. */
+static dr_status_t wait_req(dr_client_t *c, req_t *r, size_t *rsp_len)
+{
+    while (!r->done)
+        wait_and_process(c, r->deadline);
+    dr_status_t st = r->status;
+    if (rsp_len != NULL)
+        *rsp_len = r->rsp_len;
+    r->active = false;
+    return st;
+}
+
+dr_status_t dr_client_call_sync(dr_client_t *c, uint8_t service,
+                                const uint8_t *path, size_t path_len,
+                                const uint8_t *data, size_t data_len,
+                                uint8_t *rsp, size_t cap, size_t *rsp_len)
+{
+    if (rsp_len != NULL)
+        *rsp_len = 0;
+    if (c->state != S_READY)
+        return DR_ESESSION;
+    uint8_t msg[DR_ENCAP_MAX_LEN];
+    dr_wr_t w;
+    dr_wr_init(&w, msg, sizeof msg);
+    dr_cip_req_write(&w, service, path, path_len, data, data_len);
+    if (w.overflow)
+        return DR_ENOSPACE;
+    req_t *r = req_alloc(c, R_USER);
+    if (r == NULL)
+        return DR_EFULL;
+    r->rsp = rsp;
+    r->cap = cap;
+    dr_status_t st = send_rr(c, r, msg, w.len, false);
+    if (st != DR_OK) {
+        r->active = false;
+        return st;
+    }
+    return wait_req(c, r, rsp_len);
+}
+
+dr_status_t dr_client_get_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,
+                                    uint16_t attr, uint8_t *buf, size_t cap,
+                                    size_t *len)
+{
+    uint8_t path[12];
+    dr_wr_t w;
+    dr_wr_init(&w, path, sizeof path);
+    dr_epath_write(&w, cls, inst, attr);
+    c->step = "get";
+    return dr_client_call_sync(c, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, path, w.len,
+                               NULL, 0, buf, cap, len);
+}
+
+dr_status_t dr_client_set_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,
+                                    uint16_t attr, const uint8_t *data, size_t len)
+{
+    uint8_t path[12];
+    dr_wr_t w;
+    dr_wr_init(&w, path, sizeof path);
+    dr_epath_write(&w, cls, inst, attr);
+    c->step = "set";
+    return dr_client_call_sync(c, DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, path, w.len,
+                               data, len, NULL, 0, NULL);
+}
+
+dr_status_t dr_client_asm_read_sync(dr_client_t *c, dr_asm_t a, uint8_t *buf,
+                                    size_t len)
+{
+    const dr_asm_info_t *info = dr_asm_info(a);
+    if (info == NULL || len != info->size)
+        return info == NULL ? DR_EINVAL : DR_ELENGTH;
+    uint8_t tmp[DR_ENCAP_MAX_LEN];
+    size_t got = 0;
+    dr_status_t st = dr_client_get_attr_sync(c, DR_CIP_CLASS_ASSEMBLY, c->cfg.instance[a],
+                                             DR_CIP_ASM_ATTR_DATA, tmp, sizeof tmp, &got);
+    if (st != DR_OK)
+        return st;
+    if (got != info->size)
+        return DR_ELENGTH; /* not what the specification says: refuse it */
+    memcpy(buf, tmp, got);
+    return DR_OK;
+}
+
+dr_status_t dr_client_asm_write_sync(dr_client_t *c, dr_asm_t a,
+                                     const uint8_t *buf, size_t len)
+{
+    const dr_asm_info_t *info = dr_asm_info(a);
+    if (info == NULL || len != info->size)
+        return info == NULL ? DR_EINVAL : DR_ELENGTH;
+    return dr_client_set_attr_sync(c, DR_CIP_CLASS_ASSEMBLY, c->cfg.instance[a],
+                                   DR_CIP_ASM_ATTR_DATA, buf, len);
+}
+
+dr_status_t dr_client_asm_size_sync(dr_client_t *c, uint16_t instance, uint16_t *size)
+{
+    uint8_t tmp[8];
+    size_t got = 0;
+    dr_status_t st = dr_client_get_attr_sync(c, DR_CIP_CLASS_ASSEMBLY, instance,
+                                             DR_CIP_ASM_ATTR_SIZE, tmp, sizeof tmp, &got);
+    if (st != DR_OK)
+        return st;
+    if (got != 2)
+        return DR_EMALFORMED;
+    *size = dr_get_le16(tmp);
+    return DR_OK;
+}
+
+dr_status_t dr_client_identity_sync(dr_client_t *c, dr_identity_t *id)
+{
+    uint8_t path[8], tmp[128];
+    size_t got = 0;
+    dr_wr_t w;
+    dr_wr_init(&w, path, sizeof path);
+    dr_epath_write(&w, DR_CIP_CLASS_IDENTITY, 1, -1);
+    c->step = "identity";
+    dr_status_t st = dr_client_call_sync(c, DR_CIP_SVC_GET_ATTRIBUTES_ALL, path, w.len,
+                                         NULL, 0, tmp, sizeof tmp, &got);
+    if (st != DR_OK)
+        return st;
+    return dr_identity_parse_all(tmp, got, id);
+}
+
+dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id)
+{
+    if (c->tcp < 0 || c->state == S_CONNECTING)
+        return DR_ESESSION;
+    req_t *r = req_alloc(c, R_LIST_IDENTITY);
+    if (r == NULL)
+        return DR_EFULL;
+    uint8_t tmp[DR_ENCAP_MAX_LEN];
+    r->rsp = tmp;
+    r->cap = sizeof tmp;
+    c->step = "list identity";
+    dr_status_t st = send_encap(c, DR_ENCAP_LIST_IDENTITY, r->context, NULL, 0);
+    if (st != DR_OK) {
+        r->active = false;
+        return st;
+    }
+    size_t got = 0;
+    st = wait_req(c, r, &got);
+    if (st != DR_OK)
+        return st;
+    return dr_list_identity_parse(tmp, got, id);
+}
+
+/* ---- close -------------------------------------------------------------------- */
+
+static bool fwd_close_pending(const dr_client_t *c)
+{
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        if (c->reqs[i].active && !c->reqs[i].done && c->reqs[i].kind == R_FWD_CLOSE)
+            return true;
+    return false;
+}
+
+void dr_client_close(dr_client_t *c)
+{
+    c->started = false;
+    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++) {
+        dr_conn_t *cn = &c->conns[i];
+        if (!cn->used)
+            continue;
+        if (cn->state == DR_CONN_ESTABLISHED)
+            send_forward_close(cn);
+        conn_set_state(cn, DR_CONN_CLOSED, DR_OK);
+        cn->state = DR_CONN_IDLE; /* reopened if the client starts again */
+    }
+    uint64_t deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
+    while (c->tcp >= 0 && fwd_close_pending(c) && now_us(c) < deadline)
+        wait_and_process(c, deadline);
+    if (c->state == S_READY) {
+        /* UnRegisterSession, then let the peer close the connection. */
+        (void)send_encap(c, DR_ENCAP_UNREGISTER_SESSION, 0, NULL, 0);
+        deadline = now_us(c) + CLOSE_WAIT_US;
+        while (c->tcp >= 0 && c->tx_len > 0 && now_us(c) < deadline)
+            wait_and_process(c, deadline);
+        c->state = S_IDLE; /* a close by the peer is now expected */
+        while (c->tcp >= 0 && now_us(c) < deadline) {
+            int h = c->tcp;
+            bool out = false;
+            c->tp.ops->wait(c->tp.ctx, &h, &out, 1, deadline);
+            uint8_t tmp[64];
+            size_t got;
+            dr_status_t st = c->tp.ops->tcp_recv(c->tp.ctx, c->tcp, tmp, sizeof tmp, &got);
+            if (st != DR_OK && st != DR_EAGAIN)
+                break;
+        }
+    }
+    complete_all(c, DR_ECLOSED);
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        c->reqs[i].active = false;
+    close_handle(c, &c->tcp);
+    close_handle(c, &c->udp);
+    c->state = S_IDLE;
+    c->tx_len = c->rx_len = 0;
+}

@@ -1,0 +1,213 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * drgate client: an EtherNet/IP originator for the Doosan robot.
+ *
+ * One dr_client_t holds one encapsulation session (TCP 44818) with the
+ * robot, explicit messaging over it, and any number (up to
+ * DR_CLIENT_MAX_CONNS) of Class 1 connections sharing one UDP socket bound
+ * to port 2222, demultiplexed by connection ID.
+ *
+ * Event-loop friendly and thread-free: put the descriptors from
+ * dr_client_pollfds() into your poll/epoll (one of them is a timer that
+ * fires at the next deadline, so RPIs hold without a fine poll timeout),
+ * then call dr_client_process(). Nothing blocks. The explicit-messaging
+ * calls named *_sync run that same loop internally until their reply or
+ * their timeout, so Class 1 traffic keeps flowing meanwhile.
+ *
+ * Memory: dr_client_new() allocates once; nothing allocates afterwards.
+ */
+#ifndef DRGATE_CLIENT_H
+#define DRGATE_CLIENT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "drgate/cip.h"
+#include "drgate/codec.h"
+#include "drgate/status.h"
+#include "drgate/transport.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define DR_CLIENT_MAX_CONNS 16
+#define DR_CLIENT_MAX_FDS 3 /* TCP, UDP, timer */
+
+typedef struct dr_client dr_client_t;
+typedef struct dr_conn dr_conn_t;
+
+typedef struct {
+    const char *host;         /* robot address or name */
+    uint16_t tcp_port;        /* 0: 44818 */
+    uint16_t udp_port;        /* robot's Class 1 port; 0: 2222 (a 0x8000
+                                 item in the Forward Open reply wins) */
+    const char *local_addr;   /* local address for UDP, NULL: any */
+    uint16_t local_udp_port;  /* 0: 2222 */
+    uint32_t timeout_ms;      /* explicit request timeout; 0: 2000 */
+    uint16_t instance[DR_ASM_COUNT]; /* 0: default 101..110 */
+    uint16_t vendor_id;       /* originator vendor ID (0: 0xFFFE) */
+    uint32_t serial;          /* originator serial number (0: from clock) */
+    bool route;               /* wrap requests in Unconnected Send */
+    uint32_t backoff_min_ms;  /* reconnect backoff: 0: 100 ms */
+    uint32_t backoff_max_ms;  /* 0: 5000 ms */
+    dr_transport_t transport; /* ops NULL: dr_transport_posix() */
+} dr_client_config_t;
+
+/* Creates a client; nothing is sent yet. NULL on bad config or no memory
+ * (the one allocation). */
+dr_client_t *dr_client_new(const dr_client_config_t *cfg);
+/* Closes everything (dr_client_close) and frees. NULL is fine. */
+void dr_client_free(dr_client_t *c);
+
+/* ---- session and explicit messaging -------------------------------- */
+
+/* Connect and register a session, within the timeout.
+ * Errors: DR_ENOTFOUND, DR_ECONNREFUSED, DR_ETIMEDOUT, DR_EIO, DR_ENCAP(). */
+dr_status_t dr_client_connect_sync(dr_client_t *c);
+
+/* Start the session in the background (for event loops): the client
+ * connects, registers, opens its connections and reconnects by itself. */
+dr_status_t dr_client_start(dr_client_t *c);
+
+/* Forward Close every connection, UnRegisterSession, wait (bounded) for
+ * the peer to close, close the sockets. The client can be started again. */
+void dr_client_close(dr_client_t *c);
+
+/* Is the session registered? */
+bool dr_client_ready(const dr_client_t *c);
+
+/* Any CIP service to any path: data in, reply data out.
+ * Returns DR_OK, DR_CIP(general, extended) from the reply, DR_ENOSPACE if
+ * the reply does not fit `cap`, or a network error. *rsp_len is set when
+ * reply data was copied (also on CIP errors that carry data). */
+dr_status_t dr_client_call_sync(dr_client_t *c, uint8_t service,
+                                const uint8_t *path, size_t path_len,
+                                const uint8_t *data, size_t data_len,
+                                uint8_t *rsp, size_t cap, size_t *rsp_len);
+
+dr_status_t dr_client_get_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,
+                                    uint16_t attr, uint8_t *buf, size_t cap,
+                                    size_t *len);
+dr_status_t dr_client_set_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,
+                                    uint16_t attr, const uint8_t *data,
+                                    size_t len);
+
+/* Assembly data (attribute 3) of assembly `a` at its configured instance.
+ * A reply of another size than the specification's is DR_ELENGTH. */
+dr_status_t dr_client_asm_read_sync(dr_client_t *c, dr_asm_t a, uint8_t *buf,
+                                    size_t len);
+dr_status_t dr_client_asm_write_sync(dr_client_t *c, dr_asm_t a,
+                                     const uint8_t *buf, size_t len);
+/* Attribute 4 (size in bytes) of an assembly instance. */
+dr_status_t dr_client_asm_size_sync(dr_client_t *c, uint16_t instance,
+                                    uint16_t *size);
+
+/* Identity object (class 1, instance 1) and ListIdentity over TCP. */
+dr_status_t dr_client_identity_sync(dr_client_t *c, dr_identity_t *id);
+dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id);
+
+/* Instance number in use for assembly a. */
+uint16_t dr_client_instance(const dr_client_t *c, dr_asm_t a);
+
+/* Where the last error happened: "connect", "register session", "get",
+ * "set", "forward open", ... (static string). */
+const char *dr_client_last_step(const dr_client_t *c);
+
+/* ---- Class 1 implicit I/O -------------------------------------------- */
+
+typedef enum {
+    DR_CONN_IDLE = 0,     /* not opened yet (waiting for the session) */
+    DR_CONN_OPENING,      /* Forward Open sent */
+    DR_CONN_ESTABLISHED,  /* data flowing */
+    DR_CONN_TIMED_OUT,    /* no T->O data within the timeout */
+    DR_CONN_RECONNECTING, /* waiting out the backoff before a new open */
+    DR_CONN_CLOSED        /* closed by the caller */
+} dr_conn_state_t;
+
+const char *dr_conn_state_name(dr_conn_state_t s);
+
+typedef void (*dr_conn_data_cb)(dr_conn_t *conn, const uint8_t *data,
+                                size_t len, void *user);
+/* State changes with the reason (DR_OK for a normal transition, else the
+ * error that caused it, e.g. DR_ETIMEDOUT or DR_CIP(0x01, 0x0113)). */
+typedef void (*dr_conn_state_cb)(dr_conn_t *conn, dr_conn_state_t state,
+                                 dr_status_t reason, void *user);
+
+typedef struct {
+    int o2t_asm;              /* an O->T dr_asm_t, or -1: input only */
+    dr_asm_t t2o_asm;         /* a T->O assembly */
+    uint16_t config_instance; /* 0: 1 */
+    uint16_t heartbeat_instance; /* input only; 0: 198 */
+    uint32_t rpi_us;          /* requested packet interval, both ways */
+    uint8_t timeout_mult;     /* code 0..7: timeout = API x (4 << code) */
+    bool large;               /* use Large Forward Open (0x5B) first */
+    bool t2o_run_idle;        /* T->O carries a run/idle header (no: modeless) */
+    dr_conn_data_cb on_data;
+    dr_conn_state_cb on_state;
+    void *user;
+} dr_conn_config_t;
+
+/* Add a connection; it opens once the session is up, and reopens after a
+ * failure with capped exponential backoff. NULL if the pool is full or the
+ * config is invalid (DR_EINVAL in *err if err is not NULL). */
+dr_conn_t *dr_client_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
+                              dr_status_t *err);
+
+/* Forward Close (if open) and release the slot. */
+void dr_conn_remove(dr_conn_t *conn);
+
+/* Copy new O->T data (the assembly's size exactly); sent from the next
+ * RPI on. DR_ELENGTH, DR_EINVAL for input-only connections. */
+dr_status_t dr_conn_set_output(dr_conn_t *conn, const uint8_t *data, size_t len);
+
+/* The run/idle bit sent in the O->T header (default run). */
+void dr_conn_set_run(dr_conn_t *conn, bool run);
+
+typedef struct {
+    uint64_t rx_packets, rx_dropped_seq, rx_bad, tx_packets;
+    uint64_t last_rx_us;       /* monotonic time of the last T->O data */
+    uint32_t o2t_api_us, t2o_api_us; /* from the Forward Open reply */
+    uint32_t o2t_cid, t2o_cid;
+    uint32_t opens, timeouts;
+    uint16_t size_wanted; /* from a 0x0109 refusal: the target's size */
+} dr_conn_stats_t;
+
+dr_conn_state_t dr_conn_state(const dr_conn_t *conn);
+const dr_conn_stats_t *dr_conn_stats(const dr_conn_t *conn);
+void *dr_conn_user(const dr_conn_t *conn);
+/* Last T->O data (the assembly's size), NULL before the first packet. */
+const uint8_t *dr_conn_input(const dr_conn_t *conn, size_t *len);
+
+/* ---- event loop -------------------------------------------------------- */
+
+typedef struct {
+    int fd;
+    short events; /* DR_POLL_IN / DR_POLL_OUT */
+} dr_pollfd_t;
+
+#define DR_POLL_IN 0x1
+#define DR_POLL_OUT 0x4
+
+/* The descriptors to watch now (at most DR_CLIENT_MAX_FDS). They change
+ * when sockets are opened or closed: ask again after each process call. */
+int dr_client_pollfds(const dr_client_t *c, dr_pollfd_t *fds, int max);
+
+/* Monotonic microseconds of the next timer (UINT64_MAX if none). */
+uint64_t dr_client_next_deadline(const dr_client_t *c);
+
+/* Do all that is due: read every socket until it would block, run timers
+ * (O->T production, timeouts, reconnects, request timeouts). Never blocks.
+ * Returns DR_OK; session problems are reported through the connections'
+ * state callbacks and dr_client_ready(). */
+dr_status_t dr_client_process(dr_client_t *c);
+
+/* Wait for the client's descriptors at most timeout_ms and process once.
+ * For simple programs that have no loop of their own. */
+dr_status_t dr_client_run_once(dr_client_t *c, int timeout_ms);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* DRGATE_CLIENT_H */

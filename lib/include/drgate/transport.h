@@ -1,0 +1,74 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * drgate transport: the network and clock seen by the EtherNet/IP client.
+ *
+ * The client never calls the OS itself; it goes through this table, so that
+ * firmware can plug in lwIP (or a test a fake) while Linux uses the default
+ * sockets transport (dr_transport_posix). Handles are small integers chosen
+ * by the transport. Every call is non-blocking: DR_EAGAIN means "nothing
+ * now, wait for the handle's fd". Addresses are IPv4 in host order.
+ */
+#ifndef DRGATE_TRANSPORT_H
+#define DRGATE_TRANSPORT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "drgate/cip.h"
+#include "drgate/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct {
+    /* Resolve a host name or dotted address. DR_ENOTFOUND. */
+    dr_status_t (*resolve)(void *ctx, const char *host, uint32_t *addr);
+    /* Start a TCP connection; DR_OK with *h set (it may still be pending). */
+    dr_status_t (*tcp_connect)(void *ctx, dr_sockaddr_t to, int *h);
+    /* DR_OK once connected, DR_EAGAIN while pending, else the failure. */
+    dr_status_t (*tcp_finish)(void *ctx, int h);
+    /* Send what fits now: *sent may be less than len. */
+    dr_status_t (*tcp_send)(void *ctx, int h, const uint8_t *buf, size_t len,
+                            size_t *sent);
+    /* DR_EAGAIN: no data; DR_ECLOSED: orderly close by the peer. */
+    dr_status_t (*tcp_recv)(void *ctx, int h, uint8_t *buf, size_t cap,
+                            size_t *got);
+    /* Local and remote address of a connected TCP handle. */
+    dr_status_t (*tcp_addrs)(void *ctx, int h, dr_sockaddr_t *local,
+                             dr_sockaddr_t *peer);
+    /* A UDP socket bound to local (addr 0 = any). */
+    dr_status_t (*udp_open)(void *ctx, dr_sockaddr_t local, int *h);
+    dr_status_t (*udp_send)(void *ctx, int h, const uint8_t *buf, size_t len,
+                            dr_sockaddr_t to);
+    dr_status_t (*udp_recv)(void *ctx, int h, uint8_t *buf, size_t cap,
+                            size_t *got, dr_sockaddr_t *from);
+    /* A timer that makes its fd readable at an absolute deadline. */
+    dr_status_t (*timer_open)(void *ctx, int *h);
+    dr_status_t (*timer_arm)(void *ctx, int h, uint64_t deadline_us);
+    void (*close)(void *ctx, int h);
+    /* Monotonic clock in microseconds. */
+    uint64_t (*now_us)(void *ctx);
+    /* The file descriptor to poll for a handle, -1 if there is none. */
+    int (*fd)(void *ctx, int h);
+    /* Block until one of the handles is readable (or writable, where
+     * want_out[i] is set) or the deadline passes. Used only by the
+     * client's *_sync calls; event loops poll the fds themselves. */
+    dr_status_t (*wait)(void *ctx, const int *h, const bool *want_out, int n,
+                        uint64_t deadline_us);
+} dr_transport_ops_t;
+
+typedef struct {
+    const dr_transport_ops_t *ops;
+    void *ctx;
+} dr_transport_t;
+
+/* The Linux/POSIX sockets transport (non-blocking sockets, timerfd,
+ * CLOCK_MONOTONIC). Not available on firmware builds. */
+dr_transport_t dr_transport_posix(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* DRGATE_TRANSPORT_H */
