@@ -1,0 +1,111 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * drgatewayd configuration: one INI file (parsed with libinih).
+ *
+ *   [modbus]            listen address/port, clients, word order, allowlist
+ *   [robot NAME]        one section per robot, each with its own unit ID
+ *   [gpio NAME]         one section per GPIO line
+ *
+ * gw_config_load() validates everything and reports the first error as
+ * "FILE:LINE: message (allowed: ...)"; the daemon exits with 78 (EX_CONFIG).
+ */
+#ifndef DRGATE_GW_CONFIG_H
+#define DRGATE_GW_CONFIG_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "drgate/codec.h"
+
+#define GW_MAX_ROBOTS 8
+#define GW_MAX_GPIO 64
+#define GW_MAX_ALLOW 16
+#define GW_NAME_MAX 32
+
+typedef enum { GW_WORD_ABCD = 0, GW_WORD_CDAB, GW_WORD_BADC, GW_WORD_DCBA } gw_word_order_t;
+typedef enum { GW_LOSS_HOLD = 0, GW_LOSS_ZERO, GW_LOSS_EXCEPTION } gw_link_loss_t;
+typedef enum { GW_MODE_IMPLICIT = 0, GW_MODE_EXPLICIT } gw_robot_mode_t;
+
+typedef struct {
+    uint32_t net;      /* IPv4 network, host order */
+    uint32_t mask;     /* prefix as mask */
+    bool read_write;   /* false: read-only */
+} gw_allow_t;
+
+typedef struct {
+    char listen[64];          /* address, default "0.0.0.0" */
+    uint16_t port;            /* default 502 */
+    unsigned max_clients;     /* default 16, 1..256 */
+    unsigned idle_timeout_s;  /* default 60; 0 = never */
+    bool keepalive;           /* default true */
+    gw_word_order_t word_order; /* default abcd */
+    gw_link_loss_t on_link_loss; /* default hold */
+    unsigned allow_count;     /* 0: everyone read-write */
+    gw_allow_t allow[GW_MAX_ALLOW];
+    /* Single-writer mode (EK9000-like write lock). */
+    bool single_writer;       /* default false */
+    unsigned writer_watchdog_ms; /* default 1000 */
+} gw_modbus_config_t;
+
+typedef struct {
+    char name[GW_NAME_MAX];   /* section name */
+    char host[64];
+    uint16_t tcp_port;        /* default 44818 */
+    uint16_t udp_port;        /* robot's Class 1 port, default 2222 */
+    char local_addr[64];      /* local UDP address, "" = any */
+    uint16_t local_udp_port;  /* default 2222 */
+    uint8_t unit_id;          /* Modbus unit ID, 1..247, unique */
+    gw_robot_mode_t mode;     /* default implicit */
+    uint32_t rpi_ms;          /* default 10 (implicit) / poll period (explicit) */
+    uint8_t timeout_mult;     /* code 0..7, default 2 */
+    uint32_t timeout_ms;      /* explicit request timeout, default 1000 */
+    uint16_t instance[DR_ASM_COUNT]; /* default 101..110 */
+    /* O->T image applied when the single writer's watchdog expires:
+     * "zero" (default) or "hold". */
+    bool fallback_hold;
+    unsigned line;            /* where the section starts, for messages */
+} gw_robot_config_t;
+
+typedef enum { GW_GPIO_OUTPUT = 0, GW_GPIO_INPUT } gw_gpio_dir_t;
+typedef enum { GW_BIAS_AS_IS = 0, GW_BIAS_DISABLE, GW_BIAS_PULL_UP, GW_BIAS_PULL_DOWN } gw_gpio_bias_t;
+
+typedef struct {
+    char name[GW_NAME_MAX];
+    char chip[64];            /* "gpiochip0", "/dev/gpiochip0" or a label */
+    int offset;               /* -1 when given by line name */
+    char line_name[64];
+    gw_gpio_dir_t dir;
+    char robot[GW_NAME_MAX];  /* robot section it belongs to ("" = the only one) */
+    dr_ref_t field;           /* output: follows this bit; input: drives this O->T bit */
+    bool active_low;
+    gw_gpio_bias_t bias;
+    unsigned debounce_ms;     /* inputs only */
+    bool safe_value;          /* outputs: value on link loss, fault and exit */
+    unsigned line;
+} gw_gpio_config_t;
+
+typedef struct {
+    char path[256];
+    gw_modbus_config_t modbus;
+    unsigned robot_count;
+    gw_robot_config_t robot[GW_MAX_ROBOTS];
+    unsigned gpio_count;
+    gw_gpio_config_t gpio[GW_MAX_GPIO];
+    char log_level[16];       /* [daemon] log_level: error|warning|info|debug */
+} gw_config_t;
+
+/* Load and validate `path`. On error returns false and writes
+ * "FILE:LINE: what is wrong (allowed: ...)" into err[errlen]. */
+bool gw_config_load(const char *path, gw_config_t *out, char *err, size_t errlen);
+
+/* Defaults for everything (used before parsing). */
+void gw_config_defaults(gw_config_t *cfg);
+
+/* Two robot sections equal in everything the link depends on (for SIGHUP:
+ * an unchanged robot keeps its connection). */
+bool gw_robot_config_same_link(const gw_robot_config_t *a, const gw_robot_config_t *b);
+
+const char *gw_word_order_name(gw_word_order_t w);
+
+#endif /* DRGATE_GW_CONFIG_H */
