@@ -55,6 +55,9 @@ static uint32_t real_to_wire(float f)
     return u;
 }
 
+/* The smallest double that rounds to binary32 infinity: 2^128 - 2^103. */
+#define REAL_TO_INF 0x1.ffffffp127
+
 typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24) ? 1 : -1];
 
 /* ---- typed structs: store and load one member -------------------------- */
@@ -378,7 +381,10 @@ dr_status_t dr_value_check(dr_ref_t ref, const dr_value_t *v, unsigned flags)
         double f = dr_value_as_double(v);
         if (f != f || f > DBL_MAX || f < -DBL_MAX)
             return info->dir == DR_DIR_O2T ? DR_ENONFINITE : DR_OK;
-        return (f > FLT_MAX || f < -FLT_MAX) ? DR_ERANGE : DR_OK;
+        /* Beyond FLT_MAX only what rounds to infinity is out of range:
+         * 3.4028235e38, the shortest text of FLT_MAX, is a little above it
+         * and must read back. The limit is FLT_MAX + half an ulp. */
+        return (f >= REAL_TO_INF || f <= -REAL_TO_INF) ? DR_ERANGE : DR_OK;
     }
     }
     return DR_EINVAL;
