@@ -52,7 +52,8 @@ LIB_HDR       := $(wildcard lib/include/drgate/*.h)
 # ---- programs --------------------------------------------------------------
 JSON_CFLAGS := $(call pc,--cflags,jansson)
 JSON_LIBS   := $(call pc,--libs,jansson)
-CLI_SRC     := cli/drcli.c
+CLI_SRC     := $(sort $(wildcard cli/*.c))
+CLI_HDR     := $(wildcard cli/*.h)
 CLI_BIN     := $(B)/drcli
 BINS        := $(CLI_BIN)
 
@@ -83,8 +84,9 @@ $(LIB_SO): $(LIB_OBJ)
 	ln -sf $(notdir $@) $(B)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(B)/libdrgate.so
 
-$(CLI_BIN): $(CLI_SRC) $(LIB_A) $(LIB_HDR)
-	$(CC) $(ALL_CPPFLAGS) $(JSON_CFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
+$(CLI_BIN): $(CLI_SRC) $(CLI_HDR) $(LIB_A) $(LIB_HDR)
+	$(CC) $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS) \
+	    $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
 	    -o $@ $(CLI_SRC) $(LIB_A) $(JSON_LIBS) -lm
 
 $(B)/tests/%: tests/%.c $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)

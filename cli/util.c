@@ -1,0 +1,250 @@
+/* SPDX-License-Identifier: MIT */
+/* drcli helpers: assembly names, value ranges, JSON numbers, byte I/O. */
+#include <errno.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "drcli.h"
+#include "drgate/text.h"
+
+/* ---- assemblies ----------------------------------------------------------- */
+
+/* Levenshtein distance of two short names (assembly names and aliases are
+ * under 16 characters; longer input is cut, which only worsens its score). */
+static unsigned name_distance(const char *a, const char *b)
+{
+    enum { MAXN = 32 };
+    unsigned row[MAXN + 1];
+    size_t la = strlen(a), lb = strlen(b);
+    la = la > MAXN ? MAXN : la;
+    lb = lb > MAXN ? MAXN : lb;
+    for (size_t j = 0; j <= lb; j++)
+        row[j] = (unsigned)j;
+    for (size_t i = 1; i <= la; i++) {
+        unsigned diag = row[0];
+        row[0] = (unsigned)i;
+        for (size_t j = 1; j <= lb; j++) {
+            unsigned up = row[j];
+            unsigned best = diag + (a[i - 1] != b[j - 1]);
+            if (up + 1 < best)
+                best = up + 1;
+            if (row[j - 1] + 1 < best)
+                best = row[j - 1] + 1;
+            diag = up;
+            row[j] = best;
+        }
+    }
+    return row[lb];
+}
+
+bool cli_lookup_asm(const char *cmd, const char *name, dr_asm_t *out)
+{
+    if (dr_asm_lookup(name, out) == DR_OK)
+        return true;
+    const char *best = NULL;
+    unsigned best_d = ~0u;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
+        const char *cand[2] = {info->name, info->alias};
+        for (int k = 0; k < 2; k++) {
+            unsigned d = name_distance(name, cand[k]);
+            if (d < best_d) {
+                best_d = d;
+                best = cand[k];
+            }
+        }
+    }
+    cli_error(CLI_EXIT_USAGE, cmd,
+              "unknown assembly '%s'; closest known assembly: %s "
+              "(drcli list shows all)", name, best);
+    return false;
+}
+
+const char *cli_dir_name(dr_dir_t dir)
+{
+    return dir == DR_DIR_T2O ? "T->O" : "O->T";
+}
+
+const char *cli_type_name(dr_ref_t ref)
+{
+    static const char *const masks[] = {"6-bit mask", "16-bit mask", "64-bit mask"};
+    if (ref.field->kind != DR_KIND_BITS || ref.elem >= 0)
+        return dr_kind_name((dr_kind_t)ref.field->kind);
+    switch (ref.field->count) {
+    case 6: return masks[0];
+    case 16: return masks[1];
+    case 64: return masks[2];
+    default: return "bit mask";
+    }
+}
+
+void cli_describe_range(dr_ref_t ref, char *out, size_t size)
+{
+    const dr_field_t *f = ref.field;
+    switch ((dr_kind_t)f->kind) {
+    case DR_KIND_BIT:
+        snprintf(out, size, "0 or 1 (or false/true)");
+        return;
+    case DR_KIND_BITS:
+        if (ref.elem >= 0)
+            snprintf(out, size, "0 or 1 (or false/true)");
+        else if (f->count >= 64)
+            snprintf(out, size, "0..%" PRIu64, UINT64_MAX);
+        else
+            snprintf(out, size, "0..%" PRIu64,
+                     (UINT64_C(1) << f->count) - 1u);
+        return;
+    case DR_KIND_USINT:
+        snprintf(out, size, "0..255");
+        return;
+    case DR_KIND_ENUM:
+        snprintf(out, size, "0..255 or a state name (%s..%s)",
+                 dr_robot_state_name(0), dr_robot_state_name(DR_ROBOT_SAFE_OFF2));
+        return;
+    case DR_KIND_DINT:
+        snprintf(out, size, "a whole number in %" PRId32 "..%" PRId32,
+                 INT32_MIN, INT32_MAX);
+        return;
+    case DR_KIND_REAL:
+        snprintf(out, size, "a finite number of magnitude up to 3.4028235e38");
+        return;
+    }
+    snprintf(out, size, "?");
+}
+
+/* ---- JSON ------------------------------------------------------------- */
+
+/* jansson prints a real with "%.*g" at the precision given to the dump call
+ * (17 by default), which shows 0.1f as 0.10000000149011612, and 0.1 parsed as
+ * a double as 0.10000000000000001. So the number is first made the double
+ * nearest to the float's shortest text ("0.1"), and printed with 9 digits
+ * (CLI_JSON_FLAGS): rounding that double to 9 significant digits gives back
+ * exactly the shortest text's digits, as it has at most 9 and the double is
+ * within 2^-53 of it. Whole numbers get ".0" from jansson. */
+json_t *cli_json_real(float f)
+{
+    char text[32];
+    if (dr_text_real(f, text, sizeof text) != DR_OK)
+        return NULL; /* not reached: 32 bytes hold any binary32 */
+    if (f != f || f > 3.4028235e38f || f < -3.4028235e38f)
+        return json_string(text);
+    return json_real(strtod(text, NULL));
+}
+
+int cli_json_print(const char *cmd, json_t *value)
+{
+    if (value == NULL)
+        return cli_error(CLI_EXIT_FAIL, cmd, "out of memory building JSON");
+    int st = json_dumpf(value, stdout, CLI_JSON_FLAGS);
+    json_decref(value);
+    if (st != 0 || fputc('\n', stdout) == EOF)
+        return cli_error(CLI_EXIT_FAIL, cmd, "writing JSON to standard output failed");
+    return CLI_EXIT_OK;
+}
+
+/* ---- bytes in and out --------------------------------------------------- */
+
+bool cli_read_input(const char *cmd, const char *path, uint8_t *buf,
+                    size_t *len)
+{
+    bool is_stdin = strcmp(path, "-") == 0;
+    const char *shown = is_stdin ? "standard input" : path;
+    FILE *fp = is_stdin ? stdin : fopen(path, "rb");
+    if (fp == NULL) {
+        cli_error(CLI_EXIT_USAGE, cmd, "%s: cannot open: %s", path, strerror(errno));
+        return false;
+    }
+    size_t n = fread(buf, 1, CLI_INPUT_MAX, fp);
+    bool ok = !ferror(fp);
+    int err = errno;
+    /* One more byte tells "exactly the limit" from "too long". */
+    uint8_t extra;
+    bool too_long = ok && n == CLI_INPUT_MAX && fread(&extra, 1, 1, fp) == 1;
+    if (!is_stdin)
+        fclose(fp);
+    if (!ok) {
+        cli_error(CLI_EXIT_USAGE, cmd, "%s: read error: %s", shown, strerror(err));
+        return false;
+    }
+    if (too_long) {
+        cli_error(CLI_EXIT_USAGE, cmd, "%s: more than %u bytes of input", shown,
+                  CLI_INPUT_MAX);
+        return false;
+    }
+    *len = n;
+    return true;
+}
+
+static int hex_value(uint8_t c)
+{
+    if (c >= '0' && c <= '9')
+        return c - '0';
+    if (c >= 'a' && c <= 'f')
+        return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F')
+        return c - 'A' + 10;
+    return -1;
+}
+
+static bool is_space(uint8_t c)
+{
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
+}
+
+bool cli_parse_hex(const char *cmd, const char *path, uint8_t *buf,
+                   size_t *len)
+{
+    const char *shown = strcmp(path, "-") == 0 ? "standard input" : path;
+    size_t out = 0, line = 1, col = 0;
+    int high = -1; /* first digit of a byte, while waiting for the second */
+    for (size_t i = 0; i < *len; i++) {
+        uint8_t c = buf[i];
+        col++;
+        if (is_space(c)) {
+            if (high >= 0) {
+                cli_error(CLI_EXIT_USAGE, cmd,
+                          "%s: line %zu, column %zu: whitespace inside a hex byte "
+                          "(write bytes as two digits)", shown, line, col);
+                return false;
+            }
+            if (c == '\n') {
+                line++;
+                col = 0;
+            }
+            continue;
+        }
+        int v = hex_value(c);
+        if (v < 0) {
+            if (c >= 0x20 && c < 0x7f)
+                cli_error(CLI_EXIT_USAGE, cmd,
+                          "%s: line %zu, column %zu: '%c' is not a hex digit",
+                          shown, line, col, c);
+            else
+                cli_error(CLI_EXIT_USAGE, cmd,
+                          "%s: line %zu, column %zu: byte 0x%02x is not a hex digit",
+                          shown, line, col, c);
+            return false;
+        }
+        if (high < 0) {
+            high = v;
+        } else {
+            buf[out++] = (uint8_t)(high << 4 | v); /* out < i: safe in place */
+            high = -1;
+        }
+    }
+    if (high >= 0) {
+        cli_error(CLI_EXIT_USAGE, cmd,
+                  "%s: odd number of hex digits (the last byte has one digit)", shown);
+        return false;
+    }
+    *len = out;
+    return true;
+}
+
+void cli_print_hex(const uint8_t *buf, size_t len)
+{
+    for (size_t i = 0; i < len; i++)
+        printf("%02x%c", buf[i], (i % 16u == 15u || i + 1 == len) ? '\n' : ' ');
+}
