@@ -1,0 +1,114 @@
+#!/bin/sh
+# SPDX-License-Identifier: MIT
+# The codec must build for a Cortex-M4 without an OS: compile the codec
+# sources with arm-none-eabi-gcc (newlib), report .text/.data/.bss, and
+# refuse any reference outside <string.h> and the compiler's own helpers
+# (no malloc, no stdio). The sizes are recorded in docs/codec.md; growing
+# more than 10% past the recorded total .text fails.
+#
+# usage: cross-cm4.sh RESULTS SOURCE...       check; add a line to RESULTS
+#        cross-cm4.sh --write-docs SOURCE...  record the sizes in docs/codec.md
+# WARN (from the Makefile) holds the warning flags; CM4_BUILD the object dir.
+set -eu
+cd "$(dirname "$0")/.."
+
+CROSS=${CM4_CROSS:-arm-none-eabi-}
+CFLAGS_CM4="-mcpu=cortex-m4 -mthumb -Os"
+WARN=${WARN:--std=c99 -Wall -Wextra -Wpedantic -Werror}
+out=${CM4_BUILD:-build/cm4}
+doc=docs/codec.md
+begin='<!-- BEGIN cm4 footprint (make docs): do not edit -->'
+end='<!-- END cm4 footprint -->'
+# What the codec may call: <string.h> and libgcc's soft-float/long helpers.
+allowed='^(memcpy|memset|memmove|memcmp|strlen|strcmp|strncmp|__aeabi_[a-z0-9_]+)$'
+
+write_docs=0
+if [ "${1:-}" = "--write-docs" ]; then write_docs=1; results=; else results=${1:?usage}; fi
+shift
+[ $# -gt 0 ] || { echo "usage: $0 RESULTS|--write-docs SOURCE..." >&2; exit 2; }
+
+result() { # passed failed
+    [ -z "$results" ] || { mkdir -p "$(dirname "$results")"; echo "$1 $2 cm4" >>"$results"; }
+}
+
+if ! command -v "${CROSS}gcc" >/dev/null 2>&1; then
+    echo "###########################################################"
+    echo "## cm4: ${CROSS}gcc not found: Cortex-M4 build NOT CHECKED"
+    echo "## install gcc-arm-none-eabi libnewlib-arm-none-eabi (make deps)"
+    echo "###########################################################"
+    if [ -n "${CI:-}" ]; then result 0 1; exit 1; fi
+    exit 0
+fi
+
+mkdir -p "$out"
+objs=
+for src in "$@"; do
+    obj=$out/$(basename "$src" .c).o
+    # shellcheck disable=SC2086 # flag lists are meant to split
+    if ! "${CROSS}gcc" $CFLAGS_CM4 $WARN -Ilib/include -c "$src" -o "$obj"; then
+        echo "cm4: FAIL: $src does not build for the Cortex-M4" >&2
+        result 0 1; exit 1
+    fi
+    objs="$objs $obj"
+done
+
+# Undefined symbols that none of the objects defines must be allowed ones.
+# shellcheck disable=SC2086
+"${CROSS}nm" -u $objs | awk 'NF == 2 && $1 == "U" { print $2 }' | sort -u >"$out/undef"
+# shellcheck disable=SC2086
+"${CROSS}nm" --defined-only $objs | awk 'NF == 3 { print $3 }' | sort -u >"$out/defined"
+bad=$(comm -23 "$out/undef" "$out/defined" | grep -Ev "$allowed" || true)
+if [ -n "$bad" ]; then
+    echo "cm4: FAIL: the codec references symbols a bare-metal build must not need:" >&2
+    echo "$bad" | sed 's/^/    /' >&2
+    result 0 1; exit 1
+fi
+
+# Berkeley sizes: .text includes read-only data (the field table, texts).
+# shellcheck disable=SC2086
+"${CROSS}size" $objs | awk 'NR > 1 { sub(".*/", "", $6); print $6, $1, $2, $3 }' >"$out/sizes"
+table() {
+    echo "| object | .text | .data | .bss |"
+    echo "|---|---:|---:|---:|"
+    awk '{ printf "| %s | %d | %d | %d |\n", $1, $2, $3, $4; t += $2; d += $3; b += $4 }
+         END { printf "| **total** | **%d** | **%d** | **%d** |\n", t, d, b }' "$out/sizes"
+    echo
+    echo "\`$("${CROSS}gcc" --version | head -n 1)\`, \`$CFLAGS_CM4\`."
+}
+total=$(awk '{ t += $2 } END { print t }' "$out/sizes")
+echo "cm4: codec for Cortex-M4 ($CFLAGS_CM4), no malloc, no stdio:"
+table | sed 's/^/    /'
+
+if [ "$write_docs" = 1 ]; then
+    tmp=$(mktemp)
+    table >"$tmp.table"
+    awk -v begin="$begin" -v end="$end" -v gen="$tmp.table" '
+        $0 == begin { print; print ""; while ((getline line < gen) > 0) print line
+                      skip = 1; next }
+        $0 == end   { print ""; skip = 0 }
+        !skip       { print }' "$doc" >"$tmp"
+    if cmp -s "$tmp" "$doc"; then echo "cm4: $doc is up to date"
+    else cp "$tmp" "$doc"; echo "cm4: recorded the footprint in $doc"; fi
+    rm -f "$tmp" "$tmp.table"
+    exit 0
+fi
+
+# The recorded total .text: the bold figure in the footprint block.
+recorded=$(awk -v begin="$begin" -v end="$end" '
+    $0 == begin { on = 1 } $0 == end { on = 0 }
+    on && /\*\*total\*\*/ { gsub(/[*| ]+/, " "); split($0, f, " "); print f[2] }' "$doc")
+if [ -z "$recorded" ]; then
+    echo "cm4: FAIL: no footprint recorded in $doc (run make docs)" >&2
+    result 0 1; exit 1
+fi
+limit=$((recorded + recorded / 10))
+if [ "$total" -gt "$limit" ]; then
+    echo "cm4: FAIL: .text is $total bytes, more than 10% above the $recorded recorded in $doc" >&2
+    echo "cm4: if the growth is wanted, record it with make docs" >&2
+    result 0 1; exit 1
+fi
+if [ "$total" != "$recorded" ]; then
+    echo "cm4: note: .text is $total bytes, $doc records $recorded (make docs updates it)"
+fi
+echo "cm4: ok"
+result 1 0
