@@ -55,7 +55,12 @@ JSON_LIBS   := $(call pc,--libs,jansson)
 CLI_SRC     := $(sort $(wildcard cli/*.c))
 CLI_HDR     := $(wildcard cli/*.h)
 CLI_BIN     := $(B)/drcli
-BINS        := $(CLI_BIN)
+# drsim: the adapter logic (all of sim/ but main.c) is also linked into the
+# tests/test_sim_* unit tests.
+SIM_LIB_SRC := $(filter-out sim/main.c,$(wildcard sim/*.c))
+SIM_HDR     := $(wildcard sim/*.h)
+SIM_BIN     := $(B)/drsim
+BINS        := $(CLI_BIN) $(SIM_BIN)
 
 # ---- tests -----------------------------------------------------------------
 CMOCKA_CFLAGS := $(call pc,--cflags,cmocka)
@@ -88,6 +93,15 @@ $(CLI_BIN): $(CLI_SRC) $(CLI_HDR) $(LIB_A) $(LIB_HDR)
 	$(CC) $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS) \
 	    $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
 	    -o $@ $(CLI_SRC) $(LIB_A) $(JSON_LIBS) -lm
+
+$(SIM_BIN): sim/main.c $(SIM_LIB_SRC) $(SIM_HDR) $(LIB_A) $(LIB_HDR)
+	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
+	    -o $@ sim/main.c $(SIM_LIB_SRC) $(LIB_A) -lm
+
+$(B)/tests/test_sim_%: tests/test_sim_%.c $(SIM_LIB_SRC) $(SIM_HDR) $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
+	    -o $@ $< $(SIM_LIB_SRC) $(TEST_SUPPORT) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 $(B)/tests/%: tests/%.c $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)

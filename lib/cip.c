@@ -264,6 +264,54 @@ void dr_cpf_sockaddr_write(dr_wr_t *w, uint16_t type, dr_sockaddr_t sa)
     dr_cpf_item_end(w, m);
 }
 
+/* ---- encapsulation command bodies ---------------------------------------- */
+
+dr_status_t dr_register_parse(const uint8_t *body, size_t len,
+                              uint16_t *version, uint16_t *options)
+{
+    rd_t r;
+    rd_init(&r, body, len);
+    *version = rd_u16(&r);
+    *options = rd_u16(&r);
+    return rd_done(&r);
+}
+
+void dr_register_write(dr_wr_t *w, uint16_t version, uint16_t options)
+{
+    dr_wr_u16(w, version);
+    dr_wr_u16(w, options);
+}
+
+dr_status_t dr_rr_parse(const uint8_t *body, size_t len, uint32_t *iface,
+                        uint16_t *timeout, dr_cpf_t *cpf)
+{
+    rd_t r;
+    rd_init(&r, body, len);
+    *iface = rd_u32(&r);
+    *timeout = rd_u16(&r);
+    if (r.short_)
+        return DR_ESHORT;
+    return dr_cpf_parse(body + r.pos, rd_left(&r), cpf);
+}
+
+void dr_rr_begin(dr_wr_t *w, uint16_t timeout)
+{
+    dr_wr_u32(w, 0); /* interface handle: CIP */
+    dr_wr_u16(w, timeout);
+}
+
+void dr_list_services_write(dr_wr_t *w, uint16_t flags)
+{
+    /* Service name: 16 bytes, NUL-padded (Vol. 2, 2-4.6.3). */
+    static const char name[16] = "Communications";
+    dr_cpf_begin(w, 1);
+    size_t m = dr_cpf_item_begin(w, DR_CPF_LIST_SERVICES);
+    dr_wr_u16(w, 1); /* encapsulation protocol version */
+    dr_wr_u16(w, flags);
+    dr_wr_bytes(w, name, sizeof name);
+    dr_cpf_item_end(w, m);
+}
+
 /* ---- EPATH ----------------------------------------------------------------- */
 
 dr_status_t dr_epath_parse(const uint8_t *buf, size_t len, dr_epath_t *out)

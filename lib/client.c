@@ -21,7 +21,7 @@
 
 typedef enum { S_IDLE, S_CONNECTING, S_REGISTERING, S_READY, S_BACKOFF } sess_t;
 
-typedef enum { R_USER, R_FWD_OPEN, R_FWD_CLOSE, R_LIST_IDENTITY } req_kind_t;
+typedef enum { R_USER, R_ASYNC, R_FWD_OPEN, R_FWD_CLOSE, R_LIST_IDENTITY } req_kind_t;
 
 typedef struct {
     bool active, done;
@@ -29,6 +29,8 @@ typedef struct {
     uint64_t context;
     uint64_t deadline;
     dr_conn_t *conn;
+    dr_call_cb cb;
+    void *cb_user;
     dr_status_t status;
     uint8_t *rsp;
     size_t cap;
@@ -290,9 +292,13 @@ static void req_finish(dr_client_t *c, req_t *r, dr_status_t st,
         return; /* collected by wait_req */
     }
     r->active = false;
+    if (r->kind == R_ASYNC) {
+        if (r->cb != NULL)
+            r->cb(c, st, rsp ? rsp->data : NULL, rsp ? rsp->data_len : 0, r->cb_user);
+        return;
+    }
     if (r->conn != NULL)
-        conn_on_reply(r->conn, r, st == DR_OK || rsp != NULL ? rsp : NULL, cpf);
-    (void)c;
+        conn_on_reply(r->conn, r, rsp, cpf);
 }
 
 static void complete_all(dr_client_t *c, dr_status_t st)
@@ -421,6 +427,11 @@ static void send_register(dr_client_t *c)
 dr_status_t dr_client_start(dr_client_t *c)
 {
     c->started = true;
+    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
+        if (c->conns[i].used && c->conns[i].state == DR_CONN_CLOSED) {
+            c->conns[i].state = DR_CONN_IDLE;
+            c->conns[i].retry_us = 0;
+        }
     if (c->state == S_IDLE || c->state == S_BACKOFF)
         (void)begin_session(c); /* a failure is retried with backoff */
     return DR_OK;
@@ -881,6 +892,8 @@ static void on_datagram(dr_client_t *c, const uint8_t *buf, size_t len, uint64_t
         cn->stats.rx_dropped_seq++;
         return;
     }
+    if (cn->have_t2o_seq)
+        cn->stats.rx_lost += (uint16_t)(f.cip_seq - cn->t2o_seq16 - 1u);
     cn->have_t2o_seq = true;
     cn->t2o_seq16 = f.cip_seq;
     memcpy(cn->in, f.data, f.data_len);
@@ -1080,6 +1093,30 @@ dr_status_t dr_client_call_sync(dr_client_t *c, uint8_t service,
     return wait_req(c, r, rsp_len);
 }
 
+dr_status_t dr_client_call_async(dr_client_t *c, uint8_t service,
+                                 const uint8_t *path, size_t path_len,
+                                 const uint8_t *data, size_t data_len,
+                                 dr_call_cb done, void *user)
+{
+    if (c->state != S_READY)
+        return DR_ESESSION;
+    uint8_t msg[DR_ENCAP_MAX_LEN];
+    dr_wr_t w;
+    dr_wr_init(&w, msg, sizeof msg);
+    dr_cip_req_write(&w, service, path, path_len, data, data_len);
+    if (w.overflow)
+        return DR_ENOSPACE;
+    req_t *r = req_alloc(c, R_ASYNC);
+    if (r == NULL)
+        return DR_EFULL;
+    r->cb = done;
+    r->cb_user = user;
+    dr_status_t st = send_rr(c, r, msg, w.len, false);
+    if (st != DR_OK)
+        r->active = false;
+    return st;
+}
+
 dr_status_t dr_client_get_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,
                                     uint16_t attr, uint8_t *buf, size_t cap,
                                     size_t *len)
@@ -1204,8 +1241,7 @@ void dr_client_close(dr_client_t *c)
             continue;
         if (cn->state == DR_CONN_ESTABLISHED)
             send_forward_close(cn);
-        conn_set_state(cn, DR_CONN_CLOSED, DR_OK);
-        cn->state = DR_CONN_IDLE; /* reopened if the client starts again */
+        conn_set_state(cn, DR_CONN_CLOSED, DR_OK); /* dr_client_start reopens */
     }
     uint64_t deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
     while (c->tcp >= 0 && fwd_close_pending(c) && now_us(c) < deadline)

@@ -156,6 +156,28 @@ size_t dr_cpf_item_begin(dr_wr_t *w, uint16_t type);
 void dr_cpf_item_end(dr_wr_t *w, size_t mark);
 void dr_cpf_sockaddr_write(dr_wr_t *w, uint16_t type, dr_sockaddr_t sa);
 
+/* ---- encapsulation command bodies ---------------------------------------- */
+
+/* RegisterSession body: protocol version (1) and options (0), 4 bytes.
+ * Parse: DR_ESHORT / DR_ELONG unless exactly 4 bytes. */
+dr_status_t dr_register_parse(const uint8_t *body, size_t len,
+                              uint16_t *version, uint16_t *options);
+void dr_register_write(dr_wr_t *w, uint16_t version, uint16_t options);
+
+/* SendRRData / SendUnitData body: interface handle (u32, 0 for CIP),
+ * timeout (u16), then a CPF filling the rest (parsed into *cpf). */
+dr_status_t dr_rr_parse(const uint8_t *body, size_t len, uint32_t *iface,
+                        uint16_t *timeout, dr_cpf_t *cpf);
+/* Write interface handle 0 and the timeout; the caller then writes the CPF. */
+void dr_rr_begin(dr_wr_t *w, uint16_t timeout);
+
+/* ListServices reply body: a CPF with one 0x0100 "Communications" item
+ * (version 1, capability flags: CIP over TCP, Class 0/1 over UDP). */
+#define DR_CPF_LIST_SERVICES 0x0100u
+#define DR_SVC_FLAG_CIP_TCP 0x0020u
+#define DR_SVC_FLAG_CLASS01_UDP 0x0100u
+void dr_list_services_write(dr_wr_t *w, uint16_t flags);
+
 /* ---- CIP requests and replies (Message Router) ------------------------ */
 
 /* A parsed EPATH of logical segments (class, instance, attribute,

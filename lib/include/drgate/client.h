@@ -104,6 +104,16 @@ dr_status_t dr_client_asm_write_sync(dr_client_t *c, dr_asm_t a,
 dr_status_t dr_client_asm_size_sync(dr_client_t *c, uint16_t instance,
                                     uint16_t *size);
 
+/* Asynchronous form for event loops: `done` is called from
+ * dr_client_process() with the status and the reply data (valid only
+ * during the call). DR_EFULL if too many requests are in flight. */
+typedef void (*dr_call_cb)(dr_client_t *c, dr_status_t status,
+                           const uint8_t *data, size_t len, void *user);
+dr_status_t dr_client_call_async(dr_client_t *c, uint8_t service,
+                                 const uint8_t *path, size_t path_len,
+                                 const uint8_t *data, size_t data_len,
+                                 dr_call_cb done, void *user);
+
 /* Identity object (class 1, instance 1) and ListIdentity over TCP. */
 dr_status_t dr_client_identity_sync(dr_client_t *c, dr_identity_t *id);
 dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id);
@@ -167,6 +177,7 @@ void dr_conn_set_run(dr_conn_t *conn, bool run);
 
 typedef struct {
     uint64_t rx_packets, rx_dropped_seq, rx_bad, tx_packets;
+    uint64_t rx_lost;          /* gaps in the T->O sequence count */
     uint64_t last_rx_us;       /* monotonic time of the last T->O data */
     uint32_t o2t_api_us, t2o_api_us; /* from the Forward Open reply */
     uint32_t o2t_cid, t2o_cid;

@@ -1,0 +1,368 @@
+/* SPDX-License-Identifier: MIT */
+/* One robot's link: see link.h. */
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+
+#include "drgate/client.h"
+#include "link.h"
+#include "log.h"
+#include "loop.h"
+
+/* The robot's data set needs six Class 1 connections: every T->O assembly
+ * once, the four O->T assemblies paired with their natural partner, and
+ * two input-only connections (heartbeat O->T). */
+static const struct {
+    int o2t;
+    dr_asm_t t2o;
+} pairs[] = {
+    {DR_ASM_IO_CONTROL, DR_ASM_IO_STATE}, {DR_ASM_BIT_IN, DR_ASM_BIT_OUT},
+    {DR_ASM_INT_IN, DR_ASM_INT_OUT},      {DR_ASM_FLOAT_IN, DR_ASM_FLOAT_OUT},
+    {-1, DR_ASM_JOINT_STATE},             {-1, DR_ASM_TASK_STATE},
+};
+#define NPAIRS (sizeof pairs / sizeof pairs[0])
+#define T2O_COUNT 6u
+
+struct gw_link {
+    gw_robot_config_t cfg;
+    unsigned robot;
+    gw_unit_t *unit;
+    int epfd;
+    gw_link_hooks_t hooks;
+    dr_client_t *client;
+    dr_conn_t *conn[NPAIRS];
+    gw_ev_t ev[DR_CLIENT_MAX_FDS];
+    bool up;
+    uint64_t last_rx_us[DR_ASM_COUNT]; /* per T->O assembly */
+    uint64_t start_us;
+    /* explicit mode */
+    uint64_t next_poll_us;
+    unsigned in_flight;
+    unsigned poll_ok;        /* replies of the current cycle */
+    unsigned dirty;          /* O->T images still to send */
+    uint64_t log_limit_us;
+};
+
+typedef struct {
+    gw_link_t *link;
+    dr_asm_t a;
+} poll_ctx_t;
+
+static poll_ctx_t poll_ctx[GW_MAX_ROBOTS][DR_ASM_COUNT];
+
+static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
+{
+    if (l->up == up)
+        return;
+    l->up = up;
+    if (why != DR_OK) {
+        l->unit->status.last_error = DR_IS_CIP(why) ? DR_CIP_EXTENDED(why) : (uint16_t)why;
+    }
+    gw_log(up ? GW_LOG_INFO : GW_LOG_WARNING, "robot %s (%s): link %s%s%s", l->cfg.name,
+           l->cfg.host, up ? "up" : "down", why != DR_OK ? ": " : "",
+           why != DR_OK ? dr_strerror(why) : "");
+    if (l->hooks.on_link != NULL)
+        l->hooks.on_link(l->hooks.user, l->robot, up, why);
+}
+
+/* ---- descriptors ----------------------------------------------------------- */
+
+static void on_client_fd(void *obj, uint32_t events);
+
+/* The client's descriptors change as it reconnects: mirror them in epoll. */
+static void sync_fds(gw_link_t *l)
+{
+    dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
+    int n = dr_client_pollfds(l->client, fds, DR_CLIENT_MAX_FDS);
+    for (int i = 0; i < DR_CLIENT_MAX_FDS; i++) {
+        if (i < n) {
+            uint32_t ev = ((fds[i].events & DR_POLL_IN) ? EPOLLIN : 0u) |
+                          ((fds[i].events & DR_POLL_OUT) ? EPOLLOUT : 0u);
+            /* A slot whose fd moved must leave epoll before another takes it. */
+            for (int j = 0; j < DR_CLIENT_MAX_FDS; j++)
+                if (j != i && l->ev[j].fd == fds[i].fd)
+                    gw_loop_unwatch(l->epfd, &l->ev[j]);
+            if (!gw_loop_watch(l->epfd, &l->ev[i], fds[i].fd, ev))
+                gw_log_limited(GW_LOG_ERROR, &l->log_limit_us, "robot %s: epoll failed", l->cfg.name);
+        } else {
+            gw_loop_unwatch(l->epfd, &l->ev[i]);
+        }
+    }
+}
+
+static void process(gw_link_t *l)
+{
+    dr_client_process(l->client);
+    sync_fds(l);
+}
+
+static void on_client_fd(void *obj, uint32_t events)
+{
+    (void)events;
+    process(obj);
+}
+
+/* ---- implicit mode ----------------------------------------------------------- */
+
+static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void *user)
+{
+    gw_link_t *l = user;
+    for (unsigned i = 0; i < NPAIRS; i++) {
+        if (l->conn[i] != conn)
+            continue;
+        dr_asm_t a = pairs[i].t2o;
+        memcpy(l->unit->img[a], data, len);
+        l->last_rx_us[a] = gw_now_us();
+        if (l->hooks.on_data != NULL)
+            l->hooks.on_data(l->hooks.user, l->robot, a);
+    }
+}
+
+static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, void *user)
+{
+    gw_link_t *l = user;
+    bool all = true;
+    for (unsigned i = 0; i < NPAIRS; i++) {
+        if (l->conn[i] == conn)
+            l->unit->status.conn_state[i] = (uint16_t)st;
+        if (l->conn[i] != NULL && l->conn[i] != conn &&
+            dr_conn_state(l->conn[i]) != DR_CONN_ESTABLISHED)
+            all = false;
+    }
+    if (st != DR_CONN_ESTABLISHED) {
+        if (why != DR_OK)
+            gw_log_limited(GW_LOG_WARNING, &l->log_limit_us, "robot %s: connection %s: %s",
+                           l->cfg.name, dr_conn_state_name(st), dr_strerror(why));
+        link_set_up(l, false, why);
+    } else if (all) {
+        link_set_up(l, true, DR_OK);
+    }
+}
+
+static bool add_connections(gw_link_t *l)
+{
+    for (unsigned i = 0; i < NPAIRS; i++) {
+        dr_conn_config_t cc;
+        memset(&cc, 0, sizeof cc);
+        cc.o2t_asm = pairs[i].o2t;
+        cc.t2o_asm = pairs[i].t2o;
+        cc.rpi_us = l->cfg.rpi_ms * 1000u;
+        cc.timeout_mult = l->cfg.timeout_mult;
+        cc.on_data = on_conn_data;
+        cc.on_state = on_conn_state;
+        cc.user = l;
+        dr_status_t err;
+        l->conn[i] = dr_client_conn_add(l->client, &cc, &err);
+        if (l->conn[i] == NULL)
+            return false;
+        if (pairs[i].o2t >= 0)
+            (void)dr_conn_set_output(l->conn[i], l->unit->img[pairs[i].o2t],
+                                     dr_asm_info((dr_asm_t)pairs[i].o2t)->size);
+    }
+    return true;
+}
+
+/* ---- explicit mode ------------------------------------------------------------- */
+
+static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, size_t len,
+                          void *user)
+{
+    poll_ctx_t *pc = user;
+    gw_link_t *l = pc->link;
+    const dr_asm_info_t *info = dr_asm_info(pc->a);
+    (void)c;
+    if (l->in_flight > 0)
+        l->in_flight--;
+    if (st == DR_OK && info->dir == DR_DIR_T2O && len != info->size)
+        st = DR_ELENGTH;
+    if (st != DR_OK) {
+        gw_log_limited(GW_LOG_WARNING, &l->log_limit_us, "robot %s: %s %s: %s", l->cfg.name,
+                       info->dir == DR_DIR_T2O ? "get" : "set", info->name, dr_strerror(st));
+        if (info->dir == DR_DIR_O2T)
+            l->dirty |= 1u << pc->a; /* send it again next cycle */
+        link_set_up(l, false, st);
+        return;
+    }
+    if (info->dir == DR_DIR_T2O) {
+        memcpy(l->unit->img[pc->a], data, len);
+        l->last_rx_us[pc->a] = gw_now_us();
+        l->unit->status.rx_packets++;
+        if (l->hooks.on_data != NULL)
+            l->hooks.on_data(l->hooks.user, l->robot, pc->a);
+    }
+    if (++l->poll_ok >= T2O_COUNT)
+        link_set_up(l, true, DR_OK);
+}
+
+static void explicit_poll(gw_link_t *l, uint64_t now)
+{
+    if (now < l->next_poll_us)
+        return;
+    l->next_poll_us = now + (uint64_t)l->cfg.rpi_ms * 1000u;
+    if (!dr_client_ready(l->client) || l->in_flight > 0)
+        return; /* the previous cycle is still out: skip, never pile up */
+    l->poll_ok = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
+        bool t2o = info->dir == DR_DIR_T2O;
+        if (!t2o && !(l->dirty & (1u << a)))
+            continue;
+        uint8_t path[12];
+        dr_wr_t w;
+        dr_wr_init(&w, path, sizeof path);
+        dr_epath_write(&w, DR_CIP_CLASS_ASSEMBLY, dr_client_instance(l->client, (dr_asm_t)a),
+                       DR_CIP_ASM_ATTR_DATA);
+        dr_status_t st = dr_client_call_async(
+            l->client, t2o ? DR_CIP_SVC_GET_ATTRIBUTE_SINGLE : DR_CIP_SVC_SET_ATTRIBUTE_SINGLE,
+            path, w.len, t2o ? NULL : l->unit->img[a], t2o ? 0 : info->size, on_poll_reply,
+            &poll_ctx[l->robot][a]);
+        if (st == DR_OK) {
+            l->in_flight++;
+            if (!t2o)
+                l->dirty &= ~(1u << a);
+        }
+    }
+}
+
+/* ---- lifecycle ------------------------------------------------------------------ */
+
+gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
+                       int epfd, const gw_link_hooks_t *hooks)
+{
+    if (robot >= GW_MAX_ROBOTS)
+        return NULL;
+    gw_link_t *l = calloc(1, sizeof *l);
+    if (l == NULL)
+        return NULL;
+    l->cfg = *rc;
+    l->epfd = epfd;
+    l->hooks = *hooks;
+    for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++) {
+        l->ev[i].fn = on_client_fd;
+        l->ev[i].obj = l;
+        l->ev[i].fd = -1;
+    }
+    gw_link_set_unit(l, robot, unit);
+    dr_client_config_t cc;
+    memset(&cc, 0, sizeof cc);
+    cc.host = rc->host;
+    cc.tcp_port = rc->tcp_port;
+    cc.udp_port = rc->udp_port;
+    cc.local_addr = rc->local_addr[0] ? rc->local_addr : NULL;
+    cc.local_udp_port = rc->local_udp_port;
+    cc.timeout_ms = rc->timeout_ms;
+    memcpy(cc.instance, rc->instance, sizeof cc.instance);
+    l->client = dr_client_new(&cc);
+    if (l->client == NULL || (rc->mode == GW_MODE_IMPLICIT && !add_connections(l))) {
+        gw_log(GW_LOG_ERROR, "robot %s: cannot create the EtherNet/IP client", rc->name);
+        gw_link_free(l);
+        return NULL;
+    }
+    l->start_us = gw_now_us();
+    l->dirty = (1u << DR_ASM_COUNT) - 1u;
+    l->unit->status.link_state = 1;
+    l->unit->status.rpi_ms = (uint16_t)rc->rpi_ms;
+    dr_client_start(l->client);
+    process(l);
+    gw_log(GW_LOG_INFO, "robot %s: connecting to %s (%s, RPI %u ms, unit ID %u)", rc->name,
+           rc->host, rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms,
+           rc->unit_id);
+    return l;
+}
+
+void gw_link_free(gw_link_t *l)
+{
+    if (l == NULL)
+        return;
+    for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++)
+        gw_loop_unwatch(l->epfd, &l->ev[i]);
+    dr_client_free(l->client); /* Forward Close + UnRegisterSession */
+    free(l);
+}
+
+void gw_link_set_unit(gw_link_t *l, unsigned robot, gw_unit_t *unit)
+{
+    l->robot = robot;
+    l->unit = unit;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        poll_ctx[robot][a].link = l;
+        poll_ctx[robot][a].a = (dr_asm_t)a;
+    }
+}
+
+void gw_link_outputs_changed(gw_link_t *l, unsigned dirty)
+{
+    if (l->cfg.mode == GW_MODE_EXPLICIT) {
+        l->dirty |= dirty;
+        l->next_poll_us = 0; /* send soon, not a whole period later */
+        return;
+    }
+    for (unsigned i = 0; i < NPAIRS; i++)
+        if (pairs[i].o2t >= 0 && (dirty & (1u << pairs[i].o2t)))
+            (void)dr_conn_set_output(l->conn[i], l->unit->img[pairs[i].o2t],
+                                     dr_asm_info((dr_asm_t)pairs[i].o2t)->size);
+}
+
+/* Status block values derived from the connections. */
+static void update_status(gw_link_t *l, uint64_t now)
+{
+    gw_status_t *st = &l->unit->status;
+    uint64_t oldest = UINT64_MAX;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O && l->last_rx_us[a] < oldest)
+            oldest = l->last_rx_us[a];
+    uint64_t age = oldest == 0 ? now - l->start_us : now - oldest;
+    st->age_ms = (uint32_t)(age / 1000u > UINT32_MAX ? UINT32_MAX : age / 1000u);
+    uint64_t limit;
+    if (l->cfg.mode == GW_MODE_IMPLICIT) {
+        uint32_t rx = 0, lost = 0, api = 0;
+        for (unsigned i = 0; i < NPAIRS; i++) {
+            const dr_conn_stats_t *cs = dr_conn_stats(l->conn[i]);
+            rx += (uint32_t)cs->rx_packets;
+            lost += (uint32_t)cs->rx_lost;
+            if (cs->t2o_api_us > api)
+                api = cs->t2o_api_us;
+        }
+        st->rx_packets = rx;
+        st->lost_packets = lost;
+        if (api != 0)
+            st->rpi_ms = (uint16_t)((api + 999u) / 1000u);
+        limit = (uint64_t)(api ? api : l->cfg.rpi_ms * 1000u) * (4u << l->cfg.timeout_mult);
+    } else {
+        limit = (uint64_t)l->cfg.rpi_ms * 1000u * 4u + (uint64_t)l->cfg.timeout_ms * 1000u;
+        /* explicit: no reply for a while means the link is gone */
+        if (l->up && oldest != UINT64_MAX && age > limit)
+            link_set_up(l, false, DR_ETIMEDOUT);
+    }
+    st->fresh = oldest != 0 && age <= limit;
+    st->link_state = l->up ? 2 : (dr_client_ready(l->client) ? 1 : 0);
+}
+
+void gw_link_tick(gw_link_t *l, uint64_t now)
+{
+    if (l->cfg.mode == GW_MODE_EXPLICIT) {
+        explicit_poll(l, now);
+        if (!dr_client_ready(l->client))
+            link_set_up(l, false, DR_ESESSION);
+    }
+    process(l);
+    update_status(l, now);
+}
+
+uint64_t gw_link_next_deadline(const gw_link_t *l)
+{
+    uint64_t d = dr_client_next_deadline(l->client);
+    if (l->cfg.mode == GW_MODE_EXPLICIT && l->next_poll_us < d)
+        d = l->next_poll_us;
+    return d;
+}
+
+bool gw_link_up(const gw_link_t *l)
+{
+    return l->up;
+}
+
+const gw_robot_config_t *gw_link_config(const gw_link_t *l)
+{
+    return &l->cfg;
+}

@@ -1,0 +1,43 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * One robot's EtherNet/IP link, seen from the gateway: keeps the unit's
+ * T->O images live (Class 1 connections, or cyclic Get_Attribute_Single in
+ * explicit mode), sends its O->T images, and reports link changes.
+ */
+#ifndef DRGATE_GW_LINK_H
+#define DRGATE_GW_LINK_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "config.h"
+#include "regmap.h"
+
+typedef struct gw_link gw_link_t;
+
+typedef struct {
+    /* The link came up (true) or went down (false). */
+    void (*on_link)(void *user, unsigned robot, bool up, dr_status_t why);
+    /* New T->O data of assembly `a` is in the unit's image. */
+    void (*on_data)(void *user, unsigned robot, dr_asm_t a);
+    void *user;
+} gw_link_hooks_t;
+
+gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
+                       int epfd, const gw_link_hooks_t *hooks);
+/* Forward Close, UnRegisterSession, free. NULL is fine. */
+void gw_link_free(gw_link_t *l);
+
+/* O->T images changed (bit per assembly): send them from the next RPI. */
+void gw_link_outputs_changed(gw_link_t *l, unsigned dirty);
+
+/* Timers: explicit polling, freshness, status block. */
+void gw_link_tick(gw_link_t *l, uint64_t now_us);
+uint64_t gw_link_next_deadline(const gw_link_t *l);
+
+bool gw_link_up(const gw_link_t *l);
+const gw_robot_config_t *gw_link_config(const gw_link_t *l);
+/* Point the link at another unit image (config reload keeps the link). */
+void gw_link_set_unit(gw_link_t *l, unsigned robot, gw_unit_t *unit);
+
+#endif

@@ -1,0 +1,491 @@
+/* SPDX-License-Identifier: MIT */
+/* Modbus TCP server: see mbserver.h. */
+#define _GNU_SOURCE /* accept4, TCP_KEEPIDLE */
+#include <arpa/inet.h>
+#include <errno.h>
+#include <modbus.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "log.h"
+#include "loop.h"
+#include "mbserver.h"
+
+#define MBAP_LEN 7u
+#define ADU_MAX 260u
+#define MAX_CLIENTS_HARD 256u
+
+typedef struct {
+    gw_ev_t ev;
+    gw_mbs_t *srv;
+    bool used;
+    int fd;
+    uint32_t addr;
+    uint16_t port;
+    bool rw;
+    uint64_t last_us;
+    uint8_t buf[ADU_MAX];
+    size_t len;
+} client_t;
+
+struct gw_mbs {
+    gw_modbus_config_t cfg;
+    gw_mbs_hooks_t hooks;
+    int epfd;
+    gw_ev_t listen_ev;
+    int listen_fd;
+    modbus_t *ctx;          /* used only to build replies */
+    modbus_mapping_t *map;  /* scratch: filled for each request */
+    client_t clients[MAX_CLIENTS_HARD];
+    unsigned nclients;
+    client_t *writer;       /* single-writer mode: the owner */
+    uint32_t exceptions;
+    uint64_t refused_log_us;
+};
+
+static uint16_t be16(const uint8_t *p)
+{
+    return (uint16_t)(p[0] << 8 | p[1]);
+}
+
+static void fmt_addr(uint32_t a, uint16_t port, char *out, size_t n)
+{
+    snprintf(out, n, "%u.%u.%u.%u:%u", a >> 24, (a >> 16) & 0xFF, (a >> 8) & 0xFF,
+             a & 0xFF, port);
+}
+
+/* ---- clients ---------------------------------------------------------------- */
+
+static void client_close(client_t *cl, const char *why)
+{
+    gw_mbs_t *s = cl->srv;
+    char who[32];
+    fmt_addr(cl->addr, cl->port, who, sizeof who);
+    gw_log(GW_LOG_INFO, "modbus: client %s closed: %s", who, why);
+    gw_loop_unwatch(s->epfd, &cl->ev);
+    close(cl->fd);
+    if (s->writer == cl)
+        s->writer = NULL; /* its watchdog will expire and latch the fault */
+    cl->used = false;
+    s->nclients--;
+}
+
+/* First matching allowlist entry; none configured: everyone read-write. */
+static bool allowed(const gw_mbs_t *s, uint32_t addr, bool *rw)
+{
+    if (s->cfg.allow_count == 0) {
+        *rw = true;
+        return true;
+    }
+    for (unsigned i = 0; i < s->cfg.allow_count; i++) {
+        const gw_allow_t *a = &s->cfg.allow[i];
+        if ((addr & a->mask) == (a->net & a->mask)) {
+            *rw = a->read_write;
+            return true;
+        }
+    }
+    return false;
+}
+
+static void set_keepalive(int fd)
+{
+    int one = 1, idle = 10, intvl = 5, cnt = 3;
+    (void)setsockopt(fd, SOL_SOCKET, SO_KEEPALIVE, &one, sizeof one);
+    (void)setsockopt(fd, IPPROTO_TCP, TCP_KEEPIDLE, &idle, sizeof idle);
+    (void)setsockopt(fd, IPPROTO_TCP, TCP_KEEPINTVL, &intvl, sizeof intvl);
+    (void)setsockopt(fd, IPPROTO_TCP, TCP_KEEPCNT, &cnt, sizeof cnt);
+}
+
+static void on_client(void *obj, uint32_t events);
+
+static void on_accept(void *obj, uint32_t events)
+{
+    gw_mbs_t *s = obj;
+    (void)events;
+    for (;;) {
+        struct sockaddr_in sin;
+        socklen_t sl = sizeof sin;
+        int fd = accept4(s->listen_fd, (struct sockaddr *)&sin, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd < 0)
+            return; /* EAGAIN: all taken; other errors: try at the next event */
+        uint32_t addr = ntohl(sin.sin_addr.s_addr);
+        uint16_t port = ntohs(sin.sin_port);
+        char who[32];
+        fmt_addr(addr, port, who, sizeof who);
+        bool rw = false;
+        if (!allowed(s, addr, &rw)) {
+            gw_log(GW_LOG_WARNING, "modbus: refused %s: not in the allowlist", who);
+            close(fd);
+            continue;
+        }
+        client_t *cl = NULL;
+        if (s->nclients < s->cfg.max_clients)
+            for (unsigned i = 0; i < MAX_CLIENTS_HARD && cl == NULL; i++)
+                if (!s->clients[i].used)
+                    cl = &s->clients[i];
+        if (cl == NULL) {
+            gw_log_limited(GW_LOG_WARNING, &s->refused_log_us,
+                           "modbus: refused %s: %u clients already (max_clients)", who,
+                           s->nclients);
+            close(fd);
+            continue;
+        }
+        memset(cl, 0, sizeof *cl);
+        cl->used = true;
+        cl->srv = s;
+        cl->fd = fd;
+        cl->addr = addr;
+        cl->port = port;
+        cl->rw = rw;
+        cl->last_us = gw_now_us();
+        cl->ev.fn = on_client;
+        cl->ev.obj = cl;
+        cl->ev.fd = -1;
+        if (s->cfg.keepalive)
+            set_keepalive(fd);
+        int one = 1;
+        (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        if (!gw_loop_watch(s->epfd, &cl->ev, fd, EPOLLIN)) {
+            close(fd);
+            cl->used = false;
+            continue;
+        }
+        s->nclients++;
+        gw_log(GW_LOG_INFO, "modbus: client %s connected (%s)", who, rw ? "read-write" : "read-only");
+    }
+}
+
+/* ---- requests --------------------------------------------------------------- */
+
+static int reply_exception(gw_mbs_t *s, client_t *cl, const uint8_t *req, int code)
+{
+    s->exceptions++;
+    modbus_set_socket(s->ctx, cl->fd);
+    return modbus_reply_exception(s->ctx, req, (unsigned)code);
+}
+
+static int fill_mapping(gw_mbs_t *s, gw_area_t area, uint16_t addr, uint16_t n,
+                        const uint16_t *v)
+{
+    for (uint16_t i = 0; i < n; i++) {
+        switch (area) {
+        case GW_COILS: s->map->tab_bits[addr + i] = (uint8_t)v[i]; break;
+        case GW_DISCRETE: s->map->tab_input_bits[addr + i] = (uint8_t)v[i]; break;
+        case GW_HOLDING: s->map->tab_registers[addr + i] = v[i]; break;
+        default: s->map->tab_input_registers[addr + i] = v[i]; break;
+        }
+    }
+    return 0;
+}
+
+/* Function code -> area and limits. */
+typedef struct {
+    gw_area_t area;
+    bool write;
+    bool bits;
+    uint16_t max;
+} fc_info_t;
+
+static bool fc_lookup(uint8_t fc, fc_info_t *fi)
+{
+    switch (fc) {
+    case 0x01: *fi = (fc_info_t){GW_COILS, false, true, MODBUS_MAX_READ_BITS}; return true;
+    case 0x02: *fi = (fc_info_t){GW_DISCRETE, false, true, MODBUS_MAX_READ_BITS}; return true;
+    case 0x03: *fi = (fc_info_t){GW_HOLDING, false, false, MODBUS_MAX_READ_REGISTERS}; return true;
+    case 0x04: *fi = (fc_info_t){GW_INPUT, false, false, MODBUS_MAX_READ_REGISTERS}; return true;
+    case 0x05: *fi = (fc_info_t){GW_COILS, true, true, 1}; return true;
+    case 0x06: *fi = (fc_info_t){GW_HOLDING, true, false, 1}; return true;
+    case 0x0F: *fi = (fc_info_t){GW_COILS, true, true, MODBUS_MAX_WRITE_BITS}; return true;
+    case 0x10: *fi = (fc_info_t){GW_HOLDING, true, false, MODBUS_MAX_WRITE_REGISTERS}; return true;
+    default: return false;
+    }
+}
+
+/* Decode the values of a write request into v[]; 0 or an exception. */
+static int write_values(uint8_t fc, const uint8_t *pdu, size_t pdu_len, uint16_t *addr,
+                        uint16_t *n, uint16_t *v)
+{
+    if (pdu_len < 5)
+        return GW_EX_ILLEGAL_VALUE;
+    *addr = be16(pdu + 1);
+    if (fc == 0x05 || fc == 0x06) {
+        if (pdu_len != 5)
+            return GW_EX_ILLEGAL_VALUE;
+        uint16_t x = be16(pdu + 3);
+        if (fc == 0x05 && x != 0xFF00 && x != 0x0000)
+            return GW_EX_ILLEGAL_VALUE;
+        *n = 1;
+        v[0] = fc == 0x05 ? (x == 0xFF00) : x;
+        return 0;
+    }
+    *n = be16(pdu + 3);
+    if (pdu_len < 6)
+        return GW_EX_ILLEGAL_VALUE;
+    size_t bytes = pdu[5];
+    bool bits = fc == 0x0F;
+    if (*n == 0 || *n > (bits ? MODBUS_MAX_WRITE_BITS : MODBUS_MAX_WRITE_REGISTERS) ||
+        bytes != (bits ? (*n + 7u) / 8u : 2u * *n) || pdu_len != 6 + bytes)
+        return GW_EX_ILLEGAL_VALUE;
+    for (uint16_t i = 0; i < *n; i++)
+        v[i] = bits ? (uint16_t)((pdu[6 + i / 8] >> (i % 8)) & 1u) : be16(pdu + 6 + 2 * i);
+    return 0;
+}
+
+static bool may_write(gw_mbs_t *s, client_t *cl)
+{
+    if (!cl->rw)
+        return false;
+    if (!s->cfg.single_writer)
+        return true;
+    if (s->writer == NULL) {
+        s->writer = cl; /* the first writer owns the O->T areas */
+        char who[32];
+        fmt_addr(cl->addr, cl->port, who, sizeof who);
+        gw_log(GW_LOG_INFO, "modbus: %s is now the single writer", who);
+    }
+    return s->writer == cl;
+}
+
+/* One complete ADU. Returns false if the client must be dropped. */
+static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t len)
+{
+    uint8_t unit_id = req[6];
+    const uint8_t *pdu = req + MBAP_LEN;
+    size_t pdu_len = len - MBAP_LEN;
+    uint8_t fc = pdu[0];
+    fc_info_t fi;
+    int ex = 0, rc;
+
+    gw_unit_t *u = s->hooks.unit_for(s->hooks.user, unit_id);
+    if (u == NULL)
+        ex = 0x0A; /* gateway path unavailable: no robot with this unit ID */
+    else if (!fc_lookup(fc, &fi))
+        ex = GW_EX_ILLEGAL_FUNCTION;
+    else if (fi.write && !may_write(s, cl))
+        ex = GW_EX_ILLEGAL_FUNCTION; /* read-only client, or not the writer */
+    if (ex != 0)
+        return reply_exception(s, cl, req, ex) >= 0;
+
+    uint16_t v[MODBUS_MAX_READ_BITS];
+    uint16_t addr, n;
+    if (!fi.write) {
+        if (pdu_len != 5)
+            return reply_exception(s, cl, req, GW_EX_ILLEGAL_VALUE) >= 0;
+        addr = be16(pdu + 1);
+        n = be16(pdu + 3);
+        if (n == 0 || n > fi.max)
+            return reply_exception(s, cl, req, GW_EX_ILLEGAL_VALUE) >= 0;
+        ex = gw_regmap_read(u, fi.area, addr, n, v);
+    } else {
+        unsigned dirty = 0;
+        ex = write_values(fc, pdu, pdu_len, &addr, &n, v);
+        if (ex == 0)
+            ex = gw_regmap_write(u, fi.area, addr, n, v, &dirty);
+        if (ex == 0 && dirty != 0)
+            s->hooks.on_write(s->hooks.user, unit_id, dirty);
+    }
+    if (ex != 0)
+        return reply_exception(s, cl, req, ex) >= 0;
+    if (!fi.write)
+        fill_mapping(s, fi.area, addr, n, v);
+    modbus_set_socket(s->ctx, cl->fd);
+    rc = modbus_reply(s->ctx, req, (int)len, s->map);
+    return rc >= 0;
+}
+
+/* Take complete frames out of the client's buffer. */
+static bool drain_frames(gw_mbs_t *s, client_t *cl)
+{
+    while (cl->len >= MBAP_LEN) {
+        uint16_t proto = be16(cl->buf + 2), mlen = be16(cl->buf + 4);
+        /* length counts the unit ID and the PDU: 2..254 */
+        if (proto != 0 || mlen < 2 || mlen > ADU_MAX - 6) {
+            gw_log(GW_LOG_WARNING, "modbus: malformed MBAP header (protocol %u, length %u)",
+                   proto, mlen);
+            return false;
+        }
+        size_t total = 6u + mlen;
+        if (cl->len < total)
+            return true;
+        if (!handle_request(s, cl, cl->buf, total))
+            return false;
+        memmove(cl->buf, cl->buf + total, cl->len - total);
+        cl->len -= total;
+    }
+    return true;
+}
+
+static void on_client(void *obj, uint32_t events)
+{
+    client_t *cl = obj;
+    gw_mbs_t *s = cl->srv;
+    if (events & (EPOLLERR | EPOLLHUP)) {
+        client_close(cl, "connection error");
+        return;
+    }
+    for (;;) {
+        ssize_t got = recv(cl->fd, cl->buf + cl->len, sizeof cl->buf - cl->len, 0);
+        if (got < 0 && (errno == EAGAIN || errno == EINTR))
+            return;
+        if (got <= 0) {
+            client_close(cl, got == 0 ? "closed by the client" : "receive error");
+            return;
+        }
+        cl->len += (size_t)got;
+        cl->last_us = gw_now_us();
+        if (!drain_frames(s, cl)) {
+            client_close(cl, "bad request or send failure");
+            return;
+        }
+    }
+}
+
+/* ---- lifecycle ----------------------------------------------------------------- */
+
+static int open_listener(const gw_modbus_config_t *cfg, char *err, size_t errlen)
+{
+    struct sockaddr_in sin;
+    memset(&sin, 0, sizeof sin);
+    sin.sin_family = AF_INET;
+    sin.sin_port = htons(cfg->port);
+    if (inet_pton(AF_INET, cfg->listen, &sin.sin_addr) != 1) {
+        snprintf(err, errlen, "modbus listen address '%s' is not an IPv4 address", cfg->listen);
+        return -1;
+    }
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    int one = 1;
+    if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) < 0 ||
+        bind(fd, (struct sockaddr *)&sin, sizeof sin) < 0 || listen(fd, 64) < 0) {
+        snprintf(err, errlen, "modbus: cannot listen on %s:%u: %s", cfg->listen, cfg->port,
+                 strerror(errno));
+        if (fd >= 0)
+            close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+gw_mbs_t *gw_mbs_new(const gw_modbus_config_t *cfg, int epfd,
+                     const gw_mbs_hooks_t *hooks, char *err, size_t errlen)
+{
+    gw_mbs_t *s = calloc(1, sizeof *s);
+    if (s == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    s->cfg = *cfg;
+    if (s->cfg.max_clients > MAX_CLIENTS_HARD)
+        s->cfg.max_clients = MAX_CLIENTS_HARD;
+    s->hooks = *hooks;
+    s->epfd = epfd;
+    s->listen_ev.fd = -1;
+    /* The context only formats replies; its address is never used. */
+    s->ctx = modbus_new_tcp("127.0.0.1", 502);
+    s->map = modbus_mapping_new(GW_AREA_SIZE, GW_AREA_SIZE, GW_AREA_SIZE, GW_AREA_SIZE);
+    s->listen_fd = open_listener(cfg, err, errlen);
+    if (s->ctx == NULL || s->map == NULL || s->listen_fd < 0) {
+        if (s->ctx == NULL || s->map == NULL)
+            snprintf(err, errlen, "libmodbus: out of memory");
+        gw_mbs_free(s);
+        return NULL;
+    }
+    s->listen_ev.fn = on_accept;
+    s->listen_ev.obj = s;
+    if (!gw_loop_watch(epfd, &s->listen_ev, s->listen_fd, EPOLLIN)) {
+        snprintf(err, errlen, "epoll: %s", strerror(errno));
+        gw_mbs_free(s);
+        return NULL;
+    }
+    gw_log(GW_LOG_INFO, "modbus: listening on %s:%u (max %u clients, word order %s)",
+           cfg->listen, cfg->port, s->cfg.max_clients, gw_word_order_name(cfg->word_order));
+    return s;
+}
+
+void gw_mbs_free(gw_mbs_t *s)
+{
+    if (s == NULL)
+        return;
+    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++)
+        if (s->clients[i].used)
+            client_close(&s->clients[i], "gateway stopping");
+    gw_loop_unwatch(s->epfd, &s->listen_ev);
+    if (s->listen_fd >= 0)
+        close(s->listen_fd);
+    if (s->map != NULL)
+        modbus_mapping_free(s->map);
+    if (s->ctx != NULL)
+        modbus_free(s->ctx);
+    free(s);
+}
+
+bool gw_mbs_reconfigure(gw_mbs_t *s, const gw_modbus_config_t *cfg)
+{
+    if (strcmp(cfg->listen, s->cfg.listen) != 0 || cfg->port != s->cfg.port)
+        return false;
+    s->cfg = *cfg;
+    if (s->cfg.max_clients > MAX_CLIENTS_HARD)
+        s->cfg.max_clients = MAX_CLIENTS_HARD;
+    /* Clients keep their connections; their rights follow the new list. */
+    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+        client_t *cl = &s->clients[i];
+        bool rw;
+        if (cl->used && !allowed(s, cl->addr, &rw))
+            client_close(cl, "no longer in the allowlist");
+        else if (cl->used)
+            cl->rw = rw;
+    }
+    if (!s->cfg.single_writer)
+        s->writer = NULL;
+    return true;
+}
+
+void gw_mbs_tick(gw_mbs_t *s, uint64_t now)
+{
+    if (s->cfg.idle_timeout_s == 0)
+        return;
+    uint64_t limit = (uint64_t)s->cfg.idle_timeout_s * 1000000u;
+    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+        client_t *cl = &s->clients[i];
+        if (cl->used && now - cl->last_us >= limit)
+            client_close(cl, "idle timeout");
+    }
+}
+
+uint64_t gw_mbs_next_deadline(const gw_mbs_t *s)
+{
+    uint64_t d = UINT64_MAX;
+    if (s->cfg.idle_timeout_s == 0)
+        return d;
+    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+        const client_t *cl = &s->clients[i];
+        uint64_t t = cl->last_us + (uint64_t)s->cfg.idle_timeout_s * 1000000u;
+        if (cl->used && t < d)
+            d = t;
+    }
+    return d;
+}
+
+unsigned gw_mbs_client_count(const gw_mbs_t *s)
+{
+    return s->nclients;
+}
+
+uint32_t gw_mbs_exceptions(const gw_mbs_t *s)
+{
+    return s->exceptions;
+}
+
+bool gw_mbs_writer_present(const gw_mbs_t *s)
+{
+    return s->writer != NULL;
+}
+
+void gw_mbs_release_writer(gw_mbs_t *s)
+{
+    s->writer = NULL;
+}

@@ -1,0 +1,52 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The Modbus TCP side of the gateway: listener, clients, framing, checks.
+ *
+ * Frames are reassembled without blocking (a slow or silent client never
+ * stalls the others); each complete request is checked against the
+ * register map and access rules, then answered through libmodbus
+ * (modbus_reply / modbus_reply_exception).
+ */
+#ifndef DRGATE_GW_MBSERVER_H
+#define DRGATE_GW_MBSERVER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "config.h"
+#include "regmap.h"
+
+typedef struct gw_mbs gw_mbs_t;
+
+typedef struct {
+    /* The unit (robot) for a unit ID, NULL if none. */
+    gw_unit_t *(*unit_for)(void *user, uint8_t unit_id);
+    /* O->T images of `unit_id` changed (bit per assembly). */
+    void (*on_write)(void *user, uint8_t unit_id, unsigned dirty);
+    void *user;
+} gw_mbs_hooks_t;
+
+/* Listen as `cfg` says and register in the epoll set. NULL on error with
+ * a message in err. */
+gw_mbs_t *gw_mbs_new(const gw_modbus_config_t *cfg, int epfd,
+                     const gw_mbs_hooks_t *hooks, char *err, size_t errlen);
+void gw_mbs_free(gw_mbs_t *s);
+
+/* Take new settings that do not need a new listener (SIGHUP): client
+ * limits, timeouts, word order, allowlist, write lock. Returns false if
+ * the listen address or port changed (the caller must restart it). */
+bool gw_mbs_reconfigure(gw_mbs_t *s, const gw_modbus_config_t *cfg);
+
+/* Close idle clients, expire the single writer. Call at least every
+ * gw_mbs_next_deadline(). */
+void gw_mbs_tick(gw_mbs_t *s, uint64_t now_us);
+uint64_t gw_mbs_next_deadline(const gw_mbs_t *s);
+
+unsigned gw_mbs_client_count(const gw_mbs_t *s);
+uint32_t gw_mbs_exceptions(const gw_mbs_t *s);
+/* Single-writer mode: is a writer present? */
+bool gw_mbs_writer_present(const gw_mbs_t *s);
+/* Drop the current writer (after a watchdog fault). */
+void gw_mbs_release_writer(gw_mbs_t *s);
+
+#endif

@@ -1,0 +1,558 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The Modbus register map: one slot per address, built from the field
+ * table at start-up, so every field of every assembly is reachable and no
+ * address is written down by hand (docs/register-map.md is printed from
+ * the same slots).
+ */
+#include <math.h>
+#include <string.h>
+
+#include "regmap.h"
+
+typedef enum {
+    SL_NONE = 0,
+    SL_VALUE,   /* BIT / USINT / ENUM element as one register */
+    SL_PACKED,  /* 16 bits of a BITS mask; part = word index */
+    SL_WORD32,  /* half of a DINT/REAL; part 0 = first register */
+    SL_SCALED,  /* REAL as INT16 x scale */
+    SL_BIT,     /* one bit (coil / discrete input) */
+    SL_STATUS,  /* status block register or bit; elem = index */
+    SL_TEST,    /* constant test register; elem = index */
+    SL_CONTROL  /* holding register with its own meaning; elem = index */
+} slot_kind_t;
+
+typedef struct {
+    uint8_t kind;
+    uint8_t part;
+    uint16_t field; /* index into dr_field_table */
+    int16_t elem;
+} slot_t;
+
+static slot_t map[GW_AREAS][GW_AREA_SIZE];
+static bool built;
+
+/* Where each assembly starts: registers (and +1000 for the scaled view)
+ * and bits. T->O go to input registers / discrete inputs, O->T to holding
+ * registers / coils. */
+static const uint16_t reg_base[DR_ASM_COUNT] = {100, 200, 300, 400, 500, 600,
+                                                100, 200, 300, 400};
+static const uint16_t bit_base[DR_ASM_COUNT] = {100, 0, 0, 400, 0, 0,
+                                                100, 200, 0, 0};
+#define SCALED_OFFSET 1000u
+
+#define STATUS_REGS 32u
+#define TEST_BASE 32u
+#define TEST_REGS 8u
+#define STATUS_BITS 4u
+#define CONTROL_REGS 2u
+
+static void put(gw_area_t area, uint16_t *addr, slot_kind_t kind, uint8_t part,
+                uint16_t field, int16_t elem)
+{
+    slot_t s = {(uint8_t)kind, part, field, elem};
+    map[area][(*addr)++] = s;
+}
+
+static void build_field(uint16_t fi, gw_area_t ra, gw_area_t ba, uint16_t *r,
+                        uint16_t *s, uint16_t *b)
+{
+    const dr_field_t *f = &dr_field_table[fi];
+    unsigned n = f->count;
+    switch ((dr_kind_t)f->kind) {
+    case DR_KIND_BIT:
+        put(ra, r, SL_VALUE, 0, fi, 0);
+        put(ba, b, SL_BIT, 0, fi, 0);
+        break;
+    case DR_KIND_BITS:
+        for (unsigned w = 0; w < (n + 15u) / 16u; w++)
+            put(ra, r, SL_PACKED, (uint8_t)w, fi, -1);
+        for (unsigned e = 0; e < n; e++)
+            put(ba, b, SL_BIT, 0, fi, (int16_t)e);
+        break;
+    case DR_KIND_USINT:
+    case DR_KIND_ENUM:
+        for (unsigned e = 0; e < n; e++)
+            put(ra, r, SL_VALUE, 0, fi, (int16_t)e);
+        break;
+    case DR_KIND_DINT:
+    case DR_KIND_REAL:
+        for (unsigned e = 0; e < n; e++) {
+            put(ra, r, SL_WORD32, 0, fi, (int16_t)e);
+            put(ra, r, SL_WORD32, 1, fi, (int16_t)e);
+            if (f->kind == DR_KIND_REAL)
+                put(ra, s, SL_SCALED, 0, fi, (int16_t)e);
+        }
+        break;
+    }
+}
+
+void gw_regmap_init(void)
+{
+    if (built)
+        return;
+    memset(map, 0, sizeof map);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
+        bool t2o = info->dir == DR_DIR_T2O;
+        gw_area_t ra = t2o ? GW_INPUT : GW_HOLDING;
+        gw_area_t ba = t2o ? GW_DISCRETE : GW_COILS;
+        uint16_t r = reg_base[a], s = (uint16_t)(reg_base[a] + SCALED_OFFSET), b = bit_base[a];
+        for (unsigned k = 0; k < info->field_count; k++)
+            build_field((uint16_t)(info->first_field + k), ra, ba, &r, &s, &b);
+    }
+    uint16_t addr = 0;
+    for (unsigned i = 0; i < STATUS_REGS; i++)
+        put(GW_INPUT, &addr, SL_STATUS, 0, 0, (int16_t)i);
+    for (unsigned i = 0; i < TEST_REGS; i++)
+        put(GW_INPUT, &addr, SL_TEST, 0, 0, (int16_t)i);
+    addr = 0;
+    for (unsigned i = 0; i < STATUS_BITS; i++)
+        put(GW_DISCRETE, &addr, SL_STATUS, 0, 0, (int16_t)i);
+    addr = 0;
+    for (unsigned i = 0; i < CONTROL_REGS; i++)
+        put(GW_HOLDING, &addr, SL_CONTROL, 0, 0, (int16_t)i);
+    built = true;
+}
+
+/* ---- word order ---------------------------------------------------------- */
+
+static uint16_t swap_bytes(uint16_t w)
+{
+    return (uint16_t)(w << 8 | w >> 8);
+}
+
+void gw_words_from_u32(uint32_t v, gw_word_order_t order, uint16_t out[2])
+{
+    uint16_t hi = (uint16_t)(v >> 16), lo = (uint16_t)v;
+    switch (order) {
+    case GW_WORD_ABCD: out[0] = hi; out[1] = lo; break;
+    case GW_WORD_CDAB: out[0] = lo; out[1] = hi; break;
+    case GW_WORD_BADC: out[0] = swap_bytes(hi); out[1] = swap_bytes(lo); break;
+    case GW_WORD_DCBA: out[0] = swap_bytes(lo); out[1] = swap_bytes(hi); break;
+    }
+}
+
+uint32_t gw_words_to_u32(const uint16_t in[2], gw_word_order_t order)
+{
+    uint16_t hi = 0, lo = 0;
+    switch (order) {
+    case GW_WORD_ABCD: hi = in[0]; lo = in[1]; break;
+    case GW_WORD_CDAB: hi = in[1]; lo = in[0]; break;
+    case GW_WORD_BADC: hi = swap_bytes(in[0]); lo = swap_bytes(in[1]); break;
+    case GW_WORD_DCBA: hi = swap_bytes(in[1]); lo = swap_bytes(in[0]); break;
+    }
+    return (uint32_t)hi << 16 | lo;
+}
+
+/* ---- reading ------------------------------------------------------------- */
+
+unsigned gw_regmap_scale(const dr_field_t *f)
+{
+    /* x100 where values are small (currents, analog I/O, general purpose
+     * floats); x10 where they reach hundreds or thousands (degrees, mm,
+     * temperatures, torques, forces), which keeps +-3276.7 in range. */
+    if (strcmp(f->unit, "A") == 0 || f->unit[0] == '\0')
+        return 100;
+    return 10;
+}
+
+static const dr_field_t *slot_field(const slot_t *s)
+{
+    return &dr_field_table[s->field];
+}
+
+static size_t asm_size(const dr_field_t *f)
+{
+    return dr_asm_info((dr_asm_t)f->assembly)->size;
+}
+
+static const uint8_t *asm_img(const gw_unit_t *u, const dr_field_t *f)
+{
+    return u->img[f->assembly];
+}
+
+static dr_value_t get_value(const gw_unit_t *u, const slot_t *s, int16_t elem)
+{
+    const dr_field_t *f = slot_field(s);
+    dr_ref_t ref = {f, elem};
+    dr_value_t v = dr_value_uint(0);
+    (void)dr_field_get(asm_img(u, f), asm_size(f), ref, &v);
+    return v;
+}
+
+static uint16_t scaled(double f, unsigned scale)
+{
+    if (f != f)
+        return 0x8000; /* -32768 marks "not a number" */
+    double x = f * scale;
+    x = x < 0 ? ceil(x - 0.5) : floor(x + 0.5);
+    if (x > 32767.0)
+        x = 32767.0;
+    if (x < -32767.0)
+        x = -32767.0;
+    return (uint16_t)(int16_t)x;
+}
+
+static uint16_t status_reg(const gw_unit_t *u, unsigned i)
+{
+    const gw_status_t *st = &u->status;
+    switch (i) {
+    case 0: return GW_MAP_LAYOUT_VERSION;
+    case 1: return st->link_state;
+    case 2: return st->fresh;
+    case 3: return st->age_ms > 0xFFFF ? 0xFFFF : (uint16_t)st->age_ms;
+    case 4: return st->heartbeat;
+    case 5: return st->rpi_ms;
+    /* 32-bit counters: high word first, whatever the word order */
+    case 6: return (uint16_t)(st->rx_packets >> 16);
+    case 7: return (uint16_t)st->rx_packets;
+    case 8: return (uint16_t)(st->lost_packets >> 16);
+    case 9: return (uint16_t)st->lost_packets;
+    case 10: return (uint16_t)(st->exceptions >> 16);
+    case 11: return (uint16_t)st->exceptions;
+    case 12: return st->last_error;
+    case 13: return st->clients;
+    case 14: return (uint16_t)(st->uptime_s >> 16);
+    case 15: return (uint16_t)st->uptime_s;
+    case 26: return st->write_fault;
+    case 27: return st->writer_present;
+    case 28: return (uint16_t)u->order;
+    case 29: return st->config_generation;
+    default:
+        if (i >= 16 && i < 16 + GW_MAX_CONN_STATUS)
+            return st->conn_state[i - 16];
+        return 0;
+    }
+}
+
+static uint16_t status_bit(const gw_unit_t *u, unsigned i)
+{
+    switch (i) {
+    case 0: return u->status.link_state == 2;
+    case 1: return u->status.fresh;
+    case 2: return u->status.write_fault;
+    default: return u->status.writer_present;
+    }
+}
+
+/* Known constants so a PLC programmer can check the word order. */
+static uint16_t test_reg(const gw_unit_t *u, unsigned i)
+{
+    uint16_t w[2];
+    float f;
+    uint32_t bits;
+    switch (i) {
+    case 0: return 0x1234;
+    case 1: case 2:
+        gw_words_from_u32(0x12345678u, u->order, w);
+        return w[i - 1];
+    case 3: case 4:
+        f = 123456.0f; /* 0x47F12000 */
+        memcpy(&bits, &f, 4);
+        gw_words_from_u32(bits, u->order, w);
+        return w[i - 3];
+    case 5: case 6:
+        f = -1.5f; /* 0xBFC00000 */
+        memcpy(&bits, &f, 4);
+        gw_words_from_u32(bits, u->order, w);
+        return w[i - 5];
+    default: return 0xFFFE; /* INT16 -2 */
+    }
+}
+
+static uint16_t read_slot(const gw_unit_t *u, gw_area_t area, const slot_t *s)
+{
+    const dr_field_t *f = slot_field(s);
+    switch ((slot_kind_t)s->kind) {
+    case SL_VALUE:
+    case SL_BIT:
+        return (uint16_t)get_value(u, s, s->elem).u;
+    case SL_PACKED:
+        return (uint16_t)(get_value(u, s, -1).u >> (16u * s->part));
+    case SL_WORD32: {
+        uint16_t w[2];
+        gw_words_from_u32(dr_get_le32(asm_img(u, f) + f->offset + 4u * (unsigned)s->elem),
+                          u->order, w);
+        return w[s->part];
+    }
+    case SL_SCALED:
+        return scaled(get_value(u, s, s->elem).f, gw_regmap_scale(f));
+    case SL_STATUS:
+        return area == GW_DISCRETE ? status_bit(u, (unsigned)s->elem)
+                                   : status_reg(u, (unsigned)s->elem);
+    case SL_TEST:
+        return test_reg(u, (unsigned)s->elem);
+    case SL_CONTROL:
+        return s->elem == GW_HR_WATCHDOG ? u->watchdog : 0;
+    default:
+        return 0;
+    }
+}
+
+static bool in_range(uint16_t addr, uint16_t count)
+{
+    return count > 0 && (uint32_t)addr + count <= GW_AREA_SIZE;
+}
+
+bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count)
+{
+    if (!in_range(addr, count))
+        return false;
+    for (uint32_t a = addr; a < (uint32_t)addr + count; a++) {
+        uint8_t k = map[area][a].kind;
+        if (k != SL_NONE && k != SL_STATUS && k != SL_TEST && k != SL_CONTROL)
+            return true;
+    }
+    return false;
+}
+
+int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
+                   uint16_t count, uint16_t *values)
+{
+    if ((unsigned)area >= GW_AREAS || !in_range(addr, count))
+        return GW_EX_ILLEGAL_ADDRESS;
+    for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
+        if (map[area][a].kind == SL_NONE)
+            return GW_EX_ILLEGAL_ADDRESS;
+    if (u->on_loss == GW_LOSS_EXCEPTION && u->status.link_state != 2 &&
+        (area == GW_INPUT || area == GW_DISCRETE) &&
+        gw_regmap_touches_robot_data(area, addr, count))
+        return GW_EX_TARGET_FAILED;
+    for (uint16_t i = 0; i < count; i++)
+        values[i] = read_slot(u, area, &map[area][addr + i]);
+    return 0;
+}
+
+/* ---- writing ------------------------------------------------------------- */
+
+static int status_to_exception(dr_status_t st)
+{
+    return st == DR_OK ? 0 : (st == DR_EREADONLY ? GW_EX_ILLEGAL_ADDRESS : GW_EX_ILLEGAL_VALUE);
+}
+
+static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
+                     unsigned *dirty)
+{
+    const dr_field_t *f = slot_field(s);
+    dr_ref_t ref = {f, elem};
+    int ex = status_to_exception(dr_field_set(u->img[f->assembly], asm_size(f), ref, &v,
+                                              DR_SET_O2T_ONLY));
+    if (ex == 0)
+        *dirty |= 1u << f->assembly;
+    return ex;
+}
+
+/* Apply one write at map[area][*i] (a 32-bit value takes two). */
+static int write_slot(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t *i,
+                      uint16_t count, const uint16_t *values, unsigned *dirty)
+{
+    const slot_t *s = &map[area][addr + *i];
+    const dr_field_t *f = slot_field(s);
+    uint16_t v = values[*i];
+
+    switch ((slot_kind_t)s->kind) {
+    case SL_VALUE:
+    case SL_BIT:
+        return set_field(u, s, s->elem, dr_value_uint(v), dirty);
+    case SL_PACKED: {
+        uint64_t mask = get_value(u, s, -1).u;
+        unsigned shift = 16u * s->part;
+        mask = (mask & ~((uint64_t)0xFFFF << shift)) | (uint64_t)v << shift;
+        return set_field(u, s, -1, dr_value_uint(mask), dirty);
+    }
+    case SL_WORD32: {
+        /* Both halves must be in this request, or the value would be torn. */
+        const slot_t *next = &map[area][addr + *i + 1u];
+        if (s->part != 0 || *i + 1u >= count || next->kind != SL_WORD32 ||
+            next->field != s->field || next->elem != s->elem)
+            return GW_EX_ILLEGAL_ADDRESS;
+        uint16_t w[2] = {v, values[*i + 1u]};
+        uint32_t bits = gw_words_to_u32(w, u->order);
+        (*i)++;
+        if (f->kind == DR_KIND_DINT)
+            return set_field(u, s, s->elem,
+                             dr_value_int(bits <= INT32_MAX ? (int64_t)bits
+                                                            : (int64_t)bits - 4294967296LL),
+                             dirty);
+        float fl;
+        memcpy(&fl, &bits, 4);
+        return set_field(u, s, s->elem, dr_value_real((double)fl), dirty);
+    }
+    case SL_SCALED: {
+        int32_t sv = v <= 0x7FFF ? (int32_t)v : (int32_t)v - 65536;
+        return set_field(u, s, s->elem, dr_value_real((double)sv / gw_regmap_scale(f)), dirty);
+    }
+    case SL_CONTROL:
+        if (s->elem == GW_HR_WATCHDOG) {
+            u->watchdog = v;
+            return 0;
+        }
+        if (v > 1)
+            return GW_EX_ILLEGAL_VALUE;
+        u->fault_reset = u->fault_reset || v == 1;
+        return 0;
+    default:
+        return GW_EX_ILLEGAL_ADDRESS;
+    }
+}
+
+int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                    const uint16_t *values, unsigned *dirty)
+{
+    if ((area != GW_HOLDING && area != GW_COILS) || !in_range(addr, count))
+        return GW_EX_ILLEGAL_ADDRESS;
+    for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
+        if (map[area][a].kind == SL_NONE)
+            return GW_EX_ILLEGAL_ADDRESS;
+    /* Work on a copy: the unit changes only if every value passes. */
+    gw_unit_t tmp = *u;
+    unsigned d = 0;
+    for (uint16_t i = 0; i < count; i++) {
+        int ex = write_slot(&tmp, area, addr, &i, count, values, &d);
+        if (ex != 0)
+            return ex;
+    }
+    *u = tmp;
+    *dirty |= d;
+    return 0;
+}
+
+/* ---- printing ---------------------------------------------------------------- */
+
+static const char *const area_name[GW_AREAS] = {"coil", "discrete input",
+                                                "holding register", "input register"};
+static const char *const area_short[GW_AREAS] = {"CO", "DI", "HR", "IR"};
+static const unsigned area_prefix[GW_AREAS] = {0, 1, 4, 3};
+
+static const char *const status_names[STATUS_REGS] = {
+    "status.layout_version", "status.link_state (0 down, 1 connecting, 2 up)",
+    "status.data_fresh", "status.data_age_ms", "status.heartbeat", "status.rpi_ms",
+    "status.rx_packets (high word)", "status.rx_packets (low word)",
+    "status.lost_packets (high word)", "status.lost_packets (low word)",
+    "status.modbus_exceptions (high word)", "status.modbus_exceptions (low word)",
+    "status.last_error", "status.clients", "status.uptime_s (high word)",
+    "status.uptime_s (low word)", "status.conn_state[0]", "status.conn_state[1]",
+    "status.conn_state[2]", "status.conn_state[3]", "status.conn_state[4]",
+    "status.conn_state[5]", "status.conn_state[6]", "status.conn_state[7]",
+    "status.conn_state[8]", "status.conn_state[9]", "status.write_fault",
+    "status.writer_present", "status.word_order (0 abcd, 1 cdab, 2 badc, 3 dcba)",
+    "status.config_generation", "status.reserved", "status.reserved",
+};
+static const char *const status_bit_names[STATUS_BITS] = {
+    "status.link_up", "status.data_fresh", "status.write_fault", "status.writer_present"};
+static const char *const test_names[TEST_REGS] = {
+    "test.u16 = 0x1234", "test.dint 0x12345678 (word 1)", "test.dint 0x12345678 (word 2)",
+    "test.real 123456.0 = 0x47F12000 (word 1)", "test.real 123456.0 (word 2)",
+    "test.real -1.5 = 0xBFC00000 (word 1)", "test.real -1.5 (word 2)", "test.int16 -2 = 0xFFFE"};
+static const char *const control_names[CONTROL_REGS] = {
+    "control.writer_watchdog (single-writer mode: keep changing it)",
+    "control.fault_reset (write 1)"};
+
+static bool same_group(const slot_t *a, const slot_t *b)
+{
+    if (a->kind != b->kind)
+        return false;
+    switch ((slot_kind_t)a->kind) {
+    case SL_WORD32: return a->field == b->field && a->elem == b->elem && b->part == 1;
+    case SL_PACKED: return a->field == b->field;
+    default: return false;
+    }
+}
+
+static void slot_text(const slot_t *s, gw_area_t area, char *name, size_t nsize,
+                      char *type, size_t tsize, char *unit, size_t usize)
+{
+    const dr_field_t *f = slot_field(s);
+    dr_ref_t ref = {f, s->kind == SL_PACKED ? (int16_t)-1 : s->elem};
+    name[0] = type[0] = unit[0] = '\0';
+    switch ((slot_kind_t)s->kind) {
+    case SL_STATUS:
+        snprintf(name, nsize, "%s", area == GW_DISCRETE ? status_bit_names[s->elem]
+                                                         : status_names[s->elem]);
+        snprintf(type, tsize, area == GW_DISCRETE ? "bit" : "UINT16");
+        return;
+    case SL_TEST:
+        snprintf(name, nsize, "%s", test_names[s->elem]);
+        snprintf(type, tsize, "constant");
+        return;
+    case SL_CONTROL:
+        snprintf(name, nsize, "%s", control_names[s->elem]);
+        snprintf(type, tsize, "UINT16");
+        return;
+    default:
+        break;
+    }
+    (void)dr_ref_path(ref, name, nsize);
+    snprintf(unit, usize, "%s", f->unit);
+    switch ((slot_kind_t)s->kind) {
+    case SL_VALUE:
+        snprintf(type, tsize, "%s (0/1 or 0..255)", dr_kind_name((dr_kind_t)f->kind));
+        break;
+    case SL_PACKED:
+        snprintf(type, tsize, "bits %u-%u packed (bit 0 = [%u])",
+                 (unsigned)f->first_index + 16u * s->part,
+                 (unsigned)f->first_index + (16u * s->part + 15u < f->count ? 16u * s->part + 15u : f->count - 1u),
+                 (unsigned)f->first_index + 16u * s->part);
+        break;
+    case SL_WORD32:
+        snprintf(type, tsize, "%s, 2 registers in word order", dr_kind_name((dr_kind_t)f->kind));
+        break;
+    case SL_SCALED:
+        snprintf(type, tsize, "INT16 = REAL x %u", gw_regmap_scale(f));
+        break;
+    case SL_BIT:
+        snprintf(type, tsize, "bit");
+        break;
+    default:
+        break;
+    }
+}
+
+void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
+{
+    gw_regmap_init();
+    bool first = true;
+    if (fmt == GW_PRINT_JSON)
+        fputs("[\n", out);
+    for (unsigned area = 0; area < GW_AREAS; area++) {
+        if (fmt == GW_PRINT_MARKDOWN)
+            fprintf(out, "\n### %ss\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
+                    area_name[area]);
+        for (unsigned a = 0; a < GW_AREA_SIZE;) {
+            const slot_t *s = &map[area][a];
+            if (s->kind == SL_NONE) {
+                a++;
+                continue;
+            }
+            unsigned end = a + 1;
+            while (end < GW_AREA_SIZE && same_group(s, &map[area][end]))
+                end++;
+            char name[96], type[64], unit[16];
+            slot_text(s, (gw_area_t)area, name, sizeof name, type, sizeof type, unit, sizeof unit);
+            unsigned p = area_prefix[area];
+            switch (fmt) {
+            case GW_PRINT_TEXT:
+                fprintf(out, "%s %4u-%-4u %u%04u  %-40s %s %s\n", area_short[area], a, end - 1,
+                        p, a + 1, name, type, unit);
+                break;
+            case GW_PRINT_MARKDOWN:
+                if (end - 1 > a)
+                    fprintf(out, "| %u-%u | %u%04u-%u%04u | `%s` | %s | %s |\n", a, end - 1, p,
+                            a + 1, p, end, name, type, unit);
+                else
+                    fprintf(out, "| %u | %u%04u | `%s` | %s | %s |\n", a, p, a + 1, name, type, unit);
+                break;
+            case GW_PRINT_JSON:
+                fprintf(out, "%s  {\"area\": \"%s\", \"address\": %u, \"count\": %u, \"name\": \"%s\", "
+                             "\"type\": \"%s\", \"unit\": \"%s\"}",
+                        first ? "" : ",\n", area_short[area], a, end - a, name, type, unit);
+                first = false;
+                break;
+            }
+            a = end;
+        }
+    }
+    if (fmt == GW_PRINT_JSON)
+        fputs("\n]\n", out);
+}

@@ -1,0 +1,104 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The Modbus register map, generated from the codec's field table.
+ *
+ * Every Modbus unit (one per robot) has the same layout; addresses are
+ * 0-based PDU offsets. T->O data is read-only (input registers, discrete
+ * inputs), O->T data read/write (holding registers, coils). REAL and DINT
+ * take two registers in the configured word order; bit fields appear both
+ * as single bits and packed into words; REALs also as scaled INT16.
+ * docs/register-map.md is generated from gw_regmap_print().
+ *
+ * Requests are checked completely before anything is applied: a write
+ * that fails a check changes nothing.
+ */
+#ifndef DRGATE_GW_REGMAP_H
+#define DRGATE_GW_REGMAP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "drgate/codec.h"
+#include "config.h"
+
+#define GW_MAP_LAYOUT_VERSION 1
+#define GW_AREA_SIZE 2048 /* addresses per area */
+#define GW_MAX_CONN_STATUS 10
+
+typedef enum { GW_COILS = 0, GW_DISCRETE, GW_HOLDING, GW_INPUT, GW_AREAS } gw_area_t;
+
+/* Modbus exception codes used here. */
+enum {
+    GW_EX_ILLEGAL_FUNCTION = 0x01,
+    GW_EX_ILLEGAL_ADDRESS = 0x02,
+    GW_EX_ILLEGAL_VALUE = 0x03,
+    GW_EX_TARGET_FAILED = 0x0B
+};
+
+/* Values of the status block, kept by the daemon. */
+typedef struct {
+    uint16_t link_state;      /* 0 down, 1 connecting, 2 up */
+    bool fresh;               /* robot data younger than the timeout */
+    uint32_t age_ms;          /* age of the last robot data */
+    uint16_t heartbeat;       /* +1 every second while the loop runs */
+    uint16_t rpi_ms;          /* API in use */
+    uint32_t rx_packets, lost_packets;
+    uint32_t exceptions;      /* Modbus exceptions sent */
+    uint16_t last_error;      /* CIP extended status or drgate code */
+    uint16_t clients;
+    uint32_t uptime_s;
+    uint16_t conn_state[GW_MAX_CONN_STATUS]; /* dr_conn_state_t per connection */
+    bool write_fault;         /* single writer's watchdog expired (latched) */
+    bool writer_present;
+    uint16_t config_generation;
+} gw_status_t;
+
+/* One robot as Modbus sees it. */
+typedef struct {
+    uint8_t img[DR_ASM_COUNT][DR_ASM_MAX_SIZE]; /* wire images, both ways */
+    gw_word_order_t order;
+    gw_link_loss_t on_loss;
+    gw_status_t status;
+    uint16_t watchdog;        /* last value written to the watchdog register */
+    bool fault_reset;         /* set when a client wrote the reset register */
+} gw_unit_t;
+
+/* Holding registers with a meaning of their own (0-based). */
+#define GW_HR_WATCHDOG 0    /* the single writer bumps it */
+#define GW_HR_FAULT_RESET 1 /* write 1 to clear the latched write fault */
+
+/* Build the map (once; cheap to call again). */
+void gw_regmap_init(void);
+
+/* True if the robot data (not status/test/control) is addressed. */
+bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count);
+
+/* Read `count` registers (values) or bits (0/1 in values) starting at
+ * `addr`. Returns 0 or a Modbus exception code (unmapped address: 0x02;
+ * on_link_loss = exception and robot data addressed while the link is down:
+ * 0x0B). */
+int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
+                   uint16_t count, uint16_t *values);
+
+/* Check and apply a write of `count` values to holding registers or coils.
+ * Returns 0 or an exception code (0x02 read-only or unmapped address, or a
+ * write that covers only one half of a 32-bit value; 0x03 a value out of
+ * range, NaN/infinite REAL). On error nothing changes. On success
+ * *dirty has bit (1 << assembly) set for every O->T image written. */
+int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                    const uint16_t *values, unsigned *dirty);
+
+/* The scale of a REAL field's INT16 view (10 or 100). */
+unsigned gw_regmap_scale(const dr_field_t *f);
+
+/* Print the map: plain text, Markdown (docs/register-map.md) or JSON. */
+typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
+void gw_regmap_print(FILE *out, gw_print_fmt_t fmt);
+
+/* 32-bit value <-> two registers in a word order (our own codec, not
+ * libmodbus's float helpers). */
+void gw_words_from_u32(uint32_t v, gw_word_order_t order, uint16_t out[2]);
+uint32_t gw_words_to_u32(const uint16_t in[2], gw_word_order_t order);
+
+#endif /* DRGATE_GW_REGMAP_H */
