@@ -1,0 +1,163 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * drsim adapter: the EtherNet/IP target logic, without sockets or clocks.
+ *
+ * The event loop (sim/main.c) owns the sockets and the timer; it hands
+ * complete encapsulation frames and UDP datagrams to the functions below,
+ * together with the monotonic time in nanoseconds, and sends what they
+ * return. Keeping the protocol here, deterministic and I/O-free, lets the
+ * unit tests (tests/test_sim_*.c) drive every request and every timer.
+ *
+ * All framing goes through lib/cip.c; all assembly data through the codec.
+ */
+#ifndef DRSIM_ADAPTER_H
+#define DRSIM_ADAPTER_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "drgate/cip.h"
+#include "drgate/codec.h"
+#include "robot.h"
+
+#define DRSIM_MAX_CONNS 64u
+/* Heartbeat connection points for input-only (198) and listen-only (199)
+ * connections: no O->T data, only the sequence count (+ run/idle). */
+#define DRSIM_HB_INPUT_ONLY 198u
+#define DRSIM_HB_LISTEN_ONLY 199u
+/* RPIs drsim accepts, microseconds (1 ms .. 10 s). */
+#define DRSIM_RPI_MIN_US 1000u
+#define DRSIM_RPI_MAX_US 10000000u
+/* Grace period for the first O->T packet after a Forward Open. */
+#define DRSIM_FIRST_PACKET_NS 10000000000ull
+/* The robot model runs every 10 ms. */
+#define DRSIM_MODEL_PERIOD_NS 10000000ull
+
+/* Identity object (class 1, instance 1). */
+#define DRSIM_VENDOR_ID 0xFFFFu   /* no ODVA vendor: a simulator */
+#define DRSIM_DEVICE_TYPE 0x0Cu   /* communications adapter */
+#define DRSIM_PRODUCT_CODE 1u
+#define DRSIM_PRODUCT_NAME "drsim Doosan robot simulator"
+
+typedef struct {
+    uint16_t instance[DR_ASM_COUNT]; /* assembly instance per dr_asm_t */
+    bool echo;                 /* GPR inputs echo to outputs */
+    unsigned max_conns;        /* Class 1 connections, 1..DRSIM_MAX_CONNS */
+    uint16_t refuse_fo;        /* refuse every Forward Open with 0x01/this; 0 no */
+    uint64_t stop_producing_ns; /* stop T->O this long after an open; 0 never */
+    unsigned drop_pct;         /* drop this share (0..100) of I/O packets */
+    uint64_t seed;             /* noise, drops, serial number, IDs */
+    uint32_t address;          /* our IPv4 (host order); 0: any */
+    uint16_t tcp_port;         /* encapsulation port, for ListIdentity */
+    uint16_t udp_port;         /* Class 1 port, announced in 0x8000 items */
+} drsim_config_t;
+
+/* Defaults: instances 101..110, echo on, 16 connections, ports 44818/2222. */
+void drsim_config_default(drsim_config_t *cfg);
+
+/* One TCP peer as the event loop knows it. */
+typedef struct {
+    uint32_t addr;       /* peer IPv4, host order */
+    uint16_t port;
+    uint32_t local_addr; /* our address on this TCP connection */
+    uint32_t session;    /* registered session handle; 0: none yet */
+} drsim_peer_t;
+
+/* One Class 1 connection. */
+typedef struct {
+    bool used;
+    uint32_t o2t_cid, t2o_cid;
+    uint16_t conn_serial, vendor;
+    uint32_t orig_serial;
+    int o2t_asm;               /* dr_asm_t, or -1 for a heartbeat point */
+    dr_asm_t t2o_asm;
+    uint16_t o2t_point, t2o_point, config_inst;
+    bool o2t_run_idle;         /* O->T carries the 32-bit run/idle header */
+    size_t o2t_data_len;       /* O->T data bytes after the headers */
+    uint32_t o2t_api_us, t2o_api_us;
+    uint64_t timeout_ns;       /* O->T silence that closes the connection */
+    uint64_t opened_ns, last_rx_ns, next_produce_ns;
+    dr_sockaddr_t t2o_dest;    /* where T->O goes */
+    bool o2t_seen;             /* a valid O->T packet has arrived */
+    bool run;                  /* last run/idle bit (true if no header) */
+    uint32_t o2t_encap_seq;
+    uint16_t o2t_cip_seq;
+    uint32_t t2o_encap_seq;
+    uint16_t t2o_cip_seq;
+    bool stopped;              /* --stop-producing-after has struck */
+    /* counters */
+    uint64_t produced, produce_dropped, consumed, applied, stale, rx_dropped;
+} drsim_conn_t;
+
+typedef struct {
+    drsim_config_t cfg;
+    drsim_images_t img;
+    drsim_robot_t robot;
+    drsim_conn_t conn[DRSIM_MAX_CONNS];
+    dr_identity_t identity;
+    uint64_t rng;              /* drop decisions */
+    uint32_t next_session;
+    uint32_t next_cid;
+    uint64_t next_model_ns;
+} drsim_t;
+
+/* Start the adapter at monotonic time `now_ns`. */
+void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns);
+
+/* Which assembly instance `inst` is; -1 if none. */
+int drsim_asm_of_instance(const drsim_t *s, uint16_t inst);
+
+/* What the event loop does with a frame's result. */
+typedef enum {
+    DRSIM_REPLY = 0, /* send out[0..*out_len) */
+    DRSIM_SILENT,    /* nothing to send */
+    DRSIM_CLOSE      /* close the TCP connection (after sending nothing) */
+} drsim_action_t;
+
+/* One complete encapsulation frame received on TCP from `peer` (whose
+ * session field this updates on RegisterSession). The reply goes to
+ * out[cap], at least DR_ENCAP_MAX_LEN bytes. */
+drsim_action_t drsim_encap(drsim_t *s, drsim_peer_t *peer, uint64_t now_ns,
+                           const uint8_t *frame, size_t len, uint8_t *out,
+                           size_t cap, size_t *out_len);
+
+/* One datagram received on UDP 44818: ListIdentity / ListServices are
+ * answered, everything else is ignored (DRSIM_SILENT). */
+drsim_action_t drsim_encap_udp(drsim_t *s, const drsim_peer_t *peer,
+                               const uint8_t *frame, size_t len, uint8_t *out,
+                               size_t cap, size_t *out_len);
+
+/* One Message Router request (service, path, data), as carried in a 0x00B2
+ * item; writes the reply into out[cap] and returns its length (0 if it did
+ * not fit). `t2o_sa` is the request's 0x8001 item or NULL; *o2t_sa_out, if
+ * not NULL, is set true when a Forward Open succeeded and the reply CPF
+ * must carry our 0x8000 item. */
+size_t drsim_cip(drsim_t *s, const drsim_peer_t *peer, uint64_t now_ns,
+                 const uint8_t *req, size_t len, const dr_sockaddr_t *t2o_sa,
+                 uint8_t *out, size_t cap, bool *o2t_sa_out);
+
+/* Sends one UDP datagram for the adapter. */
+typedef void (*drsim_send_fn)(void *ctx, const dr_sockaddr_t *to,
+                              const uint8_t *buf, size_t len);
+
+/* One datagram received on the Class 1 UDP port from `from`. */
+void drsim_io_receive(drsim_t *s, uint64_t now_ns, const dr_sockaddr_t *from,
+                      const uint8_t *buf, size_t len);
+
+/* Everything due by `now_ns`: the model tick, T->O packets (through
+ * `send`), connection timeouts. */
+void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx);
+
+/* Earliest time drsim_run has something to do. */
+uint64_t drsim_next_deadline(const drsim_t *s);
+
+/* The connection whose O->T connection ID is `cid`; NULL if none. */
+drsim_conn_t *drsim_conn_by_o2t(drsim_t *s, uint32_t cid);
+/* Number of open Class 1 connections. */
+unsigned drsim_conn_count(const drsim_t *s);
+
+/* Identity status word (attribute 5), from the connections' state. */
+uint16_t drsim_identity_status(const drsim_t *s);
+
+#endif /* DRSIM_ADAPTER_H */

@@ -1,0 +1,859 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * drsim: a simulated Doosan robot controller, as an EtherNet/IP adapter.
+ *
+ * One thread, one epoll loop. Sockets: TCP listener and clients
+ * (encapsulation), UDP on the encapsulation port (ListIdentity discovery),
+ * UDP on the Class 1 port (O->T in, T->O out, one socket for all
+ * connections). One timerfd, armed at an absolute monotonic deadline,
+ * drives everything timed: the robot model, T->O production, connection
+ * timeouts, delayed replies and dropped sessions. A signalfd makes
+ * SIGINT/SIGTERM a normal event. The protocol itself is in adapter.c.
+ */
+#define _GNU_SOURCE /* accept4, epoll, timerfd, signalfd */
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <getopt.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/signalfd.h>
+#include <sys/socket.h>
+#include <sys/timerfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "adapter.h"
+#include "log.h"
+
+#define DRSIM_VERSION "0.1.0"
+#define MAX_CLIENTS 64
+/* Bytes a client may leave unread before it is dropped as too slow. */
+#define CLIENT_OUT_CAP 16384u
+/* Datagrams read per wake-up, so one busy socket cannot starve the rest. */
+#define UDP_BURST 64
+/* Replies and packets held back by --delay at any one time. */
+#define DELAY_QUEUE_LEN 4096u
+/* Upper bound on any epoll wait: the timerfd normally wakes us first. */
+#define EPOLL_WAIT_MS 1000
+
+/* ---- options --------------------------------------------------------------- */
+
+typedef struct {
+    drsim_config_t cfg;
+    uint64_t delay_ns;
+    uint64_t drop_session_ns;
+} options_t;
+
+static void usage(FILE *f)
+{
+    fputs(
+"usage: drsim [OPTION]...\n"
+"A simulated Doosan robot controller: an EtherNet/IP adapter that serves the\n"
+"robot's ten assemblies over explicit messaging (TCP) and Class 1 I/O (UDP).\n"
+"\n"
+"Network:\n"
+"  -a, --address ADDR        IPv4 address to listen on (default 0.0.0.0);\n"
+"                            e.g. 127.0.0.2 to share a machine with a client\n"
+"  -p, --tcp-port N          encapsulation port, TCP and UDP (default 44818)\n"
+"  -u, --udp-port N          Class 1 I/O port (default 2222); announced to\n"
+"                            originators in the Forward Open reply (0x8000)\n"
+"  -i, --instance NAME=N     assembly instance for NAME (canonical name or\n"
+"                            drN alias), repeatable; defaults 101..110\n"
+"      --max-connections N   Class 1 connections at once, 1..64 (default 16)\n"
+"\n"
+"Robot:\n"
+"      --no-echo             do not copy bit_in/int_in/float_in to\n"
+"                            bit_out/int_out/float_out\n"
+"      --seed N              seed for noise, drops, serial number, IDs (0)\n"
+"\n"
+"Fault injection:\n"
+"      --drop PERCENT        drop that share of produced and consumed I/O\n"
+"                            packets (deterministic for a given --seed)\n"
+"      --delay MS            delay every reply and produced packet by MS\n"
+"      --stop-producing-after SECONDS\n"
+"                            stop sending T->O SECONDS after each Forward Open\n"
+"      --refuse-forward-open STATUS\n"
+"                            refuse every Forward Open with general status\n"
+"                            0x01 and this extended status (e.g. 0x0113;\n"
+"                            0x0109 adds the wanted size as a second word)\n"
+"      --drop-session-after SECONDS\n"
+"                            close each TCP connection SECONDS after accept\n"
+"\n"
+"Other:\n"
+"  -v, --verbose             log events to stderr; twice: every request\n"
+"  -h, --help                show this help and exit\n"
+"  -V, --version             show the version and exit\n"
+"\n"
+"SIGINT or SIGTERM stops drsim cleanly. Exit status: 0 after a signal,\n"
+"1 on a runtime error (e.g. a port in use), 2 on a usage error.\n"
+"See drsim(1).\n", f);
+}
+
+static int parse_uint(const char *s, unsigned long min, unsigned long max,
+                      unsigned long *out)
+{
+    char *end;
+    errno = 0;
+    if (s[0] == '-' || s[0] == '\0')
+        return -1;
+    unsigned long v = strtoul(s, &end, 0);
+    if (errno != 0 || *end != '\0' || v < min || v > max)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* Seconds (fractions allowed, up to a day) as nanoseconds. */
+static int parse_seconds(const char *s, uint64_t *ns)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno != 0 || end == s || *end != '\0' || !(v > 0.0) || v > 86400.0)
+        return -1;
+    *ns = (uint64_t)(v * 1e9);
+    return 0;
+}
+
+static int parse_instance(const char *arg, drsim_config_t *cfg)
+{
+    const char *eq = strchr(arg, '=');
+    char name[32];
+    unsigned long n;
+    if (eq == NULL || (size_t)(eq - arg) >= sizeof name)
+        return -1;
+    memcpy(name, arg, (size_t)(eq - arg));
+    name[eq - arg] = '\0';
+    dr_asm_t a;
+    if (dr_asm_lookup(name, &a) != DR_OK || parse_uint(eq + 1, 1, 0xFFFF, &n) != 0)
+        return -1;
+    cfg->instance[a] = (uint16_t)n;
+    return 0;
+}
+
+/* Instances must name one assembly each and stay clear of the heartbeat
+ * connection points. */
+static int check_instances(const drsim_config_t *cfg)
+{
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        uint16_t v = cfg->instance[a];
+        if (v == DRSIM_HB_INPUT_ONLY || v == DRSIM_HB_LISTEN_ONLY) {
+            fprintf(stderr, "drsim: instance %u is a heartbeat connection point\n", v);
+            return -1;
+        }
+        for (unsigned b = a + 1; b < DR_ASM_COUNT; b++)
+            if (cfg->instance[b] == v) {
+                fprintf(stderr, "drsim: %s and %s both use instance %u\n",
+                        dr_asm_info((dr_asm_t)a)->name,
+                        dr_asm_info((dr_asm_t)b)->name, v);
+                return -1;
+            }
+    }
+    return 0;
+}
+
+enum {
+    OPT_NO_ECHO = 256, OPT_SEED, OPT_DROP, OPT_DELAY, OPT_STOP_PRODUCING,
+    OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS
+};
+
+static const struct option long_options[] = {
+    {"address", required_argument, NULL, 'a'},
+    {"tcp-port", required_argument, NULL, 'p'},
+    {"udp-port", required_argument, NULL, 'u'},
+    {"instance", required_argument, NULL, 'i'},
+    {"max-connections", required_argument, NULL, OPT_MAX_CONNS},
+    {"no-echo", no_argument, NULL, OPT_NO_ECHO},
+    {"seed", required_argument, NULL, OPT_SEED},
+    {"drop", required_argument, NULL, OPT_DROP},
+    {"delay", required_argument, NULL, OPT_DELAY},
+    {"stop-producing-after", required_argument, NULL, OPT_STOP_PRODUCING},
+    {"refuse-forward-open", required_argument, NULL, OPT_REFUSE_FO},
+    {"drop-session-after", required_argument, NULL, OPT_DROP_SESSION},
+    {"verbose", no_argument, NULL, 'v'},
+    {"help", no_argument, NULL, 'h'},
+    {"version", no_argument, NULL, 'V'},
+    {NULL, 0, NULL, 0}};
+
+static int bad(const char *opt, const char *arg)
+{
+    fprintf(stderr, "drsim: invalid %s '%s' (see drsim --help)\n", opt, arg);
+    return 2;
+}
+
+/* Returns -1 to go on, else the exit status. */
+static int parse_options(int argc, char **argv, options_t *o)
+{
+    drsim_config_default(&o->cfg);
+    o->delay_ns = 0;
+    o->drop_session_ns = 0;
+    unsigned long n;
+    struct in_addr ia;
+    int c;
+    while ((c = getopt_long(argc, argv, "a:p:u:i:vhV", long_options, NULL)) != -1) {
+        switch (c) {
+        case 'a':
+            if (inet_pton(AF_INET, optarg, &ia) != 1)
+                return bad("--address", optarg);
+            o->cfg.address = ntohl(ia.s_addr);
+            break;
+        case 'p':
+            if (parse_uint(optarg, 1, 65535, &n) != 0)
+                return bad("--tcp-port", optarg);
+            o->cfg.tcp_port = (uint16_t)n;
+            break;
+        case 'u':
+            if (parse_uint(optarg, 1, 65535, &n) != 0)
+                return bad("--udp-port", optarg);
+            o->cfg.udp_port = (uint16_t)n;
+            break;
+        case 'i':
+            if (parse_instance(optarg, &o->cfg) != 0)
+                return bad("--instance (want NAME=N, e.g. io_state=100)", optarg);
+            break;
+        case OPT_MAX_CONNS:
+            if (parse_uint(optarg, 1, DRSIM_MAX_CONNS, &n) != 0)
+                return bad("--max-connections", optarg);
+            o->cfg.max_conns = (unsigned)n;
+            break;
+        case OPT_NO_ECHO:
+            o->cfg.echo = false;
+            break;
+        case OPT_SEED:
+            if (parse_uint(optarg, 0, 0xFFFFFFFFul, &n) != 0)
+                return bad("--seed", optarg);
+            o->cfg.seed = n;
+            break;
+        case OPT_DROP:
+            if (parse_uint(optarg, 0, 100, &n) != 0)
+                return bad("--drop", optarg);
+            o->cfg.drop_pct = (unsigned)n;
+            break;
+        case OPT_DELAY:
+            if (parse_uint(optarg, 0, 60000, &n) != 0)
+                return bad("--delay", optarg);
+            o->delay_ns = (uint64_t)n * 1000000u;
+            break;
+        case OPT_STOP_PRODUCING:
+            if (parse_seconds(optarg, &o->cfg.stop_producing_ns) != 0)
+                return bad("--stop-producing-after", optarg);
+            break;
+        case OPT_REFUSE_FO:
+            if (parse_uint(optarg, 1, 0xFFFF, &n) != 0)
+                return bad("--refuse-forward-open", optarg);
+            o->cfg.refuse_fo = (uint16_t)n;
+            break;
+        case OPT_DROP_SESSION:
+            if (parse_seconds(optarg, &o->drop_session_ns) != 0)
+                return bad("--drop-session-after", optarg);
+            break;
+        case 'v':
+            drsim_verbose++;
+            break;
+        case 'h':
+            usage(stdout);
+            return 0;
+        case 'V':
+            printf("drsim " DRSIM_VERSION "\n");
+            return 0;
+        default:
+            usage(stderr);
+            return 2;
+        }
+    }
+    if (optind < argc) {
+        fprintf(stderr, "drsim: unexpected argument '%s'\n", argv[optind]);
+        return 2;
+    }
+    return check_instances(&o->cfg) == 0 ? -1 : 2;
+}
+
+/* ---- time ------------------------------------------------------------------ */
+
+static uint64_t now_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+}
+
+/* ---- event loop state ------------------------------------------------------- */
+
+typedef struct {
+    int fd; /* -1: free */
+    uint32_t gen; /* bumped on every close, so delayed replies find no ghost */
+    drsim_peer_t peer;
+    uint64_t accepted_ns;
+    size_t in_len, out_len;
+    uint8_t in[DR_ENCAP_MAX_LEN];
+    uint8_t out[CLIENT_OUT_CAP];
+} client_t;
+
+enum { DQ_TCP, DQ_TCP_CLOSE, DQ_UDP_IO, DQ_UDP_ENCAP };
+
+typedef struct {
+    uint64_t due;
+    uint8_t kind;
+    int client;
+    uint32_t gen;
+    dr_sockaddr_t to;
+    uint16_t len;
+    uint8_t data[DR_ENCAP_MAX_LEN];
+} delayed_t;
+
+/* FIFO: every entry waits the same --delay, so the head is due first. */
+typedef struct {
+    delayed_t *q;
+    size_t head, count;
+    uint64_t full_drops;
+} delayq_t;
+
+typedef struct {
+    options_t opt;
+    drsim_t sim;
+    int ep, tfd, sfd, lfd, ufd_io, ufd_encap;
+    client_t clients[MAX_CLIENTS];
+    delayq_t dq;
+    uint64_t armed;
+    volatile int quit;
+} loop_t;
+
+/* epoll tags: kind in the high half, client index in the low half. */
+enum { TAG_LISTEN = 1, TAG_UDP_IO, TAG_UDP_ENCAP, TAG_TIMER, TAG_SIGNAL, TAG_CLIENT };
+#define TAG(kind, idx) ((uint64_t)(kind) << 32 | (uint32_t)(idx))
+
+static int ep_add(int ep, int fd, uint32_t events, uint64_t tag)
+{
+    struct epoll_event ev;
+    memset(&ev, 0, sizeof ev);
+    ev.events = events;
+    ev.data.u64 = tag;
+    return epoll_ctl(ep, EPOLL_CTL_ADD, fd, &ev);
+}
+
+static void ep_mod(int ep, int fd, uint32_t events, uint64_t tag)
+{
+    struct epoll_event ev;
+    memset(&ev, 0, sizeof ev);
+    ev.events = events;
+    ev.data.u64 = tag;
+    (void)epoll_ctl(ep, EPOLL_CTL_MOD, fd, &ev);
+}
+
+static struct sockaddr_in sin_of(uint32_t addr, uint16_t port)
+{
+    struct sockaddr_in sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sin_family = AF_INET;
+    sa.sin_port = htons(port);
+    sa.sin_addr.s_addr = htonl(addr);
+    return sa;
+}
+
+static const char *ip_str(uint32_t addr, char buf[INET_ADDRSTRLEN])
+{
+    struct in_addr ia = {htonl(addr)};
+    return inet_ntop(AF_INET, &ia, buf, INET_ADDRSTRLEN);
+}
+
+/* ---- sockets ------------------------------------------------------------- */
+
+static int open_socket(int type, uint32_t addr, uint16_t port)
+{
+    int fd = socket(AF_INET, type | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        return -1;
+    int one = 1;
+    /* A restarted drsim must not wait out TIME_WAIT on its own port. */
+    (void)setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    if (type == SOCK_DGRAM)
+        (void)setsockopt(fd, SOL_SOCKET, SO_BROADCAST, &one, sizeof one);
+    struct sockaddr_in sa = sin_of(addr, port);
+    char ip[INET_ADDRSTRLEN];
+    if (bind(fd, (struct sockaddr *)&sa, sizeof sa) != 0 ||
+        (type == SOCK_STREAM && listen(fd, 16) != 0)) {
+        fprintf(stderr, "drsim: cannot bind %s %s:%u: %s\n",
+                type == SOCK_STREAM ? "TCP" : "UDP", ip_str(addr, ip),
+                (unsigned)port, strerror(errno));
+        close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+/* The local address a datagram to `peer` would leave from: what a
+ * ListIdentity reply names when drsim listens on 0.0.0.0. */
+static uint32_t local_addr_towards(uint32_t peer, uint16_t port)
+{
+    int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    uint32_t local = 0;
+    if (fd < 0)
+        return 0;
+    struct sockaddr_in sa = sin_of(peer, port);
+    socklen_t sl = sizeof sa;
+    if (connect(fd, (struct sockaddr *)&sa, sizeof sa) == 0 &&
+        getsockname(fd, (struct sockaddr *)&sa, &sl) == 0)
+        local = ntohl(sa.sin_addr.s_addr);
+    close(fd);
+    return local;
+}
+
+static void udp_send(int fd, const dr_sockaddr_t *to, const uint8_t *buf, size_t len)
+{
+    struct sockaddr_in sa = sin_of(to->addr, to->port);
+    if (sendto(fd, buf, len, 0, (struct sockaddr *)&sa, sizeof sa) < 0 &&
+        errno != EAGAIN && errno != EWOULDBLOCK)
+        drsim_log(2, "sendto: %s", strerror(errno));
+}
+
+/* ---- delay queue ------------------------------------------------------------ */
+
+static delayed_t *dq_push(loop_t *L, uint8_t kind, const uint8_t *data, size_t len)
+{
+    delayq_t *d = &L->dq;
+    if (d->count == DELAY_QUEUE_LEN || len > DR_ENCAP_MAX_LEN) {
+        if (d->full_drops++ == 0)
+            drsim_log(0, "delay queue full: dropping (further drops not logged)");
+        return NULL;
+    }
+    delayed_t *e = &d->q[(d->head + d->count++) % DELAY_QUEUE_LEN];
+    e->due = now_ns() + L->opt.delay_ns;
+    e->kind = kind;
+    e->len = (uint16_t)len;
+    if (len > 0)
+        memcpy(e->data, data, len);
+    return e;
+}
+
+/* ---- TCP clients ------------------------------------------------------------- */
+
+static void client_close(loop_t *L, int idx, const char *why)
+{
+    client_t *c = &L->clients[idx];
+    if (c->fd < 0)
+        return;
+    char ip[INET_ADDRSTRLEN];
+    drsim_log(1, "client %s:%u closed (%s)", ip_str(c->peer.addr, ip),
+              (unsigned)c->peer.port, why);
+    (void)epoll_ctl(L->ep, EPOLL_CTL_DEL, c->fd, NULL);
+    close(c->fd);
+    c->fd = -1;
+    c->gen++;
+}
+
+/* Write what we can; keep the rest for EPOLLOUT. */
+static void client_flush(loop_t *L, int idx)
+{
+    client_t *c = &L->clients[idx];
+    while (c->out_len > 0) {
+        ssize_t n = send(c->fd, c->out, c->out_len, MSG_NOSIGNAL);
+        if (n < 0) {
+            if (errno == EAGAIN || errno == EWOULDBLOCK)
+                break;
+            if (errno == EINTR)
+                continue;
+            client_close(L, idx, strerror(errno));
+            return;
+        }
+        memmove(c->out, c->out + n, c->out_len - (size_t)n);
+        c->out_len -= (size_t)n;
+    }
+    uint32_t ev = EPOLLIN | (c->out_len > 0 ? EPOLLOUT : 0u);
+    ep_mod(L->ep, c->fd, ev, TAG(TAG_CLIENT, idx));
+}
+
+static void client_send(loop_t *L, int idx, const uint8_t *buf, size_t len)
+{
+    client_t *c = &L->clients[idx];
+    if (c->fd < 0)
+        return;
+    if (CLIENT_OUT_CAP - c->out_len < len) {
+        /* It stopped reading; holding more would only grow memory. */
+        client_close(L, idx, "not reading its replies");
+        return;
+    }
+    memcpy(c->out + c->out_len, buf, len);
+    c->out_len += len;
+    client_flush(L, idx);
+}
+
+static void client_reply(loop_t *L, int idx, drsim_action_t act,
+                         const uint8_t *buf, size_t len)
+{
+    client_t *c = &L->clients[idx];
+    if (L->opt.delay_ns > 0 && act != DRSIM_SILENT) {
+        delayed_t *e = dq_push(L, act == DRSIM_CLOSE ? DQ_TCP_CLOSE : DQ_TCP, buf,
+                               act == DRSIM_CLOSE ? 0 : len);
+        if (e != NULL) {
+            e->client = idx;
+            e->gen = c->gen;
+        }
+        return;
+    }
+    if (act == DRSIM_REPLY)
+        client_send(L, idx, buf, len);
+    else if (act == DRSIM_CLOSE)
+        client_close(L, idx, "session ended");
+}
+
+/* Take every complete frame out of the input buffer. */
+static void client_frames(loop_t *L, int idx)
+{
+    client_t *c = &L->clients[idx];
+    uint8_t out[DR_ENCAP_MAX_LEN];
+    while (c->fd >= 0) {
+        size_t total;
+        dr_status_t st = dr_encap_frame_len(c->in, c->in_len, &total);
+        if (st == DR_ELONG) {
+            client_close(L, idx, "frame too long");
+            return;
+        }
+        if (st != DR_OK || c->in_len < total)
+            return; /* wait for the rest */
+        size_t out_len = 0;
+        drsim_action_t act = drsim_encap(&L->sim, &c->peer, now_ns(), c->in, total,
+                                         out, sizeof out, &out_len);
+        memmove(c->in, c->in + total, c->in_len - total);
+        c->in_len -= total;
+        client_reply(L, idx, act, out, out_len);
+    }
+}
+
+static void client_readable(loop_t *L, int idx)
+{
+    client_t *c = &L->clients[idx];
+    /* One read per wake-up (level-triggered): a client that streams
+     * requests gets its turn, then the others get theirs. */
+    ssize_t n = recv(c->fd, c->in + c->in_len, sizeof c->in - c->in_len, 0);
+    if (n == 0) {
+        client_close(L, idx, "closed by peer");
+        return;
+    }
+    if (n < 0) {
+        if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)
+            client_close(L, idx, strerror(errno));
+        return;
+    }
+    c->in_len += (size_t)n;
+    client_frames(L, idx);
+}
+
+static void accept_clients(loop_t *L)
+{
+    for (;;) {
+        struct sockaddr_in sa;
+        socklen_t sl = sizeof sa;
+        int fd = accept4(L->lfd, (struct sockaddr *)&sa, &sl,
+                         SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd < 0)
+            return; /* EAGAIN, or an aborted connection: nothing to do */
+        int idx = -1;
+        for (int i = 0; i < MAX_CLIENTS && idx < 0; i++)
+            if (L->clients[i].fd < 0)
+                idx = i;
+        if (idx < 0) {
+            drsim_log(0, "too many TCP clients, refusing one");
+            close(fd);
+            continue;
+        }
+        int one = 1;
+        (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+        client_t *c = &L->clients[idx];
+        c->fd = fd;
+        c->in_len = c->out_len = 0;
+        c->accepted_ns = now_ns();
+        memset(&c->peer, 0, sizeof c->peer);
+        c->peer.addr = ntohl(sa.sin_addr.s_addr);
+        c->peer.port = ntohs(sa.sin_port);
+        sl = sizeof sa;
+        if (getsockname(fd, (struct sockaddr *)&sa, &sl) == 0)
+            c->peer.local_addr = ntohl(sa.sin_addr.s_addr);
+        if (ep_add(L->ep, fd, EPOLLIN, TAG(TAG_CLIENT, idx)) != 0) {
+            client_close(L, idx, strerror(errno));
+            continue;
+        }
+        char ip[INET_ADDRSTRLEN];
+        drsim_log(1, "client %s:%u connected", ip_str(c->peer.addr, ip),
+                  (unsigned)c->peer.port);
+    }
+}
+
+/* ---- UDP --------------------------------------------------------------------- */
+
+static void io_send(void *ctx, const dr_sockaddr_t *to, const uint8_t *buf, size_t len)
+{
+    loop_t *L = ctx;
+    if (L->opt.delay_ns > 0) {
+        delayed_t *e = dq_push(L, DQ_UDP_IO, buf, len);
+        if (e != NULL)
+            e->to = *to;
+        return;
+    }
+    udp_send(L->ufd_io, to, buf, len);
+}
+
+static void udp_io_readable(loop_t *L)
+{
+    uint8_t buf[1500];
+    for (int i = 0; i < UDP_BURST; i++) {
+        struct sockaddr_in sa;
+        socklen_t sl = sizeof sa;
+        ssize_t n = recvfrom(L->ufd_io, buf, sizeof buf, 0, (struct sockaddr *)&sa, &sl);
+        if (n < 0)
+            return;
+        dr_sockaddr_t from = {ntohl(sa.sin_addr.s_addr), ntohs(sa.sin_port)};
+        drsim_io_receive(&L->sim, now_ns(), &from, buf, (size_t)n);
+    }
+}
+
+static void udp_encap_readable(loop_t *L)
+{
+    uint8_t buf[DR_ENCAP_MAX_LEN], out[DR_ENCAP_MAX_LEN];
+    for (int i = 0; i < UDP_BURST; i++) {
+        struct sockaddr_in sa;
+        socklen_t sl = sizeof sa;
+        ssize_t n = recvfrom(L->ufd_encap, buf, sizeof buf, 0, (struct sockaddr *)&sa, &sl);
+        if (n < 0)
+            return;
+        drsim_peer_t peer;
+        memset(&peer, 0, sizeof peer);
+        peer.addr = ntohl(sa.sin_addr.s_addr);
+        peer.port = ntohs(sa.sin_port);
+        peer.local_addr = L->opt.cfg.address ? L->opt.cfg.address
+                                             : local_addr_towards(peer.addr, peer.port);
+        size_t out_len = 0;
+        if (drsim_encap_udp(&L->sim, &peer, buf, (size_t)n, out, sizeof out,
+                            &out_len) != DRSIM_REPLY)
+            continue;
+        dr_sockaddr_t to = {peer.addr, peer.port};
+        char ip[INET_ADDRSTRLEN];
+        drsim_log(1, "UDP discovery from %s:%u", ip_str(peer.addr, ip), (unsigned)peer.port);
+        if (L->opt.delay_ns > 0) {
+            delayed_t *e = dq_push(L, DQ_UDP_ENCAP, out, out_len);
+            if (e != NULL)
+                e->to = to;
+        } else {
+            udp_send(L->ufd_encap, &to, out, out_len);
+        }
+    }
+}
+
+/* ---- timers ------------------------------------------------------------------- */
+
+static void run_delayed(loop_t *L, uint64_t now)
+{
+    delayq_t *d = &L->dq;
+    while (d->count > 0 && d->q[d->head].due <= now) {
+        delayed_t *e = &d->q[d->head];
+        d->head = (d->head + 1) % DELAY_QUEUE_LEN;
+        d->count--;
+        switch (e->kind) {
+        case DQ_TCP:
+        case DQ_TCP_CLOSE:
+            if (L->clients[e->client].gen != e->gen)
+                break; /* that client is gone */
+            if (e->kind == DQ_TCP)
+                client_send(L, e->client, e->data, e->len);
+            else
+                client_close(L, e->client, "session ended");
+            break;
+        case DQ_UDP_IO:
+            udp_send(L->ufd_io, &e->to, e->data, e->len);
+            break;
+        default:
+            udp_send(L->ufd_encap, &e->to, e->data, e->len);
+            break;
+        }
+    }
+}
+
+static void drop_sessions(loop_t *L, uint64_t now)
+{
+    if (L->opt.drop_session_ns == 0)
+        return;
+    for (int i = 0; i < MAX_CLIENTS; i++) {
+        client_t *c = &L->clients[i];
+        if (c->fd >= 0 && now - c->accepted_ns >= L->opt.drop_session_ns)
+            client_close(L, i, "--drop-session-after");
+    }
+}
+
+static uint64_t next_deadline(const loop_t *L)
+{
+    uint64_t t = drsim_next_deadline(&L->sim);
+    if (L->dq.count > 0 && L->dq.q[L->dq.head].due < t)
+        t = L->dq.q[L->dq.head].due;
+    if (L->opt.drop_session_ns > 0)
+        for (int i = 0; i < MAX_CLIENTS; i++) {
+            const client_t *c = &L->clients[i];
+            if (c->fd >= 0 && c->accepted_ns + L->opt.drop_session_ns < t)
+                t = c->accepted_ns + L->opt.drop_session_ns;
+        }
+    return t;
+}
+
+/* Arm the timerfd at the absolute deadline: no drift, however long the
+ * work in between took. */
+static void arm_timer(loop_t *L)
+{
+    uint64_t t = next_deadline(L);
+    if (t == L->armed)
+        return;
+    struct itimerspec its;
+    memset(&its, 0, sizeof its);
+    if (t == 0)
+        t = 1; /* 0 would disarm it */
+    its.it_value.tv_sec = (time_t)(t / 1000000000u);
+    its.it_value.tv_nsec = (long)(t % 1000000000u);
+    if (timerfd_settime(L->tfd, TFD_TIMER_ABSTIME, &its, NULL) == 0)
+        L->armed = t;
+}
+
+static void timers(loop_t *L)
+{
+    uint64_t now = now_ns();
+    drsim_run(&L->sim, now, io_send, L);
+    run_delayed(L, now);
+    drop_sessions(L, now);
+}
+
+/* ---- main ---------------------------------------------------------------------- */
+
+static int setup(loop_t *L)
+{
+    const drsim_config_t *cfg = &L->opt.cfg;
+    sigset_t mask;
+    sigemptyset(&mask);
+    sigaddset(&mask, SIGINT);
+    sigaddset(&mask, SIGTERM);
+    if (sigprocmask(SIG_BLOCK, &mask, NULL) != 0)
+        return -1;
+    signal(SIGPIPE, SIG_IGN);
+    L->sfd = signalfd(-1, &mask, SFD_NONBLOCK | SFD_CLOEXEC);
+    L->tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+    L->ep = epoll_create1(EPOLL_CLOEXEC);
+    if (L->sfd < 0 || L->tfd < 0 || L->ep < 0) {
+        fprintf(stderr, "drsim: %s\n", strerror(errno));
+        return -1;
+    }
+    L->lfd = open_socket(SOCK_STREAM, cfg->address, cfg->tcp_port);
+    L->ufd_encap = open_socket(SOCK_DGRAM, cfg->address, cfg->tcp_port);
+    L->ufd_io = open_socket(SOCK_DGRAM, cfg->address, cfg->udp_port);
+    if (L->lfd < 0 || L->ufd_encap < 0 || L->ufd_io < 0)
+        return -1;
+    if (L->opt.delay_ns > 0) {
+        L->dq.q = calloc(DELAY_QUEUE_LEN, sizeof *L->dq.q);
+        if (L->dq.q == NULL)
+            return -1;
+    }
+    if (ep_add(L->ep, L->lfd, EPOLLIN, TAG(TAG_LISTEN, 0)) != 0 ||
+        ep_add(L->ep, L->ufd_io, EPOLLIN, TAG(TAG_UDP_IO, 0)) != 0 ||
+        ep_add(L->ep, L->ufd_encap, EPOLLIN, TAG(TAG_UDP_ENCAP, 0)) != 0 ||
+        ep_add(L->ep, L->tfd, EPOLLIN, TAG(TAG_TIMER, 0)) != 0 ||
+        ep_add(L->ep, L->sfd, EPOLLIN, TAG(TAG_SIGNAL, 0)) != 0)
+        return -1;
+    for (int i = 0; i < MAX_CLIENTS; i++)
+        L->clients[i].fd = -1;
+    drsim_init(&L->sim, cfg, now_ns());
+    char ip[INET_ADDRSTRLEN];
+    drsim_log(1, "listening on %s, TCP/UDP %u (encapsulation), UDP %u (I/O);"
+              " instances %u..%u%s", ip_str(cfg->address, ip),
+              (unsigned)cfg->tcp_port, (unsigned)cfg->udp_port,
+              (unsigned)cfg->instance[0], (unsigned)cfg->instance[DR_ASM_COUNT - 1],
+              cfg->echo ? "" : ", no echo");
+    return 0;
+}
+
+static void dispatch_event(loop_t *L, const struct epoll_event *ev)
+{
+    uint32_t kind = (uint32_t)(ev->data.u64 >> 32);
+    int idx = (int)(uint32_t)ev->data.u64;
+    switch (kind) {
+    case TAG_LISTEN:
+        accept_clients(L);
+        break;
+    case TAG_UDP_IO:
+        udp_io_readable(L);
+        break;
+    case TAG_UDP_ENCAP:
+        udp_encap_readable(L);
+        break;
+    case TAG_TIMER: {
+        uint64_t expirations;
+        if (read(L->tfd, &expirations, sizeof expirations) < 0)
+            break; /* EAGAIN: already read */
+        L->armed = 0;
+        break;
+    }
+    case TAG_SIGNAL: {
+        struct signalfd_siginfo si;
+        if (read(L->sfd, &si, sizeof si) == (ssize_t)sizeof si) {
+            drsim_log(1, "signal %u: stopping", (unsigned)si.ssi_signo);
+            L->quit = 1;
+        }
+        break;
+    }
+    case TAG_CLIENT:
+        if (L->clients[idx].fd < 0)
+            break;
+        if (ev->events & (EPOLLERR | EPOLLHUP)) {
+            client_close(L, idx, "connection error");
+            break;
+        }
+        if (ev->events & EPOLLOUT)
+            client_flush(L, idx);
+        if ((ev->events & EPOLLIN) && L->clients[idx].fd >= 0)
+            client_readable(L, idx);
+        break;
+    default:
+        break;
+    }
+}
+
+static void teardown(loop_t *L)
+{
+    for (int i = 0; i < MAX_CLIENTS; i++)
+        client_close(L, i, "drsim stopping");
+    unsigned open = drsim_conn_count(&L->sim);
+    if (open > 0)
+        drsim_log(1, "%u Class 1 connection(s) left open", open);
+    int fds[] = {L->lfd, L->ufd_io, L->ufd_encap, L->tfd, L->sfd, L->ep};
+    for (size_t i = 0; i < sizeof fds / sizeof fds[0]; i++)
+        if (fds[i] >= 0)
+            close(fds[i]);
+    free(L->dq.q);
+}
+
+int main(int argc, char **argv)
+{
+    static loop_t L; /* large (client buffers): not on the stack */
+    int rc = parse_options(argc, argv, &L.opt);
+    if (rc >= 0)
+        return rc;
+    L.lfd = L.ufd_io = L.ufd_encap = L.tfd = L.sfd = L.ep = -1;
+    if (setup(&L) != 0) {
+        teardown(&L);
+        return 1;
+    }
+    while (!L.quit) {
+        arm_timer(&L);
+        struct epoll_event evs[32];
+        int n = epoll_wait(L.ep, evs, 32, EPOLL_WAIT_MS);
+        if (n < 0 && errno != EINTR) {
+            fprintf(stderr, "drsim: epoll_wait: %s\n", strerror(errno));
+            rc = 1;
+            break;
+        }
+        for (int i = 0; i < n; i++)
+            dispatch_event(&L, &evs[i]);
+        timers(&L);
+    }
+    teardown(&L);
+    return rc < 0 ? 0 : rc;
+}
