@@ -1,0 +1,421 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The client against the real drsim over real TCP/UDP on loopback:
+ * explicit messaging, errors, Class 1 I/O, Forward Open refusals, I/O
+ * timeouts with reconnect, session loss, packet loss.
+ * drsim listens on 127.0.0.2, the client's UDP socket on 127.0.0.1, so both
+ * own their own Class 1 port without root.
+ */
+#define _GNU_SOURCE
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+#include <cmocka.h>
+
+#include "drgate/client.h"
+#include "support/drsim_proc.h"
+
+typedef struct {
+    drsim_proc_t sim;
+    dr_client_t *c;
+    uint16_t local_udp;
+} fixture_t;
+
+static dr_client_t *new_client(const drsim_proc_t *sim, uint16_t local_udp, bool route)
+{
+    dr_client_config_t cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.host = sim->address;
+    cfg.tcp_port = sim->tcp_port;
+    cfg.local_addr = "127.0.0.1";
+    cfg.local_udp_port = local_udp;
+    cfg.timeout_ms = 1000;
+    cfg.route = route;
+    cfg.backoff_min_ms = 50;
+    cfg.backoff_max_ms = 400;
+    return dr_client_new(&cfg);
+}
+
+/* Start drsim with `extra` options and a client for it. */
+static int start(void **state, const char *const *extra)
+{
+    fixture_t *f = calloc(1, sizeof *f);
+    drsim_ports(&f->sim.tcp_port, &f->sim.udp_port);
+    f->local_udp = (uint16_t)(f->sim.udp_port + 5000u);
+    if (drsim_path() == NULL || !drsim_start(&f->sim, extra)) {
+        free(f);
+        return -1;
+    }
+    f->c = new_client(&f->sim, f->local_udp, false);
+    *state = f;
+    return f->c != NULL ? 0 : -1;
+}
+
+static int setup(void **state)
+{
+    return start(state, NULL);
+}
+
+static int teardown(void **state)
+{
+    fixture_t *f = *state;
+    if (f == NULL)
+        return 0;
+    dr_client_free(f->c);
+    int rc = drsim_stop(&f->sim);
+    free(f);
+    return rc == 0 ? 0 : -1; /* drsim must exit cleanly */
+}
+
+/* ---- explicit messaging ---------------------------------------------------- */
+
+static void test_read_all_assemblies(void **state)
+{
+    fixture_t *f = *state;
+    assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
+    for (int a = 0; a < DR_ASM_COUNT; a++) {
+        uint8_t buf[DR_ASM_MAX_SIZE];
+        uint16_t size = 0;
+        assert_int_equal(dr_client_asm_read_sync(f->c, (dr_asm_t)a, buf, dr_asm_info((dr_asm_t)a)->size), DR_OK);
+        assert_int_equal(dr_client_asm_size_sync(f->c, dr_client_instance(f->c, (dr_asm_t)a), &size), DR_OK);
+        assert_int_equal(size, dr_asm_info((dr_asm_t)a)->size);
+    }
+    uint8_t small[8];
+    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_IO_STATE, small, sizeof small), DR_ELENGTH);
+}
+
+static void test_set_and_echo(void **state)
+{
+    fixture_t *f = *state;
+    assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
+    uint8_t in[96] = {0}, out[96];
+    dr_put_le32(in + 4 * 7, (uint32_t)-123456);
+    assert_int_equal(dr_client_asm_write_sync(f->c, DR_ASM_INT_IN, in, sizeof in), DR_OK);
+    /* drsim echoes int_in to int_out on its next model step */
+    for (int i = 0; i < 50; i++) {
+        assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_INT_OUT, out, sizeof out), DR_OK);
+        if (memcmp(in, out, sizeof in) == 0)
+            break;
+        dr_client_run_once(f->c, 20);
+    }
+    assert_memory_equal(in, out, sizeof in);
+    uint8_t back[96];
+    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_INT_IN, back, sizeof back), DR_OK);
+    assert_memory_equal(in, back, sizeof in);
+}
+
+static void test_cip_errors(void **state)
+{
+    fixture_t *f = *state;
+    uint8_t buf[200];
+    size_t len;
+    uint16_t size;
+    assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
+    /* T->O assemblies are not settable; unknown instances are unknown */
+    assert_int_equal(dr_client_asm_write_sync(f->c, DR_ASM_INT_OUT, buf, 96), DR_CIP(0x0E, 0));
+    assert_int_equal(dr_client_asm_size_sync(f->c, 150, &size), DR_CIP(0x05, 0));
+    assert_int_equal(dr_client_get_attr_sync(f->c, DR_CIP_CLASS_ASSEMBLY, 101, 9, buf, sizeof buf, &len),
+                     DR_CIP(0x14, 0));
+    /* wrong sizes for a Set */
+    assert_int_equal(dr_client_set_attr_sync(f->c, DR_CIP_CLASS_ASSEMBLY, 110, 3, buf, 95), DR_CIP(0x13, 0));
+    assert_int_equal(dr_client_set_attr_sync(f->c, DR_CIP_CLASS_ASSEMBLY, 110, 3, buf, 97), DR_CIP(0x15, 0));
+    /* a reply larger than the caller's buffer */
+    assert_int_equal(dr_client_get_attr_sync(f->c, DR_CIP_CLASS_ASSEMBLY, 102, 3, buf, 10, &len), DR_ENOSPACE);
+    /* the session still works after all that */
+    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_IO_STATE, buf, 36), DR_OK);
+}
+
+static void test_identity(void **state)
+{
+    fixture_t *f = *state;
+    dr_identity_t a, b;
+    assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
+    assert_int_equal(dr_client_identity_sync(f->c, &a), DR_OK);
+    assert_int_equal(dr_client_list_identity_sync(f->c, &b), DR_OK);
+    assert_true(strlen(a.product_name) > 0);
+    assert_string_equal(a.product_name, b.product_name);
+    assert_int_equal(a.vendor, b.vendor);
+    assert_int_equal(a.serial, b.serial);
+}
+
+static void test_unconnected_send_route(void **state)
+{
+    fixture_t *f = *state;
+    dr_client_t *routed = new_client(&f->sim, f->local_udp, true);
+    uint8_t a[36], b[36];
+    assert_int_equal(dr_client_connect_sync(routed), DR_OK);
+    assert_int_equal(dr_client_asm_read_sync(routed, DR_ASM_IO_STATE, a, sizeof a), DR_OK);
+    assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
+    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_IO_STATE, b, sizeof b), DR_OK);
+    /* controller version is constant: same bytes both ways */
+    assert_memory_equal(a + 28, b + 28, 3);
+    dr_client_free(routed);
+}
+
+static void test_connect_refused(void **state)
+{
+    (void)state;
+    drsim_proc_t nobody;
+    memset(&nobody, 0, sizeof nobody);
+    snprintf(nobody.address, sizeof nobody.address, "127.0.0.2");
+    nobody.tcp_port = 1; /* nothing listens there */
+    dr_client_t *c = new_client(&nobody, 0, false);
+    assert_int_equal(dr_client_connect_sync(c), DR_ECONNREFUSED);
+    uint8_t buf[36];
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ESESSION);
+    dr_client_free(c);
+}
+
+/* A peer that accepts and never answers: the session times out. */
+static void test_silent_peer_times_out(void **state)
+{
+    (void)state;
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in sin;
+    socklen_t sl = sizeof sin;
+    memset(&sin, 0, sizeof sin);
+    sin.sin_family = AF_INET;
+    sin.sin_addr.s_addr = htonl(0x7F000003);
+    assert_int_equal(bind(fd, (struct sockaddr *)&sin, sizeof sin), 0);
+    assert_int_equal(listen(fd, 4), 0);
+    getsockname(fd, (struct sockaddr *)&sin, &sl);
+    drsim_proc_t silent;
+    memset(&silent, 0, sizeof silent);
+    snprintf(silent.address, sizeof silent.address, "127.0.0.3");
+    silent.tcp_port = ntohs(sin.sin_port);
+    dr_client_t *c = new_client(&silent, 0, false);
+    assert_int_equal(dr_client_connect_sync(c), DR_ETIMEDOUT);
+    assert_string_equal(dr_client_last_step(c), "register session");
+    dr_client_free(c);
+    close(fd);
+}
+
+/* ---- Class 1 ------------------------------------------------------------------ */
+
+typedef struct {
+    unsigned data;
+    unsigned established, timed_out, reconnecting;
+    dr_status_t last_reason;
+} conn_log_t;
+
+static void on_data(dr_conn_t *conn, const uint8_t *data, size_t len, void *user)
+{
+    (void)conn;
+    (void)data;
+    (void)len;
+    ((conn_log_t *)user)->data++;
+}
+
+static void on_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, void *user)
+{
+    conn_log_t *log = user;
+    (void)conn;
+    if (st == DR_CONN_ESTABLISHED) log->established++;
+    if (st == DR_CONN_TIMED_OUT) log->timed_out++;
+    if (st == DR_CONN_RECONNECTING) log->reconnecting++;
+    if (why != DR_OK)
+        log->last_reason = why;
+}
+
+static dr_conn_t *add_conn(dr_client_t *c, int o2t, dr_asm_t t2o, conn_log_t *log, bool large)
+{
+    dr_conn_config_t cc;
+    memset(&cc, 0, sizeof cc);
+    cc.o2t_asm = o2t;
+    cc.t2o_asm = t2o;
+    cc.rpi_us = 5000;
+    cc.timeout_mult = 1; /* x8: 40 ms */
+    cc.large = large;
+    cc.on_data = on_data;
+    cc.on_state = on_state;
+    cc.user = log;
+    dr_status_t err;
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, &err);
+    assert_non_null(cn);
+    return cn;
+}
+
+static void run_for(dr_client_t *c, int ms)
+{
+    for (int i = 0; i < ms / 5; i++)
+        dr_client_run_once(c, 5);
+}
+
+static void test_six_connections_and_output(void **state)
+{
+    fixture_t *f = *state;
+    static const struct { int o2t; dr_asm_t t2o; } pairs[] = {
+        {DR_ASM_IO_CONTROL, DR_ASM_IO_STATE}, {DR_ASM_BIT_IN, DR_ASM_BIT_OUT},
+        {DR_ASM_INT_IN, DR_ASM_INT_OUT}, {DR_ASM_FLOAT_IN, DR_ASM_FLOAT_OUT},
+        {-1, DR_ASM_JOINT_STATE}, {-1, DR_ASM_TASK_STATE}};
+    conn_log_t log[6];
+    dr_conn_t *cn[6];
+    memset(log, 0, sizeof log);
+    for (int i = 0; i < 6; i++)
+        cn[i] = add_conn(f->c, pairs[i].o2t, pairs[i].t2o, &log[i], false);
+    /* cb_do 1 and 16, tool_do 3 */
+    uint8_t ctl[12] = {0x01, 0x80, 0x04, 0x00};
+    assert_int_equal(dr_conn_set_output(cn[0], ctl, sizeof ctl), DR_OK);
+    assert_int_equal(dr_conn_set_output(cn[0], ctl, 11), DR_ELENGTH);
+    assert_int_equal(dr_conn_set_output(cn[4], ctl, 12), DR_EINVAL);
+    assert_int_equal(dr_client_start(f->c), DR_OK);
+    run_for(f->c, 600);
+    for (int i = 0; i < 6; i++) {
+        assert_int_equal(dr_conn_state(cn[i]), DR_CONN_ESTABLISHED);
+        assert_true(log[i].data > 20);
+        const dr_conn_stats_t *st = dr_conn_stats(cn[i]);
+        assert_int_equal(st->t2o_api_us, 5000);
+        assert_int_equal(st->rx_bad, 0);
+        assert_true(st->tx_packets > 20);
+    }
+    /* what we produce reaches the robot: io_state.cb_do and tool_do follow */
+    size_t len;
+    const uint8_t *io = dr_conn_input(cn[0], &len);
+    assert_non_null(io);
+    assert_int_equal(len, 36);
+    assert_int_equal(io[2], 0x01);
+    assert_int_equal(io[3], 0x80);
+    assert_int_equal(io[26], 0x04);
+}
+
+static void test_large_forward_open(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_FLOAT_IN, DR_ASM_JOINT_STATE, &log, true);
+    dr_client_start(f->c);
+    run_for(f->c, 300);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_true(log.data > 10);
+}
+
+static int setup_refuse_0113(void **state)
+{
+    static const char *const extra[] = {"--refuse-forward-open", "0x0113", NULL};
+    return start(state, extra);
+}
+
+static void test_forward_open_refused(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, -1, DR_ASM_IO_STATE, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 300);
+    assert_int_not_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(log.last_reason, DR_CIP(0x01, 0x0113));
+    assert_true(log.reconnecting >= 1);
+    assert_true(dr_conn_stats(cn)->opens >= 2); /* it keeps trying, with backoff */
+    assert_true(dr_conn_stats(cn)->opens < 10);
+}
+
+static int setup_refuse_0109(void **state)
+{
+    static const char *const extra[] = {"--refuse-forward-open", "0x0109", NULL};
+    return start(state, extra);
+}
+
+static void test_forward_open_size_reported(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_BIT_IN, DR_ASM_BIT_OUT, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 200);
+    assert_int_equal(log.last_reason, DR_CIP(0x01, 0x0109));
+    assert_true(dr_conn_stats(cn)->size_wanted > 0);
+}
+
+static int setup_stop_producing(void **state)
+{
+    static const char *const extra[] = {"--stop-producing-after", "0.3", NULL};
+    return start(state, extra);
+}
+
+static void test_io_timeout_and_reconnect(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_INT_IN, DR_ASM_INT_OUT, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 1500);
+    assert_true(log.timed_out >= 1);
+    assert_int_equal(log.last_reason, DR_ETIMEDOUT);
+    assert_true(log.established >= 2); /* reconnected after the timeout */
+    assert_true(dr_conn_stats(cn)->timeouts >= 1);
+}
+
+static int setup_drop_session(void **state)
+{
+    static const char *const extra[] = {"--drop-session-after", "0.3", NULL};
+    return start(state, extra);
+}
+
+static void test_session_loss_keeps_io(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_BIT_IN, DR_ASM_BIT_OUT, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 1200);
+    /* the TCP session was dropped and registered again; Class 1 went on */
+    assert_true(dr_client_ready(f->c));
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(log.timed_out, 0);
+    uint8_t buf[8];
+    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_BIT_OUT, buf, sizeof buf), DR_OK);
+}
+
+static int setup_drop_packets(void **state)
+{
+    static const char *const extra[] = {"--drop", "20", "--seed", "7", NULL};
+    return start(state, extra);
+}
+
+static void test_packet_loss_counted(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, -1, DR_ASM_JOINT_STATE, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 800);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_true(st->rx_lost > 0);
+    assert_true(st->rx_packets > 50);
+}
+
+int main(void)
+{
+    if (drsim_path() == NULL) {
+        /* cross builds (big-endian run) have no drsim beside the tests */
+        printf("[  SKIPPED ] client tests: no drsim next to the test binary\n");
+        printf("[  PASSED  ] 0 test(s).\n");
+        return 0;
+    }
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_read_all_assemblies, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_set_and_echo, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_cip_errors, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_identity, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_unconnected_send_route, setup, teardown),
+        cmocka_unit_test(test_connect_refused),
+        cmocka_unit_test(test_silent_peer_times_out),
+        cmocka_unit_test_setup_teardown(test_six_connections_and_output, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_large_forward_open, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_forward_open_refused, setup_refuse_0113, teardown),
+        cmocka_unit_test_setup_teardown(test_forward_open_size_reported, setup_refuse_0109, teardown),
+        cmocka_unit_test_setup_teardown(test_io_timeout_and_reconnect, setup_stop_producing, teardown),
+        cmocka_unit_test_setup_teardown(test_session_loss_keeps_io, setup_drop_session, teardown),
+        cmocka_unit_test_setup_teardown(test_packet_loss_counted, setup_drop_packets, teardown),
+    };
+    return cmocka_run_group_tests_name("client_sim", tests, NULL, NULL);
+}
