@@ -189,7 +189,7 @@ static void test_errors(void **state)
     static fx_t f;
     fx_init(&f, NULL);
     fx_register(&f);
-    uint8_t big[100] = {0};
+    uint8_t big[160] = {0};
     /* Set on a T->O assembly: attribute not settable. */
     for (uint16_t inst = 101; inst <= 106; inst++)
         assert_int_equal(fx_req(&f, DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, 4, inst, 3, big,

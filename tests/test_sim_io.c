@@ -1,0 +1,437 @@
+/* SPDX-License-Identifier: MIT */
+/* drsim adapter: Forward Open/Close and Class 1 I/O. */
+#include "test_sim_support.h"
+
+static uint16_t next_serial = 1;
+
+/* A Forward Open for O->T point `o2t`, T->O point `t2o`, sizes as given. */
+static dr_fwd_open_t fo_make(uint16_t o2t, uint16_t t2o, uint16_t o2t_size,
+                             uint16_t t2o_size, uint32_t rpi_us, uint8_t *path,
+                             size_t cap)
+{
+    dr_fwd_open_t fo;
+    memset(&fo, 0, sizeof fo);
+    fo.priority_tick = 0x0A;
+    fo.timeout_ticks = 0x0E;
+    fo.t2o_cid = 0x7700 + next_serial;
+    fo.conn_serial = next_serial++;
+    fo.vendor = 0x1234;
+    fo.orig_serial = 0xCAFE;
+    fo.timeout_mult = 0; /* timeout = 4 x RPI */
+    fo.o2t_rpi_us = fo.t2o_rpi_us = rpi_us;
+    fo.o2t.size = o2t_size;
+    fo.o2t.type = DR_CONN_TYPE_P2P;
+    fo.t2o.size = t2o_size;
+    fo.t2o.type = DR_CONN_TYPE_P2P;
+    fo.transport = 0x01;
+    fo.path = path;
+    fo.path_len = dr_conn_path_write(path, cap, 1, o2t, t2o);
+    return fo;
+}
+
+static dr_status_t fo_send(fx_t *f, const dr_fwd_open_t *fo, const dr_sockaddr_t *t2o)
+{
+    uint8_t path[8], data[128], req[160];
+    dr_wr_t w;
+    dr_wr_init(&w, path, sizeof path);
+    dr_epath_write(&w, 6, 1, -1);
+    size_t pl = w.len;
+    dr_wr_init(&w, data, sizeof data);
+    dr_fwd_open_write(&w, fo);
+    size_t dl = w.len;
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, fo->large ? DR_CIP_SVC_LARGE_FORWARD_OPEN : DR_CIP_SVC_FORWARD_OPEN,
+                     path, pl, data, dl);
+    return fx_rr(f, req, w.len, t2o);
+}
+
+static dr_status_t fc_send(fx_t *f, const dr_fwd_open_t *fo)
+{
+    uint8_t path[8], data[64], req[96];
+    dr_fwd_close_t fc = {fo->priority_tick, fo->timeout_ticks, fo->conn_serial,
+                         fo->vendor, fo->orig_serial, fo->path, fo->path_len};
+    dr_wr_t w;
+    dr_wr_init(&w, path, sizeof path);
+    dr_epath_write(&w, 6, 1, -1);
+    size_t pl = w.len;
+    dr_wr_init(&w, data, sizeof data);
+    dr_fwd_close_write(&w, &fc);
+    size_t dl = w.len;
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, DR_CIP_SVC_FORWARD_CLOSE, path, pl, data, dl);
+    return fx_rr(f, req, w.len, NULL);
+}
+
+/* An O->T datagram for connection `cid`. */
+static size_t o2t_packet(uint8_t *buf, size_t cap, uint32_t cid, uint32_t encap_seq,
+                         uint16_t cip_seq, bool run, const uint8_t *data, size_t len)
+{
+    dr_io_frame_t fr = {.cid = cid, .encap_seq = encap_seq, .cip_seq = cip_seq,
+                        .data = data, .data_len = len, .run_idle = run ? 1u : 0u,
+                        .has_run_idle = true};
+    size_t n = 0;
+    assert_int_equal(dr_io_frame_write(buf, cap, &fr, &n), DR_OK);
+    return n;
+}
+
+static void test_forward_open_accepted(void **state)
+{
+    (void)state;
+    static fx_t f;
+    fx_init(&f, NULL);
+    fx_register(&f);
+    uint8_t path[16];
+    dr_fwd_open_t fo = fo_make(109, 105, 96 + 6, 96 + 2, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f.rsp.data, f.rsp.data_len, &r), DR_OK);
+    assert_int_equal(r.t2o_cid, fo.t2o_cid);
+    assert_int_equal(r.conn_serial, fo.conn_serial);
+    assert_int_equal(r.vendor, fo.vendor);
+    assert_int_equal(r.orig_serial, fo.orig_serial);
+    assert_int_equal(r.o2t_api_us, 10000);
+    assert_int_equal(r.t2o_api_us, 10000);
+    assert_int_not_equal(r.o2t_cid, 0);
+    /* Our UDP address in a 0x8000 item, after the data item. */
+    assert_int_equal(f.cpf.count, 3);
+    assert_int_equal(f.cpf.item[2].type, DR_CPF_SOCKADDR_O2T);
+    dr_sockaddr_t sa;
+    assert_int_equal(dr_cpf_sockaddr_parse(&f.cpf.item[2], &sa), DR_OK);
+    assert_int_equal(sa.addr, 0x7F000002u);
+    assert_int_equal(sa.port, 2222);
+    assert_int_equal(drsim_conn_count(&f.sim), 1);
+    assert_int_equal(drsim_identity_status(&f.sim) & 0x1, 1); /* owned */
+
+    /* T->O: right away, then every API, to the originator at 2222. */
+    drsim_run(&f.sim, T0, fx_capture, &f);
+    assert_int_equal(f.sent, 1);
+    assert_int_equal(f.sent_to.addr, 0x7F000001u);
+    assert_int_equal(f.sent_to.port, 2222);
+    dr_io_frame_t io;
+    assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+    assert_int_equal(io.cid, fo.t2o_cid);
+    assert_int_equal(io.data_len, 96);
+    uint32_t seq0 = io.encap_seq;
+    uint16_t cseq0 = io.cip_seq;
+    assert_int_equal(drsim_next_deadline(&f.sim), T0 + 10 * MS);
+    drsim_run(&f.sim, T0 + 5 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, 1);
+    drsim_run(&f.sim, T0 + 10 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, 2);
+    assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+    assert_int_equal(io.encap_seq, seq0 + 1);
+    assert_int_equal(io.cip_seq, (uint16_t)(cseq0 + 1));
+
+    /* O->T in run mode lands in int_in and echoes to int_out. */
+    uint8_t data[96], pkt[160];
+    for (int i = 0; i < 96; i++)
+        data[i] = (uint8_t)(i + 1);
+    size_t n = o2t_packet(pkt, sizeof pkt, r.o2t_cid, 1, 1, true, data, 96);
+    dr_sockaddr_t from = {0x7F000001u, 2222};
+    drsim_io_receive(&f.sim, T0 + 11 * MS, &from, pkt, n);
+    assert_memory_equal(f.sim.img.buf[DR_ASM_INT_IN], data, 96);
+    assert_memory_equal(f.sim.img.buf[DR_ASM_INT_OUT], data, 96);
+    assert_int_equal(drsim_identity_status(&f.sim) >> 4, 6); /* run */
+    drsim_run(&f.sim, T0 + 20 * MS, fx_capture, &f);
+    assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+    assert_memory_equal(io.data, data, 96);
+
+    /* Forward Close removes it; a second close finds nothing. */
+    assert_int_equal(fc_send(&f, &fo), DR_OK);
+    assert_int_equal(drsim_conn_count(&f.sim), 0);
+    assert_int_equal(fc_send(&f, &fo), DR_CIP(0x01, 0x0107));
+    unsigned sent = f.sent;
+    drsim_run(&f.sim, T0 + 40 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, sent);
+}
+
+static void test_forward_open_sockaddr_and_large(void **state)
+{
+    (void)state;
+    static fx_t f;
+    fx_init(&f, NULL);
+    fx_register(&f);
+    uint8_t path[16];
+    /* 0x5B with 32-bit parameters; T->O to an announced address/port. */
+    dr_fwd_open_t fo = fo_make(DRSIM_HB_INPUT_ONLY, 102, 6, 146, 1000, path, sizeof path);
+    fo.large = true;
+    dr_sockaddr_t t2o = {0x0A000005u, 2300};
+    assert_int_equal(fo_send(&f, &fo, &t2o), DR_OK);
+    assert_int_equal(f.rsp.service, DR_CIP_SVC_LARGE_FORWARD_OPEN | DR_CIP_REPLY);
+    drsim_run(&f.sim, T0, fx_capture, &f);
+    assert_int_equal(f.sent_to.addr, 0x0A000005u);
+    assert_int_equal(f.sent_to.port, 2300);
+    dr_io_frame_t io;
+    assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+    assert_int_equal(io.data_len, 144);
+    /* Input-only connections do not own anything. */
+    assert_int_equal(drsim_identity_status(&f.sim) & 0x1, 0);
+    /* A zero address in 0x8001 means the originator's own. */
+    dr_fwd_open_t fo2 = fo_make(DRSIM_HB_LISTEN_ONLY, 101, 2, 38, 1000, path, sizeof path);
+    dr_sockaddr_t port_only = {0, 2400};
+    assert_int_equal(fo_send(&f, &fo2, &port_only), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f.rsp.data, f.rsp.data_len, &r), DR_OK);
+    drsim_conn_t *c = drsim_conn_by_o2t(&f.sim, r.o2t_cid);
+    assert_non_null(c);
+    assert_int_equal(c->t2o_dest.addr, 0x7F000001u);
+    assert_int_equal(c->t2o_dest.port, 2400);
+    assert_false(c->o2t_run_idle); /* size 2: modeless heartbeat */
+}
+
+static void test_forward_open_refused(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.max_conns = 2;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint8_t path[16];
+    dr_fwd_open_t fo;
+
+    /* Wrong sizes: 0x0109 with the wanted size as the second word. */
+    fo = fo_make(107, 101, 12 + 2, 38, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0109));
+    assert_int_equal(f.rsp.ext_count, 2);
+    assert_int_equal(f.rsp.ext[1], 18);
+    /* The failure data names the connection. */
+    assert_true(f.rsp.data_len >= 8);
+    assert_int_equal(dr_get_le16(f.rsp.data), fo.conn_serial);
+    fo = fo_make(107, 102, 18, 144, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0109));
+    assert_int_equal(f.rsp.ext[1], 146);
+    fo = fo_make(DRSIM_HB_INPUT_ONLY, 102, 4, 146, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0109));
+    /* RPI out of range. */
+    fo = fo_make(107, 101, 18, 38, 999, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0111));
+    fo = fo_make(107, 101, 18, 38, 10000001, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0111));
+    /* Bad paths: a T->O point as O->T, an O->T point as T->O, unknown. */
+    fo = fo_make(101, 102, 42, 146, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0315));
+    fo = fo_make(107, 108, 18, 10, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0315));
+    fo = fo_make(107, 555, 18, 10, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0315));
+    /* Not class 1. */
+    fo = fo_make(107, 101, 18, 38, 10000, path, sizeof path);
+    fo.transport = 0xA3;
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0103));
+    /* Multicast T->O is not offered. */
+    fo = fo_make(107, 101, 18, 38, 10000, path, sizeof path);
+    fo.t2o.type = DR_CONN_TYPE_MULTICAST;
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0124));
+    /* Any configuration instance without data is fine. */
+    fo = fo_make(107, 101, 18, 38, 10000, path, sizeof path);
+    fo.path_len = dr_conn_path_write(path, sizeof path, 0x97, 107, 101);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    dr_fwd_open_t owner = fo;
+    /* The same triad again: duplicate. */
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0100));
+    /* Another owner for io_control: ownership conflict. */
+    fo = fo_make(107, 103, 18, 98, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0106));
+    /* Second connection fits, the third does not. */
+    fo = fo_make(108, 104, 14, 10, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    fo = fo_make(DRSIM_HB_INPUT_ONLY, 104, 6, 10, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0113));
+    /* After a close the owner's place is free again. */
+    assert_int_equal(fc_send(&f, &owner), DR_OK);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+}
+
+static void test_refuse_fault(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.refuse_fo = 0x0109;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint8_t path[16];
+    dr_fwd_open_t fo = fo_make(110, 106, 102, 98, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0109));
+    assert_int_equal(f.rsp.ext_count, 2);
+    assert_int_equal(f.rsp.ext[1], 102);
+    f.sim.cfg.refuse_fo = 0x0113;
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0113));
+    assert_int_equal(f.rsp.ext_count, 1);
+    assert_int_equal(drsim_conn_count(&f.sim), 0);
+}
+
+/* Opens io_control/io_state at 10 ms, returns the O->T connection ID. */
+static uint32_t open_io(fx_t *f, uint8_t mult)
+{
+    uint8_t path[16];
+    dr_fwd_open_t fo = fo_make(107, 101, 18, 38, 10000, path, sizeof path);
+    fo.timeout_mult = mult;
+    assert_int_equal(fo_send(f, &fo, NULL), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f->rsp.data, f->rsp.data_len, &r), DR_OK);
+    return r.o2t_cid;
+}
+
+static void send_ctl(fx_t *f, uint32_t cid, uint32_t eseq, uint16_t cseq, bool run,
+                     uint16_t cb_do, uint64_t t)
+{
+    dr_io_control_t ctl = {.cb_do = cb_do};
+    uint8_t data[12], pkt[64];
+    assert_int_equal(dr_io_control_encode(&ctl, data, sizeof data), DR_OK);
+    size_t n = o2t_packet(pkt, sizeof pkt, cid, eseq, cseq, run, data, 12);
+    dr_sockaddr_t from = {0x7F000001u, 2222};
+    drsim_io_receive(&f->sim, t, &from, pkt, n);
+}
+
+static uint16_t io_cb_do(fx_t *f)
+{
+    dr_io_state_t io;
+    assert_int_equal(dr_io_state_decode(f->sim.img.buf[DR_ASM_IO_STATE], 36, &io), DR_OK);
+    return io.cb_do;
+}
+
+static void test_sequence_handling(void **state)
+{
+    (void)state;
+    static fx_t f;
+    fx_init(&f, NULL);
+    fx_register(&f);
+    uint32_t cid = open_io(&f, 2);
+    drsim_conn_t *c = drsim_conn_by_o2t(&f.sim, cid);
+    assert_non_null(c);
+    /* The first packet is taken whatever its numbers (here past 2^31). */
+    send_ctl(&f, cid, 0x90000000u, 0xFFFF, true, 0x0001, T0 + MS);
+    assert_int_equal(io_cb_do(&f), 0x0001);
+    /* 16-bit wrap: 0x0000 is newer than 0xFFFF. */
+    send_ctl(&f, cid, 0x90000001u, 0x0000, true, 0x0002, T0 + 2 * MS);
+    assert_int_equal(io_cb_do(&f), 0x0002);
+    /* Same CIP sequence count: not new data, not applied. */
+    send_ctl(&f, cid, 0x90000002u, 0x0000, true, 0x0003, T0 + 3 * MS);
+    assert_int_equal(io_cb_do(&f), 0x0002);
+    /* An older encapsulation sequence number: discarded whole. */
+    send_ctl(&f, cid, 0x90000001u, 0x0001, true, 0x0004, T0 + 4 * MS);
+    assert_int_equal(io_cb_do(&f), 0x0002);
+    assert_int_equal(c->stale, 1);
+    /* Idle: the packet keeps the connection alive but is not applied. */
+    send_ctl(&f, cid, 0x90000003u, 0x0001, false, 0x0005, T0 + 5 * MS);
+    assert_int_equal(io_cb_do(&f), 0x0002);
+    assert_int_equal(drsim_identity_status(&f.sim) >> 4, 7); /* all idle */
+    send_ctl(&f, cid, 0x90000004u, 0x0002, true, 0x0006, T0 + 6 * MS);
+    assert_int_equal(io_cb_do(&f), 0x0006);
+    /* Wrong data length, unknown connection ID: ignored. */
+    uint8_t pkt[64], data[13] = {0xFF};
+    size_t n = o2t_packet(pkt, sizeof pkt, cid, 0x90000005u, 3, true, data, 13);
+    dr_sockaddr_t from = {0x7F000001u, 2222};
+    drsim_io_receive(&f.sim, T0 + 7 * MS, &from, pkt, n);
+    assert_int_equal(io_cb_do(&f), 0x0006);
+    n = o2t_packet(pkt, sizeof pkt, cid + 1, 0x90000005u, 3, true, data, 12);
+    drsim_io_receive(&f.sim, T0 + 7 * MS, &from, pkt, n);
+    assert_int_equal(io_cb_do(&f), 0x0006);
+    /* Garbage is no crash. */
+    for (size_t len = 0; len < n; len++)
+        drsim_io_receive(&f.sim, T0 + 7 * MS, &from, pkt, len);
+    assert_int_equal(c->applied, 3);
+}
+
+static void test_timeouts(void **state)
+{
+    (void)state;
+    static fx_t f;
+    fx_init(&f, NULL);
+    fx_register(&f);
+    /* No O->T at all: closed after the 10 s grace. */
+    uint32_t cid = open_io(&f, 0);
+    drsim_run(&f.sim, T0 + 9999 * MS, fx_capture, &f);
+    assert_non_null(drsim_conn_by_o2t(&f.sim, cid));
+    drsim_run(&f.sim, T0 + 10000 * MS, fx_capture, &f);
+    assert_null(drsim_conn_by_o2t(&f.sim, cid));
+    /* After O->T: RPI x (4 << 1) = 80 ms of silence. */
+    cid = open_io(&f, 1); /* opened at T0 */
+    send_ctl(&f, cid, 1, 1, true, 0, T0 + 100 * MS);
+    drsim_run(&f.sim, T0 + 179 * MS, fx_capture, &f);
+    assert_non_null(drsim_conn_by_o2t(&f.sim, cid));
+    assert_true(drsim_next_deadline(&f.sim) <= T0 + 180 * MS);
+    drsim_run(&f.sim, T0 + 180 * MS, fx_capture, &f);
+    assert_null(drsim_conn_by_o2t(&f.sim, cid));
+    assert_int_equal(drsim_conn_count(&f.sim), 0);
+}
+
+static void test_drop_and_stop(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.drop_pct = 100;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint32_t cid = open_io(&f, 7);
+    send_ctl(&f, cid, 1, 1, true, 0x00FF, T0 + MS);
+    assert_int_equal(io_cb_do(&f), 0);
+    drsim_run(&f.sim, T0 + 100 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, 0);
+
+    /* Half of them, the same ones for the same seed. */
+    unsigned counts[2];
+    for (int k = 0; k < 2; k++) {
+        static fx_t g;
+        cfg.drop_pct = 50;
+        fx_init(&g, &cfg);
+        fx_register(&g);
+        open_io(&g, 7);
+        for (unsigned i = 0; i < 200; i++)
+            drsim_run(&g.sim, T0 + i * 10 * MS, fx_capture, &g);
+        counts[k] = g.sent;
+    }
+    assert_int_equal(counts[0], counts[1]);
+    assert_true(counts[0] > 60 && counts[0] < 140);
+
+    /* --stop-producing-after: T->O ends, the connection stays. */
+    cfg.drop_pct = 0;
+    cfg.stop_producing_ns = 50 * MS;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    cid = open_io(&f, 7);
+    for (unsigned i = 0; i < 20; i++)
+        drsim_run(&f.sim, T0 + i * 10 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, 5);
+    assert_non_null(drsim_conn_by_o2t(&f.sim, cid));
+}
+
+/* A late loop skips the periods it missed instead of bunching them. */
+static void test_produce_grid(void **state)
+{
+    (void)state;
+    static fx_t f;
+    fx_init(&f, NULL);
+    fx_register(&f);
+    open_io(&f, 7);
+    drsim_run(&f.sim, T0, fx_capture, &f);
+    drsim_run(&f.sim, T0 + 35 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, 2);
+    drsim_run(&f.sim, T0 + 36 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, 2);
+    uint64_t next = T0 + 40 * MS;
+    assert_true(drsim_next_deadline(&f.sim) <= next);
+    drsim_run(&f.sim, next, fx_capture, &f);
+    assert_int_equal(f.sent, 3);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_forward_open_accepted),
+        cmocka_unit_test(test_forward_open_sockaddr_and_large),
+        cmocka_unit_test(test_forward_open_refused),
+        cmocka_unit_test(test_refuse_fault),
+        cmocka_unit_test(test_sequence_handling),
+        cmocka_unit_test(test_timeouts),
+        cmocka_unit_test(test_drop_and_stop),
+        cmocka_unit_test(test_produce_grid),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
