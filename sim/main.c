@@ -370,9 +370,12 @@ static int open_socket(int type, uint32_t addr, uint16_t port)
     if (fd < 0)
         return -1;
     int one = 1;
-    /* A restarted drsim must not wait out TIME_WAIT on its own port. */
-    (void)setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    if (type == SOCK_DGRAM)
+    /* TCP: a restarted drsim must not wait out TIME_WAIT on its port.
+     * Not UDP: there SO_REUSEADDR would let a second program bind the
+     * same address and port and silently take our datagrams. */
+    if (type == SOCK_STREAM)
+        (void)setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    else
         (void)setsockopt(fd, SOL_SOCKET, SO_BROADCAST, &one, sizeof one);
     struct sockaddr_in sa = sin_of(addr, port);
     char ip[INET_ADDRSTRLEN];
@@ -464,7 +467,9 @@ static void client_flush(loop_t *L, int idx)
         memmove(c->out, c->out + n, c->out_len - (size_t)n);
         c->out_len -= (size_t)n;
     }
-    uint32_t ev = EPOLLIN | (c->out_len > 0 ? EPOLLOUT : 0u);
+    /* Back-pressure: while replies wait for the peer to read them, read
+     * no more requests from it (the other clients carry on). */
+    uint32_t ev = c->out_len > 0 ? EPOLLOUT : EPOLLIN;
     ep_mod(L->ep, c->fd, ev, TAG(TAG_CLIENT, idx));
 }
 
@@ -474,7 +479,8 @@ static void client_send(loop_t *L, int idx, const uint8_t *buf, size_t len)
     if (c->fd < 0)
         return;
     if (CLIENT_OUT_CAP - c->out_len < len) {
-        /* It stopped reading; holding more would only grow memory. */
+        /* It stopped reading (only delayed replies can pile up this far,
+         * see client_flush); holding more would only grow memory. */
         client_close(L, idx, "not reading its replies");
         return;
     }
