@@ -113,6 +113,7 @@ void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns)
     s->rng = mix64(cfg->seed ^ 0xD5095EEDull);
     s->next_session = (uint32_t)mix64(cfg->seed ^ 0x5E55u) | 1u;
     s->next_cid = (uint32_t)mix64(cfg->seed ^ 0xC1Du) | 1u;
+    s->start_ns = now_ns;
     s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
 
     dr_identity_t *id = &s->identity;
@@ -963,21 +964,21 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
             c->produced++;
         }
     }
-    /* Next deadline on the absolute grid opened_ns + k * API; periods we
-     * could not make (a stalled process) are skipped, not bunched up. */
-    c->next_produce_ns += api_ns;
-    if (c->next_produce_ns <= now)
-        c->next_produce_ns += ((now - c->next_produce_ns) / api_ns + 1u) * api_ns;
+    /* Next deadline on the absolute grid start_ns + k * API, shared by
+     * every connection with this API, so six connections at 1 ms cost one
+     * wake-up per millisecond, not six. Periods we could not make (a
+     * stalled process) are skipped, not bunched up. After the first
+     * packet (sent at once on open) the next one waits at least API / 2. */
+    uint64_t since = now > s->start_ns ? now - s->start_ns : 0;
+    uint64_t next = s->start_ns + (since / api_ns + 1u) * api_ns;
+    if (c->produced + c->produce_dropped == 1 && next - now < api_ns / 2u)
+        next += api_ns;
+    c->next_produce_ns = next;
 }
 
 void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
 {
-    if (now_ns >= s->next_model_ns) {
-        drsim_robot_update(&s->robot, now_ns, &s->img);
-        s->next_model_ns += DRSIM_MODEL_PERIOD_NS;
-        if (s->next_model_ns <= now_ns)
-            s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
-    }
+    /* Packets first, the model after: its step would only delay them. */
     for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++) {
         drsim_conn_t *c = &s->conn[i];
         if (!c->used)
@@ -988,6 +989,12 @@ void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
         }
         if (!c->stopped && now_ns >= c->next_produce_ns)
             produce(s, c, now_ns, send, ctx);
+    }
+    if (now_ns >= s->next_model_ns) {
+        drsim_robot_update(&s->robot, now_ns, &s->img);
+        s->next_model_ns += DRSIM_MODEL_PERIOD_NS;
+        if (s->next_model_ns <= now_ns)
+            s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
     }
 }
 

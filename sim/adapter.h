@@ -99,6 +99,7 @@ typedef struct {
     uint64_t rng;              /* drop decisions */
     uint32_t next_session;
     uint32_t next_cid;
+    uint64_t start_ns;         /* epoch of the production grid */
     uint64_t next_model_ns;
 } drsim_t;
 
