@@ -12,9 +12,11 @@
 #                      backend), plain and under ASan+UBSan
 #   check-gpio-qemu    tests/gpio/gpio_selftest on a real kernel GPIO chip
 #                      (gpio-mockup) in qemu; skipped loudly without qemu
+#   check-gpio-qemu-asan  the same, built with ASan+UBSan (and LSan)
 #   check-gpio-v2      the libgpiod 2 backend: built against the libgpiod
 #                      sources in the gpiod sdist from PyPI, run in qemu
 #   gpio-qemu-shell    (manual) the guest with the selftest, for poking
+#   check-gpio-all     all four check-gpio* targets (~40 s once cached)
 
 # Backend: v2 when pkg-config finds libgpiod >= 2.0, else v1 (bookworm).
 # An empty version (no libgpiod, or PKG_CONFIG=true in cross builds)
@@ -38,7 +40,8 @@ GPIO_CACHE    ?= $(if $(XDG_CACHE_HOME),$(XDG_CACHE_HOME),$(if $(HOME),$(HOME)/.
 GPIO_QEMU     := tests/gpio/qemu/run.sh
 GPIO_QEMU_TIMEOUT ?= 120
 
-.PHONY: gpio check-gpio check-gpio-qemu check-gpio-v2 gpio-qemu-shell
+.PHONY: gpio check-gpio check-gpio-qemu check-gpio-qemu-asan check-gpio-v2 \
+        gpio-qemu-shell check-gpio-all
 
 gpio: $(GPIO_A)
 
@@ -88,6 +91,22 @@ check-gpio-qemu: $(GPIO_SELFTEST)
 	@sh $(GPIO_QEMU) --cache "$(GPIO_CACHE)" --timeout $(GPIO_QEMU_TIMEOUT) \
 	    --results "$(RESULTS)" --label gpio_qemu \
 	    --bin $(GPIO_SELFTEST) --script tests/gpio/qemu/selftest.sh
+
+# The selftest under sanitizers in the guest: leaks and UB on the paths
+# only a real kernel takes (the runtime libraries go in with ldd's list).
+check-gpio-qemu-asan:
+	$(MAKE) --no-print-directory B=$(B)/asan CFLAGS="$(SAN_FLAGS)" \
+	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
+	    RESULTS=$(abspath $(RESULTS)) $(B)/asan/tests/gpio/gpio_selftest
+	@sh $(GPIO_QEMU) --cache "$(GPIO_CACHE)" --timeout $(GPIO_QEMU_TIMEOUT) \
+	    --results "$(RESULTS)" --label gpio_qemu_asan \
+	    --bin $(B)/asan/tests/gpio/gpio_selftest --script tests/gpio/qemu/selftest.sh
+
+check-gpio-all:
+	$(MAKE) --no-print-directory check-gpio
+	$(MAKE) --no-print-directory check-gpio-qemu
+	$(MAKE) --no-print-directory check-gpio-qemu-asan
+	$(MAKE) --no-print-directory check-gpio-v2
 
 gpio-qemu-shell: $(GPIO_SELFTEST)
 	@sh $(GPIO_QEMU) --cache "$(GPIO_CACHE)" --interactive \

@@ -22,6 +22,7 @@
 #
 # Exit: 0 pass, 1 fail, 2 usage or harness error, 77 skipped because qemu
 # or the kernel cannot be had here (with --results: a loud message and 0).
+# QEMU=/path/to/qemu-system-x86_64 picks another qemu (and installs none).
 #
 # Inside the guest: PATH=/bin:/usr/bin, proc, sysfs, devtmpfs, debugfs
 # (/sys/kernel/debug/gpio-mockup/gpiochipN/LINE drives inputs and reads
@@ -92,7 +93,12 @@ t_start=$(now)
 
 # ---- tools ------------------------------------------------------------------
 missing=""
-command -v qemu-system-x86_64 >/dev/null 2>&1 || missing="$missing qemu-system-x86"
+if [ -n "${QEMU:-}" ]; then
+    command -v "$QEMU" >/dev/null 2>&1 || skip "QEMU=$QEMU is not there"
+else
+    QEMU=qemu-system-x86_64
+    command -v "$QEMU" >/dev/null 2>&1 || missing="$missing qemu-system-x86"
+fi
 # The guest has no libc of its own: busybox must be the static build.
 LC_ALL=C ldd /bin/busybox 2>&1 | grep -q 'not a dynamic' || missing="$missing busybox-static"
 command -v cpio >/dev/null 2>&1 || missing="$missing cpio"
@@ -233,7 +239,9 @@ echo "$files" | while read -r f; do
     cp "$src" "$stage$dest"
 done
 
-guest_timeout=$((timeout > 40 ? timeout - 20 : timeout))
+# The guest stops the test first, so a hang still reports through /init.
+margin=$((timeout / 3 < 20 ? timeout / 3 : 20))
+guest_timeout=$((timeout - margin))
 if [ "$interactive" = 1 ]; then
     payload='echo "DRGATE-GUEST-UP: the test is /test.sh; poweroff -f leaves"; setsid cttyhack sh; rc=0'
 else
@@ -275,14 +283,15 @@ mkdir -p "$(dirname "$serial")"
 : > "$serial"
 t_boot=$(now)
 if [ "$interactive" = 1 ]; then
-    exec qemu-system-x86_64 -accel "$accel" -m 512 -smp 1 -nodefaults \
+    "$QEMU" -accel "$accel" -m 512 -smp 1 -nodefaults \
         -no-user-config -kernel "$kdir/vmlinuz" -initrd "$run/initrd.gz" \
         -append "console=ttyS0 panic=-1 quiet" -display none \
         -serial mon:stdio -no-reboot
+    exit $?
 fi
 say "booting kernel $kv ($accel) with $(basename "$script")"
 set +e
-timeout --kill-after=5 "$timeout" qemu-system-x86_64 -accel "$accel" -m 512 \
+timeout --kill-after=5 "$timeout" "$QEMU" -accel "$accel" -m 512 \
     -smp 1 -nodefaults -no-user-config -kernel "$kdir/vmlinuz" \
     -initrd "$run/initrd.gz" -append "console=ttyS0 panic=-1 quiet" \
     -display none -monitor none -serial "file:$serial" -no-reboot \
@@ -290,7 +299,8 @@ timeout --kill-after=5 "$timeout" qemu-system-x86_64 -accel "$accel" -m 512 \
 qrc=$?
 set -e
 
-tr -d '\r' < "$serial" | sed -n '/^DRGATE-GUEST-UP/,$p' | grep -v '^DRGATE-GUEST-UP'
+tr -d '\r' < "$serial" | sed -n '/^DRGATE-GUEST-UP/,$p' |
+    grep -v -e '^DRGATE-GUEST-UP' -e 'reboot: Power down'
 rc=$(tr -d '\r' < "$serial" | sed -n 's/^DRGATE-RESULT rc=\([0-9]*\).*/\1/p' | tail -n 1)
 elapsed="boot+test $(( $(now) - t_boot )) s, total $(( $(now) - t_start )) s"
 if [ -z "$rc" ]; then
@@ -311,6 +321,9 @@ if [ "$rc" = 0 ]; then
     record 1 0
     exit 0
 fi
-say "FAIL: test script exited $rc ($elapsed)"
+case $rc in
+124|143) say "FAIL: test script timed out after ${guest_timeout}s in the guest ($elapsed)" ;;
+*) say "FAIL: test script exited $rc ($elapsed)" ;;
+esac
 record 0 1
 exit 1
