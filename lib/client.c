@@ -238,7 +238,8 @@ static dr_status_t send_encap(dr_client_t *c, uint16_t cmd, uint64_t context,
     dr_status_t st = dr_encap_write(frame, TX_BUF - c->tx_len, &h, body_len);
     if (st != DR_OK)
         return st;
-    memcpy(frame + DR_ENCAP_HEADER_LEN, body, body_len);
+    if (body_len > 0)
+        memcpy(frame + DR_ENCAP_HEADER_LEN, body, body_len);
     c->tx_len += DR_ENCAP_HEADER_LEN + body_len;
     flush_tx(c);
     return DR_OK;

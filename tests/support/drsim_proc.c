@@ -10,6 +10,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -81,6 +83,16 @@ bool drsim_start(drsim_proc_t *p, const char *const *extra)
     if (p->pid < 0)
         return false;
     if (p->pid == 0) {
+        /* drsim must not hold the test's output open (the runner reads it
+         * to the end), and must not outlive a crashed test. */
+        int devnull = open("/dev/null", O_WRONLY);
+        const char *log = getenv("DRSIM_LOG");
+        int out = log != NULL ? open(log, O_WRONLY | O_CREAT | O_APPEND, 0644) : devnull;
+        if (out >= 0) {
+            dup2(out, STDOUT_FILENO);
+            dup2(out, STDERR_FILENO);
+        }
+        prctl(PR_SET_PDEATHSIG, SIGTERM);
         execv(path, (char *const *)argv);
         _exit(127);
     }
