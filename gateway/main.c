@@ -1,0 +1,482 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * drgatewayd: keeps the robots' assemblies live over EtherNet/IP and serves
+ * them as Modbus TCP registers and GPIO lines. One thread, one epoll loop.
+ */
+#define _GNU_SOURCE /* signalfd */
+#include <errno.h>
+#include <getopt.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/signalfd.h>
+#include <systemd/sd-daemon.h>
+#include <unistd.h>
+
+#include "config.h"
+#include "gpiomap.h"
+#include "link.h"
+#include "log.h"
+#include "loop.h"
+#include "mbserver.h"
+#include "regmap.h"
+
+#ifndef DRGATE_VERSION
+#define DRGATE_VERSION "0.0.0"
+#endif
+#define DEFAULT_CONFIG "/etc/drgate/drgatewayd.ini"
+#define EX_CONFIG 78
+#define TICK_US 100000u /* status block refresh: 10 Hz */
+
+typedef struct {
+    gw_config_t cfg;
+    int epfd;
+    gw_ev_t sig_ev;
+    int sigfd;
+    gw_unit_t units[GW_MAX_ROBOTS];
+    gw_link_t *links[GW_MAX_ROBOTS];
+    gw_mbs_t *mbs;
+    gw_gpiomap_t *gpio;
+    bool stop, reload;
+    uint64_t start_us, next_tick_us, next_beat_us;
+    uint64_t watchdog_us; /* systemd watchdog period (0: off) */
+    uint64_t last_notify_us;
+    /* single writer */
+    bool writer_seen;
+    uint16_t last_watchdog[GW_MAX_ROBOTS];
+    uint64_t watchdog_change_us;
+    uint16_t generation;
+} gw_t;
+
+static gw_t G; /* the daemon's state: large, one per process */
+
+/* ---- hooks -------------------------------------------------------------------- */
+
+static gw_unit_t *unit_for(void *user, uint8_t unit_id)
+{
+    gw_t *g = user;
+    for (unsigned i = 0; i < g->cfg.robot_count; i++)
+        if (g->cfg.robot[i].unit_id == unit_id)
+            return &g->units[i];
+    return NULL;
+}
+
+static unsigned robot_of_unit(const gw_t *g, uint8_t unit_id)
+{
+    for (unsigned i = 0; i < g->cfg.robot_count; i++)
+        if (g->cfg.robot[i].unit_id == unit_id)
+            return i;
+    return 0;
+}
+
+static void on_modbus_write(void *user, uint8_t unit_id, unsigned dirty)
+{
+    gw_t *g = user;
+    unsigned r = robot_of_unit(g, unit_id);
+    gw_link_outputs_changed(g->links[r], dirty);
+}
+
+static void on_gpio_input(void *user, unsigned robot, unsigned dirty)
+{
+    gw_t *g = user;
+    if (robot < g->cfg.robot_count && g->links[robot] != NULL)
+        gw_link_outputs_changed(g->links[robot], dirty);
+}
+
+static void on_link(void *user, unsigned robot, bool up, dr_status_t why)
+{
+    gw_t *g = user;
+    (void)why;
+    gw_gpiomap_link(g->gpio, robot, up);
+    if (!up && g->cfg.modbus.on_link_loss == GW_LOSS_ZERO)
+        for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+            if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
+                memset(g->units[robot].img[a], 0, DR_ASM_MAX_SIZE);
+}
+
+static void on_data(void *user, unsigned robot, dr_asm_t a)
+{
+    gw_t *g = user;
+    (void)a;
+    gw_gpiomap_follow(g->gpio, robot);
+}
+
+static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
+
+/* ---- single writer ----------------------------------------------------------- */
+
+/* EK9000-like write lock: the owner must keep changing the watchdog
+ * register; when it stops, outputs go to their fallback and a fault
+ * latches until a client writes the reset register. */
+static void writer_watchdog(gw_t *g, uint64_t now)
+{
+    if (!g->cfg.modbus.single_writer)
+        return;
+    bool present = gw_mbs_writer_present(g->mbs);
+    if (present && !g->writer_seen)
+        g->watchdog_change_us = now; /* a new owner: its watchdog starts now */
+    g->writer_seen = g->writer_seen || present;
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        gw_unit_t *u = &g->units[r];
+        if (u->watchdog != g->last_watchdog[r]) {
+            g->last_watchdog[r] = u->watchdog;
+            g->watchdog_change_us = now;
+        }
+        if (u->fault_reset) {
+            u->fault_reset = false;
+            if (u->status.write_fault)
+                gw_log(GW_LOG_INFO, "robot %s: write fault reset", g->cfg.robot[r].name);
+            u->status.write_fault = false;
+        }
+    }
+    uint64_t limit = (uint64_t)g->cfg.modbus.writer_watchdog_ms * 1000u;
+    if (!g->writer_seen || now - g->watchdog_change_us < limit)
+        return;
+    g->writer_seen = false;
+    gw_mbs_release_writer(g->mbs);
+    gw_log(GW_LOG_WARNING, "modbus: single writer's watchdog expired: outputs to fallback");
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        gw_unit_t *u = &g->units[r];
+        u->status.write_fault = true;
+        if (!g->cfg.robot[r].fallback_hold) {
+            unsigned dirty = 0;
+            for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+                if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T) {
+                    memset(u->img[a], 0, DR_ASM_MAX_SIZE);
+                    dirty |= 1u << a;
+                }
+            gw_link_outputs_changed(g->links[r], dirty);
+        }
+    }
+    gw_gpiomap_safe_all(g->gpio);
+}
+
+/* ---- status block and timers ------------------------------------------------- */
+
+static void tick(gw_t *g, uint64_t now)
+{
+    for (unsigned r = 0; r < g->cfg.robot_count; r++)
+        gw_link_tick(g->links[r], now);
+    gw_mbs_tick(g->mbs, now);
+    gw_gpiomap_tick(g->gpio, now);
+    writer_watchdog(g, now);
+    if (now < g->next_tick_us)
+        return;
+    g->next_tick_us = now + TICK_US;
+    bool beat = now >= g->next_beat_us;
+    if (beat)
+        g->next_beat_us = now + 1000000u;
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        gw_status_t *st = &g->units[r].status;
+        st->clients = (uint16_t)gw_mbs_client_count(g->mbs);
+        st->exceptions = gw_mbs_exceptions(g->mbs);
+        st->uptime_s = (uint32_t)((now - g->start_us) / 1000000u);
+        st->writer_present = gw_mbs_writer_present(g->mbs);
+        st->config_generation = g->generation;
+        if (beat)
+            st->heartbeat++;
+    }
+}
+
+static uint64_t next_deadline(const gw_t *g)
+{
+    uint64_t d = g->next_tick_us;
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        uint64_t x = gw_link_next_deadline(g->links[r]);
+        if (x < d)
+            d = x;
+    }
+    uint64_t x = gw_mbs_next_deadline(g->mbs);
+    if (x < d)
+        d = x;
+    x = gw_gpiomap_next_deadline(g->gpio);
+    return x < d ? x : d;
+}
+
+/* Tell systemd we are alive, but only while the loop keeps its timing. */
+static void notify_watchdog(gw_t *g, uint64_t now)
+{
+    if (g->watchdog_us == 0 || now - g->last_notify_us < g->watchdog_us / 2u)
+        return;
+    g->last_notify_us = now;
+    sd_notify(0, "WATCHDOG=1");
+}
+
+/* ---- set-up, reload, shutdown ---------------------------------------------- */
+
+static void on_signal(void *obj, uint32_t events)
+{
+    gw_t *g = obj;
+    struct signalfd_siginfo si;
+    (void)events;
+    while (read(g->sigfd, &si, sizeof si) == (ssize_t)sizeof si) {
+        if (si.ssi_signo == SIGHUP)
+            g->reload = true;
+        else
+            g->stop = true;
+    }
+}
+
+static void init_unit(gw_t *g, unsigned r)
+{
+    gw_unit_t *u = &g->units[r];
+    u->order = g->cfg.modbus.word_order;
+    u->on_loss = g->cfg.modbus.on_link_loss;
+    u->status.config_generation = g->generation;
+}
+
+static bool start_links(gw_t *g)
+{
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        init_unit(g, r);
+        g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->units[r], g->epfd, &link_hooks);
+        if (g->links[r] == NULL)
+            return false;
+    }
+    return true;
+}
+
+/* SIGHUP: a new config that does not validate is refused; robots whose
+ * section did not change keep their connection and their data. */
+static void reload(gw_t *g)
+{
+    static gw_config_t next;
+    char err[512];
+    g->reload = false;
+    if (!gw_config_load(g->cfg.path, &next, err, sizeof err)) {
+        gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
+        return;
+    }
+    static gw_unit_t units[GW_MAX_ROBOTS];
+    gw_link_t *links[GW_MAX_ROBOTS] = {NULL};
+    bool kept[GW_MAX_ROBOTS] = {false};
+    memset(units, 0, sizeof units);
+    for (unsigned n = 0; n < next.robot_count; n++)
+        for (unsigned o = 0; o < g->cfg.robot_count; o++)
+            if (!kept[o] && strcmp(next.robot[n].name, g->cfg.robot[o].name) == 0 &&
+                gw_robot_config_same_link(&next.robot[n], &g->cfg.robot[o])) {
+                units[n] = g->units[o];
+                links[n] = g->links[o];
+                kept[o] = true;
+            }
+    for (unsigned o = 0; o < g->cfg.robot_count; o++)
+        if (!kept[o]) {
+            gw_log(GW_LOG_INFO, "reload: robot %s changed or removed: closing its link",
+                   g->cfg.robot[o].name);
+            gw_link_free(g->links[o]);
+        }
+    /* GPIO lines are requested again from the new sections. */
+    gw_gpiomap_free(g->gpio);
+    g->gpio = NULL;
+    bool restart_modbus = !gw_mbs_reconfigure(g->mbs, &next.modbus);
+    g->cfg = next;
+    memcpy(g->units, units, sizeof units);
+    memset(g->links, 0, sizeof g->links);
+    g->generation++;
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        init_unit(g, r);
+        if (links[r] != NULL) {
+            g->links[r] = links[r];
+            gw_link_set_unit(links[r], r, &g->units[r]);
+        } else {
+            g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->units[r], g->epfd, &link_hooks);
+            if (g->links[r] == NULL) {
+                g->stop = true;
+                return;
+            }
+        }
+    }
+    if (restart_modbus) {
+        gw_mbs_free(g->mbs);
+        gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g};
+        g->mbs = gw_mbs_new(&g->cfg.modbus, g->epfd, &mh, err, sizeof err);
+        if (g->mbs == NULL) {
+            gw_log(GW_LOG_ERROR, "reload: %s", err);
+            g->stop = true;
+            return;
+        }
+    }
+    gw_gpiomap_hooks_t gh = {on_gpio_input, g};
+    g->gpio = gw_gpiomap_new(&g->cfg, g->units, g->epfd, &gh, err, sizeof err);
+    if (g->gpio == NULL) {
+        gw_log(GW_LOG_ERROR, "reload: %s", err);
+        g->stop = true;
+        return;
+    }
+    for (unsigned r = 0; r < g->cfg.robot_count; r++)
+        gw_gpiomap_link(g->gpio, r, gw_link_up(g->links[r]));
+    gw_log(GW_LOG_INFO, "configuration %s reloaded (generation %u)", g->cfg.path, g->generation);
+    sd_notify(0, "READY=1");
+}
+
+static int setup_signals(gw_t *g)
+{
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGHUP);
+    sigprocmask(SIG_BLOCK, &set, NULL);
+    signal(SIGPIPE, SIG_IGN);
+    g->sigfd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
+    g->sig_ev.fn = on_signal;
+    g->sig_ev.obj = g;
+    g->sig_ev.fd = -1;
+    return g->sigfd >= 0 && gw_loop_watch(g->epfd, &g->sig_ev, g->sigfd, EPOLLIN) ? 0 : -1;
+}
+
+static void shutdown_all(gw_t *g)
+{
+    sd_notify(0, "STOPPING=1");
+    gw_gpiomap_safe_all(g->gpio); /* first: the cell is safe whatever follows */
+    for (unsigned r = 0; r < g->cfg.robot_count; r++)
+        gw_link_free(g->links[r]); /* Forward Close, UnRegisterSession */
+    gw_mbs_free(g->mbs);
+    gw_gpiomap_free(g->gpio);
+    gw_log(GW_LOG_INFO, "stopped");
+}
+
+static int run(gw_t *g)
+{
+    char err[512];
+    g->epfd = epoll_create1(EPOLL_CLOEXEC);
+    if (g->epfd < 0 || setup_signals(g) != 0) {
+        gw_log(GW_LOG_ERROR, "cannot set up the event loop: %s", strerror(errno));
+        return 1;
+    }
+    g->start_us = gw_now_us();
+    gw_regmap_init();
+    gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g};
+    gw_gpiomap_hooks_t gh = {on_gpio_input, g};
+    g->mbs = gw_mbs_new(&g->cfg.modbus, g->epfd, &mh, err, sizeof err);
+    if (g->mbs == NULL) {
+        gw_log(GW_LOG_ERROR, "%s", err);
+        return 1;
+    }
+    g->gpio = gw_gpiomap_new(&g->cfg, g->units, g->epfd, &gh, err, sizeof err);
+    if (g->gpio == NULL) {
+        gw_log(GW_LOG_ERROR, "%s", err);
+        gw_mbs_free(g->mbs);
+        return 1;
+    }
+    if (!start_links(g)) {
+        shutdown_all(g);
+        return 1;
+    }
+    uint64_t wd = 0;
+    if (sd_watchdog_enabled(0, &wd) > 0)
+        g->watchdog_us = wd;
+    sd_notify(0, "READY=1");
+    gw_log(GW_LOG_INFO, "drgatewayd %s running: %u robot(s), %u GPIO line(s)", DRGATE_VERSION,
+           g->cfg.robot_count, gw_gpiomap_count(g->gpio));
+
+    struct epoll_event evs[32];
+    while (!g->stop) {
+        uint64_t now = gw_now_us(), d = next_deadline(g);
+        int timeout = d <= now ? 0 : (int)((d - now + 999u) / 1000u);
+        if (timeout > 1000)
+            timeout = 1000;
+        int n = epoll_wait(g->epfd, evs, 32, timeout);
+        if (n < 0 && errno != EINTR) {
+            gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
+            break;
+        }
+        for (int i = 0; i < n; i++) {
+            gw_ev_t *ev = evs[i].data.ptr;
+            ev->fn(ev->obj, evs[i].events);
+        }
+        now = gw_now_us();
+        tick(g, now);
+        notify_watchdog(g, now);
+        if (g->reload)
+            reload(g);
+    }
+    shutdown_all(g);
+    return 0;
+}
+
+/* ---- command line --------------------------------------------------------------- */
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: drgatewayd [-c FILE] [-v]\n"
+            "       drgatewayd --check-config FILE\n"
+            "       drgatewayd --print-map [--json | --markdown]\n"
+            "Serves Doosan robots' EtherNet/IP assemblies as Modbus TCP registers and GPIO\n"
+            "lines.\n\n"
+            "  -c, --config FILE      configuration (default " DEFAULT_CONFIG ")\n"
+            "      --check-config FILE  validate FILE and exit (0 valid, 78 invalid)\n"
+            "      --print-map        print the Modbus register map and exit\n"
+            "      --json, --markdown   format of --print-map\n"
+            "  -v, --verbose          log debug messages\n"
+            "  -h, --help             this help\n"
+            "  -V, --version          version\n\n"
+            "Signals: SIGHUP reloads the configuration (a bad one is refused and the\n"
+            "running one kept), SIGTERM/SIGINT put GPIO outputs to their safe values,\n"
+            "close the robot connections and exit 0.\n"
+            "Exit status: 0 stopped by a signal, 1 runtime error, 2 usage error,\n"
+            "78 configuration error (EX_CONFIG). See drgatewayd(8).\n");
+}
+
+int main(int argc, char **argv)
+{
+    enum { OPT_CHECK = 256, OPT_MAP, OPT_JSON, OPT_MD };
+    static const struct option opts[] = {
+        {"config", required_argument, NULL, 'c'},
+        {"check-config", required_argument, NULL, OPT_CHECK},
+        {"print-map", no_argument, NULL, OPT_MAP},
+        {"json", no_argument, NULL, OPT_JSON},
+        {"markdown", no_argument, NULL, OPT_MD},
+        {"verbose", no_argument, NULL, 'v'},
+        {"help", no_argument, NULL, 'h'},
+        {"version", no_argument, NULL, 'V'},
+        {NULL, 0, NULL, 0},
+    };
+    const char *config = DEFAULT_CONFIG, *check = NULL;
+    bool print_map = false, verbose = false;
+    gw_print_fmt_t fmt = GW_PRINT_TEXT;
+    int c;
+    while ((c = getopt_long(argc, argv, "c:vhV", opts, NULL)) != -1) {
+        switch (c) {
+        case 'c': config = optarg; break;
+        case OPT_CHECK: check = optarg; break;
+        case OPT_MAP: print_map = true; break;
+        case OPT_JSON: fmt = GW_PRINT_JSON; break;
+        case OPT_MD: fmt = GW_PRINT_MARKDOWN; break;
+        case 'v': verbose = true; break;
+        case 'h': usage(stdout); return 0;
+        case 'V': printf("drgatewayd %s\n", DRGATE_VERSION); return 0;
+        default: usage(stderr); return 2;
+        }
+    }
+    if (optind != argc) {
+        fprintf(stderr, "drgatewayd: unexpected argument '%s'\n", argv[optind]);
+        return 2;
+    }
+    if (print_map) {
+        gw_regmap_print(stdout, fmt);
+        return 0;
+    }
+    char err[512];
+    if (check != NULL) {
+        if (!gw_config_load(check, &G.cfg, err, sizeof err)) {
+            fprintf(stderr, "drgatewayd: %s\n", err);
+            return EX_CONFIG;
+        }
+        printf("%s: valid (%u robot(s), %u GPIO line(s))\n", check, G.cfg.robot_count,
+               G.cfg.gpio_count);
+        return 0;
+    }
+    if (!gw_config_load(config, &G.cfg, err, sizeof err)) {
+        fprintf(stderr, "drgatewayd: %s\n", err);
+        return EX_CONFIG;
+    }
+    gw_log_level_t level = GW_LOG_INFO;
+    if (G.cfg.log_level[0] != '\0')
+        (void)gw_log_level_parse(G.cfg.log_level, &level);
+    gw_log_set_level(verbose ? GW_LOG_DEBUG : level);
+    return run(&G);
+}
