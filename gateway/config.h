@@ -2,9 +2,14 @@
 /*
  * drgatewayd configuration: one INI file (parsed with libinih).
  *
+ *   [daemon]            log level
  *   [modbus]            listen address/port, clients, word order, allowlist
  *   [robot NAME]        one section per robot, each with its own unit ID
  *   [gpio NAME]         one section per GPIO line
+ *
+ * "[robot NAME]" and "[robot.NAME]" are the same section ("[robot]" alone
+ * names the robot "robot"); likewise "[gpio NAME]" and "[gpio.NAME]".
+ * Every key, default and range: docs/configuration.md.
  *
  * gw_config_load() validates everything and reports the first error as
  * "FILE:LINE: message (allowed: ...)"; the daemon exits with 78 (EX_CONFIG).
@@ -42,7 +47,8 @@ typedef struct {
     gw_word_order_t word_order; /* default abcd */
     gw_link_loss_t on_link_loss; /* default hold */
     unsigned allow_count;     /* 0: everyone read-write */
-    gw_allow_t allow[GW_MAX_ALLOW];
+    gw_allow_t allow[GW_MAX_ALLOW]; /* file order; the first match decides
+                                       (the loader refuses shadowed entries) */
     /* Single-writer mode (EK9000-like write lock). */
     bool single_writer;       /* default false */
     unsigned writer_watchdog_ms; /* default 1000 */
@@ -76,7 +82,9 @@ typedef struct {
     int offset;               /* -1 when given by line name */
     char line_name[64];
     gw_gpio_dir_t dir;
-    char robot[GW_NAME_MAX];  /* robot section it belongs to ("" = the only one) */
+    char robot[GW_NAME_MAX];  /* robot it belongs to: always filled in by
+                                 gw_config_load (the only robot if omitted) */
+    unsigned robot_index;     /* that robot's index in gw_config_t.robot[] */
     dr_ref_t field;           /* output: follows this bit; input: drives this O->T bit */
     bool active_low;
     gw_gpio_bias_t bias;
@@ -96,7 +104,9 @@ typedef struct {
 } gw_config_t;
 
 /* Load and validate `path`. On error returns false and writes
- * "FILE:LINE: what is wrong (allowed: ...)" into err[errlen]. */
+ * "FILE:LINE: what is wrong (allowed: ...)" into err[errlen] (errors about
+ * the file itself, such as "cannot open", have no LINE); *out is written
+ * only on success, so a failed reload leaves the running config intact. */
 bool gw_config_load(const char *path, gw_config_t *out, char *err, size_t errlen);
 
 /* Defaults for everything (used before parsing). */
@@ -106,6 +116,7 @@ void gw_config_defaults(gw_config_t *cfg);
  * an unchanged robot keeps its connection). */
 bool gw_robot_config_same_link(const gw_robot_config_t *a, const gw_robot_config_t *b);
 
+/* "abcd", "cdab", "badc", "dcba"; "?" for a value outside the enum. */
 const char *gw_word_order_name(gw_word_order_t w);
 
 #endif /* DRGATE_GW_CONFIG_H */

@@ -1,0 +1,905 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * gateway/config.c: good files (every key, every section spelling, every
+ * shipped example), the defaults, and each kind of error with its exact
+ * "FILE:LINE: message". Error cases are written to a temporary gw.ini so
+ * each one sits in the table below next to the message it must produce.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <dirent.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "config.h"
+
+#ifndef GW_TEST_TOP
+#define GW_TEST_TOP "."
+#endif
+
+static char tmpdir[256];
+static char tmpini[300];
+
+static int make_tmpdir(void **state)
+{
+    (void)state;
+    const char *base = getenv("TMPDIR");
+    snprintf(tmpdir, sizeof tmpdir, "%s/gwcfg.XXXXXX",
+             base && *base ? base : "/tmp");
+    if (mkdtemp(tmpdir) == NULL)
+        return -1;
+    snprintf(tmpini, sizeof tmpini, "%s/gw.ini", tmpdir);
+    return 0;
+}
+
+static int remove_tmpdir(void **state)
+{
+    (void)state;
+    unlink(tmpini);
+    rmdir(tmpdir);
+    return 0;
+}
+
+static void write_bytes(const char *text, size_t len)
+{
+    FILE *f = fopen(tmpini, "wb");
+    assert_non_null(f);
+    assert_int_equal(fwrite(text, 1, len, f), len);
+    assert_int_equal(fclose(f), 0);
+}
+
+/* Load `text` as gw.ini; returns what gw_config_load returned. */
+static bool load_text(const char *text, gw_config_t *cfg, char *err,
+                      size_t errlen)
+{
+    write_bytes(text, strlen(text));
+    return gw_config_load(tmpini, cfg, err, errlen);
+}
+
+static bool load_file(const char *rel, gw_config_t *cfg, char *err,
+                      size_t errlen)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", GW_TEST_TOP, rel);
+    return gw_config_load(path, cfg, err, errlen);
+}
+
+/* ---- defaults -------------------------------------------------------------- */
+
+static void test_defaults(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    memset(&c, 0xA5, sizeof c);
+    gw_config_defaults(&c);
+    assert_string_equal(c.modbus.listen, "0.0.0.0");
+    assert_int_equal(c.modbus.port, 502);
+    assert_int_equal(c.modbus.max_clients, 16);
+    assert_int_equal(c.modbus.idle_timeout_s, 60);
+    assert_true(c.modbus.keepalive);
+    assert_int_equal(c.modbus.word_order, GW_WORD_ABCD);
+    assert_int_equal(c.modbus.on_link_loss, GW_LOSS_HOLD);
+    assert_int_equal(c.modbus.allow_count, 0);
+    assert_false(c.modbus.single_writer);
+    assert_int_equal(c.modbus.writer_watchdog_ms, 1000);
+    assert_int_equal(c.robot_count, 0);
+    assert_int_equal(c.gpio_count, 0);
+    assert_string_equal(c.log_level, "info");
+    const gw_robot_config_t *r = &c.robot[0];
+    assert_int_equal(r->tcp_port, 44818);
+    assert_int_equal(r->udp_port, 2222);
+    assert_int_equal(r->local_udp_port, 2222);
+    assert_string_equal(r->local_addr, "");
+    assert_int_equal(r->unit_id, 1);
+    assert_int_equal(r->mode, GW_MODE_IMPLICIT);
+    assert_int_equal(r->rpi_ms, 10);
+    assert_int_equal(r->timeout_mult, 2);
+    assert_int_equal(r->timeout_ms, 1000);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        assert_int_equal(r->instance[a], 101 + a);
+    assert_false(r->fallback_hold);
+    assert_int_equal(c.gpio[0].offset, -1);
+    assert_int_equal(c.gpio[0].bias, GW_BIAS_AS_IS);
+}
+
+static void test_minimal_gets_defaults(void **state)
+{
+    (void)state;
+    gw_config_t c, d;
+    char err[512];
+    assert_true(
+        load_text("[robot arm1]\nhost = 10.0.0.1\n", &c, err, sizeof err));
+    assert_string_equal(err, "");
+    gw_config_defaults(&d);
+    assert_string_equal(c.path, tmpini);
+    assert_memory_equal(&c.modbus, &d.modbus, sizeof c.modbus);
+    assert_string_equal(c.log_level, "info");
+    assert_int_equal(c.robot_count, 1);
+    assert_string_equal(c.robot[0].name, "arm1");
+    assert_string_equal(c.robot[0].host, "10.0.0.1");
+    assert_int_equal(c.robot[0].line, 1);
+    /* everything but name, host and line is the default */
+    gw_robot_config_t r = c.robot[0];
+    memcpy(r.name, d.robot[0].name, sizeof r.name);
+    memcpy(r.host, d.robot[0].host, sizeof r.host);
+    r.line = d.robot[0].line;
+    assert_memory_equal(&r, &d.robot[0], sizeof r);
+    assert_int_equal(c.gpio_count, 0);
+}
+
+/* ---- good files ------------------------------------------------------------ */
+
+static void test_all_keys(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    bool ok = load_file("tests/gw_config/all-keys.ini", &c, err, sizeof err);
+    if (!ok)
+        fail_msg("%s", err);
+    assert_string_equal(c.log_level, "debug");
+
+    const gw_modbus_config_t *m = &c.modbus;
+    assert_string_equal(m->listen, "127.0.0.1");
+    assert_int_equal(m->port, 1502);
+    assert_int_equal(m->max_clients, 3);
+    assert_int_equal(m->idle_timeout_s, 0);
+    assert_false(m->keepalive);
+    assert_int_equal(m->word_order, GW_WORD_DCBA);
+    assert_int_equal(m->allow_count, 3);
+    assert_int_equal(m->allow[0].net, 0x7F000001u);
+    assert_int_equal(m->allow[0].mask, 0xFFFFFFFFu);
+    assert_true(m->allow[0].read_write);
+    assert_int_equal(m->allow[1].net, 0x0A000000u);
+    assert_int_equal(m->allow[1].mask, 0xFF000000u);
+    assert_false(m->allow[1].read_write); /* no access word: read-only */
+    assert_int_equal(m->allow[2].net, 0);
+    assert_int_equal(m->allow[2].mask, 0);
+    assert_false(m->allow[2].read_write);
+    assert_int_equal(m->on_link_loss, GW_LOSS_EXCEPTION);
+    assert_true(m->single_writer);
+    assert_int_equal(m->writer_watchdog_ms, 250);
+
+    assert_int_equal(c.robot_count, 2);
+    const gw_robot_config_t *r = &c.robot[0];
+    assert_string_equal(r->name, "arm1");
+    assert_string_equal(r->host, "robot-1.cell.example");
+    assert_int_equal(r->tcp_port, 44819);
+    assert_int_equal(r->udp_port, 2223);
+    assert_string_equal(r->local_addr, "127.0.0.1");
+    assert_int_equal(r->local_udp_port, 2224);
+    assert_int_equal(r->unit_id, 7);
+    assert_int_equal(r->mode, GW_MODE_EXPLICIT);
+    assert_int_equal(r->rpi_ms, 50);
+    assert_int_equal(r->timeout_mult, 5);
+    assert_int_equal(r->timeout_ms, 300);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        assert_int_equal(r->instance[a], 201 + a);
+    assert_true(r->fallback_hold);
+    assert_int_equal(r->line, 21);
+    assert_string_equal(c.robot[1].name, "arm2");
+    assert_int_equal(c.robot[1].unit_id, 8);
+    assert_false(c.robot[1].fallback_hold);
+
+    assert_int_equal(c.gpio_count, 2);
+    const gw_gpio_config_t *g = &c.gpio[0];
+    char path[64];
+    assert_string_equal(g->name, "lamp");
+    assert_string_equal(g->chip, "/dev/gpiochip1");
+    assert_int_equal(g->offset, 5);
+    assert_string_equal(g->line_name, "");
+    assert_int_equal(g->dir, GW_GPIO_OUTPUT);
+    assert_string_equal(g->robot, "arm2");
+    assert_int_equal(g->robot_index, 1);
+    assert_int_equal(dr_ref_path(g->field, path, sizeof path), DR_OK);
+    assert_string_equal(path, "io_state.cb_do[3]");
+    assert_true(g->active_low);
+    assert_int_equal(g->bias, GW_BIAS_DISABLE);
+    assert_true(g->safe_value);
+    g = &c.gpio[1];
+    assert_string_equal(g->name, "button");
+    assert_string_equal(g->chip, "gpio-mockup-A");
+    assert_int_equal(g->offset, -1);
+    assert_string_equal(g->line_name, "BUTTON_1");
+    assert_int_equal(g->dir, GW_GPIO_INPUT);
+    assert_string_equal(g->robot, "arm1");
+    assert_int_equal(g->robot_index, 0);
+    assert_int_equal(dr_ref_path(g->field, path, sizeof path), DR_OK);
+    assert_string_equal(path, "bit_in[7]");
+    assert_false(g->active_low);
+    assert_int_equal(g->bias, GW_BIAS_PULL_UP);
+    assert_int_equal(g->debounce_ms, 15);
+    assert_false(g->safe_value);
+}
+
+static void test_section_forms(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    bool ok = load_file("tests/gw_config/forms.ini", &c, err, sizeof err);
+    if (!ok)
+        fail_msg("%s", err);
+    assert_int_equal(c.modbus.port, 1503);
+    assert_int_equal(c.robot_count, 3);
+    assert_string_equal(c.robot[0].name, "robot"); /* a lone [robot] */
+    assert_string_equal(c.robot[1].name, "tab_and_spaces");
+    assert_string_equal(c.robot[2].name, "dotted-name");
+    assert_int_equal(c.gpio_count, 2);
+    assert_string_equal(c.gpio[0].name, "spaced");
+    assert_int_equal(c.gpio[0].robot_index, 0);
+    assert_string_equal(c.gpio[1].name, "dotted");
+    assert_int_equal(c.gpio[1].robot_index, 2);
+    char path[64];
+    assert_int_equal(dr_ref_path(c.gpio[1].field, path, sizeof path), DR_OK);
+    assert_string_equal(path, "io_state.aio_type.ai0");
+}
+
+static void test_gpio_robot_defaults_to_the_only_one(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    bool ok =
+        load_text("[robot cell]\nhost = 10.0.0.1\n"
+                  "[gpio x]\nchip = gpiochip0\nline = 3\ndirection = output\n"
+                  "field = dr4[63]\n",
+                  &c, err, sizeof err);
+    if (!ok)
+        fail_msg("%s", err);
+    assert_string_equal(c.gpio[0].robot, "cell");
+    assert_int_equal(c.gpio[0].robot_index, 0);
+    assert_false(c.gpio[0].safe_value);
+    assert_false(c.gpio[0].active_low);
+}
+
+static void test_text_variants(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    /* UTF-8 BOM, CRLF line ends, an indented comment, no final newline */
+    static const char good[] =
+        "\xEF\xBB\xBF[robot a]\r\n  ; note\r\nhost = 10.0.0.9";
+    bool ok = load_text(good, &c, err, sizeof err);
+    if (!ok)
+        fail_msg("%s", err);
+    assert_string_equal(c.robot[0].host, "10.0.0.9");
+}
+
+static void test_examples_load(void **state)
+{
+    (void)state;
+    static const char *const required[] = { "minimal.ini",
+                                            "explicit-polling.ini",
+                                            "two-robots.ini", "gpio-cell.ini",
+                                            "secure.ini" };
+    char dirpath[512];
+    snprintf(dirpath, sizeof dirpath, "%s/gateway/examples", GW_TEST_TOP);
+    DIR *d = opendir(dirpath);
+    assert_non_null(d);
+    unsigned found = 0, loaded = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        size_t n = strlen(e->d_name);
+        if (n < 5 || strcmp(e->d_name + n - 4, ".ini") != 0)
+            continue;
+        char rel[300];
+        snprintf(rel, sizeof rel, "gateway/examples/%s", e->d_name);
+        gw_config_t c;
+        char err[512];
+        if (!load_file(rel, &c, err, sizeof err))
+            fail_msg("example %s: %s", e->d_name, err);
+        loaded++;
+        for (size_t i = 0; i < sizeof required / sizeof required[0]; i++)
+            if (strcmp(e->d_name, required[i]) == 0)
+                found++;
+    }
+    closedir(d);
+    assert_int_equal(found, sizeof required / sizeof required[0]);
+    assert_true(loaded >= found);
+}
+
+/* Spot checks that the examples say what their comments say. */
+static void test_example_values(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    assert_true(load_file("gateway/examples/secure.ini", &c, err, sizeof err));
+    assert_int_equal(c.modbus.allow_count, 3);
+    assert_true(c.modbus.allow[0].read_write);
+    assert_false(c.modbus.allow[1].read_write);
+    assert_true(c.modbus.single_writer);
+    assert_true(
+        load_file("gateway/examples/two-robots.ini", &c, err, sizeof err));
+    assert_int_equal(c.robot_count, 2);
+    assert_int_equal(c.robot[1].unit_id, 2);
+    assert_true(
+        load_file("gateway/examples/gpio-cell.ini", &c, err, sizeof err));
+    assert_int_equal(c.gpio_count, 4);
+    assert_int_equal(c.gpio[2].dir, GW_GPIO_INPUT);
+    assert_true(load_file("gateway/examples/explicit-polling.ini", &c, err,
+                          sizeof err));
+    assert_int_equal(c.robot[0].mode, GW_MODE_EXPLICIT);
+}
+
+/* ---- errors ---------------------------------------------------------------- */
+
+#define ROBOT "[robot a]\nhost = 10.0.0.1\n" /* lines 1-2 */
+#define GPIO_HEAD \
+    "[gpio g]\nchip = gpiochip0\n" /* then line, direction, field */
+
+typedef struct {
+    const char *text;
+    const char *want; /* "LINE: message", after "PATH:" */
+} err_case_t;
+
+#define MODBUS_KEYS                                                           \
+    "listen, port, max_clients, idle_timeout, keepalive, word_order, allow, " \
+    "on_link_loss, "                                                          \
+    "single_writer, writer_watchdog_ms"
+#define ROBOT_KEYS                                                             \
+    "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, mode, " \
+    "rpi_ms, "                                                                 \
+    "timeout_multiplier, timeout_ms, fallback, instance.<assembly>"
+#define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME]"
+#define NOT_A_BIT                                                        \
+    "(a GPIO line follows or drives one bit, e.g. io_state.cb_do[1] or " \
+    "bit_in[0])"
+
+static const err_case_t err_cases[] = {
+    /* unknown keys, with and without a suggestion */
+    { ROBOT "[modbus]\nwordorder = abcd\n",
+      "4: unknown key 'wordorder' in [modbus] (did you mean 'word_order'? "
+      "allowed: " MODBUS_KEYS ")" },
+    { ROBOT "[modbus]\nfoo = 1\n",
+      "4: unknown key 'foo' in [modbus] (allowed: " MODBUS_KEYS ")" },
+    { ROBOT "hots = x\n", "3: unknown key 'hots' in [robot a] (did you mean "
+                          "'host'? allowed: " ROBOT_KEYS ")" },
+    { ROBOT "instanse.io_state = 5\n",
+      "3: unknown key 'instanse.io_state' in [robot a] (did you mean "
+      "'instance.io_state'? "
+      "allowed: " ROBOT_KEYS ")" },
+    { ROBOT "instance.io_stat = 5\n",
+      "3: unknown assembly 'io_stat' in 'instance.io_stat' (did you mean "
+      "'io_state'? allowed: "
+      "io_state, joint_state, task_state, bit_out, int_out, float_out, "
+      "io_control, bit_in, "
+      "int_in, float_in, or dr1..dr10)" },
+    { "[daemon]\nlevel = info\n" ROBOT,
+      "2: unknown key 'level' in [daemon] (allowed: log_level)" },
+    { ROBOT GPIO_HEAD "lines = 3\n",
+      "5: unknown key 'lines' in [gpio g] (did you mean 'line'? allowed: chip, "
+      "line, direction, "
+      "robot, field, active_low, bias, debounce_ms, safe_value)" },
+    /* enumerations */
+    { ROBOT "[modbus]\nword_order = abdc\n",
+      "4: word_order 'abdc' invalid (allowed: abcd, cdab, badc, dcba)" },
+    { ROBOT "[modbus]\nword_order = ABCD\n",
+      "4: word_order 'ABCD' invalid (allowed: abcd, cdab, badc, dcba)" },
+    { ROBOT "[modbus]\non_link_loss = keep\n",
+      "4: on_link_loss 'keep' invalid (allowed: hold, zero, exception)" },
+    { ROBOT "[modbus]\nkeepalive = maybe\n",
+      "4: keepalive 'maybe' invalid (allowed: yes, no)" },
+    { ROBOT "[modbus]\nsingle_writer = 1\n",
+      "4: single_writer '1' invalid (allowed: yes, no)" },
+    { ROBOT "mode = cyclic\n",
+      "3: mode 'cyclic' invalid (allowed: implicit, explicit)" },
+    { ROBOT "fallback = last\n",
+      "3: fallback 'last' invalid (allowed: zero, hold)" },
+    { "[daemon]\nlog_level = verbose\n" ROBOT,
+      "2: log_level 'verbose' invalid (allowed: error, warning, info, debug)" },
+    { ROBOT GPIO_HEAD "direction = in\n",
+      "5: direction 'in' invalid (allowed: output, input)" },
+    { ROBOT GPIO_HEAD "bias = pullup\n",
+      "5: bias 'pullup' invalid (allowed: as-is, disable, pull-up, "
+      "pull-down)" },
+    { ROBOT GPIO_HEAD "safe_value = high\n",
+      "5: safe_value 'high' invalid (allowed: 0, 1)" },
+    /* numbers: range, garbage, empty */
+    { ROBOT "[modbus]\nport = 70000\n",
+      "4: port 70000 out of range (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport = 0\n",
+      "4: port 0 out of range (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport = 99999999999999999999999\n",
+      "4: port 99999999999999999999999 out of range (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport = 502x\n", "4: port '502x' invalid: trailing 'x' "
+                                       "after the number (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport = 0x1f6\n",
+      "4: port '0x1f6' invalid: trailing 'x1f6' after the number (allowed: "
+      "1..65535)" },
+    { ROBOT "[modbus]\nport = -1\n",
+      "4: port '-1' invalid: not a number (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport = +502\n",
+      "4: port '+502' invalid: not a number (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport = 5 02\n", "4: port '5 02' invalid: trailing ' 02' "
+                                       "after the number (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport =\n", "4: port has no value (allowed: 1..65535)" },
+    { ROBOT "[modbus]\nport = 5\r\x1b[2J02\r\n",
+      "4: port '5??[2J02' invalid: trailing '??[2J02' after the number "
+      "(allowed: 1..65535)" },
+    { ROBOT "[modbus]\nmax_clients = 257\n",
+      "4: max_clients 257 out of range (allowed: 1..256)" },
+    { ROBOT "[modbus]\nidle_timeout = 1d\n",
+      "4: idle_timeout '1d' invalid: trailing 'd' after the number (allowed: "
+      "0..86400)" },
+    { ROBOT "[modbus]\nwriter_watchdog_ms = 5\n",
+      "4: writer_watchdog_ms 5 out of range (allowed: 10..60000)" },
+    { ROBOT "rpi_ms = 10ms\n", "3: rpi_ms '10ms' invalid: trailing 'ms' after "
+                               "the number (allowed: 1..10000)" },
+    { ROBOT "rpi_ms = 10001\n",
+      "3: rpi_ms 10001 out of range (allowed: 1..10000)" },
+    { ROBOT "rpi_ms = 0\n", "3: rpi_ms 0 out of range (allowed: 1..10000)" },
+    { ROBOT "timeout_multiplier = 8\n",
+      "3: timeout_multiplier 8 out of range (allowed: 0..7)" },
+    { ROBOT "timeout_ms = 1.5\n", "3: timeout_ms '1.5' invalid: trailing '.5' "
+                                  "after the number (allowed: 10..60000)" },
+    { ROBOT "unit_id = 0\n", "3: unit_id 0 out of range (allowed: 1..247)" },
+    { ROBOT "unit_id = 248\n",
+      "3: unit_id 248 out of range (allowed: 1..247)" },
+    { ROBOT "tcp_port = 65536\n",
+      "3: tcp_port 65536 out of range (allowed: 1..65535)" },
+    { ROBOT "instance.io_state = 0\n",
+      "3: instance.io_state 0 out of range (allowed: 1..65535)" },
+    { ROBOT "instance.dr3 =\n",
+      "3: instance.dr3 has no value (allowed: 1..65535)" },
+    { ROBOT GPIO_HEAD "debounce_ms = 1001\n",
+      "5: debounce_ms 1001 out of range (allowed: 0..1000)" },
+    { ROBOT GPIO_HEAD "line = 17a\n", "5: line '17a' invalid: trailing 'a' "
+                                      "after the number (allowed: 0..65535)" },
+    /* addresses */
+    { ROBOT "[modbus]\nlisten = localhost\n",
+      "4: listen 'localhost' invalid (allowed: an IPv4 address such as "
+      "192.168.1.10)" },
+    { ROBOT "[modbus]\nlisten = ::\n", "4: listen '::' invalid (allowed: an "
+                                       "IPv4 address such as 192.168.1.10)" },
+    { ROBOT "local_address = 10.0.0\n",
+      "3: local_address '10.0.0' invalid (allowed: an IPv4 address such as "
+      "192.168.1.10)" },
+    { "[robot a]\nhost = 10.0.0.256\n",
+      "2: host '10.0.0.256' invalid (allowed: an IPv4 address or a host "
+      "name)" },
+    { "[robot a]\nhost = robot_1\n",
+      "2: host 'robot_1' invalid (allowed: an IPv4 address or a host name)" },
+    { "[robot a]\nhost = -robot\n",
+      "2: host '-robot' invalid (allowed: an IPv4 address or a host name)" },
+    { "[robot a]\nhost = robot..cell\n",
+      "2: host 'robot..cell' invalid (allowed: an IPv4 address or a host "
+      "name)" },
+    /* allowlist */
+    { ROBOT "[modbus]\nallow = 192.168.1.5/24 rw\n",
+      "4: allow '192.168.1.5/24 rw' invalid: host bits set in 192.168.1.5/24 "
+      "(did you mean "
+      "192.168.1.0/24?)" },
+    { ROBOT "[modbus]\nallow = 192.168.1.0/33\n",
+      "4: allow '192.168.1.0/33' invalid: prefix length '33' (allowed: "
+      "0..32)" },
+    { ROBOT "[modbus]\nallow = 192.168.1.0/\n",
+      "4: allow '192.168.1.0/' invalid: prefix length '' (allowed: 0..32)" },
+    { ROBOT "[modbus]\nallow = 192.168.1.0/24x\n",
+      "4: allow '192.168.1.0/24x' invalid: prefix length '24x' (allowed: "
+      "0..32)" },
+    { ROBOT "[modbus]\nallow = 192.168.1/24\n",
+      "4: allow '192.168.1/24' invalid: '192.168.1' is not an IPv4 address "
+      "(allowed: "
+      "a.b.c.d/len [ro|rw])" },
+    { ROBOT "[modbus]\nallow = 10.0.0.0/8 wr\n",
+      "4: allow '10.0.0.0/8 wr' invalid: access 'wr' (allowed: ro, rw)" },
+    { ROBOT "[modbus]\nallow = 10.0.0.0/8 rw # office\n",
+      "4: allow '10.0.0.0/8 rw # office' invalid: trailing '#' (allowed: "
+      "a.b.c.d/len [ro|rw])" },
+    { ROBOT "[modbus]\nallow = 10.0.0.0/8 ro\nallow = 10.1.2.3 rw\n",
+      "5: allow '10.1.2.3 rw' never matches: line 4 already covers it (the "
+      "first matching entry "
+      "decides; put narrower networks first)" },
+    { ROBOT "[modbus]\nallow = 10.0.0.0/8\nallow = 10.0.0.0/8 rw\n",
+      "5: allow '10.0.0.0/8 rw' never matches: line 4 already covers it (the "
+      "first matching "
+      "entry decides; put narrower networks first)" },
+    { ROBOT "[modbus]\nallow =\n",
+      "4: allow has no value (allowed: a.b.c.d/len [ro|rw])" },
+    { ROBOT
+      "[modbus]\nallow = 10.0.0.1\nallow = 10.0.0.2\nallow = 10.0.0.3\n"
+      "allow = 10.0.0.4\nallow = 10.0.0.5\nallow = 10.0.0.6\nallow = 10.0.0.7\n"
+      "allow = 10.0.0.8\nallow = 10.0.0.9\nallow = 10.0.0.10\nallow = "
+      "10.0.0.11\n"
+      "allow = 10.0.0.12\nallow = 10.0.0.13\nallow = 10.0.0.14\nallow = "
+      "10.0.0.15\n"
+      "allow = 10.0.0.16\nallow = 10.0.0.17\n",
+      "20: too many allow entries (at most 16)" },
+    /* fields */
+    { ROBOT GPIO_HEAD "field = io_state.cb_dl[3]\n",
+      "5: field 'io_state.cb_dl[3]' unknown (closest: io_state.cb_di[3])" },
+    { ROBOT GPIO_HEAD "field = io_state.cb_di\n",
+      "5: field 'io_state.cb_di' is a whole mask, not one bit (allowed: "
+      "io_state.cb_di[1]..io_state.cb_di[16])" },
+    { ROBOT GPIO_HEAD "field = bit_in\n",
+      "5: field 'bit_in' is a whole mask, not one bit (allowed: "
+      "bit_in[0]..bit_in[63])" },
+    { ROBOT GPIO_HEAD "field = io_state.cb_di[17]\n",
+      "5: field 'io_state.cb_di[17]' index out of range (allowed: "
+      "io_state.cb_di[1]..io_state.cb_di[16])" },
+    { ROBOT GPIO_HEAD "field = io_state.cb_di[0]\n",
+      "5: field 'io_state.cb_di[0]' index out of range (allowed: "
+      "io_state.cb_di[1]..io_state.cb_di[16])" },
+    { ROBOT GPIO_HEAD "field = io_state.servo_on[1]\n",
+      "5: field 'io_state.servo_on[1]' takes no index (allowed: "
+      "io_state.servo_on)" },
+    { ROBOT GPIO_HEAD "field = bit_in[x]\n",
+      "5: field 'bit_in[x]' has a malformed index (allowed: a decimal index, "
+      "e.g. "
+      "io_state.cb_do[1])" },
+    { ROBOT GPIO_HEAD "field = joint_state.position[1]\n",
+      "5: field 'joint_state.position[1]' is a REAL, not a bit " NOT_A_BIT },
+    { ROBOT GPIO_HEAD "field = joint_state.position\n",
+      "5: field 'joint_state.position' is a REAL, not a bit " NOT_A_BIT },
+    { ROBOT GPIO_HEAD "field = io_state.robot_state\n",
+      "5: field 'io_state.robot_state' is a USINT enum, not a bit " NOT_A_BIT },
+    { ROBOT GPIO_HEAD "field = int_in[3]\n",
+      "5: field 'int_in[3]' is a DINT, not a bit " NOT_A_BIT },
+    { ROBOT GPIO_HEAD
+      "line = 1\ndirection = input\nfield = io_state.cb_do[3]\n",
+      "7: gpio 'g': input cannot drive 'io_state.cb_do[3]', which the robot "
+      "produces (T->O); "
+      "inputs drive O->T bits (io_control.cb_do[N], io_control.tool_do[N], "
+      "io_control.ao_type.*, bit_in[N])" },
+    { ROBOT GPIO_HEAD "field = bit_out[2]\nline = 1\ndirection = input\n",
+      "5: gpio 'g': input cannot drive 'bit_out[2]', which the robot produces "
+      "(T->O); "
+      "inputs drive O->T bits (io_control.cb_do[N], io_control.tool_do[N], "
+      "io_control.ao_type.*, bit_in[N])" },
+    /* sections */
+    { "[modbsu]\nport = 502\n" ROBOT,
+      "1: unknown section [modbsu] (did you mean [modbus]? allowed: " SECTIONS
+      ")" },
+    { "[robto arm1]\nhost = 10.0.0.1\n",
+      "1: unknown section [robto arm1] (did you mean [robot arm1]? "
+      "allowed: " SECTIONS ")" },
+    { "[gpio_x]\n",
+      "1: unknown section [gpio_x] (did you mean [gpio]? allowed: " SECTIONS
+      ")" },
+    { ROBOT "[general]\n",
+      "3: unknown section [general] (allowed: " SECTIONS ")" },
+    { ROBOT "[]\n", "3: unknown section [] (allowed: " SECTIONS ")" },
+    { ROBOT "[modbus tcp]\n",
+      "3: section [modbus tcp] takes no name (allowed: [modbus])" },
+    { ROBOT "[modbus]\n[modbus]\n",
+      "4: section [modbus] repeated (first at line 3)" },
+    { "[daemon]\n" ROBOT "[daemon]\n",
+      "4: section [daemon] repeated (first at line 1)" },
+    { ROBOT "[robot.a]\nhost = 10.0.0.2\n",
+      "3: robot 'a' defined twice (first at line 1)" },
+    { "[robot]\nhost = 10.0.0.1\n[robot]\nhost = 10.0.0.2\n",
+      "3: robot 'robot' defined twice (first at line 1)" },
+    { ROBOT GPIO_HEAD "[gpio.g]\n",
+      "5: gpio 'g' defined twice (first at line 3)" },
+    { ROBOT "[gpio]\nchip = gpiochip0\n",
+      "3: section [gpio] needs a name (allowed: [gpio NAME] or [gpio.NAME])" },
+    { "[robot a b]\nhost = 10.0.0.1\n",
+      "1: robot name 'a b' invalid (allowed: letters, digits, '_' and '-', at "
+      "most 31 "
+      "characters)" },
+    { "[robot arm/1]\n", "1: robot name 'arm/1' invalid (allowed: letters, "
+                         "digits, '_' and '-', at most 31 "
+                         "characters)" },
+    { "[robot "
+      "abcdefghijklmnopqrstuvwxyz012345"
+      "]\n",
+      "1: robot name 'abcdefghijklmnopqrstuvwxyz012345' invalid (allowed: "
+      "letters, digits, '_' "
+      "and '-', at most 31 characters)" },
+    { ROBOT "[gpio g!]\n", "3: gpio name 'g!' invalid (allowed: letters, "
+                           "digits, '_' and '-', at most 31 "
+                           "characters)" },
+    { "port = 502\n" ROBOT,
+      "1: key 'port' outside any section (allowed sections: " SECTIONS ")" },
+    { ROBOT
+      "[robot b]\nhost = 10.0.0.2\nunit_id = 2\n[robot c]\nhost = "
+      "10.0.0.3\nunit_id = 3\n"
+      "[robot d]\nhost = 10.0.0.4\nunit_id = 4\n[robot e]\nhost = "
+      "10.0.0.5\nunit_id = 5\n"
+      "[robot f]\nhost = 10.0.0.6\nunit_id = 6\n[robot g]\nhost = "
+      "10.0.0.7\nunit_id = 7\n"
+      "[robot h]\nhost = 10.0.0.8\nunit_id = 8\n[robot i]\nhost = 10.0.0.9\n",
+      "24: too many robot sections (at most 8)" },
+    /* repeated keys */
+    { ROBOT "[modbus]\nport = 502\nlisten = 0.0.0.0\nport = 503\n",
+      "6: key 'port' repeated in [modbus] (first at line 4)" },
+    { ROBOT "host = 10.0.0.2\n",
+      "3: key 'host' repeated in [robot a] (first at line 2)" },
+    { ROBOT "instance.io_state = 5\ninstance.dr1 = 6\n",
+      "4: key 'instance.dr1' repeated in [robot a] (instance of io_state, "
+      "first at line 3)" },
+    { ROBOT GPIO_HEAD "chip = gpiochip1\n",
+      "5: key 'chip' repeated in [gpio g] (first at line 4)" },
+    /* required keys and whole-file checks */
+    { "", "1: no robot section (at least one is needed: [robot NAME] with host "
+          "= the robot's "
+          "address)" },
+    { "[modbus]\nport = 502\n", "2: no robot section (at least one is needed: "
+                                "[robot NAME] with host = the robot's "
+                                "address)" },
+    { "[robot a]\nunit_id = 2\n",
+      "1: robot 'a' has no host (allowed: an IPv4 address or a host name)" },
+    { "[robot a]\n[robot b]\nhost = 10.0.0.1\n",
+      "1: robot 'a' has no host (allowed: an IPv4 address or a host name)" },
+    { ROBOT "[robot b]\nhost = 10.0.0.2\n",
+      "3: robot 'b': unit_id 1 (the default) already used by robot 'a' (line "
+      "1; each robot "
+      "needs its own unit_id, allowed: 1..247)" },
+    { ROBOT "unit_id = 9\n[robot b]\nhost = 10.0.0.2\nunit_id = 9\n",
+      "6: robot 'b': unit_id 9 already used by robot 'a' (line 3; each robot "
+      "needs its own "
+      "unit_id, allowed: 1..247)" },
+    { ROBOT "[robot b]\nunit_id = 2\nhost = 10.0.0.1\n",
+      "5: robot 'b': 10.0.0.1:44818 is already robot 'a' (line 1)" },
+    { ROBOT "instance.bit_in = 102\n",
+      "3: robot 'a': instance 102 used by both joint_state and bit_in (each "
+      "assembly needs its "
+      "own instance)" },
+    { ROBOT "[gpio g]\nline = 1\ndirection = output\nfield = bit_out[0]\n",
+      "3: gpio 'g' has no chip (allowed: gpiochipN, /dev/gpiochipN or a chip "
+      "label)" },
+    { ROBOT GPIO_HEAD "direction = output\nfield = bit_out[0]\n",
+      "3: gpio 'g' has no line (allowed: a line offset or a line name)" },
+    { ROBOT GPIO_HEAD "line = 1\nfield = bit_out[0]\n",
+      "3: gpio 'g' has no direction (allowed: input, output)" },
+    { ROBOT GPIO_HEAD "line = 1\ndirection = output\n",
+      "3: gpio 'g' has no field (allowed: one bit, e.g. io_state.cb_do[1] or "
+      "bit_in[0])" },
+    { ROBOT "[robot b]\nhost = 10.0.0.2\nunit_id = 2\n"
+            "[gpio g]\nchip = gpiochip0\nline = 1\n"
+            "direction = output\nfield = bit_out[0]\n",
+      "6: gpio 'g' has no robot (several robots, allowed: a, b)" },
+    { ROBOT GPIO_HEAD
+      "line = 1\ndirection = output\nfield = bit_out[0]\nrobot = b\n",
+      "8: gpio 'g': robot 'b' unknown (allowed: a)" },
+    { ROBOT GPIO_HEAD
+      "line = 1\ndirection = output\nfield = bit_out[0]\ndebounce_ms = 10\n",
+      "8: gpio 'g': debounce_ms applies to inputs only (this is an output)" },
+    { ROBOT GPIO_HEAD
+      "line = 1\ndirection = input\nfield = bit_in[0]\nsafe_value = 1\n",
+      "8: gpio 'g': safe_value applies to outputs only (this is an input)" },
+    { ROBOT GPIO_HEAD "line = 1\ndirection = output\nfield = bit_out[0]\n"
+                      "[gpio h]\nchip = /dev/gpiochip0\nline = 1\ndirection = "
+                      "output\nfield = bit_out[1]\n",
+      "10: gpio 'h': line 1 of /dev/gpiochip0 is already used by gpio 'g' "
+      "(line 3)" },
+    { ROBOT GPIO_HEAD
+      "line = 4\ndirection = output\nfield = bit_out[0]\n"
+      "[gpio h]\nchip = 0\nline = 4\ndirection = output\nfield = bit_out[1]\n",
+      "10: gpio 'h': line 4 of 0 is already used by gpio 'g' (line 3)" },
+    { ROBOT "[gpio g]\nchip = gpio-mockup-A\nline = 4\ndirection = "
+            "output\nfield = bit_out[0]\n"
+            "[gpio h]\nchip = gpio-mockup-B\nline = 4\ndirection = "
+            "output\nfield = bit_out[1]\n"
+            "[gpio i]\nchip = gpio-mockup-A\nline = 4\ndirection = "
+            "output\nfield = bit_out[1]\n",
+      "15: gpio 'i': line 4 of gpio-mockup-A is already used by gpio 'g' (line "
+      "3)" },
+    { ROBOT GPIO_HEAD "line = ABCDEFGHIJKLMNOPQRSTUVWXYZ012345\n",
+      "5: line name 'ABCDEFGHIJKLMNOPQRSTUVWXYZ012345' too long (at most 31 "
+      "characters, the "
+      "kernel's limit)" },
+    { ROBOT GPIO_HEAD "line = DOOR SWITCH\n",
+      "5: line 'DOOR SWITCH' invalid (allowed: a line offset or a line name)" },
+    { ROBOT GPIO_HEAD "line = LED\ndirection = output\nfield = bit_out[0]\n"
+                      "[gpio h]\nchip = gpiochip0\nline = LED\ndirection = "
+                      "output\nfield = bit_out[1]\n",
+      "10: gpio 'h': line 'LED' of gpiochip0 is already used by gpio 'g' (line "
+      "3)" },
+    { ROBOT GPIO_HEAD "line = 1\ndirection = input\nfield = bit_in[7]\n"
+                      "[gpio h]\nchip = gpiochip0\nline = 2\ndirection = "
+                      "input\nfield = dr8[7]\n",
+      "12: gpio 'h': bit_in[7] of robot 'a' is already driven by input gpio "
+      "'g' (line 3; one "
+      "input per bit)" },
+    /* the text itself */
+    { ROBOT "[modbus]\nport = 1\n  listen = 0.0.0.0\n",
+      "5: line starts with whitespace (INI reads an indented line as the "
+      "continuation of the "
+      "previous value; start keys and sections in column 1)" },
+    { ROBOT "\t[modbus]\n",
+      "3: line starts with whitespace (INI reads an indented line as the "
+      "continuation of the "
+      "previous value; start keys and sections in column 1)" },
+    { ROBOT "[modbus]\nport\n", "4: syntax error (allowed: [section], key = "
+                                "value, or a comment starting with ; or #)" },
+    { ROBOT "[modbus\nport = 1\n",
+      "3: section header without a closing ']' (allowed: " SECTIONS ")" },
+    /* a syntax error before a handler error wins, and the other way round */
+    { ROBOT "[modbus]\nport\nfoo = 1\n",
+      "4: syntax error (allowed: [section], key = value, or a comment starting "
+      "with ; or #)" },
+    { ROBOT "[modbus]\nfoo = 1\nport\n",
+      "4: unknown key 'foo' in [modbus] (allowed: " MODBUS_KEYS ")" },
+};
+
+static void test_errors(void **state)
+{
+    (void)state;
+    unsigned failures = 0;
+    for (size_t i = 0; i < sizeof err_cases / sizeof err_cases[0]; i++) {
+        gw_config_t c;
+        char err[1024], want[1400];
+        memset(err, 0, sizeof err);
+        bool ok = load_text(err_cases[i].text, &c, err, sizeof err);
+        snprintf(want, sizeof want, "%s:%s", tmpini, err_cases[i].want);
+        if (ok || strcmp(err, want) != 0) {
+            print_error("case %zu:\n  text: %s\n  want: %s\n  got:  %s\n", i,
+                        err_cases[i].text, want, ok ? "(loaded)" : err);
+            failures++;
+        }
+    }
+    assert_int_equal(failures, 0);
+}
+
+static void test_long_line(void **state)
+{
+    (void)state;
+    char text[600], err[512], want[700];
+    int n = snprintf(text, sizeof text, ROBOT "[robot b]\nhost = ");
+    memset(text + n, 'h', 300);
+    memcpy(text + n + 300, "\nunit_id = 2\n", sizeof "\nunit_id = 2\n");
+    gw_config_t c;
+    assert_false(load_text(text, &c, err, sizeof err));
+    snprintf(want, sizeof want, "%s:4: line too long (at most 198 characters)",
+             tmpini);
+    assert_string_equal(err, want);
+}
+
+static void test_nul_byte(void **state)
+{
+    (void)state;
+    static const char text[] = ROBOT "[modbus]\nport = 5\0"
+                                     "02\n";
+    char err[512], want[700];
+    gw_config_t c;
+    write_bytes(text, sizeof text - 1);
+    assert_false(gw_config_load(tmpini, &c, err, sizeof err));
+    snprintf(want, sizeof want, "%s:4: NUL byte in line (allowed: a text file)",
+             tmpini);
+    assert_string_equal(err, want);
+}
+
+static void test_file_errors(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512], want[700];
+    char missing[400];
+    snprintf(missing, sizeof missing, "%s/missing.ini", tmpdir);
+    assert_false(gw_config_load(missing, &c, err, sizeof err));
+    snprintf(want, sizeof want, "%s: cannot open: No such file or directory",
+             missing);
+    assert_string_equal(err, want);
+    assert_false(gw_config_load(tmpdir, &c, err, sizeof err));
+    snprintf(want, sizeof want, "%s: cannot read: Is a directory", tmpdir);
+    assert_string_equal(err, want);
+    assert_false(gw_config_load(NULL, &c, err, sizeof err));
+    assert_false(gw_config_load(missing, NULL, err, sizeof err));
+}
+
+/* A failed load leaves *out exactly as it was; a good one replaces it. */
+static void test_nothing_half_applied(void **state)
+{
+    (void)state;
+    gw_config_t c, before;
+    char err[512];
+    memset(&c, 0x5A, sizeof c);
+    before = c;
+    /* good [modbus] and robot, then an error at the very end */
+    assert_false(
+        load_text("[modbus]\nport = 1502\nword_order = dcba\n" ROBOT
+                  "[gpio g]\nchip = gpiochip0\nline = 1\ndirection = output\n",
+                  &c, err, sizeof err));
+    assert_memory_equal(&c, &before, sizeof c);
+    assert_true(
+        load_text("[modbus]\nport = 1502\n" ROBOT, &c, err, sizeof err));
+    assert_int_equal(c.modbus.port, 1502);
+    assert_int_equal(c.robot_count, 1);
+}
+
+/* Short or absent error buffers are fine (the message is cut, never overrun). */
+static void test_small_error_buffer(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[8];
+    memset(err, 'x', sizeof err);
+    assert_false(load_text("[bogus]\n", &c, err, sizeof err));
+    assert_int_equal(strlen(err), sizeof err - 1);
+    assert_false(load_text("[bogus]\n", &c, NULL, 0));
+    assert_false(load_text("[bogus]\n", &c, err, 0));
+}
+
+/* ---- helpers ---------------------------------------------------------------- */
+
+static void test_same_link(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    gw_config_defaults(&c);
+    gw_robot_config_t a = c.robot[0], b = c.robot[0];
+    memcpy(a.host, "10.0.0.1", sizeof "10.0.0.1");
+    b = a;
+    assert_true(gw_robot_config_same_link(&a, &b));
+    /* Modbus-side settings and bookkeeping do not touch the link */
+    b.unit_id = 9;
+    b.fallback_hold = true;
+    b.line = 99;
+    memcpy(b.name, "other", sizeof "other");
+    assert_true(gw_robot_config_same_link(&a, &b));
+    /* each link setting does */
+    b = a;
+    b.tcp_port = 1;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.udp_port = 1;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.local_udp_port = 1;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    memcpy(b.local_addr, "10.0.0.2", sizeof "10.0.0.2");
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    memcpy(b.host, "10.0.0.3", sizeof "10.0.0.3");
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.mode = GW_MODE_EXPLICIT;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.rpi_ms = 11;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.timeout_mult = 3;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.timeout_ms = 5;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.instance[DR_ASM_FLOAT_IN] = 1;
+    assert_false(gw_robot_config_same_link(&a, &b));
+}
+
+static void test_word_order_name(void **state)
+{
+    (void)state;
+    assert_string_equal(gw_word_order_name(GW_WORD_ABCD), "abcd");
+    assert_string_equal(gw_word_order_name(GW_WORD_CDAB), "cdab");
+    assert_string_equal(gw_word_order_name(GW_WORD_BADC), "badc");
+    assert_string_equal(gw_word_order_name(GW_WORD_DCBA), "dcba");
+    assert_string_equal(gw_word_order_name((gw_word_order_t)4), "?");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_defaults),
+        cmocka_unit_test(test_minimal_gets_defaults),
+        cmocka_unit_test(test_all_keys),
+        cmocka_unit_test(test_section_forms),
+        cmocka_unit_test(test_gpio_robot_defaults_to_the_only_one),
+        cmocka_unit_test(test_text_variants),
+        cmocka_unit_test(test_examples_load),
+        cmocka_unit_test(test_example_values),
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_long_line),
+        cmocka_unit_test(test_nul_byte),
+        cmocka_unit_test(test_file_errors),
+        cmocka_unit_test(test_nothing_half_applied),
+        cmocka_unit_test(test_small_error_buffer),
+        cmocka_unit_test(test_same_link),
+        cmocka_unit_test(test_word_order_name),
+    };
+    return cmocka_run_group_tests_name("gw_config", tests, make_tmpdir,
+                                       remove_tmpdir);
+}
