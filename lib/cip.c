@@ -145,6 +145,17 @@ void dr_wr_bytes(dr_wr_t *w, const void *src, size_t n)
         memcpy(p, src, n);
 }
 
+/* A path size in words (USINT). A longer path does not fit the field: a
+ * wrapped count would put a frame on the wire whose lengths lie, so it
+ * counts as an overflow like a full buffer. */
+static void wr_path_words(dr_wr_t *w, size_t path_len)
+{
+    if (path_len > 2u * 0xFFu)
+        w->overflow = true;
+    else
+        dr_wr_u8(w, (uint8_t)((path_len + 1u) / 2u));
+}
+
 /* ---- encapsulation --------------------------------------------------------- */
 
 dr_status_t dr_encap_frame_len(const uint8_t *buf, size_t len, size_t *total)
@@ -249,6 +260,8 @@ size_t dr_cpf_item_begin(dr_wr_t *w, uint16_t type)
 
 void dr_cpf_item_end(dr_wr_t *w, size_t mark)
 {
+    if (!w->overflow && w->len - mark > 0xFFFFu)
+        w->overflow = true; /* the 16-bit item length cannot say it */
     if (!w->overflow)
         dr_put_le16(w->buf + mark - 2, (uint16_t)(w->len - mark));
 }
@@ -402,7 +415,7 @@ void dr_cip_req_write(dr_wr_t *w, uint8_t service, const uint8_t *path,
                       size_t path_len, const uint8_t *data, size_t data_len)
 {
     dr_wr_u8(w, service);
-    dr_wr_u8(w, (uint8_t)((path_len + 1u) / 2u));
+    wr_path_words(w, path_len);
     dr_wr_bytes(w, path, path_len);
     if (path_len % 2u)
         dr_wr_u8(w, 0);
@@ -476,11 +489,13 @@ void dr_ucmm_send_write(dr_wr_t *w, const uint8_t *message, size_t message_len,
 {
     dr_wr_u8(w, 0x0A); /* priority/tick: 2^10 ms ticks */
     dr_wr_u8(w, 0x05); /* 5 ticks, about 5 s */
+    if (message_len > 0xFFFFu)
+        w->overflow = true; /* the 16-bit message size cannot say it */
     dr_wr_u16(w, (uint16_t)message_len);
     dr_wr_bytes(w, message, message_len);
     if (message_len % 2u)
         dr_wr_u8(w, 0);
-    dr_wr_u8(w, (uint8_t)((route_len + 1u) / 2u));
+    wr_path_words(w, route_len);
     dr_wr_u8(w, 0);
     dr_wr_bytes(w, route, route_len);
     if (route_len % 2u)
@@ -548,6 +563,10 @@ dr_status_t dr_fwd_open_parse(const uint8_t *data, size_t len, bool large,
 
 void dr_fwd_open_write(dr_wr_t *w, const dr_fwd_open_t *fo)
 {
+    /* 16-bit parameters hold 9 bits of size: a larger connection needs
+     * 0x5B, and masking the size would open a connection of the wrong size. */
+    if (!fo->large && (fo->o2t.size > 0x1FFu || fo->t2o.size > 0x1FFu))
+        w->overflow = true;
     dr_wr_u8(w, fo->priority_tick);
     dr_wr_u8(w, fo->timeout_ticks);
     dr_wr_u32(w, fo->o2t_cid);
@@ -569,7 +588,7 @@ void dr_fwd_open_write(dr_wr_t *w, const dr_fwd_open_t *fo)
     else
         dr_wr_u16(w, (uint16_t)dr_netparams_encode(&fo->t2o, false));
     dr_wr_u8(w, fo->transport);
-    dr_wr_u8(w, (uint8_t)((fo->path_len + 1u) / 2u));
+    wr_path_words(w, fo->path_len);
     dr_wr_bytes(w, fo->path, fo->path_len);
     if (fo->path_len % 2u)
         dr_wr_u8(w, 0);
@@ -651,7 +670,7 @@ void dr_fwd_close_write(dr_wr_t *w, const dr_fwd_close_t *fc)
     dr_wr_u16(w, fc->conn_serial);
     dr_wr_u16(w, fc->vendor);
     dr_wr_u32(w, fc->orig_serial);
-    dr_wr_u8(w, (uint8_t)((fc->path_len + 1u) / 2u));
+    wr_path_words(w, fc->path_len);
     dr_wr_u8(w, 0);
     dr_wr_bytes(w, fc->path, fc->path_len);
     if (fc->path_len % 2u)
