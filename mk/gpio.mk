@@ -22,8 +22,10 @@
 # An empty version (no libgpiod, or PKG_CONFIG=true in cross builds)
 # means v1, which is what bookworm has.
 GPIO_VERSION  := $(call pc,--modversion,libgpiod)
-GPIO_BACKEND  ?= $(if $(GPIO_VERSION),$(if $(shell $(PKG_CONFIG) \
+ifeq ($(origin GPIO_BACKEND),undefined)
+GPIO_BACKEND  := $(if $(GPIO_VERSION),$(if $(shell $(PKG_CONFIG) \
                    --atleast-version=2.0 libgpiod 2>/dev/null && echo y),v2,v1),v1)
+endif
 GPIO_CFLAGS   := $(call pc,--cflags,libgpiod)
 GPIO_LIBS     := $(or $(call pc,--libs,libgpiod),-lgpiod)
 GPIO_CPPFLAGS := -Igateway

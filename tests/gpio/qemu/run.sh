@@ -34,7 +34,6 @@
 # for the ABI linux-image-amd64 depends on today.
 set -eu
 
-here=$(cd "$(dirname "$0")" && pwd)
 cache=${XDG_CACHE_HOME:-${HOME:-/tmp}/.cache}/drgate
 timeout=120
 script=""
@@ -108,6 +107,8 @@ if [ -n "$missing" ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
         say "installing$missing"
         export DEBIAN_FRONTEND=noninteractive
+        # $missing is a list of package names: split it.
+        # shellcheck disable=SC2086
         { apt-get update -qq && apt-get install -y -qq --no-install-recommends $missing; } >/dev/null 2>&1 ||
             skip "cannot install$missing"
     else
@@ -138,7 +139,7 @@ build_kernel() {
     root=$work/root
     mkdir -p "$root" "$work/mod"
     for deb in "$work"/linux-image-*.deb "$work"/linux-headers-*.deb "$work"/linux-kbuild-*.deb; do
-        dpkg -x "$deb" "$root"
+        dpkg -x "$deb" "$root" || { rm -rf "$work"; return 1; }
     done
     # The headers' Makefile includes the common part by absolute path.
     sed -i "s|include /usr/src/|include $root/usr/src/|" "$root/usr/src/linux-headers-$kv/Makefile"
@@ -161,12 +162,19 @@ build_kernel() {
     command -v gcc-12 >/dev/null 2>&1 || cc="CC=gcc"
     make -s -C "$root/usr/src/linux-headers-$kv" M="$work/mod" $cc modules \
         > "$work/build.log" 2>&1 || { cat "$work/build.log"; rm -rf "$work"; return 1; }
-    mkdir -p "$out.tmp"
-    cp "$root/boot/vmlinuz-$kv" "$out.tmp/vmlinuz"
-    cp "$work/mod/gpio-mockup.ko" "$out.tmp/"
-    cp "$root/boot/config-$kv" "$out.tmp/config"
-    rm -rf "$out" && mv "$out.tmp" "$out"
-    rm -rf "$work"
+    # Called as a condition, so set -e is off here: check each step, and
+    # publish the cache entry in one rename once it is complete.
+    rm -rf "$out.tmp"
+    if mkdir -p "$out.tmp" &&
+        cp "$root/boot/vmlinuz-$kv" "$out.tmp/vmlinuz" &&
+        cp "$root/boot/config-$kv" "$out.tmp/config" &&
+        cp "$work/mod/gpio-mockup.ko" "$out.tmp/" &&
+        rm -rf "$out" && mv "$out.tmp" "$out"; then
+        rm -rf "$work"
+        return 0
+    fi
+    rm -rf "$work" "$out.tmp"
+    return 1
 }
 
 mkdir -p "$cache/kernel"
@@ -177,7 +185,9 @@ if [ -z "$kv" ] && [ "$(id -u)" = 0 ]; then
 fi
 if [ -z "$kv" ]; then
     # Offline: the newest kernel cached before will do.
-    kv=$(ls -1 "$cache/kernel" 2>/dev/null | grep -- '-amd64$' | sort -V | tail -n 1 || true)
+    kv=$(for d in "$cache"/kernel/*-amd64; do
+             [ -f "$d/gpio-mockup.ko" ] && basename "$d"
+         done | sort -V | tail -n 1)
     [ -n "$kv" ] || skip "no Debian kernel: apt-cache knows no linux-image-amd64 and nothing is cached"
     say "apt-cache knows no kernel; using cached $kv"
 fi
@@ -188,7 +198,16 @@ if [ ! -f "$kdir/gpio-mockup.ko" ]; then
     command -v flock >/dev/null 2>&1 && flock -w 900 9
     if [ ! -f "$kdir/gpio-mockup.ko" ]; then
         t0=$(now)
-        build_kernel "$kdir" "$kv" || skip "could not download or build kernel $kv with gpio-mockup"
+        if ! build_kernel "$kdir" "$kv"; then
+            # Stale package lists name packages the mirror no longer has.
+            if [ "$(id -u)" = 0 ]; then apt-get update -qq >/dev/null 2>&1 || true; fi
+            kv=$(kernel_abi)
+            kdir=$cache/kernel/$kv
+            if [ -z "$kv" ] ||
+                { [ ! -f "$kdir/gpio-mockup.ko" ] && ! build_kernel "$kdir" "$kv"; }; then
+                skip "could not download or build kernel ${kv:-?} with gpio-mockup"
+            fi
+        fi
         say "kernel $kv and gpio-mockup.ko cached in $kdir ($(( $(now) - t0 )) s)"
     fi
     exec 9>&-

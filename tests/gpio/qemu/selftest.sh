@@ -26,7 +26,7 @@ pid=$!
 i=0
 while ! grep -q holding $out && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
 if grep -q holding $out; then ok "holder requested line $line"; else bad "holder did not start: $(cat $out)"; fi
-v=$(cat $dbg/$line)
+v=$(cat "$dbg/$line")
 [ "$v" = 1 ] && ok "debugfs reads the held output as 1" || bad "debugfs reads $v, want 1"
 if gpioinfo gpiochip0 | grep -E "line +$line:" | grep -q '"gpio-selftest".*output'; then
     ok "gpioinfo shows the line used by gpio-selftest as output"
