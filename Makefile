@@ -130,7 +130,8 @@ check: deps
 	done
 	@$(MAKE) --no-print-directory check-summary
 
-check-unit: $(TEST_BIN)
+# The client tests run drsim next to them; cross builds skip those.
+check-unit: $(TEST_BIN) $(if $(CROSS_COMPILE),,$(SIM_BIN))
 	@sh tests/run-tests.sh "$(RESULTS)" "$(TEST_RUNNER)" $(TEST_BIN)
 
 # drcli's offline commands end to end: golden transcripts, exit codes, and
@@ -166,10 +167,13 @@ SAN_FLAGS := -O1 -g -fsanitize=address,undefined -fno-sanitize-recover=all \
 check-asan:
 	$(MAKE) --no-print-directory -k B=$(B)/asan CFLAGS="$(SAN_FLAGS)" \
 	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
-	    RESULTS=$(abspath $(RESULTS)) check-unit check-cli
+	    RESULTS=$(abspath $(RESULTS)) all check-unit check-cli
 
 check-summary:
 	@awk '{p += $$1; f += $$2} END {printf "check: %d passed, %d failed\n", p, f; exit (f > 0)}' $(RESULTS)
+
+# Fuzzing: fuzz, check-fuzz, fuzz-replay, fuzz-corpus (see fuzz/fuzz.mk).
+-include fuzz/fuzz.mk
 
 # ---- benchmarks and demo -------------------------------------------------
 bench: $(B)/bench/bench_codec
@@ -204,3 +208,7 @@ uninstall:
 
 clean:
 	rm -rf build
+
+# ---- module fragments ------------------------------------------------------
+# Each mk/*.mk adds the rules of one part (gateway, GPIO, fuzzing, ...).
+include $(sort $(wildcard mk/*.mk))

@@ -11,7 +11,7 @@ PKGS="build-essential pkg-config libcmocka-dev libjansson-dev \
  clang gcc-arm-none-eabi libnewlib-arm-none-eabi \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
  tshark mbpoll python3-venv iproute2 valgrind"
-CROSS_PKGS="libcmocka-dev:s390x"
+CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x"
 
 missing=""
 for p in $PKGS $CROSS_PKGS; do
