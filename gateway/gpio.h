@@ -156,7 +156,8 @@ gw_gpio_status_t gw_gpio_chip_find_line(gw_gpio_chip_t *chip, const char *spec,
  * request (release with gw_gpio_request_release; it also goes when the
  * chip is closed). EINVAL (bad configuration, duplicate offset), ENOLINE,
  * EBUSY (the message names the line and its current consumer), EPERM,
- * ENOTSUP (e.g. bias on a kernel or driver without it), ENOMEM. */
+ * ENOMEM; EINVAL also when the kernel refuses a flag it does not know
+ * (bias before Linux 5.5). A driver that cannot bias ignores the bias. */
 gw_gpio_status_t gw_gpio_chip_request_lines(gw_gpio_chip_t *chip,
                                             const gw_gpio_request_config_t *cfg,
                                             gw_gpio_request_t **out,
