@@ -7,35 +7,91 @@
 #include <string.h>
 
 #include "drgate/codec.h"
+#include "fields_internal.h"
 
 /* ---- wire helpers ----------------------------------------------------- */
+
+/* HOST_IS_LE: wire order is host order, so runs of bytes can be copied. */
+#if defined(__BYTE_ORDER__) && defined(__ORDER_LITTLE_ENDIAN__) && \
+    __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define HOST_IS_LE 1
+#else
+#define HOST_IS_LE 0
+#endif
+
+/* Little-endian load/store of n (1..8) bytes as one integer. */
+static uint64_t load_le(const uint8_t *p, unsigned n)
+{
+    uint64_t v = 0;
+    if (HOST_IS_LE) {
+        memcpy(&v, p, n);
+        return v;
+    }
+    for (unsigned i = 0; i < n; i++)
+        v |= (uint64_t)p[i] << (8u * i);
+    return v;
+}
+
+static void store_le(uint8_t *p, unsigned n, uint64_t v)
+{
+    if (HOST_IS_LE) {
+        memcpy(p, &v, n);
+        return;
+    }
+    for (unsigned i = 0; i < n; i++)
+        p[i] = (uint8_t)(v >> (8u * i));
+}
+
+static uint64_t low_mask(unsigned count)
+{
+    return count < 64u ? (UINT64_C(1) << count) - 1u : ~UINT64_C(0);
+}
 
 /* `count` bits starting at bit `bit` of the little-endian row at `row`.
  * The table guarantees bit + count <= 64. */
 static uint64_t load_bits(const uint8_t *row, unsigned bit, unsigned count)
 {
-    unsigned nbytes = (bit + count + 7u) / 8u;
-    uint64_t v = 0;
-    for (unsigned i = 0; i < nbytes; i++)
-        v |= (uint64_t)row[i] << (8u * i);
-    v >>= bit;
-    return count < 64u ? v & ((UINT64_C(1) << count) - 1u) : v;
+    return (load_le(row, (bit + count + 7u) / 8u) >> bit) & low_mask(count);
 }
 
-/* Write `count` bits of `v` at bit `bit` of `row`, leaving other bits. */
+/* Write `count` bits of `v` at bit `bit` of `row`, leaving other bits:
+ * one read-modify-write of the bytes the field touches. */
 static void store_bits(uint8_t *row, unsigned bit, unsigned count, uint64_t v)
 {
-    for (unsigned i = 0; i < count; i++) {
-        unsigned pos = bit + i;
-        uint8_t mask = (uint8_t)(1u << (pos % 8u));
-        if ((v >> i) & 1u)
-            row[pos / 8u] |= mask;
-        else
-            row[pos / 8u] &= (uint8_t)~mask;
+    unsigned n = (bit + count + 7u) / 8u;
+    uint64_t mask = low_mask(count) << bit;
+    store_le(row, n, (load_le(row, n) & ~mask) | ((v << bit) & mask));
+}
+
+/* Runs of 32-bit values (REAL, DINT) are most of the data. Their bit
+ * patterns move unchanged between wire and struct (int32_t is two's
+ * complement, float is binary32 with the integers' byte order), so on a
+ * little-endian host a run is one memcpy; elsewhere, byte by byte. */
+static void words_from_wire(uint8_t *dst, const uint8_t *src, unsigned n)
+{
+    if (HOST_IS_LE) {
+        memcpy(dst, src, 4u * n);
+        return;
+    }
+    for (unsigned i = 0; i < n; i++) {
+        uint32_t v = dr_get_le32(src + 4u * i);
+        memcpy(dst + 4u * i, &v, 4);
     }
 }
 
-/* Two's complement without implementation-defined conversions. */
+static void words_to_wire(uint8_t *dst, const uint8_t *src, unsigned n)
+{
+    if (HOST_IS_LE) {
+        memcpy(dst, src, 4u * n);
+        return;
+    }
+    for (unsigned i = 0; i < n; i++) {
+        uint32_t v;
+        memcpy(&v, src + 4u * i, 4);
+        dr_put_le32(dst + 4u * i, v);
+    }
+}
+
 static int32_t int32_from_wire(uint32_t u)
 {
     return u <= (uint32_t)INT32_MAX ? (int32_t)u : -(int32_t)(~u) - 1;
@@ -60,114 +116,117 @@ static uint32_t real_to_wire(float f)
 
 typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24) ? 1 : -1];
 
-/* ---- typed structs: store and load one member -------------------------- */
+/* ---- whole assemblies ----------------------------------------------------
+ * One decode and one encode function per assembly, expanded from its field
+ * list (fields_internal.h): every offset, bit and count is a constant, so
+ * each field compiles to a few loads and stores. */
 
-static void put_member_uint(uint8_t *dst, unsigned size, uint64_t v)
+/* decode one field into struct member m from the wire bytes at p */
+#define DEC_BIT(m, p, bit, n) (m) = ((p)[(bit) / 8u] >> ((bit) % 8u)) & 1u;
+#define DEC_BITS(m, p, bit, n) (m) = load_bits(p, bit, n);
+#define DEC_USINT(m, p, bit, n) memcpy(&(m), p, n);
+#define DEC_ENUM DEC_USINT
+#define DEC_DINT(m, p, bit, n) words_from_wire((uint8_t *)&(m), p, n);
+#define DEC_REAL DEC_DINT
+#define DEC_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
+    DEC_##K(o->M, buf + (OFF), BIT, N)
+
+/* encode one field onto zeroed wire bytes at p */
+#define ENC_BIT(m, p, bit, n) (p)[(bit) / 8u] |= (uint8_t)((m) ? 1u << ((bit) % 8u) : 0u);
+#define ENC_BITS(m, p, bit, n) or_bits(p, bit, n, (uint64_t)(m));
+#define ENC_USINT(m, p, bit, n) memcpy(p, &(m), n);
+#define ENC_ENUM ENC_USINT
+#define ENC_DINT(m, p, bit, n) words_to_wire(p, (const uint8_t *)&(m), n);
+#define ENC_REAL ENC_DINT
+#define ENC_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
+    ENC_##K(o->M, buf + (OFF), BIT, N)
+
+/* check one member before anything is written */
+#define CHK_BIT(m, n, o2t) DR_OK
+#define CHK_BITS(m, n, o2t) (mask_fits((uint64_t)(m), n) ? DR_OK : DR_ERANGE)
+#define CHK_USINT(m, n, o2t) DR_OK
+#define CHK_ENUM CHK_USINT
+#define CHK_DINT CHK_USINT
+#define CHK_REAL(m, n, o2t) ((o2t) ? reals_finite((const uint8_t *)&(m), n) : DR_OK)
+#define CHK_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
+    if ((st = CHK_##K(o->M, N, o2t)) != DR_OK)                                 \
+        return st;
+
+/* Encoding writes onto a zeroed image, and masks were checked to fit
+ * their bits: OR-ing the value in is enough. */
+static void or_bits(uint8_t *row, unsigned bit, unsigned count, uint64_t v)
 {
-    switch (size) {
-    case 1: { uint8_t x = (uint8_t)v; memcpy(dst, &x, 1); break; }
-    case 2: { uint16_t x = (uint16_t)v; memcpy(dst, &x, 2); break; }
-    case 4: { uint32_t x = (uint32_t)v; memcpy(dst, &x, 4); break; }
-    default: memcpy(dst, &v, 8); break;
-    }
+    unsigned n = (bit + count + 7u) / 8u;
+    store_le(row, n, load_le(row, n) | (v << bit));
 }
 
-static uint64_t get_member_uint(const uint8_t *src, unsigned size)
+static bool mask_fits(uint64_t v, unsigned count)
 {
-    switch (size) {
-    case 1: { uint8_t x; memcpy(&x, src, 1); return x; }
-    case 2: { uint16_t x; memcpy(&x, src, 2); return x; }
-    case 4: { uint32_t x; memcpy(&x, src, 4); return x; }
-    default: { uint64_t x; memcpy(&x, src, 8); return x; }
-    }
+    return count >= 64u || (v >> count) == 0;
 }
 
-static void decode_field(const dr_field_t *f, const uint8_t *buf, uint8_t *obj)
+/* NaN and infinities have all exponent bits set. No early exit: the loop
+ * vectorizes, and the values are almost always fine. */
+static dr_status_t reals_finite(const uint8_t *p, unsigned n)
 {
-    const uint8_t *src = buf + f->offset;
-    uint8_t *dst = obj + f->member_offset;
-
-    switch ((dr_kind_t)f->kind) {
-    case DR_KIND_BIT: {
-        bool b = (src[f->bit / 8u] >> (f->bit % 8u)) & 1u;
-        memcpy(dst, &b, sizeof b);
-        break;
+    unsigned bad = 0;
+    for (unsigned i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, p + 4u * i, 4);
+        bad |= (u & 0x7F800000u) == 0x7F800000u;
     }
-    case DR_KIND_BITS:
-        put_member_uint(dst, f->member_size, load_bits(src, f->bit, f->count));
-        break;
-    case DR_KIND_USINT:
-    case DR_KIND_ENUM:
-        memcpy(dst, src, f->count);
-        break;
-    case DR_KIND_DINT:
-        for (unsigned i = 0; i < f->count; i++) {
-            int32_t v = int32_from_wire(dr_get_le32(src + 4u * i));
-            memcpy(dst + 4u * i, &v, 4);
-        }
-        break;
-    case DR_KIND_REAL:
-        for (unsigned i = 0; i < f->count; i++) {
-            float v = real_from_wire(dr_get_le32(src + 4u * i));
-            memcpy(dst + 4u * i, &v, 4);
-        }
-        break;
-    }
+    return bad ? DR_ENONFINITE : DR_OK;
 }
 
-/* Check a typed member before encoding: masks within their bits, O->T REALs
- * finite. */
-static dr_status_t check_member(const dr_field_t *f, const uint8_t *obj)
-{
-    const uint8_t *src = obj + f->member_offset;
+/* Bytes of struct members and bits on the wire, summed over the fields:
+ * a struct with no padding need not be cleared before decoding, a wire
+ * image with no reserved bits need not be cleared before encoding. */
+#define MEMBER_BYTES(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)    \
+    +sizeof(((T *)0)->M)
+#define WIRE_BITS_BIT(n) 1u
+#define WIRE_BITS_BITS(n) (n)
+#define WIRE_BITS_USINT(n) (8u * (n))
+#define WIRE_BITS_ENUM WIRE_BITS_USINT
+#define WIRE_BITS_DINT(n) (32u * (n))
+#define WIRE_BITS_REAL WIRE_BITS_DINT
+#define WIRE_BITS(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
+    +WIRE_BITS_##K(N)
+#define BIT_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
+    +(DR_KIND_##K == DR_KIND_BIT || DR_KIND_##K == DR_KIND_BITS)
 
-    if (f->kind == DR_KIND_BITS && f->count < 64u &&
-        (get_member_uint(src, f->member_size) >> f->count) != 0)
-        return DR_ERANGE;
-    if (f->kind == DR_KIND_REAL &&
-        dr_asm_info((dr_asm_t)f->assembly)->dir == DR_DIR_O2T) {
-        for (unsigned i = 0; i < f->count; i++) {
-            float v;
-            memcpy(&v, src + 4u * i, 4);
-            if (v != v || v > FLT_MAX || v < -FLT_MAX)
-                return DR_ENONFINITE;
-        }
+#define DEFINE_CODEC(ID, name, T, FIELDS, O2T, SIZE)                                 \
+    static void decode_##name(const uint8_t *buf, void *out)                  \
+    {                                                                         \
+        T *o = out;                                                           \
+        if (sizeof *o != 0 FIELDS(MEMBER_BYTES, DR_ASM_##ID, T))              \
+            memset(o, 0, sizeof *o); /* padding, so structs compare equal */  \
+        FIELDS(DEC_FIELD, DR_ASM_##ID, T)                                     \
+    }                                                                         \
+    /* every value is checked before the first byte is written */           \
+    static dr_status_t encode_##name(const void *in, uint8_t *buf)           \
+    {                                                                         \
+        const T *o = in;                                                      \
+        const bool o2t = O2T;                                                 \
+        dr_status_t st = DR_OK;                                               \
+        (void)o2t;                                                            \
+        FIELDS(CHK_FIELD, DR_ASM_##ID, T)                                     \
+        /* reserved bits are 0, and bit fields are OR-ed onto zeros */        \
+        if ((0u FIELDS(WIRE_BITS, 0, T)) != 8u * (SIZE) ||                    \
+            (0 FIELDS(BIT_FIELD, 0, T)) > 0)                                  \
+            memset(buf, 0, SIZE);                                             \
+        FIELDS(ENC_FIELD, DR_ASM_##ID, T)                                     \
+        return st;                                                            \
     }
-    return DR_OK;
-}
+DR_ASSEMBLIES(DEFINE_CODEC)
 
-static void encode_field(const dr_field_t *f, const uint8_t *obj, uint8_t *buf)
-{
-    const uint8_t *src = obj + f->member_offset;
-    uint8_t *dst = buf + f->offset;
+typedef struct {
+    void (*decode)(const uint8_t *buf, void *out);
+    dr_status_t (*encode)(const void *in, uint8_t *buf);
+} asm_codec_t;
 
-    switch ((dr_kind_t)f->kind) {
-    case DR_KIND_BIT: {
-        bool b;
-        memcpy(&b, src, sizeof b);
-        store_bits(dst, f->bit, 1, b ? 1u : 0u);
-        break;
-    }
-    case DR_KIND_BITS:
-        store_bits(dst, f->bit, f->count, get_member_uint(src, f->member_size));
-        break;
-    case DR_KIND_USINT:
-    case DR_KIND_ENUM:
-        memcpy(dst, src, f->count);
-        break;
-    case DR_KIND_DINT:
-    case DR_KIND_REAL:
-        /* int32_t and float are both copied as their 32-bit pattern. */
-        for (unsigned i = 0; i < f->count; i++) {
-            uint32_t v;
-            memcpy(&v, src + 4u * i, 4);
-            dr_put_le32(dst + 4u * i, v);
-        }
-        break;
-    }
-}
-
-/* ---- whole assemblies --------------------------------------------------- */
+#define CODEC_ENTRY(ID, name, T, FIELDS, O2T, SIZE)                            \
+    {decode_##name, encode_##name},
+static const asm_codec_t codecs[DR_ASM_COUNT] = {DR_ASSEMBLIES(CODEC_ENTRY)};
 
 dr_status_t dr_asm_decode(dr_asm_t a, const uint8_t *buf, size_t len, void *out)
 {
@@ -176,10 +235,7 @@ dr_status_t dr_asm_decode(dr_asm_t a, const uint8_t *buf, size_t len, void *out)
         return DR_EINVAL;
     if (len != info->size)
         return DR_ELENGTH;
-    memset(out, 0, info->struct_size);
-    const dr_field_t *f = &dr_field_table[info->first_field];
-    for (unsigned i = 0; i < info->field_count; i++)
-        decode_field(&f[i], buf, out);
+    codecs[a].decode(buf, out);
     return DR_OK;
 }
 
@@ -190,16 +246,7 @@ dr_status_t dr_asm_encode(dr_asm_t a, const void *in, uint8_t *buf, size_t len)
         return DR_EINVAL;
     if (len != info->size)
         return DR_ELENGTH;
-    const dr_field_t *f = &dr_field_table[info->first_field];
-    for (unsigned i = 0; i < info->field_count; i++) {
-        dr_status_t st = check_member(&f[i], in);
-        if (st != DR_OK)
-            return st;
-    }
-    memset(buf, 0, len);
-    for (unsigned i = 0; i < info->field_count; i++)
-        encode_field(&f[i], in, buf);
-    return DR_OK;
+    return codecs[a].encode(in, buf);
 }
 
 #define TYPED(name, A, T)                                                     \
