@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* One robot's link: see link.h. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/epoll.h>
@@ -31,6 +32,7 @@ struct gw_link {
     gw_link_hooks_t hooks;
     dr_client_t *client;
     dr_conn_t *conn[NPAIRS];
+    struct shared_port *port;
     gw_ev_t ev[DR_CLIENT_MAX_FDS];
     bool up;
     uint64_t last_rx_us[DR_ASM_COUNT]; /* per T->O assembly */
@@ -47,6 +49,18 @@ typedef struct {
     gw_link_t *link;
     dr_asm_t a;
 } poll_ctx_t;
+
+/* Robots whose links use the same local address and UDP port share one
+ * socket (two sockets cannot both own 2222), polled here once for all. */
+typedef struct shared_port {
+    dr_udp_port_t *port;
+    char addr[64];
+    uint16_t num;
+    unsigned refs;
+    gw_ev_t ev;
+} shared_port_t;
+
+static shared_port_t ports[GW_MAX_ROBOTS];
 
 static poll_ctx_t poll_ctx[GW_MAX_ROBOTS][DR_ASM_COUNT];
 
@@ -224,6 +238,55 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
     }
 }
 
+static void on_port(void *obj, uint32_t events)
+{
+    (void)events;
+    dr_udp_port_process(((shared_port_t *)obj)->port);
+}
+
+static shared_port_t *port_get(const gw_robot_config_t *rc, int epfd)
+{
+    uint16_t num = rc->local_udp_port ? rc->local_udp_port : DR_ENIP_UDP_PORT;
+    shared_port_t *free_slot = NULL;
+    for (unsigned i = 0; i < GW_MAX_ROBOTS; i++) {
+        shared_port_t *sp = &ports[i];
+        if (sp->refs > 0 && sp->num == num && strcmp(sp->addr, rc->local_addr) == 0) {
+            sp->refs++;
+            return sp;
+        }
+        if (sp->refs == 0 && free_slot == NULL)
+            free_slot = sp;
+    }
+    if (free_slot == NULL)
+        return NULL;
+    dr_status_t err;
+    dr_transport_t tp = {NULL, NULL};
+    free_slot->port = dr_udp_port_new(rc->local_addr[0] ? rc->local_addr : NULL, num, tp, &err);
+    if (free_slot->port == NULL) {
+        gw_log(GW_LOG_ERROR, "robot %s: cannot open UDP %s:%u for Class 1 I/O: %s", rc->name,
+               rc->local_addr[0] ? rc->local_addr : "0.0.0.0", num, dr_strerror(err));
+        return NULL;
+    }
+    snprintf(free_slot->addr, sizeof free_slot->addr, "%s", rc->local_addr);
+    free_slot->num = num;
+    free_slot->refs = 1;
+    free_slot->ev.fn = on_port;
+    free_slot->ev.obj = free_slot;
+    free_slot->ev.fd = -1;
+    if (!gw_loop_watch(epfd, &free_slot->ev, dr_udp_port_fd(free_slot->port), EPOLLIN))
+        gw_log(GW_LOG_ERROR, "robot %s: epoll failed for the UDP port", rc->name);
+    return free_slot;
+}
+
+static void port_put(shared_port_t *sp, int epfd)
+{
+    if (sp == NULL || --sp->refs > 0)
+        return;
+    gw_loop_unwatch(epfd, &sp->ev);
+    dr_udp_port_free(sp->port);
+    sp->port = NULL;
+}
+
 /* ---- lifecycle ------------------------------------------------------------------ */
 
 gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
@@ -252,6 +315,14 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     cc.local_udp_port = rc->local_udp_port;
     cc.timeout_ms = rc->timeout_ms;
     memcpy(cc.instance, rc->instance, sizeof cc.instance);
+    if (rc->mode == GW_MODE_IMPLICIT) {
+        l->port = port_get(rc, epfd);
+        if (l->port == NULL) {
+            gw_link_free(l);
+            return NULL;
+        }
+        cc.shared_udp = l->port->port;
+    }
     l->client = dr_client_new(&cc);
     if (l->client == NULL || (rc->mode == GW_MODE_IMPLICIT && !add_connections(l))) {
         gw_log(GW_LOG_ERROR, "robot %s: cannot create the EtherNet/IP client", rc->name);
@@ -277,6 +348,7 @@ void gw_link_free(gw_link_t *l)
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++)
         gw_loop_unwatch(l->epfd, &l->ev[i]);
     dr_client_free(l->client); /* Forward Close + UnRegisterSession */
+    port_put(l->port, l->epfd);
     free(l);
 }
 

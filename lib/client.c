@@ -37,6 +37,19 @@ typedef struct {
     size_t rsp_len;
 } req_t;
 
+/* The Class 1 UDP socket. Every client has one of its own, unless the
+ * application shares one between clients (several robots, one port 2222):
+ * datagrams are then handed to the client whose connection ID they carry. */
+#define UDP_PORT_MAX_CLIENTS 16
+struct dr_udp_port {
+    dr_transport_t tp;
+    int h;
+    dr_sockaddr_t local;
+    bool shared;
+    dr_client_t *clients[UDP_PORT_MAX_CLIENTS];
+    unsigned nclients;
+};
+
 struct dr_conn {
     dr_client_t *client;
     bool used;
@@ -64,7 +77,9 @@ struct dr_client {
     dr_client_config_t cfg;
     char host[256];
     dr_transport_t tp;
-    int tcp, udp, timer;
+    int tcp, timer;
+    dr_udp_port_t own_udp;  /* used unless the config shares one */
+    dr_udp_port_t *udp;     /* the port this client sends and receives on */
     sess_t state;
     bool started; /* reconnect by itself */
     uint32_t session;
@@ -122,6 +137,8 @@ const char *dr_conn_state_name(dr_conn_state_t s)
 
 /* ---- lifecycle ----------------------------------------------------------- */
 
+static void close_handle(dr_client_t *c, int *h);
+
 dr_client_t *dr_client_new(const dr_client_config_t *cfg)
 {
     if (cfg == NULL || cfg->host == NULL || strlen(cfg->host) >= 256)
@@ -147,12 +164,19 @@ dr_client_t *dr_client_new(const dr_client_config_t *cfg)
         c->tp = dr_transport_posix();
     else
         c->tp = c->cfg.transport;
-    c->tcp = c->udp = c->timer = -1;
+    c->tcp = c->timer = -1;
+    c->own_udp.h = -1;
+    c->own_udp.tp = c->tp;
+    c->own_udp.clients[0] = c;
+    c->own_udp.nclients = 1;
+    c->udp = &c->own_udp;
     uint64_t t = now_us(c);
     if (c->cfg.serial == 0)
         c->cfg.serial = (uint32_t)(t ^ (t >> 32)) | 1u;
     c->next_serial = (uint16_t)(t >> 4);
-    c->next_t2o_cid = (uint32_t)(t << 8) | 0x01000000u;
+    /* Connection IDs must differ between clients sharing a UDP port. */
+    static uint32_t salt;
+    c->next_t2o_cid = ((uint32_t)(t << 8) | 0x01000000u) + (++salt << 20);
     c->backoff_ms = c->cfg.backoff_min_ms;
     c->step = "";
     if (cfg->local_addr != NULL &&
@@ -163,6 +187,16 @@ dr_client_t *dr_client_new(const dr_client_config_t *cfg)
     if (c->tp.ops->timer_open(c->tp.ctx, &c->timer) != DR_OK) {
         free(c);
         return NULL;
+    }
+    if (cfg->shared_udp != NULL) {
+        dr_udp_port_t *p = cfg->shared_udp;
+        if (p->nclients == UDP_PORT_MAX_CLIENTS) {
+            close_handle(c, &c->timer);
+            free(c);
+            return NULL;
+        }
+        p->clients[p->nclients++] = c;
+        c->udp = p;
     }
     return c;
 }
@@ -183,6 +217,12 @@ void dr_client_free(dr_client_t *c)
         return;
     dr_client_close(c);
     close_handle(c, &c->timer);
+    if (c->udp != &c->own_udp) {
+        dr_udp_port_t *p = c->udp;
+        for (unsigned i = 0; i < p->nclients; i++)
+            if (p->clients[i] == c)
+                p->clients[i] = p->clients[--p->nclients];
+    }
     free(c);
 }
 
@@ -346,7 +386,7 @@ static dr_status_t send_rr(dr_client_t *c, req_t *r, const uint8_t *msg,
     dr_wr_bytes(&w, msg, msg_len);
     dr_cpf_item_end(&w, m);
     if (with_sockaddr) {
-        dr_sockaddr_t sa = {c->local_udp_addr, c->cfg.local_udp_port};
+        dr_sockaddr_t sa = c->udp->local;
         dr_cpf_sockaddr_write(&w, DR_CPF_SOCKADDR_T2O, sa);
     }
     if (w.overflow)
@@ -383,10 +423,11 @@ static void session_fail(dr_client_t *c, dr_status_t st)
 
 static dr_status_t ensure_udp(dr_client_t *c)
 {
-    if (c->udp >= 0)
+    if (c->udp->h >= 0)
         return DR_OK;
     dr_sockaddr_t local = {c->local_udp_addr, c->cfg.local_udp_port};
-    return c->tp.ops->udp_open(c->tp.ctx, local, &c->udp);
+    c->udp->local = local;
+    return c->tp.ops->udp_open(c->tp.ctx, local, &c->udp->h);
 }
 
 static dr_status_t begin_session(dr_client_t *c)
@@ -516,7 +557,7 @@ static void send_forward_open(dr_conn_t *cn)
     cn->stats.opens++;
     c->step = "forward open";
     conn_set_state(cn, DR_CONN_OPENING, DR_OK);
-    bool sockaddr = c->cfg.local_udp_port != DR_ENIP_UDP_PORT;
+    bool sockaddr = c->udp->local.port != DR_ENIP_UDP_PORT;
     dr_status_t st = send_rr(c, r, msg, m.len, sockaddr);
     if (st != DR_OK) {
         r->active = false;
@@ -714,8 +755,8 @@ static void conn_produce(dr_conn_t *cn, uint64_t t)
     f.data = cn->out;
     f.data_len = cn->o2t_size;
     if (dr_io_frame_write(frame, sizeof frame, &f, &len) == DR_OK &&
-        c->udp >= 0 &&
-        c->tp.ops->udp_send(c->tp.ctx, c->udp, frame, len, cn->o2t_to) == DR_OK)
+        c->udp->h >= 0 &&
+        c->tp.ops->udp_send(c->tp.ctx, c->udp->h, frame, len, cn->o2t_to) == DR_OK)
         cn->stats.tx_packets++;
     /* Absolute deadlines: the next packet is due one API after the last
      * deadline, not after now, so the rate does not drift. After a stall
@@ -872,12 +913,14 @@ static dr_conn_t *conn_by_t2o_cid(dr_client_t *c, uint32_t cid)
     return NULL;
 }
 
-static void on_datagram(dr_client_t *c, const uint8_t *buf, size_t len, uint64_t t)
+static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64_t t)
 {
     dr_io_frame_t f;
     if (dr_io_frame_parse(buf, len, false, &f) != DR_OK)
         return;
-    dr_conn_t *cn = conn_by_t2o_cid(c, f.cid);
+    dr_conn_t *cn = NULL;
+    for (unsigned i = 0; i < p->nclients && cn == NULL; i++)
+        cn = conn_by_t2o_cid(p->clients[i], f.cid);
     if (cn == NULL)
         return;
     if (cn->cfg.t2o_run_idle && dr_io_frame_parse(buf, len, true, &f) != DR_OK) {
@@ -906,18 +949,65 @@ static void on_datagram(dr_client_t *c, const uint8_t *buf, size_t len, uint64_t
         cn->cfg.on_data(cn, cn->in, f.data_len, cn->cfg.user);
 }
 
-static void read_udp(dr_client_t *c, uint64_t t)
+/* Everything that is waiting, bounded so a flood cannot starve the loop. */
+static void read_udp(dr_udp_port_t *p, uint64_t t)
 {
     uint8_t buf[UDP_BUF];
-    for (unsigned n = 0; c->udp >= 0 && n < 1000; n++) {
+    for (unsigned n = 0; p->h >= 0 && n < 1000; n++) {
         size_t got;
         dr_sockaddr_t from;
-        dr_status_t st = c->tp.ops->udp_recv(c->tp.ctx, c->udp, buf, sizeof buf, &got, &from);
+        dr_status_t st = p->tp.ops->udp_recv(p->tp.ctx, p->h, buf, sizeof buf, &got, &from);
         if (st == DR_EAGAIN)
             return;
         if (st == DR_OK)
-            on_datagram(c, buf, got, t);
+            on_datagram(p, buf, got, t);
     }
+}
+
+dr_udp_port_t *dr_udp_port_new(const char *local_addr, uint16_t port,
+                               dr_transport_t tp, dr_status_t *err)
+{
+    dr_status_t st = DR_EINVAL;
+    dr_udp_port_t *p = calloc(1, sizeof *p);
+    if (p == NULL) {
+        st = DR_EFULL;
+        goto fail;
+    }
+    p->tp = tp.ops != NULL ? tp : dr_transport_posix();
+    p->h = -1;
+    p->shared = true;
+    p->local.port = port != 0 ? port : DR_ENIP_UDP_PORT;
+    if (local_addr != NULL &&
+        (st = p->tp.ops->resolve(p->tp.ctx, local_addr, &p->local.addr)) != DR_OK)
+        goto fail;
+    if ((st = p->tp.ops->udp_open(p->tp.ctx, p->local, &p->h)) != DR_OK)
+        goto fail;
+    return p;
+fail:
+    free(p);
+    if (err != NULL)
+        *err = st;
+    return NULL;
+}
+
+void dr_udp_port_free(dr_udp_port_t *p)
+{
+    if (p == NULL)
+        return;
+    if (p->h >= 0)
+        p->tp.ops->close(p->tp.ctx, p->h);
+    free(p);
+}
+
+int dr_udp_port_fd(const dr_udp_port_t *p)
+{
+    return p->tp.ops->fd(p->tp.ctx, p->h);
+}
+
+dr_status_t dr_udp_port_process(dr_udp_port_t *p)
+{
+    read_udp(p, p->tp.ops->now_us(p->tp.ctx));
+    return DR_OK;
 }
 
 /* ---- the loop -------------------------------------------------------------- */
@@ -971,7 +1061,7 @@ dr_status_t dr_client_process(dr_client_t *c)
         flush_tx(c);
         read_tcp(c);
     }
-    read_udp(c, t);
+    read_udp(c->udp, t);
     t = now_us(c);
     session_timers(c, t);
     for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
@@ -994,8 +1084,9 @@ int dr_client_pollfds(const dr_client_t *c, dr_pollfd_t *fds, int max)
                                 (c->state == S_CONNECTING || c->tx_len > 0 ? DR_POLL_OUT : 0));
         n++;
     }
-    if (c->udp >= 0 && n < max) {
-        fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->udp);
+    /* A shared port is polled by the application, once for all clients. */
+    if (!c->udp->shared && c->udp->h >= 0 && n < max) {
+        fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->udp->h);
         fds[n].events = DR_POLL_IN;
         n++;
     }
@@ -1017,8 +1108,8 @@ static void wait_and_process(dr_client_t *c, uint64_t deadline)
         h[n] = c->tcp;
         out[n++] = c->state == S_CONNECTING || c->tx_len > 0;
     }
-    if (c->udp >= 0) {
-        h[n] = c->udp;
+    if (c->udp->h >= 0) {
+        h[n] = c->udp->h;
         out[n++] = false;
     }
     uint64_t d = dr_client_next_deadline(c);
@@ -1269,7 +1360,8 @@ void dr_client_close(dr_client_t *c)
     for (unsigned i = 0; i < MAX_REQS; i++)
         c->reqs[i].active = false;
     close_handle(c, &c->tcp);
-    close_handle(c, &c->udp);
+    if (!c->udp->shared)
+        close_handle(c, &c->udp->h);
     c->state = S_IDLE;
     c->tx_len = c->rx_len = 0;
 }

@@ -397,6 +397,55 @@ static void test_packet_loss_counted(void **state)
     assert_true(st->rx_packets > 50);
 }
 
+/* Two robots, one UDP port: both clients' connections get their data. */
+static void test_two_robots_share_udp_port(void **state)
+{
+    fixture_t *f = *state;
+    drsim_proc_t second;
+    memset(&second, 0, sizeof second);
+    drsim_ports(&second.tcp_port, &second.udp_port);
+    second.tcp_port = (uint16_t)(second.tcp_port + 3000u);
+    second.udp_port = (uint16_t)(second.udp_port + 3000u);
+    assert_true(drsim_start(&second, NULL));
+
+    dr_status_t err;
+    dr_transport_t tp = {NULL, NULL};
+    dr_udp_port_t *port = dr_udp_port_new("127.0.0.1", f->local_udp, tp, &err);
+    assert_non_null(port);
+    dr_client_t *c[2];
+    const drsim_proc_t *sims[2] = {&f->sim, &second};
+    conn_log_t log[2];
+    dr_conn_t *cn[2];
+    memset(log, 0, sizeof log);
+    for (int i = 0; i < 2; i++) {
+        dr_client_config_t cfg;
+        memset(&cfg, 0, sizeof cfg);
+        cfg.host = sims[i]->address;
+        cfg.tcp_port = sims[i]->tcp_port;
+        cfg.timeout_ms = 1000;
+        cfg.shared_udp = port;
+        c[i] = dr_client_new(&cfg);
+        assert_non_null(c[i]);
+        cn[i] = add_conn(c[i], DR_ASM_BIT_IN, DR_ASM_BIT_OUT, &log[i], false);
+        assert_int_equal(dr_client_start(c[i]), DR_OK);
+    }
+    for (int k = 0; k < 120; k++) {
+        dr_client_run_once(c[0], 5);
+        dr_client_run_once(c[1], 5);
+    }
+    for (int i = 0; i < 2; i++) {
+        assert_int_equal(dr_conn_state(cn[i]), DR_CONN_ESTABLISHED);
+        assert_true(log[i].data > 10);
+        assert_int_equal(dr_conn_stats(cn[i])->timeouts, 0);
+    }
+    /* different connection IDs, even though one socket serves both */
+    assert_int_not_equal(dr_conn_stats(cn[0])->t2o_cid, dr_conn_stats(cn[1])->t2o_cid);
+    dr_client_free(c[0]);
+    dr_client_free(c[1]);
+    dr_udp_port_free(port);
+    assert_int_equal(drsim_stop(&second), 0);
+}
+
 int main(void)
 {
     if (drsim_path() == NULL) {
@@ -420,6 +469,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_io_timeout_and_reconnect, setup_stop_producing, teardown),
         cmocka_unit_test_setup_teardown(test_session_loss_keeps_io, setup_drop_session, teardown),
         cmocka_unit_test_setup_teardown(test_packet_loss_counted, setup_drop_packets, teardown),
+        cmocka_unit_test_setup_teardown(test_two_robots_share_udp_port, setup, teardown),
     };
     return cmocka_run_group_tests_name("client_sim", tests, NULL, NULL);
 }

@@ -37,6 +37,7 @@ extern "C" {
 
 typedef struct dr_client dr_client_t;
 typedef struct dr_conn dr_conn_t;
+typedef struct dr_udp_port dr_udp_port_t;
 
 typedef struct {
     const char *host;         /* robot address or name */
@@ -53,7 +54,22 @@ typedef struct {
     uint32_t backoff_min_ms;  /* reconnect backoff: 0: 100 ms */
     uint32_t backoff_max_ms;  /* 0: 5000 ms */
     dr_transport_t transport; /* ops NULL: dr_transport_posix() */
+    dr_udp_port_t *shared_udp; /* NULL: the client opens its own UDP socket
+                                  at local_addr:local_udp_port */
 } dr_client_config_t;
+
+/* ---- a Class 1 UDP port shared by several clients --------------------- */
+
+/* One process talking to several robots needs one UDP port 2222 for all of
+ * them: open it here and pass it in each client's config. The application
+ * polls dr_udp_port_fd() and calls dr_udp_port_process(), which hands each
+ * datagram to the client whose connection it belongs to. Free the clients
+ * first. NULL on error (*err: DR_ENOTFOUND, DR_EIO, ...). */
+dr_udp_port_t *dr_udp_port_new(const char *local_addr, uint16_t port,
+                               dr_transport_t transport, dr_status_t *err);
+void dr_udp_port_free(dr_udp_port_t *p);
+int dr_udp_port_fd(const dr_udp_port_t *p);
+dr_status_t dr_udp_port_process(dr_udp_port_t *p);
 
 /* Creates a client; nothing is sent yet. NULL on bad config or no memory
  * (the one allocation). */
