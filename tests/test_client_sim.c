@@ -397,6 +397,32 @@ static void test_packet_loss_counted(void **state)
     assert_true(st->rx_packets > 50);
 }
 
+static void on_found(const dr_identity_t *id, dr_sockaddr_t from, void *user)
+{
+    dr_identity_t *out = user;
+    *out = *id;
+    out->sockaddr.addr = from.addr; /* where it answered from */
+}
+
+static void test_discover_udp(void **state)
+{
+    fixture_t *f = *state;
+    dr_identity_t id, tcp_id;
+    unsigned n = 0;
+    dr_transport_t tp = {NULL, NULL};
+    memset(&id, 0, sizeof id);
+    assert_int_equal(dr_discover(f->sim.address, f->sim.tcp_port, 1000, tp, on_found, &id, &n), DR_OK);
+    assert_int_equal(n, 1);
+    assert_int_equal(id.sockaddr.addr, 0x7F000002u);
+    assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
+    assert_int_equal(dr_client_identity_sync(f->c, &tcp_id), DR_OK);
+    assert_string_equal(id.product_name, tcp_id.product_name);
+    assert_int_equal(id.serial, tcp_id.serial);
+    /* nobody on this port: a bounded wait, then DR_ETIMEDOUT */
+    assert_int_equal(dr_discover(f->sim.address, 9, 200, tp, on_found, &id, &n), DR_ETIMEDOUT);
+    assert_int_equal(n, 0);
+}
+
 /* Two robots, one UDP port: both clients' connections get their data. */
 static void test_two_robots_share_udp_port(void **state)
 {
@@ -470,6 +496,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_session_loss_keeps_io, setup_drop_session, teardown),
         cmocka_unit_test_setup_teardown(test_packet_loss_counted, setup_drop_packets, teardown),
         cmocka_unit_test_setup_teardown(test_two_robots_share_udp_port, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_discover_udp, setup, teardown),
     };
     return cmocka_run_group_tests_name("client_sim", tests, NULL, NULL);
 }

@@ -207,6 +207,20 @@ void *dr_conn_user(const dr_conn_t *conn);
 /* Last T->O data (the assembly's size), NULL before the first packet. */
 const uint8_t *dr_conn_input(const dr_conn_t *conn, size_t *len);
 
+/* ---- discovery ----------------------------------------------------------- */
+
+typedef void (*dr_discover_cb)(const dr_identity_t *id, dr_sockaddr_t from,
+                               void *user);
+
+/* ListIdentity over UDP to `target` (a device, or a broadcast address such
+ * as 192.168.1.255 to find every device on that subnet) at `port` (0:
+ * 44818). Calls `found` for every valid answer until timeout_ms has passed
+ * (for a unicast target, after the first answer). Returns DR_OK if anything
+ * answered, DR_ETIMEDOUT if nothing did, or a network error. */
+dr_status_t dr_discover(const char *target, uint16_t port, uint32_t timeout_ms,
+                        dr_transport_t transport, dr_discover_cb found, void *user,
+                        unsigned *count);
+
 /* ---- event loop -------------------------------------------------------- */
 
 typedef struct {
