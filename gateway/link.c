@@ -347,6 +347,10 @@ void gw_link_free(gw_link_t *l)
         return;
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++)
         gw_loop_unwatch(l->epfd, &l->ev[i]);
+    /* SIGTERM must end within a second even with a slow robot: the
+     * Forward Close replies get a short wait. */
+    if (l->client != NULL)
+        dr_client_set_timeout(l->client, 250);
     dr_client_free(l->client); /* Forward Close + UnRegisterSession */
     port_put(l->port, l->epfd);
     free(l);

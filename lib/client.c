@@ -236,6 +236,11 @@ const char *dr_client_last_step(const dr_client_t *c)
     return c->step;
 }
 
+void dr_client_set_timeout(dr_client_t *c, uint32_t timeout_ms)
+{
+    c->cfg.timeout_ms = timeout_ms != 0 ? timeout_ms : 2000;
+}
+
 bool dr_client_ready(const dr_client_t *c)
 {
     return c->state == S_READY;

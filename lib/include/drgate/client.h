@@ -91,6 +91,9 @@ dr_status_t dr_client_start(dr_client_t *c);
  * the peer to close, close the sockets. The client can be started again. */
 void dr_client_close(dr_client_t *c);
 
+/* Change the explicit request timeout (e.g. shorter for a quick shutdown). */
+void dr_client_set_timeout(dr_client_t *c, uint32_t timeout_ms);
+
 /* Is the session registered? */
 bool dr_client_ready(const dr_client_t *c);
 
