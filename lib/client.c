@@ -1346,7 +1346,8 @@ void dr_client_close(dr_client_t *c)
     if (c->state == S_READY) {
         /* UnRegisterSession, then let the peer close the connection. */
         (void)send_encap(c, DR_ENCAP_UNREGISTER_SESSION, 0, NULL, 0);
-        deadline = now_us(c) + CLOSE_WAIT_US;
+        uint64_t wait = (uint64_t)c->cfg.timeout_ms * 1000u;
+        deadline = now_us(c) + (wait < CLOSE_WAIT_US ? wait : CLOSE_WAIT_US);
         while (c->tcp >= 0 && c->tx_len > 0 && now_us(c) < deadline)
             wait_and_process(c, deadline);
         c->state = S_IDLE; /* a close by the peer is now expected */
