@@ -57,17 +57,6 @@ static void print_text(dr_asm_t a, const uint8_t *buf, size_t len)
     }
 }
 
-static json_t *json_value(const dr_value_t *v)
-{
-    switch (v->type) {
-    case DR_VAL_BOOL: return json_boolean(v->u != 0);
-    case DR_VAL_UINT: return json_integer((json_int_t)v->u); /* leaves < 2^8 */
-    case DR_VAL_INT: return json_integer((json_int_t)v->i);
-    case DR_VAL_REAL: return cli_json_real((float)v->f);
-    }
-    return NULL;
-}
-
 static int print_json(const char *cmd, dr_asm_t a, const uint8_t *buf,
                       size_t len)
 {
@@ -79,11 +68,7 @@ static int print_json(const char *cmd, dr_asm_t a, const uint8_t *buf,
         unsigned leaves = f[i].indexed ? f[i].count : 1u;
         for (unsigned e = 0; ok && e < leaves; e++) {
             dr_ref_t leaf = {&f[i], (int16_t)e};
-            char path[64];
-            dr_value_t v;
-            ok = dr_ref_path(leaf, path, sizeof path) == DR_OK &&
-                 dr_field_get(buf, len, leaf, &v) == DR_OK &&
-                 json_object_set_new(obj, path, json_value(&v)) == 0;
+            ok = cli_json_add_ref(obj, buf, len, leaf);
         }
     }
     if (!ok) {
@@ -93,12 +78,14 @@ static int print_json(const char *cmd, dr_asm_t a, const uint8_t *buf,
     return cli_json_print(cmd, obj);
 }
 
-static int run_decode(const char *cmd, int argc, char **argv)
+static int run_decode(const char *cmd, int argc, char **argv,
+                      const cli_net_opts_t *lead)
 {
+    (void)lead; /* offline: main refuses network options */
     bool help = false, hex = false, json = false;
     const cli_opt_t opts[] = {
-        {"hex", 0, &hex, NULL},
-        {"json", 0, &json, NULL},
+        {"hex", 0, &hex, NULL, NULL},
+        {"json", 0, &json, NULL, NULL},
     };
     int npos = cli_parse_opts(&cli_cmd_decode, argc, argv, opts,
                               sizeof opts / sizeof opts[0], &help);
@@ -138,5 +125,5 @@ static int run_decode(const char *cmd, int argc, char **argv)
 
 const cli_cmd_t cli_cmd_decode = {
     "decode", "decode an assembly image (raw or hex) into named values",
-    decode_help, run_decode,
+    decode_help, run_decode, false,
 };

@@ -176,11 +176,13 @@ static bool assign(const char *cmd, int argno, const char *arg, dr_asm_t a,
     return false;
 }
 
-static int run_encode(const char *cmd, int argc, char **argv)
+static int run_encode(const char *cmd, int argc, char **argv,
+                      const cli_net_opts_t *lead)
 {
+    (void)lead; /* offline: main refuses network options */
     bool help = false, hex = false;
     const cli_opt_t opts[] = {
-        {"hex", 0, &hex, NULL},
+        {"hex", 0, &hex, NULL, NULL},
     };
     int npos = cli_parse_opts(&cli_cmd_encode, argc, argv, opts,
                               sizeof opts / sizeof opts[0], &help);
@@ -217,5 +219,5 @@ static int run_encode(const char *cmd, int argc, char **argv)
 
 const cli_cmd_t cli_cmd_encode = {
     "encode", "build an assembly image from FIELD=VALUE assignments",
-    encode_help, run_encode,
+    encode_help, run_encode, false,
 };

@@ -232,12 +232,14 @@ static int print_json(const char *cmd, const bool *selected,
 
 /* ---- command ---------------------------------------------------------- */
 
-static int run_list(const char *cmd, int argc, char **argv)
+static int run_list(const char *cmd, int argc, char **argv,
+                    const cli_net_opts_t *lead)
 {
+    (void)lead; /* offline: main refuses network options */
     bool help = false, markdown = false, json = false;
     const cli_opt_t opts[] = {
-        {"markdown", 0, &markdown, NULL},
-        {"json", 0, &json, NULL},
+        {"markdown", 0, &markdown, NULL, NULL},
+        {"json", 0, &json, NULL, NULL},
     };
     int npos = cli_parse_opts(&cli_cmd_list, argc, argv, opts,
                               sizeof opts / sizeof opts[0], &help);
@@ -274,5 +276,5 @@ static int run_list(const char *cmd, int argc, char **argv)
 
 const cli_cmd_t cli_cmd_list = {
     "list", "list the fields of the assemblies (offsets, types, units)",
-    list_help, run_list,
+    list_help, run_list, false,
 };

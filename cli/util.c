@@ -133,11 +133,49 @@ json_t *cli_json_real(float f)
     return json_real(strtod(text, NULL));
 }
 
+json_t *cli_json_value(const dr_value_t *v)
+{
+    switch (v->type) {
+    case DR_VAL_BOOL: return json_boolean(v->u != 0);
+    case DR_VAL_UINT: return json_integer((json_int_t)v->u); /* leaves < 2^8 */
+    case DR_VAL_INT: return json_integer((json_int_t)v->i);
+    case DR_VAL_REAL: return cli_json_real((float)v->f);
+    }
+    return NULL;
+}
+
+/* One leaf under its canonical path. */
+static bool add_leaf(json_t *obj, const uint8_t *img, size_t len, dr_ref_t leaf)
+{
+    char path[64];
+    dr_value_t v;
+    return dr_ref_path(leaf, path, sizeof path) == DR_OK &&
+           dr_field_get(img, len, leaf, &v) == DR_OK &&
+           json_object_set_new(obj, path, cli_json_value(&v)) == 0;
+}
+
+bool cli_json_add_ref(json_t *obj, const uint8_t *img, size_t len, dr_ref_t ref)
+{
+    if (ref.elem >= 0 || ref.field->kind != DR_KIND_BITS)
+        return add_leaf(obj, img, len, ref);
+    for (unsigned e = 0; e < ref.field->count; e++) {
+        dr_ref_t leaf = {ref.field, (int16_t)e};
+        if (!add_leaf(obj, img, len, leaf))
+            return false;
+    }
+    return true;
+}
+
 int cli_json_print(const char *cmd, json_t *value)
+{
+    return cli_json_print_flags(cmd, value, CLI_JSON_FLAGS);
+}
+
+int cli_json_print_flags(const char *cmd, json_t *value, size_t flags)
 {
     if (value == NULL)
         return cli_error(CLI_EXIT_FAIL, cmd, "out of memory building JSON");
-    int st = json_dumpf(value, stdout, CLI_JSON_FLAGS);
+    int st = json_dumpf(value, stdout, flags);
     json_decref(value);
     if (st != 0 || fputc('\n', stdout) == EOF)
         return cli_error(CLI_EXIT_FAIL, cmd, "writing JSON to standard output failed");
@@ -247,4 +285,23 @@ void cli_print_hex(const uint8_t *buf, size_t len)
 {
     for (size_t i = 0; i < len; i++)
         printf("%02x%c", buf[i], (i % 16u == 15u || i + 1 == len) ? '\n' : ' ');
+}
+
+void cli_hex_string(const uint8_t *buf, size_t len, char *out, size_t size)
+{
+    size_t at = 0;
+    out[0] = '\0';
+    for (size_t i = 0; i < len && at + 4 <= size; i++)
+        at += (size_t)snprintf(out + at, size - at, i > 0 ? " %02x" : "%02x",
+                               buf[i]);
+}
+
+void cli_print_raw(const uint8_t *img, size_t len)
+{
+    for (size_t at = 0; at < len; at += 16) {
+        char hex[64];
+        size_t n = len - at < 16 ? len - at : 16;
+        cli_hex_string(img + at, n, hex, sizeof hex);
+        printf("  %4zu: %s\n", at, hex);
+    }
 }
