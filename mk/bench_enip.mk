@@ -1,0 +1,32 @@
+# SPDX-License-Identifier: MIT
+# EtherNet/IP benchmarks (issue 3, "Done when"), run by `make bench` through
+# BENCH_STEPS, or alone with `make bench-enip`; method and results in
+# docs/performance.md ("EtherNet/IP"). All figures are ratios to baselines
+# measured in the same run:
+#   explicit Get_Attribute_Single round trips/s of our client against drsim
+#     vs a bare C TCP ping-pong of the same frame sizes (bench/pingpong.c)
+#     and vs pycomm3 doing the same Gets;
+#   6 Class 1 connections at RPI 1 ms for 10 s (bench/enip_io.c): produced-
+#     packet intervals and p99 deviation vs a bare timerfd loop, client CPU.
+# Exit status 1 if a goal is missed. BENCH_ROUNDS, BENCH_SECONDS and
+# BENCH_IO_SECONDS (environment) shorten or lengthen it.
+
+BENCH_STEPS += bench-enip
+
+ENIP_BENCH_PY  ?= .venv/bin/python
+ENIP_BENCH_BIN := $(B)/bench/pingpong $(B)/bench/enip_gets $(B)/bench/enip_io
+
+.PHONY: bench-enip
+
+# pingpong and enip_gets build with the Makefile's $(B)/bench/% rule; the
+# I/O bench links drsim's adapter logic as its measuring receiver.
+$(B)/bench/enip_io: bench/enip_io.c $(SIM_LIB_SRC) $(SIM_HDR) $(LIB_A) $(LIB_HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CPPFLAGS) -Isim $(WARN) -O2 -g $(ALL_LDFLAGS) \
+	    -o $@ $< $(SIM_LIB_SRC) $(LIB_A) -lm
+
+bench-enip: $(ENIP_BENCH_BIN) $(SIM_BIN)
+	@if [ ! -x "$(ENIP_BENCH_PY)" ]; then \
+	    echo "bench-enip: no $(ENIP_BENCH_PY) (run make deps)"; exit 1; fi
+	PYTHONDONTWRITEBYTECODE=1 DRSIM=$(abspath $(SIM_BIN)) \
+	    timeout -k 10 600 $(ENIP_BENCH_PY) bench/bench_enip.py $(abspath $(B))
