@@ -68,7 +68,7 @@ class TsharkDecodesOurSession(unittest.TestCase):
             cls.capture()
         finally:
             cls.sim_rc = cls.sim.stop()
-        cls.frames = cls.fields(
+        cls.all_frames = cls.fields(
             "frame.number", "frame.protocols", "ip.src", "ip.dst", "tcp.len", "udp.srcport",
             "udp.dstport", "enip.command", "enip.session", "enip.status",
             "enip.response_to", "enip.fwd_open_in", "cip.sc", "cip.rr", "cip.class",
@@ -76,7 +76,11 @@ class TsharkDecodesOurSession(unittest.TestCase):
             "cip.cm.to_connid", "cip.cm.conn_serial_num", "cip.cm.fwo.consize",
             "cip.cm.otrpi", "cip.cm.otapi", "cip.cm.toapi", "cip.connid",
             "enip.cpf.sai.seq", "cip.seq", "cip.32bitheader.run_idle", "cipio.data",
-            "_ws.malformed", "_ws.expert.severity")
+            "_ws.malformed", "_ws.expert.severity", "tcp.analysis.flags",
+            "tcp.analysis.retransmission")
+        # A retransmitted TCP segment carries data already seen: the checks
+        # of content look at each message once.
+        cls.frames = [f for f in cls.all_frames if not f["tcp.analysis.retransmission"]]
 
     @classmethod
     def capture(cls):
@@ -165,30 +169,44 @@ class TsharkDecodesOurSession(unittest.TestCase):
     # ---- every frame recognised, nothing malformed -------------------------------
 
     def test_every_frame_recognised(self):
-        for f in self.frames:
+        for f in self.all_frames:
             protos = f["frame.protocols"].split(":")
             with self.subTest(frame=f["frame.number"], protocols=f["frame.protocols"]):
                 self.assertNotIn("icmp", protos, "nobody listened where a datagram went")
                 self.assertNotIn("data", protos, "payload no dissector claimed")
                 if "udp" in protos:
                     self.assertIn("cipio", protos)
-                elif f["tcp.len"] not in ("", "0"):
+                elif f["tcp.len"] not in ("", "0") and not f["tcp.analysis.retransmission"]:
+                    # a TCP retransmission (on a busy machine, a tail loss
+                    # probe can fire even on loopback) is not dissected again
                     self.assertIn("enip", protos)
 
     def test_no_malformed_packets_or_expert_errors(self):
-        bad = [f["frame.number"] for f in self.frames if f["_ws.malformed"]]
+        bad = [f["frame.number"] for f in self.all_frames if f["_ws.malformed"]]
         self.assertEqual(bad, [], "malformed frames")
-        errors, warnings = [], []
-        for f in self.frames:
-            sev = [hexint(s) for s in f["_ws.expert.severity"].split(",") if s]
-            if any(s >= ERROR for s in sev):
-                errors.append(f["frame.number"])
-            elif any(s >= WARN for s in sev):
-                warnings.append(f["frame.number"])
+        # Expert entries by severity and protocol. Errors: none at all.
+        # Warnings: none from ENIP/CIP; TCP's own (a spurious retransmission
+        # and its D-SACK when the machine is busy) say nothing about us.
         r = peers.run(["tshark", "-2", "-n", "-r", self.pcap, "-q", "-z", "expert,note"], timeout=60)
         print(r.stdout)
-        self.assertEqual(errors, [], "frames with expert errors")
-        self.assertEqual(warnings, [], "frames with expert warnings")
+        entries = {"Errors": [], "Warns": []}
+        section = None
+        for line in r.stdout.splitlines():
+            w = line.split()
+            if w and w[0] in ("Errors", "Warns", "Notes", "Chats", "Comments"):
+                section = w[0]
+            elif section in entries and len(w) >= 4 and w[0].isdigit():
+                entries[section].append((w[2], " ".join(w[3:])))  # protocol, summary
+        self.assertEqual(entries["Errors"], [], "expert errors")
+        ours = [e for e in entries["Warns"] if e[0] != "TCP"]
+        self.assertEqual(ours, [], "expert warnings from the EtherNet/IP dissectors")
+        # and per frame, the same by severity (any protocol but TCP analysis)
+        for f in self.all_frames:
+            sev = [hexint(v) for v in f["_ws.expert.severity"].split(",") if v]
+            if any(v >= ERROR for v in sev):
+                self.fail("frame %s has an expert error" % f["frame.number"])
+            if any(v >= WARN for v in sev) and not f["tcp.analysis.flags"]:
+                self.fail("frame %s has an expert warning" % f["frame.number"])
 
     # ---- what was decoded is what we sent -----------------------------------------
 
