@@ -231,8 +231,9 @@ static dr_conn_t *add_conn(dr_client_t *c, int o2t, dr_asm_t t2o, conn_log_t *lo
     memset(&cc, 0, sizeof cc);
     cc.o2t_asm = o2t;
     cc.t2o_asm = t2o;
-    cc.rpi_us = 5000;
-    cc.timeout_mult = 1; /* x8: 40 ms */
+    /* Generous timing: this runs on small, shared CI machines. */
+    cc.rpi_us = 10000;
+    cc.timeout_mult = 3; /* x32: 320 ms */
     cc.large = large;
     cc.on_data = on_data;
     cc.on_state = on_state;
@@ -272,7 +273,7 @@ static void test_six_connections_and_output(void **state)
         assert_int_equal(dr_conn_state(cn[i]), DR_CONN_ESTABLISHED);
         assert_true(log[i].data > 20);
         const dr_conn_stats_t *st = dr_conn_stats(cn[i]);
-        assert_int_equal(st->t2o_api_us, 5000);
+        assert_int_equal(st->t2o_api_us, 10000);
         assert_int_equal(st->rx_bad, 0);
         assert_true(st->tx_packets > 20);
     }
@@ -292,7 +293,7 @@ static void test_large_forward_open(void **state)
     conn_log_t log = {0};
     dr_conn_t *cn = add_conn(f->c, DR_ASM_FLOAT_IN, DR_ASM_JOINT_STATE, &log, true);
     dr_client_start(f->c);
-    run_for(f->c, 300);
+    run_for(f->c, 500);
     assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
     assert_true(log.data > 10);
 }
@@ -394,7 +395,7 @@ static void test_packet_loss_counted(void **state)
     const dr_conn_stats_t *st = dr_conn_stats(cn);
     assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
     assert_true(st->rx_lost > 0);
-    assert_true(st->rx_packets > 50);
+    assert_true(st->rx_packets > 30);
 }
 
 static void on_found(const dr_identity_t *id, dr_sockaddr_t from, void *user)
@@ -455,7 +456,7 @@ static void test_two_robots_share_udp_port(void **state)
         cn[i] = add_conn(c[i], DR_ASM_BIT_IN, DR_ASM_BIT_OUT, &log[i], false);
         assert_int_equal(dr_client_start(c[i]), DR_OK);
     }
-    for (int k = 0; k < 120; k++) {
+    for (int k = 0; k < 150; k++) {
         dr_client_run_once(c[0], 5);
         dr_client_run_once(c[1], 5);
     }
