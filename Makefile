@@ -120,7 +120,7 @@ RESULTS := $(B)/check-results
 # Every step runs even if an earlier one failed; a step that fails without
 # recording its own result is recorded as one failure, so the summary line
 # (and the exit status) can never miss it.
-CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-be check-asan
+CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-be check-asan check-fuzz
 check: deps
 	@rm -f $(RESULTS)
 	$(MAKE) --no-print-directory all
@@ -176,8 +176,13 @@ check-summary:
 -include fuzz/fuzz.mk
 
 # ---- benchmarks and demo -------------------------------------------------
+# mk/*.mk fragments add their own benchmark targets to BENCH_STEPS.
+BENCH_STEPS :=
 bench: $(B)/bench/bench_codec
 	$(B)/bench/bench_codec
+	@for step in $(BENCH_STEPS); do \
+	    $(MAKE) --no-print-directory $$step || exit 1; \
+	done
 
 $(B)/bench/%: bench/%.c $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)

@@ -222,17 +222,17 @@ static unsigned edit_distance(const char *a, const char *b)
     return row[lb];
 }
 
-static void consider(const char *path, dr_ref_t ref, unsigned *best,
-                     char *out, size_t size)
+/* Keep cand in best[] if it is closer to path than what is there. */
+static void consider(const char *path, dr_ref_t ref, unsigned *best_d,
+                     char best[PATH_MAX_LEN])
 {
     char cand[PATH_MAX_LEN];
     if (dr_ref_path(ref, cand, sizeof cand) != DR_OK)
         return;
     unsigned d = edit_distance(path, cand);
-    if (d < *best) {
-        *best = d;
-        sbuf_t sb = {out, size, 0, false};
-        sb_puts(&sb, cand);
+    if (d < *best_d) {
+        *best_d = d;
+        memcpy(best, cand, sizeof cand);
     }
 }
 
@@ -240,18 +240,21 @@ dr_status_t dr_path_closest(const char *path, char *out, size_t size)
 {
     if (path == NULL || out == NULL || size == 0)
         return DR_EINVAL;
-    unsigned best = ~0u;
-    out[0] = '\0';
+    unsigned best_d = ~0u;
+    char best[PATH_MAX_LEN] = "";
     for (unsigned k = 0; k < dr_field_count; k++) {
         const dr_field_t *f = &dr_field_table[k];
         if (f->kind == DR_KIND_BITS) {
             dr_ref_t mask = {f, -1};
-            consider(path, mask, &best, out, size);
+            consider(path, mask, &best_d, best);
         }
         for (unsigned e = 0; e < leaves_of(f); e++) {
             dr_ref_t ref = {f, (int16_t)e};
-            consider(path, ref, &best, out, size);
+            consider(path, ref, &best_d, best);
         }
     }
-    return strlen(out) + 1 < size ? DR_OK : DR_ENOSPACE;
+    sbuf_t sb = {out, size, 0, false};
+    out[0] = '\0';
+    sb_puts(&sb, best);
+    return sb.overflow ? DR_ENOSPACE : DR_OK;
 }

@@ -89,6 +89,11 @@ static void test_path_closest(void **state)
     assert_string_equal(best, "io_state.cb_di");
     assert_int_equal(dr_path_closest("task_state.external_force.q", best, sizeof best), DR_OK);
     assert_string_equal(best, "task_state.external_force.x");
+    /* an answer that fits exactly is not "no space"; one byte less is */
+    char exact[10];
+    assert_int_equal(dr_path_closest("int_in[77]", exact, sizeof exact), DR_OK);
+    assert_string_equal(exact, "int_in[7]");
+    assert_int_equal(dr_path_closest("int_in[77]", exact, 9), DR_ENOSPACE);
 }
 
 /* Every leaf's canonical path parses back to the same leaf. */
