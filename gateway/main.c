@@ -71,10 +71,22 @@ static unsigned robot_of_unit(const gw_t *g, uint8_t unit_id)
     return 0;
 }
 
+/* A writer seen only between two ticks (it wrote and left within one
+ * loop iteration) must still start the watchdog: only the owner's writes
+ * get here in single-writer mode. */
+static void writer_wrote(gw_t *g)
+{
+    if (g->cfg.modbus.single_writer && !g->writer_seen) {
+        g->writer_seen = true;
+        g->watchdog_change_us = gw_now_us();
+    }
+}
+
 static void on_modbus_write(void *user, uint8_t unit_id, unsigned dirty)
 {
     gw_t *g = user;
     unsigned r = robot_of_unit(g, unit_id);
+    writer_wrote(g);
     gw_link_outputs_changed(g->links[r], dirty);
 }
 
@@ -99,8 +111,7 @@ static void on_link(void *user, unsigned robot, bool up, dr_status_t why)
 static void on_data(void *user, unsigned robot, dr_asm_t a)
 {
     gw_t *g = user;
-    (void)a;
-    gw_gpiomap_follow(g->gpio, robot);
+    gw_gpiomap_data(g->gpio, robot, a);
 }
 
 static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
@@ -112,8 +123,26 @@ static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
  * latches until a client writes the reset register. */
 static void writer_watchdog(gw_t *g, uint64_t now)
 {
-    if (!g->cfg.modbus.single_writer)
+    /* A reset counts in any mode: a fault latched before a reload turned
+     * single-writer mode off must not hold the GPIO outputs for ever. */
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        gw_unit_t *u = &g->units[r];
+        if (u->fault_reset) {
+            u->fault_reset = false;
+            if (u->status.write_fault)
+                gw_log(GW_LOG_INFO, "robot %s: write fault reset", g->cfg.robot[r].name);
+            u->status.write_fault = false;
+            gw_gpiomap_fault(g->gpio, r, false); /* outputs follow again */
+        }
+        /* Out of single-writer mode the register is just a register: a
+         * value written then is no owner's sign of life later. */
+        if (!g->cfg.modbus.single_writer)
+            g->last_watchdog[r] = u->watchdog;
+    }
+    if (!g->cfg.modbus.single_writer) {
+        g->writer_seen = false; /* a reload into the mode starts afresh */
         return;
+    }
     bool present = gw_mbs_writer_present(g->mbs);
     if (present && !g->writer_seen)
         g->watchdog_change_us = now; /* a new owner: its watchdog starts now */
@@ -122,13 +151,8 @@ static void writer_watchdog(gw_t *g, uint64_t now)
         gw_unit_t *u = &g->units[r];
         if (u->watchdog != g->last_watchdog[r]) {
             g->last_watchdog[r] = u->watchdog;
+            writer_wrote(g); /* only the owner can have written it */
             g->watchdog_change_us = now;
-        }
-        if (u->fault_reset) {
-            u->fault_reset = false;
-            if (u->status.write_fault)
-                gw_log(GW_LOG_INFO, "robot %s: write fault reset", g->cfg.robot[r].name);
-            u->status.write_fault = false;
         }
     }
     uint64_t limit = (uint64_t)g->cfg.modbus.writer_watchdog_ms * 1000u;
@@ -149,8 +173,10 @@ static void writer_watchdog(gw_t *g, uint64_t now)
                 }
             gw_link_outputs_changed(g->links[r], dirty);
         }
+        /* GPIO outputs safe until the fault is reset (not until the link
+         * happens to reconnect). */
+        gw_gpiomap_fault(g->gpio, r, true);
     }
-    gw_gpiomap_safe_all(g->gpio);
 }
 
 /* ---- status block and timers ------------------------------------------------- */
@@ -249,6 +275,27 @@ static void reload(gw_t *g)
         gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
         return;
     }
+    /* GPIO first: lines that cannot be had refuse the whole reload. The
+     * unchanged lines keep their requests; the map carries the robots'
+     * states by name (they are set again below). */
+    gw_gpiomap_hooks_t gh = {on_gpio_input, g};
+    gw_gpiomap_t *gpio = NULL;
+    switch (gw_gpiomap_reload(g->gpio, &next, g->units, g->epfd, &gh, &gpio, err, sizeof err)) {
+    case GW_GPIOMAP_OK:
+        /* Installed once the old links are gone: closing one reports it
+         * down under its old index. */
+        g->gpio = NULL;
+        break;
+    case GW_GPIOMAP_REFUSED:
+        gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
+        return;
+    case GW_GPIOMAP_BROKEN:
+    default:
+        gw_log(GW_LOG_ERROR, "reload: %s: stopping", err);
+        g->gpio = NULL;
+        g->stop = true;
+        return;
+    }
     static gw_unit_t units[GW_MAX_ROBOTS];
     gw_link_t *links[GW_MAX_ROBOTS] = {NULL};
     bool kept[GW_MAX_ROBOTS] = {false};
@@ -267,9 +314,7 @@ static void reload(gw_t *g)
                    g->cfg.robot[o].name);
             gw_link_free(g->links[o]);
         }
-    /* GPIO lines are requested again from the new sections. */
-    gw_gpiomap_free(g->gpio);
-    g->gpio = NULL;
+    g->gpio = gpio;
     bool restart_modbus = !gw_mbs_reconfigure(g->mbs, &next.modbus);
     g->cfg = next;
     memcpy(g->units, units, sizeof units);
@@ -298,15 +343,13 @@ static void reload(gw_t *g)
             return;
         }
     }
-    gw_gpiomap_hooks_t gh = {on_gpio_input, g};
-    g->gpio = gw_gpiomap_new(&g->cfg, g->units, g->epfd, &gh, err, sizeof err);
-    if (g->gpio == NULL) {
-        gw_log(GW_LOG_ERROR, "reload: %s", err);
-        g->stop = true;
-        return;
-    }
-    for (unsigned r = 0; r < g->cfg.robot_count; r++)
+    /* The link first: a robot whose link was replaced (same name, state
+     * carried over) goes down before anything looks at its fresh, zeroed
+     * image. For the others nothing changes and nothing is written. */
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_gpiomap_link(g->gpio, r, gw_link_up(g->links[r]));
+        gw_gpiomap_fault(g->gpio, r, g->units[r].status.write_fault);
+    }
     gw_log(GW_LOG_INFO, "configuration %s reloaded (generation %u)", g->cfg.path, g->generation);
     sd_notify(0, "READY=1");
 }
