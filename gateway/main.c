@@ -319,6 +319,10 @@ static void reload(gw_t *g)
     g->cfg = next;
     memcpy(g->units, units, sizeof units);
     memset(g->links, 0, sizeof g->links);
+    /* Robots may have moved to other positions: the watchdog registers
+     * are compared from their current values on, not from the old order. */
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        g->last_watchdog[r] = g->units[r].watchdog;
     g->generation++;
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         init_unit(g, r);
