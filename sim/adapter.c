@@ -650,8 +650,14 @@ static void cm_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
         return;
     }
     switch (rq->service) {
-    case DR_CIP_SVC_FORWARD_OPEN:
     case DR_CIP_SVC_LARGE_FORWARD_OPEN:
+        if (ctx->s->cfg.no_large_fo) {
+            reply(w, rq->service, GS_SERVICE, NULL, 0);
+            break;
+        }
+        forward_open(ctx, rq, w);
+        break;
+    case DR_CIP_SVC_FORWARD_OPEN:
         forward_open(ctx, rq, w);
         break;
     case DR_CIP_SVC_FORWARD_CLOSE:

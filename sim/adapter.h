@@ -45,6 +45,8 @@ typedef struct {
     bool echo;                 /* GPR inputs echo to outputs */
     unsigned max_conns;        /* Class 1 connections, 1..DRSIM_MAX_CONNS */
     uint16_t refuse_fo;        /* refuse every Forward Open with 0x01/this; 0 no */
+    bool no_large_fo;          /* answer Large Forward Open (0x5B) with 0x08,
+                                  like targets that only know 0x54 */
     uint64_t stop_producing_ns; /* stop T->O this long after an open; 0 never */
     unsigned drop_pct;         /* drop this share (0..100) of I/O packets */
     uint64_t seed;             /* noise, drops, serial number, IDs */

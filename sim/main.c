@@ -84,6 +84,9 @@ static void usage(FILE *f)
 "                            0x0109 adds the wanted size as a second word)\n"
 "      --drop-session-after SECONDS\n"
 "                            close each TCP connection SECONDS after accept\n"
+"      --no-large-forward-open\n"
+"                            answer Large Forward Open (0x5B) with 0x08,\n"
+"                            like a target that only knows 0x54\n"
 "\n"
 "Other:\n"
 "  -v, --verbose             log events to stderr; twice: every request\n"
@@ -160,7 +163,7 @@ static int check_instances(const drsim_config_t *cfg)
 
 enum {
     OPT_NO_ECHO = 256, OPT_SEED, OPT_DROP, OPT_DELAY, OPT_STOP_PRODUCING,
-    OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS
+    OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO
 };
 
 static const struct option long_options[] = {
@@ -175,6 +178,7 @@ static const struct option long_options[] = {
     {"delay", required_argument, NULL, OPT_DELAY},
     {"stop-producing-after", required_argument, NULL, OPT_STOP_PRODUCING},
     {"refuse-forward-open", required_argument, NULL, OPT_REFUSE_FO},
+    {"no-large-forward-open", no_argument, NULL, OPT_NO_LARGE_FO},
     {"drop-session-after", required_argument, NULL, OPT_DROP_SESSION},
     {"verbose", no_argument, NULL, 'v'},
     {"help", no_argument, NULL, 'h'},
@@ -248,6 +252,9 @@ static int parse_options(int argc, char **argv, options_t *o)
             if (parse_uint(optarg, 1, 0xFFFF, &n) != 0)
                 return bad("--refuse-forward-open", optarg);
             o->cfg.refuse_fo = (uint16_t)n;
+            break;
+        case OPT_NO_LARGE_FO:
+            o->cfg.no_large_fo = true;
             break;
         case OPT_DROP_SESSION:
             if (parse_seconds(optarg, &o->drop_session_ns) != 0)

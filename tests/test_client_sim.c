@@ -298,6 +298,25 @@ static void test_large_forward_open(void **state)
     assert_true(log.data > 10);
 }
 
+static int setup_no_large(void **state)
+{
+    static const char *const extra[] = {"--no-large-forward-open", NULL};
+    return start(state, extra);
+}
+
+/* A target that does not know 0x5B: the client falls back to 0x54. */
+static void test_large_falls_back(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_FLOAT_IN, DR_ASM_FLOAT_OUT, &log, true);
+    dr_client_start(f->c);
+    run_for(f->c, 500);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(dr_conn_stats(cn)->opens, 2); /* 0x5B refused, then 0x54 */
+    assert_true(log.data > 10);
+}
+
 static int setup_refuse_0113(void **state)
 {
     static const char *const extra[] = {"--refuse-forward-open", "0x0113", NULL};
@@ -491,6 +510,7 @@ int main(void)
         cmocka_unit_test(test_silent_peer_times_out),
         cmocka_unit_test_setup_teardown(test_six_connections_and_output, setup, teardown),
         cmocka_unit_test_setup_teardown(test_large_forward_open, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_large_falls_back, setup_no_large, teardown),
         cmocka_unit_test_setup_teardown(test_forward_open_refused, setup_refuse_0113, teardown),
         cmocka_unit_test_setup_teardown(test_forward_open_size_reported, setup_refuse_0109, teardown),
         cmocka_unit_test_setup_teardown(test_io_timeout_and_reconnect, setup_stop_producing, teardown),
