@@ -168,6 +168,7 @@ def implicit(build):
             res["timerfd" if w[1] == "timerfd" else "client"] = {k: float(v) for k, v in kv.items()}
         elif w[:3] == ["io", "client", "tx"]:
             res["client_counts"] = line
+            res["timeouts"] = int(w[5])
     res["io_p99dev_vs_timerfd"] = res["client"]["dev_p99"] / max(res["timerfd"]["dev_p99"], 1e-3)
     return res
 
@@ -194,6 +195,9 @@ def main():
     print("  interval (us)        p50      p99      max   dev p99")
     print("  client pooled   %8.1f %8.1f %8.1f %8.1f" % (c["p50"], c["p99"], c["max"], c["dev_p99"]))
     print("  bare timerfd    %8.1f %8.1f %8.1f %8.1f" % (t["p50"], t["p99"], t["max"], t["dev_p99"]))
+    if io.get("timeouts"):
+        print("  NOTE: %d connection timeout(s) in the window: the machine stalled for more "
+              "than 128 ms; the figures are of a disturbed run" % io["timeouts"])
     print("results:")
     vals = {"gets_vs_pingpong": ex["gets_vs_pingpong"], "gets_vs_pycomm3": ex["gets_vs_pycomm3"],
             "io_p99dev_vs_timerfd": io["io_p99dev_vs_timerfd"],

@@ -664,7 +664,7 @@ int main(int argc, char **argv)
         cc.o2t_asm = pairs[i % 6].o2t;
         cc.t2o_asm = pairs[i % 6].t2o;
         cc.rpi_us = rpi;
-        cc.timeout_mult = 3; /* x32: no spurious timeouts on a busy VM */
+        cc.timeout_mult = 5; /* x128: a busy VM stalls for tens of ms */
         if (i >= 6)
             cc.o2t_asm = -1; /* O->T instances have one owner each */
         cn[i] = dr_client_conn_add(c, &cc, NULL);
