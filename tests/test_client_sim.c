@@ -337,6 +337,26 @@ static void test_forward_open_refused(void **state)
     assert_true(dr_conn_stats(cn)->opens < 10);
 }
 
+static int setup_refuse_0100(void **state)
+{
+    static const char *const extra[] = {"--refuse-forward-open", "0x0100", NULL};
+    return start(state, extra);
+}
+
+/* "Connection in use": a fresh serial right away, three times, then the
+ * ordinary backoff. */
+static void test_duplicate_retried_with_new_serial(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, -1, DR_ASM_TASK_STATE, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 150);
+    assert_int_equal(log.last_reason, DR_CIP(0x01, 0x0100));
+    assert_true(dr_conn_stats(cn)->opens >= 4);
+    assert_true(log.reconnecting >= 1);
+}
+
 static int setup_refuse_0109(void **state)
 {
     static const char *const extra[] = {"--refuse-forward-open", "0x0109", NULL};
@@ -513,6 +533,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_large_falls_back, setup_no_large, teardown),
         cmocka_unit_test_setup_teardown(test_forward_open_refused, setup_refuse_0113, teardown),
         cmocka_unit_test_setup_teardown(test_forward_open_size_reported, setup_refuse_0109, teardown),
+        cmocka_unit_test_setup_teardown(test_duplicate_retried_with_new_serial, setup_refuse_0100, teardown),
         cmocka_unit_test_setup_teardown(test_io_timeout_and_reconnect, setup_stop_producing, teardown),
         cmocka_unit_test_setup_teardown(test_session_loss_keeps_io, setup_drop_session, teardown),
         cmocka_unit_test_setup_teardown(test_packet_loss_counted, setup_drop_packets, teardown),
