@@ -574,7 +574,9 @@ static void run_client(dr_client_t *c, uint64_t until_ns, int extra_fd)
         int np = n + (extra_fd >= 0);
         uint64_t left = (until_ns - now_ns()) / 1000000u;
         (void)poll(p, (nfds_t)np, left > 100 ? 100 : (int)left + 1);
-        dr_client_process(c);
+        for (int i = 0; i < n; i++)
+            dfd[i].revents = p[i].revents;
+        dr_client_process_ready(c, dfd, n);
         if (extra_fd >= 0 && (p[n].revents & (POLLIN | POLLHUP)))
             return;
     }

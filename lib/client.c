@@ -15,6 +15,7 @@
 #define MAX_REQS 8
 #define TX_BUF 2048
 #define UDP_BUF 600
+#define RX_BATCH 8 /* datagrams per receive call */
 #define FO_TIMEOUT_MULT_DEFAULT 2 /* x16 */
 #define FIRST_PACKET_GRACE_US 2000000u /* first T->O may lag the open */
 #define CLOSE_WAIT_US 500000u
@@ -48,6 +49,7 @@ struct dr_udp_port {
     bool shared;
     dr_client_t *clients[UDP_PORT_MAX_CLIENTS];
     unsigned nclients;
+    uint8_t rx[RX_BATCH][UDP_BUF]; /* receive buffers for one batch */
 };
 
 struct dr_conn {
@@ -97,6 +99,14 @@ struct dr_client {
     uint16_t next_serial;
     uint32_t next_t2o_cid;
     uint64_t armed;
+    uint64_t epoch; /* O->T deadlines of equal APIs fall on one grid */
+    bool timer_polled; /* the caller polls our timer fd: keep it armed */
+    /* O->T frames due at one instant, sent together at the end of a
+     * process call (one system call for all connections). */
+    uint8_t tx_frames[DR_CLIENT_MAX_CONNS][UDP_BUF];
+    dr_udp_msg_t tx_batch[DR_CLIENT_MAX_CONNS];
+    dr_conn_t *tx_conn[DR_CLIENT_MAX_CONNS];
+    unsigned tx_n;
     const char *step;
     dr_conn_t conns[DR_CLIENT_MAX_CONNS];
 };
@@ -171,6 +181,7 @@ dr_client_t *dr_client_new(const dr_client_config_t *cfg)
     c->own_udp.nclients = 1;
     c->udp = &c->own_udp;
     uint64_t t = now_us(c);
+    c->epoch = t;
     if (c->cfg.serial == 0)
         c->cfg.serial = (uint32_t)(t ^ (t >> 32)) | 1u;
     c->next_serial = (uint16_t)(t >> 4);
@@ -562,7 +573,9 @@ static void send_forward_open(dr_conn_t *cn)
     cn->stats.opens++;
     c->step = "forward open";
     conn_set_state(cn, DR_CONN_OPENING, DR_OK);
-    bool sockaddr = c->udp->local.port != DR_ENIP_UDP_PORT;
+    /* Tell the target where T->O goes when it is not where it would
+     * guess (the TCP connection's own address, port 2222). */
+    bool sockaddr = c->udp->local.port != DR_ENIP_UDP_PORT || c->udp->local.addr != 0;
     dr_status_t st = send_rr(c, r, msg, m.len, sockaddr);
     if (st != DR_OK) {
         r->active = false;
@@ -597,6 +610,16 @@ static void send_forward_close(dr_conn_t *cn)
         r->active = false;
 }
 
+/* The first point of the grid epoch + k * api after t. Connections with
+ * the same API then produce at the same instants: one wake-up sends all of
+ * them, instead of one wake-up per connection. */
+static uint64_t grid_after(const dr_client_t *c, uint64_t t, uint64_t api)
+{
+    if (api == 0 || t < c->epoch)
+        return t;
+    return c->epoch + ((t - c->epoch) / api + 1u) * api;
+}
+
 static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
                              const dr_cpf_t *cpf)
 {
@@ -619,7 +642,7 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
             cn->o2t_to.port = sa.port;
     }
     cn->have_t2o_seq = false;
-    cn->next_tx_us = t;
+    cn->next_tx_us = grid_after(c, t, cn->stats.o2t_api_us);
     cn->rx_deadline_us = t + cn->timeout_us + FIRST_PACKET_GRACE_US;
     cn->backoff_ms = c->cfg.backoff_min_ms;
     cn->dup_retries = 0;
@@ -747,7 +770,6 @@ const uint8_t *dr_conn_input(const dr_conn_t *cn, size_t *len)
 static void conn_produce(dr_conn_t *cn, uint64_t t)
 {
     dr_client_t *c = cn->client;
-    uint8_t frame[UDP_BUF];
     size_t len;
     dr_io_frame_t f;
     cn->o2t_seq16++;
@@ -759,17 +781,49 @@ static void conn_produce(dr_conn_t *cn, uint64_t t)
     f.run_idle = cn->run ? 1u : 0u;
     f.data = cn->out;
     f.data_len = cn->o2t_size;
-    if (dr_io_frame_write(frame, sizeof frame, &f, &len) == DR_OK &&
-        c->udp->h >= 0 &&
-        c->tp.ops->udp_send(c->tp.ctx, c->udp->h, frame, len, cn->o2t_to) == DR_OK)
-        cn->stats.tx_packets++;
+    if (c->tx_n < DR_CLIENT_MAX_CONNS &&
+        dr_io_frame_write(c->tx_frames[c->tx_n], UDP_BUF, &f, &len) == DR_OK) {
+        dr_udp_msg_t *m = &c->tx_batch[c->tx_n];
+        m->buf = c->tx_frames[c->tx_n];
+        m->len = len;
+        m->addr = cn->o2t_to;
+        c->tx_conn[c->tx_n++] = cn;
+    }
     /* Absolute deadlines: the next packet is due one API after the last
      * deadline, not after now, so the rate does not drift. After a stall
      * of more than one period, start again from now instead of bursting. */
     uint64_t api = cn->stats.o2t_api_us;
     cn->next_tx_us += api;
     if (cn->next_tx_us <= t)
-        cn->next_tx_us = t + api;
+        cn->next_tx_us = grid_after(c, t, api);
+}
+
+/* Send the O->T frames queued by conn_produce, in one call if the
+ * transport can. */
+static void flush_io(dr_client_t *c)
+{
+    unsigned sent = 0;
+    if (c->tx_n == 0 || c->udp->h < 0) {
+        c->tx_n = 0;
+        return;
+    }
+    if (c->tp.ops->udp_send_batch != NULL) {
+        while (sent < c->tx_n) {
+            unsigned k = 0;
+            if (c->tp.ops->udp_send_batch(c->tp.ctx, c->udp->h, &c->tx_batch[sent],
+                                          c->tx_n - sent, &k) != DR_OK || k == 0)
+                break; /* dropped, like a datagram the network loses */
+            for (unsigned i = sent; i < sent + k; i++)
+                c->tx_conn[i]->stats.tx_packets++;
+            sent += k;
+        }
+    } else {
+        for (unsigned i = 0; i < c->tx_n; i++)
+            if (c->tp.ops->udp_send(c->tp.ctx, c->udp->h, c->tx_batch[i].buf,
+                                    c->tx_batch[i].len, c->tx_batch[i].addr) == DR_OK)
+                c->tx_conn[i]->stats.tx_packets++;
+    }
+    c->tx_n = 0;
 }
 
 static void conn_timers(dr_conn_t *cn, uint64_t t)
@@ -880,12 +934,16 @@ static void on_frame(dr_client_t *c, const uint8_t *frame, size_t len)
     }
 }
 
+/* The caller's poll is level-triggered: a receive that did not fill the
+ * buffer has taken what there was, and anything later wakes us again, so
+ * there is no second receive only to hear "nothing more". */
 static void read_tcp(dr_client_t *c)
 {
-    while (c->tcp >= 0) {
-        size_t got = 0;
+    for (bool more = true; more && c->tcp >= 0;) {
+        size_t got = 0, space = sizeof c->rx - c->rx_len;
         dr_status_t st = c->tp.ops->tcp_recv(c->tp.ctx, c->tcp, c->rx + c->rx_len,
-                                             sizeof c->rx - c->rx_len, &got);
+                                             space, &got);
+        more = got == space;
         if (st == DR_EAGAIN)
             return;
         if (st != DR_OK) {
@@ -957,6 +1015,27 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
 /* Everything that is waiting, bounded so a flood cannot starve the loop. */
 static void read_udp(dr_udp_port_t *p, uint64_t t)
 {
+    if (p->tp.ops->udp_recv_batch != NULL) {
+        /* Until the socket is empty: a batch that came back full may have
+         * left more behind. Bounded, so a flood cannot starve the loop. */
+        dr_udp_msg_t m[RX_BATCH];
+        for (unsigned round = 0; p->h >= 0 && round < 100; round++) {
+            unsigned got = 0;
+            for (unsigned i = 0; i < RX_BATCH; i++) {
+                m[i].buf = p->rx[i];
+                m[i].cap = UDP_BUF;
+                m[i].len = 0;
+            }
+            if (p->tp.ops->udp_recv_batch(p->tp.ctx, p->h, m, RX_BATCH, &got) != DR_OK)
+                return;
+            for (unsigned i = 0; i < got; i++)
+                if (m[i].len > 0)
+                    on_datagram(p, m[i].buf, m[i].len, t);
+            if (got < RX_BATCH)
+                return;
+        }
+        return;
+    }
     uint8_t buf[UDP_BUF];
     for (unsigned n = 0; p->h >= 0 && n < 1000; n++) {
         size_t got;
@@ -1059,32 +1138,67 @@ uint64_t dr_client_next_deadline(const dr_client_t *c)
     return d;
 }
 
-dr_status_t dr_client_process(dr_client_t *c)
+static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
 {
     uint64_t t = now_us(c);
-    if (c->tcp >= 0 && c->state != S_CONNECTING) {
+    if (c->tcp >= 0 && c->state != S_CONNECTING && tcp_ready) {
         flush_tx(c);
         read_tcp(c);
     }
-    read_udp(c->udp, t);
+    if (udp_ready)
+        read_udp(c->udp, t);
     t = now_us(c);
     session_timers(c, t);
     for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
         if (c->conns[i].used)
             conn_timers(&c->conns[i], t);
+    flush_io(c);
+    /* Re-arm only when the deadline moved; with none left, disarm, so an
+     * expired timer does not keep the caller's poll awake. */
     uint64_t d = dr_client_next_deadline(c);
-    if (d != c->armed && d != UINT64_MAX) {
+    if (c->timer_polled && d != c->armed) {
         c->tp.ops->timer_arm(c->tp.ctx, c->timer, d);
         c->armed = d;
     }
+}
+
+dr_status_t dr_client_process(dr_client_t *c)
+{
+    process(c, true, true);
     return DR_OK;
 }
 
-int dr_client_pollfds(const dr_client_t *c, dr_pollfd_t *fds, int max)
+dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n)
 {
+    bool tcp = c->tcp >= 0 && c->tx_len > 0, udp = false;
+    int tcp_fd = c->tcp >= 0 ? c->tp.ops->fd(c->tp.ctx, c->tcp) : -1;
+    int udp_fd = c->udp->h >= 0 ? c->tp.ops->fd(c->tp.ctx, c->udp->h) : -1;
+    for (int i = 0; i < n; i++) {
+        if (fds[i].revents == 0)
+            continue;
+        if (fds[i].fd == tcp_fd)
+            tcp = true;
+        else if (fds[i].fd == udp_fd)
+            udp = true;
+    }
+    process(c, tcp, udp);
+    return DR_OK;
+}
+
+int dr_client_pollfds(dr_client_t *c, dr_pollfd_t *fds, int max)
+{
+    /* From now on the timer fd is in someone's poll set and must be armed;
+     * the *_sync calls alone wait with a deadline and do not need it. */
+    if (!c->timer_polled) {
+        c->timer_polled = true;
+        c->armed = 0; /* force arming at the next process */
+        c->tp.ops->timer_arm(c->tp.ctx, c->timer, dr_client_next_deadline(c));
+        c->armed = dr_client_next_deadline(c);
+    }
     int n = 0;
     if (c->tcp >= 0 && n < max) {
         fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->tcp);
+        fds[n].revents = 0;
         fds[n].events = (short)(DR_POLL_IN |
                                 (c->state == S_CONNECTING || c->tx_len > 0 ? DR_POLL_OUT : 0));
         n++;
@@ -1093,11 +1207,13 @@ int dr_client_pollfds(const dr_client_t *c, dr_pollfd_t *fds, int max)
     if (!c->udp->shared && c->udp->h >= 0 && n < max) {
         fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->udp->h);
         fds[n].events = DR_POLL_IN;
+        fds[n].revents = 0;
         n++;
     }
     if (c->timer >= 0 && n < max) {
         fds[n].fd = c->tp.ops->fd(c->tp.ctx, c->timer);
         fds[n].events = DR_POLL_IN;
+        fds[n].revents = 0;
         n++;
     }
     return n;

@@ -132,6 +132,7 @@ static dr_status_t px_tcp_addrs(void *ctx, int h, dr_sockaddr_t *local,
     (void)ctx;
     struct sockaddr_in sin;
     socklen_t len = sizeof sin;
+    memset(&sin, 0, sizeof sin); /* see px_udp_recv */
     if (local != NULL) {
         if (getsockname(h, (struct sockaddr *)&sin, &len) < 0)
             return DR_EIO;
@@ -180,6 +181,9 @@ static dr_status_t px_udp_recv(void *ctx, int h, uint8_t *buf, size_t cap,
     (void)ctx;
     struct sockaddr_in sin;
     socklen_t len = sizeof sin;
+    /* zeroed: clang's analyzer does not see recvfrom or getsockname fill
+     * a sockaddr passed through glibc's transparent union (_GNU_SOURCE) */
+    memset(&sin, 0, sizeof sin);
     ssize_t n = recvfrom(h, buf, cap, MSG_TRUNC, (struct sockaddr *)&sin, &len);
     if (n < 0)
         return errno_status(errno);
@@ -205,17 +209,16 @@ static dr_status_t px_timer_arm(void *ctx, int h, uint64_t deadline_us)
 {
     (void)ctx;
     struct itimerspec its;
-    memset(&its, 0, sizeof its);
-    /* 0 would disarm: a deadline in the past must still fire. */
-    if (deadline_us == 0)
-        deadline_us = 1;
-    its.it_value.tv_sec = (time_t)(deadline_us / 1000000u);
-    its.it_value.tv_nsec = (long)(deadline_us % 1000000u) * 1000L;
-    uint64_t expirations;
-    /* Drain a previous expiry first, so the fd reports only the new
-     * deadline (draining after settime could eat a deadline already past). */
-    while (read(h, &expirations, sizeof expirations) > 0) {
+    memset(&its, 0, sizeof its); /* all zero disarms */
+    if (deadline_us != UINT64_MAX) {
+        /* 0 would disarm: a deadline in the past must still fire. */
+        if (deadline_us == 0)
+            deadline_us = 1;
+        its.it_value.tv_sec = (time_t)(deadline_us / 1000000u);
+        its.it_value.tv_nsec = (long)(deadline_us % 1000000u) * 1000L;
     }
+    /* Setting the timer also clears an expiry not yet read, so the fd
+     * reports only the new deadline: no read() needed to drain it. */
     if (timerfd_settime(h, TFD_TIMER_ABSTIME, &its, NULL) < 0)
         return DR_EIO;
     return DR_OK;
@@ -261,11 +264,70 @@ static dr_status_t px_wait(void *ctx, const int *h, const bool *want_out,
     return DR_OK;
 }
 
+#define BATCH_MAX 16
+
+static dr_status_t px_udp_send_batch(void *ctx, int h, const dr_udp_msg_t *m,
+                                     unsigned n, unsigned *done)
+{
+    (void)ctx;
+    struct mmsghdr mh[BATCH_MAX];
+    struct iovec iov[BATCH_MAX];
+    struct sockaddr_in sin[BATCH_MAX];
+    if (n > BATCH_MAX)
+        n = BATCH_MAX;
+    memset(mh, 0, sizeof mh[0] * n);
+    for (unsigned i = 0; i < n; i++) {
+        sin[i] = to_sin(m[i].addr);
+        iov[i].iov_base = m[i].buf;
+        iov[i].iov_len = m[i].len;
+        mh[i].msg_hdr.msg_name = &sin[i];
+        mh[i].msg_hdr.msg_namelen = sizeof sin[i];
+        mh[i].msg_hdr.msg_iov = &iov[i];
+        mh[i].msg_hdr.msg_iovlen = 1;
+    }
+    int r = sendmmsg(h, mh, n, 0);
+    if (r < 0)
+        return errno_status(errno);
+    *done = (unsigned)r;
+    return DR_OK;
+}
+
+static dr_status_t px_udp_recv_batch(void *ctx, int h, dr_udp_msg_t *m,
+                                     unsigned n, unsigned *done)
+{
+    (void)ctx;
+    struct mmsghdr mh[BATCH_MAX];
+    struct iovec iov[BATCH_MAX];
+    struct sockaddr_in sin[BATCH_MAX];
+    if (n > BATCH_MAX)
+        n = BATCH_MAX;
+    memset(mh, 0, sizeof mh[0] * n);
+    for (unsigned i = 0; i < n; i++) {
+        iov[i].iov_base = m[i].buf;
+        iov[i].iov_len = m[i].cap;
+        mh[i].msg_hdr.msg_name = &sin[i];
+        mh[i].msg_hdr.msg_namelen = sizeof sin[i];
+        mh[i].msg_hdr.msg_iov = &iov[i];
+        mh[i].msg_hdr.msg_iovlen = 1;
+    }
+    int r = recvmmsg(h, mh, n, MSG_DONTWAIT, NULL);
+    if (r < 0)
+        return errno_status(errno);
+    for (int i = 0; i < r; i++) {
+        /* a datagram larger than the buffer was cut: mark it unusable */
+        m[i].len = (mh[i].msg_hdr.msg_flags & MSG_TRUNC) ? 0 : mh[i].msg_len;
+        m[i].addr = from_sin(&sin[i]);
+    }
+    *done = (unsigned)r;
+    return DR_OK;
+}
+
 static const dr_transport_ops_t posix_ops = {
     px_resolve,  px_tcp_connect, px_tcp_finish, px_tcp_send,
     px_tcp_recv, px_tcp_addrs,   px_udp_open,   px_udp_send,
     px_udp_recv, px_timer_open,  px_timer_arm,  px_close,
     px_now_us,   px_fd,          px_wait,
+    px_udp_send_batch, px_udp_recv_batch,
 };
 
 dr_transport_t dr_transport_posix(void)

@@ -228,7 +228,8 @@ dr_status_t dr_discover(const char *target, uint16_t port, uint32_t timeout_ms,
 
 typedef struct {
     int fd;
-    short events; /* DR_POLL_IN / DR_POLL_OUT */
+    short events;  /* DR_POLL_IN / DR_POLL_OUT: what to wait for */
+    short revents; /* for dr_client_process_ready: non-zero if ready */
 } dr_pollfd_t;
 
 #define DR_POLL_IN 0x1
@@ -236,7 +237,7 @@ typedef struct {
 
 /* The descriptors to watch now (at most DR_CLIENT_MAX_FDS). They change
  * when sockets are opened or closed: ask again after each process call. */
-int dr_client_pollfds(const dr_client_t *c, dr_pollfd_t *fds, int max);
+int dr_client_pollfds(dr_client_t *c, dr_pollfd_t *fds, int max);
 
 /* Monotonic microseconds of the next timer (UINT64_MAX if none). */
 uint64_t dr_client_next_deadline(const dr_client_t *c);
@@ -246,6 +247,12 @@ uint64_t dr_client_next_deadline(const dr_client_t *c);
  * Returns DR_OK; session problems are reported through the connections'
  * state callbacks and dr_client_ready(). */
 dr_status_t dr_client_process(dr_client_t *c);
+
+/* The same, for callers that know which descriptors their poll reported
+ * (revents set in fds[0..n) as returned by dr_client_pollfds): sockets
+ * that were not ready are not read, which saves a system call each per
+ * wake-up at short RPIs. */
+dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n);
 
 /* Wait for the client's descriptors at most timeout_ms and process once.
  * For simple programs that have no loop of their own. */

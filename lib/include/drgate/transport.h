@@ -22,6 +22,15 @@
 extern "C" {
 #endif
 
+/* One datagram of a batch: buf/len to send, or buf/cap to receive into
+ * (len and addr are then set). */
+typedef struct {
+    uint8_t *buf;
+    size_t len;
+    size_t cap;
+    dr_sockaddr_t addr;
+} dr_udp_msg_t;
+
 typedef struct {
     /* Resolve a host name or dotted address. DR_ENOTFOUND. */
     dr_status_t (*resolve)(void *ctx, const char *host, uint32_t *addr);
@@ -44,7 +53,8 @@ typedef struct {
                             dr_sockaddr_t to);
     dr_status_t (*udp_recv)(void *ctx, int h, uint8_t *buf, size_t cap,
                             size_t *got, dr_sockaddr_t *from);
-    /* A timer that makes its fd readable at an absolute deadline. */
+    /* A timer that makes its fd readable at an absolute deadline;
+     * UINT64_MAX disarms it. Arming clears an earlier expiry. */
     dr_status_t (*timer_open)(void *ctx, int *h);
     dr_status_t (*timer_arm)(void *ctx, int h, uint64_t deadline_us);
     void (*close)(void *ctx, int h);
@@ -57,6 +67,13 @@ typedef struct {
      * client's *_sync calls; event loops poll the fds themselves. */
     dr_status_t (*wait)(void *ctx, const int *h, const bool *want_out, int n,
                         uint64_t deadline_us);
+    /* Optional (NULL: one udp_send / udp_recv each): several datagrams in
+     * one call, which matters at 1 ms RPIs. *done: how many went or came;
+     * receiving, DR_EAGAIN when none was waiting. */
+    dr_status_t (*udp_send_batch)(void *ctx, int h, const dr_udp_msg_t *m,
+                                  unsigned n, unsigned *done);
+    dr_status_t (*udp_recv_batch)(void *ctx, int h, dr_udp_msg_t *m,
+                                  unsigned n, unsigned *done);
 } dr_transport_ops_t;
 
 typedef struct {
