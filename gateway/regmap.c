@@ -437,7 +437,7 @@ static const char *const status_names[STATUS_REGS] = {
     "status.conn_state[5]", "status.conn_state[6]", "status.conn_state[7]",
     "status.conn_state[8]", "status.conn_state[9]", "status.write_fault",
     "status.writer_present", "status.word_order (0 abcd, 1 cdab, 2 badc, 3 dcba)",
-    "status.config_generation", "status.reserved", "status.reserved",
+    "status.config_generation", "status.reserved30", "status.reserved31",
 };
 static const char *const status_bit_names[STATUS_BITS] = {
     "status.link_up", "status.data_fresh", "status.write_fault", "status.writer_present"};
@@ -460,11 +460,12 @@ static bool same_group(const slot_t *a, const slot_t *b)
     }
 }
 
-static void slot_text(const slot_t *s, gw_area_t area, char *name, size_t nsize,
-                      char *type, size_t tsize, char *unit, size_t usize)
+/* words: registers in the printed group (a packed mask takes several). */
+static void slot_text(const slot_t *s, gw_area_t area, unsigned words, char *name,
+                      size_t nsize, char *type, size_t tsize, char *unit, size_t usize)
 {
     const dr_field_t *f = slot_field(s);
-    dr_ref_t ref = {f, s->kind == SL_PACKED ? (int16_t)-1 : s->elem};
+    dr_ref_t ref = {f, (int16_t)(s->kind == SL_PACKED ? -1 : s->elem)};
     name[0] = type[0] = unit[0] = '\0';
     switch ((slot_kind_t)s->kind) {
     case SL_STATUS:
@@ -487,14 +488,19 @@ static void slot_text(const slot_t *s, gw_area_t area, char *name, size_t nsize,
     snprintf(unit, usize, "%s", f->unit);
     switch ((slot_kind_t)s->kind) {
     case SL_VALUE:
-        snprintf(type, tsize, "%s (0/1 or 0..255)", dr_kind_name((dr_kind_t)f->kind));
+        snprintf(type, tsize, "%s (%s)", dr_kind_name((dr_kind_t)f->kind),
+                 f->kind == DR_KIND_BIT ? "0/1" : "0..255");
         break;
-    case SL_PACKED:
-        snprintf(type, tsize, "bits %u-%u packed (bit 0 = [%u])",
-                 (unsigned)f->first_index + 16u * s->part,
-                 (unsigned)f->first_index + (16u * s->part + 15u < f->count ? 16u * s->part + 15u : f->count - 1u),
-                 (unsigned)f->first_index + 16u * s->part);
+    case SL_PACKED: {
+        /* the whole mask: one row for all its registers */
+        unsigned first = f->first_index, last = f->first_index + f->count - 1u;
+        if (words > 1)
+            snprintf(type, tsize, "bits %u-%u packed, 16 per register (bit 0 = [%u], [%u], ...)",
+                     first, last, first, first + 16u);
+        else
+            snprintf(type, tsize, "bits %u-%u packed (bit 0 = [%u])", first, last, first);
         break;
+    }
     case SL_WORD32:
         snprintf(type, tsize, "%s, 2 registers in word order", dr_kind_name((dr_kind_t)f->kind));
         break;
@@ -528,8 +534,9 @@ void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
             unsigned end = a + 1;
             while (end < GW_AREA_SIZE && same_group(s, &map[area][end]))
                 end++;
-            char name[96], type[64], unit[16];
-            slot_text(s, (gw_area_t)area, name, sizeof name, type, sizeof type, unit, sizeof unit);
+            char name[96], type[96], unit[16];
+            slot_text(s, (gw_area_t)area, end - a, name, sizeof name, type, sizeof type, unit,
+                      sizeof unit);
             unsigned p = area_prefix[area];
             switch (fmt) {
             case GW_PRINT_TEXT:
