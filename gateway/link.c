@@ -69,6 +69,10 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
     if (l->up == up)
         return;
     l->up = up;
+    /* Explicit mode sends an O->T image only when it changed: the robot
+     * may come back without it (a restart), so all of them go again. */
+    if (!up && l->cfg.mode == GW_MODE_EXPLICIT)
+        l->dirty = (1u << DR_ASM_COUNT) - 1u;
     if (why != DR_OK) {
         l->unit->status.last_error = DR_IS_CIP(why) ? DR_CIP_EXTENDED(why) : (uint16_t)why;
     }
