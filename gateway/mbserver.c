@@ -361,10 +361,12 @@ static int open_listener(const gw_modbus_config_t *cfg, char *err, size_t errlen
     int one = 1;
     if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) < 0 ||
         bind(fd, (struct sockaddr *)&sin, sizeof sin) < 0 || listen(fd, 64) < 0) {
+        int e = errno; /* kept for the caller (EADDRINUSE) */
         snprintf(err, errlen, "modbus: cannot listen on %s:%u: %s", cfg->listen, cfg->port,
-                 strerror(errno));
+                 strerror(e));
         if (fd >= 0)
             close(fd);
+        errno = e;
         return -1;
     }
     return fd;
@@ -423,11 +425,63 @@ void gw_mbs_free(gw_mbs_t *s)
     free(s);
 }
 
+/* Moves the listener to cfg's address and port. The old one stays open
+ * until the new one works, so a port that cannot be had (in use) leaves
+ * the gateway serving where it was. Returns false only if no listener is
+ * left at all. */
+static bool move_listener(gw_mbs_t *s, const gw_modbus_config_t *cfg)
+{
+    char err[256];
+    int fd = open_listener(cfg, err, sizeof err);
+    if (fd < 0 && errno == EADDRINUSE && cfg->port == s->cfg.port) {
+        /* The same port on another address: ours is in the way. */
+        gw_loop_unwatch(s->epfd, &s->listen_ev);
+        close(s->listen_fd);
+        s->listen_fd = -1;
+        fd = open_listener(cfg, err, sizeof err);
+        if (fd < 0) {
+            char again[256];
+            s->listen_fd = open_listener(&s->cfg, again, sizeof again);
+            if (s->listen_fd < 0 ||
+                !gw_loop_watch(s->epfd, &s->listen_ev, s->listen_fd, EPOLLIN)) {
+                gw_log(GW_LOG_ERROR, "reload: %s; and again %s", err, again);
+                return false;
+            }
+        }
+    }
+    if (fd < 0) {
+        gw_log(GW_LOG_ERROR, "reload: %s: still listening on %s:%u", err, s->cfg.listen,
+               s->cfg.port);
+        return true;
+    }
+    if (!gw_loop_watch(s->epfd, &s->listen_ev, fd, EPOLLIN)) {
+        gw_log(GW_LOG_ERROR, "reload: epoll: %s: still listening on %s:%u", strerror(errno),
+               s->cfg.listen, s->cfg.port);
+        close(fd);
+        return true;
+    }
+    if (s->listen_fd >= 0)
+        close(s->listen_fd);
+    s->listen_fd = fd;
+    gw_log(GW_LOG_INFO, "modbus: listening on %s:%u (was %s:%u)", cfg->listen, cfg->port,
+           s->cfg.listen, s->cfg.port);
+    snprintf(s->cfg.listen, sizeof s->cfg.listen, "%s", cfg->listen);
+    s->cfg.port = cfg->port;
+    return true;
+}
+
 bool gw_mbs_reconfigure(gw_mbs_t *s, const gw_modbus_config_t *cfg)
 {
-    if (strcmp(cfg->listen, s->cfg.listen) != 0 || cfg->port != s->cfg.port)
+    if ((strcmp(cfg->listen, s->cfg.listen) != 0 || cfg->port != s->cfg.port) &&
+        !move_listener(s, cfg))
         return false;
+    /* Everything else is taken; the address stays where move_listener left it. */
+    char listen[sizeof s->cfg.listen];
+    uint16_t port = s->cfg.port;
+    memcpy(listen, s->cfg.listen, sizeof listen);
     s->cfg = *cfg;
+    memcpy(s->cfg.listen, listen, sizeof listen);
+    s->cfg.port = port;
     if (s->cfg.max_clients > MAX_CLIENTS_HARD)
         s->cfg.max_clients = MAX_CLIENTS_HARD;
     /* Clients keep their connections; their rights follow the new list. */

@@ -32,9 +32,11 @@ gw_mbs_t *gw_mbs_new(const gw_modbus_config_t *cfg, int epfd,
                      const gw_mbs_hooks_t *hooks, char *err, size_t errlen);
 void gw_mbs_free(gw_mbs_t *s);
 
-/* Take new settings that do not need a new listener (SIGHUP): client
- * limits, timeouts, word order, allowlist, write lock. Returns false if
- * the listen address or port changed (the caller must restart it). */
+/* Take new settings (SIGHUP): client limits, timeouts, word order,
+ * allowlist, write lock, and the listen address and port. The listener
+ * moves only once the new one is open: if the new address cannot be had,
+ * the old one keeps serving (logged) and the rest is taken. Returns false
+ * only if no listener is left (the caller must restart it). */
 bool gw_mbs_reconfigure(gw_mbs_t *s, const gw_modbus_config_t *cfg);
 
 /* Close idle clients, expire the single writer. Call at least every
