@@ -36,3 +36,26 @@ $(GW_BIN): gateway/main.c $(GW_A) $(GPIO_A) $(LIB_A) $(GW_HDR) $(LIB_HDR)
 .PHONY: check-regmap-docs
 check-regmap-docs: $(GW_BIN)
 	@sh mk/gen-regmap-doc.sh --check $(GW_BIN) "$(RESULTS)"
+
+# ---- install -----------------------------------------------------------------
+# The daemon itself is in $(BINS) (the Makefile's install); these add the
+# systemd unit (ExecStart= pointed at $(BINDIR)), the example
+# configurations and the manual page.
+.PHONY: install-gateway uninstall-gateway
+install: install-gateway
+uninstall: uninstall-gateway
+
+GW_EXAMPLES := $(wildcard gateway/examples/*.ini)
+
+install-gateway: $(GW_BIN)
+	install -d $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DATADIR)/examples $(DESTDIR)$(MANDIR)/man8
+	sed -e 's|/usr/local/bin/drgatewayd|$(BINDIR)/drgatewayd|' gateway/drgatewayd.service \
+	    > $(DESTDIR)$(UNITDIR)/drgatewayd.service
+	chmod 644 $(DESTDIR)$(UNITDIR)/drgatewayd.service
+	install -m 644 $(GW_EXAMPLES) $(DESTDIR)$(DATADIR)/examples/
+	install -m 644 man/drgatewayd.8 $(DESTDIR)$(MANDIR)/man8/
+
+uninstall-gateway:
+	rm -f $(DESTDIR)$(UNITDIR)/drgatewayd.service $(DESTDIR)$(MANDIR)/man8/drgatewayd.8
+	rm -f $(addprefix $(DESTDIR)$(DATADIR)/examples/,$(notdir $(GW_EXAMPLES)))
+	-rmdir $(DESTDIR)$(DATADIR)/examples $(DESTDIR)$(DATADIR) 2>/dev/null
