@@ -1,0 +1,79 @@
+# SPDX-License-Identifier: MIT
+# drgatewayd end to end (tests/gateway/): drsim on 127.0.0.2 and the
+# daemon on 127.0.0.1, each on free ports, driven by independent Modbus
+# clients (pymodbus from .venv, Debian's mbpoll, and a framer of the
+# tests' own) and checked against the robot's own view of its assemblies
+# (an EtherNet/IP reader of the tests' own). pytest from .venv
+# (tests/requirements.txt, `make deps`); one "passed failed label" line per
+# run goes to $(RESULTS).
+#
+#   check-gateway        the suite against $(B)/drgatewayd and $(B)/drsim
+#   check-gateway-asan   the same against both built with ASan+UBSan (the
+#                        Makefile's SAN_FLAGS, in $(B)/asan as check-asan);
+#                        a sanitizer report in any log is a failure
+#   check-regmap-docs    docs/register-map.md equals --print-map --markdown
+#                        (the rule is in mk/gw_daemon.mk)
+#   check-gateway-unit   gateway/drgatewayd.service as systemd-analyze
+#                        verify reads it: any complaint is a failure
+#                        (skipped loudly where systemd-analyze is missing)
+#   regmap-docs          regenerates docs/register-map.md (also `make docs`)
+#
+# GW_PYTEST_ARGS passes options to pytest (e.g. -k reload -x); the logs and
+# the configurations written by the tests are kept in $(B)/tests/gateway.
+
+CHECK_STEPS += check-gateway check-gateway-asan check-regmap-docs check-gateway-unit
+
+GW_TEST_PY      ?= .venv/bin/python
+GW_TEST_TIMEOUT ?= 1800
+GW_PYTEST_ARGS  ?=
+GW_PYTEST        = $(GW_TEST_PY) -m pytest -q -p no:cacheprovider $(GW_PYTEST_ARGS) tests/gateway
+# $(1): build directory, $(2): label, $(3): extra environment
+GW_TEST_RUN      = PYTHONDONTWRITEBYTECODE=1 GW_RESULTS=$(abspath $(RESULTS)) \
+                   GW_BUILD=$(abspath $(1)) DRGATEWAYD=$(abspath $(1))/drgatewayd \
+                   DRSIM=$(abspath $(1))/drsim GW_LOGDIR=$(abspath $(1))/tests/gateway \
+                   GW_LABEL="$(2)" $(3) timeout -k 10 $(GW_TEST_TIMEOUT) $(GW_PYTEST)
+GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus' 2>/dev/null; then \
+                       echo "$@: no pytest or pymodbus in $(GW_TEST_PY) (run make deps)"; \
+                       echo "0 1 $(1) (no pytest/pymodbus: make deps)" >> $(RESULTS); \
+                       exit 1; fi
+
+.PHONY: check-gateway check-gateway-asan check-gateway-unit regmap-docs
+
+check-gateway: $(GW_BIN) $(SIM_BIN)
+	@$(call GW_TEST_PEERS,drgatewayd end to end)
+	@$(call GW_TEST_RUN,$(B),drgatewayd end to end (tests/gateway))
+
+# Slower under the sanitizers: the tests' deadlines are scaled.
+check-gateway-asan:
+	@$(call GW_TEST_PEERS,drgatewayd end to end [asan])
+	$(MAKE) --no-print-directory B=$(B)/asan CFLAGS="$(SAN_FLAGS)" \
+	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
+	    $(B)/asan/drgatewayd $(B)/asan/drsim
+	@$(call GW_TEST_RUN,$(B)/asan,drgatewayd end to end (tests/gateway) [asan],\
+	    GW_TIMEOUT_SCALE=3 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0)
+
+# verify wants ExecStart= to exist: a copy points it at the built daemon.
+GW_UNIT_LABEL := drgatewayd.service (systemd-analyze verify)
+check-gateway-unit: $(GW_BIN)
+	@if ! command -v systemd-analyze >/dev/null 2>&1; then \
+	    echo "######################################################################"; \
+	    echo "### check-gateway-unit SKIPPED: no systemd-analyze on this machine ###"; \
+	    echo "######################################################################"; \
+	    exit 0; fi; \
+	d=$$(mktemp -d); \
+	sed -e 's|/usr/local/bin/drgatewayd|$(abspath $(GW_BIN))|' gateway/drgatewayd.service \
+	    > $$d/drgatewayd.service; \
+	out=$$(systemd-analyze verify --man=no $$d/drgatewayd.service 2>&1); st=$$?; \
+	rm -rf $$d; \
+	if [ $$st -eq 0 ] && [ -z "$$out" ]; then \
+	    echo "$(GW_UNIT_LABEL): clean"; \
+	    echo "1 0 $(GW_UNIT_LABEL)" >> $(RESULTS); \
+	else \
+	    echo "$(GW_UNIT_LABEL): FAIL (status $$st):"; echo "$$out"; \
+	    echo "0 1 $(GW_UNIT_LABEL)" >> $(RESULTS); exit 1; \
+	fi
+
+regmap-docs: $(GW_BIN)
+	@sh mk/gen-regmap-doc.sh --write $(GW_BIN)
+
+docs: regmap-docs

@@ -1,0 +1,218 @@
+# SPDX-License-Identifier: MIT
+"""Clients that misbehave: silent, slow, half a frame, malformed headers,
+too many of them. Each affects only itself; the others keep being served."""
+import socket
+import struct
+import time
+
+import pytest
+
+from gwlib import GW_ADDR, Drsim, Gateway, closed_by_peer, timeout, wait_for
+
+MAX_CLIENTS = 4
+IDLE_S = 2
+
+
+@pytest.fixture(scope="module")
+def gw():
+    sim = Drsim("clients").start()
+    g = Gateway("clients", sim, modbus="max_clients = %d\nidle_timeout = %d\n"
+                % (MAX_CLIENTS, IDLE_S))
+    try:
+        g.start()
+        yield g
+    finally:
+        g.kill()
+        sim.kill()
+
+
+def raw_sock(g):
+    s = socket.create_connection((GW_ADDR, g.port), timeout=timeout(10))
+    return s
+
+
+def req(tid, pdu, unit=1):
+    return struct.pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu
+
+
+READ_TEST = bytes([4, 0, 32, 0, 1])  # IR 32: 0x1234
+ANSWER = lambda tid: struct.pack(">HHHBBBH", tid, 0, 5, 1, 4, 2, 0x1234)  # noqa: E731
+
+
+def recv_n(s, n):
+    buf = b""
+    while len(buf) < n:
+        got = s.recv(n - len(buf))
+        if not got:
+            raise ConnectionError("closed")
+        buf += got
+    return buf
+
+
+def served(g):
+    """A fresh client gets an answer. (max_clients is small here: clients
+    the tests just closed may still count until the gateway has seen them
+    go, so a refusal is tried again.)"""
+    def once():
+        with g.raw() as m:
+            return m.read(4, 32, 1) == [0x1234]
+    return wait_for(once, 10, "a new client to be served")
+
+
+def connected(g):
+    with g.raw() as m:
+        return m.read(4, 13, 1)[0]  # status.clients, this one included
+
+
+def test_silent_client_does_not_stall_others(gw):
+    silent = raw_sock(gw)
+    try:
+        t0 = time.monotonic()
+        with gw.raw() as m:
+            for _ in range(50):
+                assert m.read(4, 32, 1) == [0x1234]
+        # ... and the silent one is closed after idle_timeout
+        assert closed_by_peer(silent, IDLE_S + 10)
+        took = time.monotonic() - t0
+        assert took >= IDLE_S - 0.5, "closed before its idle timeout (%.2f s)" % took
+        gw.log_wait("idle timeout")
+    finally:
+        silent.close()
+
+
+def test_half_frame_does_not_block_others(gw):
+    a = raw_sock(gw)
+    try:
+        frame = req(7, READ_TEST)
+        a.sendall(frame[:9])  # the header and half the PDU
+        assert served(gw)
+        with gw.raw() as m:
+            for _ in range(10):
+                assert m.read(4, 32, 1) == [0x1234]
+        a.sendall(frame[9:])
+        assert recv_n(a, 11) == ANSWER(7)
+    finally:
+        a.close()
+
+
+def test_byte_by_byte(gw):
+    a = raw_sock(gw)
+    try:
+        for b in req(9, READ_TEST):
+            a.sendall(bytes([b]))
+            time.sleep(0.005)
+        assert recv_n(a, 11) == ANSWER(9)
+    finally:
+        a.close()
+
+
+def test_pipelined_requests(gw):
+    a = raw_sock(gw)
+    try:
+        a.sendall(b"".join(req(100 + i, READ_TEST) for i in range(20)))
+        for i in range(20):
+            assert recv_n(a, 11) == ANSWER(100 + i)
+        # two frames split at an odd place
+        data = req(1, READ_TEST) + req(2, READ_TEST)
+        a.sendall(data[:15])
+        time.sleep(0.05)
+        a.sendall(data[15:])
+        assert recv_n(a, 22) == ANSWER(1) + ANSWER(2)
+    finally:
+        a.close()
+
+
+@pytest.mark.parametrize("header", [
+    struct.pack(">HHHB", 1, 1, 6, 1),       # protocol id 1
+    struct.pack(">HHHB", 1, 0xFFFF, 6, 1),  # protocol id 0xFFFF
+    struct.pack(">HHHB", 1, 0, 0, 1),       # length 0
+    struct.pack(">HHHB", 1, 0, 1, 1),       # length 1: a unit ID and no PDU
+    struct.pack(">HHHB", 1, 0, 255, 1),     # one more than a Modbus TCP ADU holds
+    struct.pack(">HHHB", 1, 0, 300, 1),
+    struct.pack(">HHHB", 1, 0, 0xFFFF, 1),
+], ids=["proto1", "proto-ffff", "len0", "len1", "len255", "len300", "len65535"])
+def test_malformed_mbap_closes_that_connection_only(gw, header):
+    other = gw.raw()
+    bad = raw_sock(gw)
+    try:
+        assert other.read(4, 32, 1) == [0x1234]
+        mark = len(gw.log())
+        bad.sendall(header + READ_TEST + b"\x00" * 8)
+        assert closed_by_peer(bad), "a malformed header must close the connection"
+        wait_for(lambda: "malformed MBAP header" in gw.log()[mark:], 10, "the log line")
+        assert other.read(4, 32, 1) == [0x1234]
+        assert served(gw)
+    finally:
+        bad.close()
+        other.close()
+
+
+def test_garbage_closes_that_connection_only(gw):
+    other = gw.raw()
+    bad = raw_sock(gw)
+    try:
+        bad.sendall(bytes(range(256)) * 4)
+        assert closed_by_peer(bad)
+        assert other.read(4, 32, 1) == [0x1234]
+    finally:
+        bad.close()
+        other.close()
+
+
+def test_client_vanishing_mid_frame(gw):
+    for _ in range(5):
+        a = raw_sock(gw)
+        a.sendall(req(3, READ_TEST)[:5])
+        a.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        a.close()  # RST
+    assert served(gw)
+
+
+@pytest.fixture(scope="module")
+def gw_full():
+    sim = Drsim("clients-full").start()
+    g = Gateway("clients-full", sim, modbus="max_clients = %d\nidle_timeout = 600\n"
+                % MAX_CLIENTS)
+    try:
+        g.start()
+        yield g
+    finally:
+        g.kill()
+        sim.kill()
+
+
+def test_flood_beyond_max_clients(gw_full):
+    gw = gw_full
+    wait_for(lambda: connected(gw) == 1, 15, "no other clients left")
+    keep = [gw.raw() for _ in range(MAX_CLIENTS)]
+    flood = []
+    try:
+        for m in keep:
+            assert m.read(4, 32, 1) == [0x1234]
+        assert keep[0].read(4, 13, 1) == [MAX_CLIENTS] or \
+            wait_for(lambda: keep[0].read(4, 13, 1) == [MAX_CLIENTS], 10, "client count")
+        mark = len(gw.log())
+        # the gateway is full: each further connection is accepted by the
+        # kernel, then closed at once (never left hanging)
+        for _ in range(3 * MAX_CLIENTS):
+            s = socket.create_connection((GW_ADDR, gw.port), timeout=timeout(10))
+            s.sendall(req(1, READ_TEST))
+            flood.append(s)
+        t0 = time.monotonic()
+        for s in flood:
+            assert closed_by_peer(s, 10), "a connection beyond max_clients stayed open"
+        print("%d refused connections closed within %.3f s" % (len(flood), time.monotonic() - t0))
+        wait_for(lambda: "max_clients" in gw.log()[mark:], 10, "the refusal in the log")
+        # repeated refusals are rate-limited: not one line each
+        assert gw.log()[mark:].count("max_clients") < len(flood)
+        # the ones already in keep working, with the gateway full
+        for m in keep:
+            for _ in range(5):
+                assert m.read(4, 32, 1) == [0x1234]
+    finally:
+        for m in keep:
+            m.close()
+        for s in flood:
+            s.close()
+    # room again
+    assert served(gw)

@@ -1,0 +1,156 @@
+# SPDX-License-Identifier: MIT
+"""Configuration errors name FILE:LINE and exit 78, both for --check-config
+and at start-up; the command line's other exit codes."""
+import socket
+import subprocess
+
+import pytest
+
+from gwlib import (DRGATEWAYD, EXIT_CONFIG, EXIT_OK, EXIT_RUNTIME, EXIT_USAGE, GW_ADDR,
+                   LOGDIR, TOP, Drsim, Gateway, free_port, timeout)
+
+ROBOT = "[robot a]\nhost = 127.0.0.2\n"
+
+# (file text, line, words the message must contain)
+BAD = {
+    "word_order": ("[modbus]\nport = 5020\nword_order = abdc\n" + ROBOT, 3,
+                   ["word_order 'abdc' invalid", "abcd, cdab, badc, dcba"]),
+    "unknown_key": ("[modbus]\nwordorder = abcd\n" + ROBOT, 2,
+                    ["unknown key 'wordorder'", "did you mean 'word_order'"]),
+    "no_host": ("[robot a]\ntcp_port = 44818\n", 1, ["no host"]),
+    "unit_clash": (ROBOT + "\n[robot b]\nhost = 127.0.0.3\n", 4, ["unit_id 1", "robot 'a'"]),
+    "port_range": ("[modbus]\nport = 70000\n" + ROBOT, 2, ["port 70000 out of range",
+                                                            "1..65535"]),
+    "number_unit": (ROBOT + "rpi_ms = 10ms\n", 3, ["rpi_ms '10ms' invalid"]),
+    "gpio_field": (ROBOT + "[gpio x]\nchip = gpiochip0\nline = 3\ndirection = output\n"
+                   "field = io_state.cb_dl[3]\n", 7, ["io_state.cb_dl[3]", "io_state.cb_di[3]"]),
+    "gpio_input_t2o": (ROBOT + "[gpio x]\nchip = gpiochip0\nline = 3\ndirection = input\n"
+                       "field = io_state.cb_do[3]\n", 7, ["input cannot drive"]),
+    "indented": (ROBOT + "  port = 5\n", 3, ["whitespace"]),
+    "no_robot": ("[modbus]\nport = 5020\n", 2, ["no robot section"]),
+    "allow_shadowed": ("[modbus]\nallow = 127.0.0.0/8 ro\nallow = 127.0.0.1 rw\n" + ROBOT, 3,
+                       ["never matches", "line 2"]),
+    "allow_host_bits": ("[modbus]\nallow = 127.0.0.1/8\n" + ROBOT, 2, ["127.0.0.0/8"]),
+    "on_link_loss": ("[modbus]\non_link_loss = keep\n" + ROBOT, 2,
+                     ["hold, zero, exception"]),
+    "bool": ("[modbus]\nkeepalive = true\n" + ROBOT, 2, ["yes, no"]),
+    "section": (ROBOT + "[robots b]\nhost = 1.2.3.4\n", 3, ["robots"]),
+    "instance": (ROBOT + "instance.io_state = 101\ninstance.dr1 = 102\n", 4, ["instance"]),
+    "timeout_mult": (ROBOT + "timeout_multiplier = 8\n", 3, ["0..7"]),
+}
+
+
+def write(name, text):
+    LOGDIR.mkdir(parents=True, exist_ok=True)
+    p = LOGDIR / ("cfg-%s.ini" % name)
+    p.write_text(text)
+    return p
+
+
+def run(*args):
+    return subprocess.run([str(DRGATEWAYD)] + [str(a) for a in args], capture_output=True,
+                          text=True, timeout=timeout(30), stdin=subprocess.DEVNULL)
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_check_config_error(case):
+    text, line, words = BAD[case]
+    p = write(case, text)
+    r = run("--check-config", p)
+    assert r.returncode == EXIT_CONFIG, r
+    msg = r.stderr.strip()
+    assert len(msg.splitlines()) == 1, msg
+    assert ("%s:%d: " % (p, line)) in msg, msg
+    for w in words:
+        assert w in msg, (w, msg)
+    assert r.stdout == ""
+
+
+@pytest.mark.parametrize("case", ["word_order", "no_host", "gpio_field", "allow_shadowed"])
+def test_start_with_bad_config(case):
+    """The daemon refuses to start with the same message and status."""
+    text, line, words = BAD[case]
+    p = write("start-" + case, text)
+    r = run("-c", p)
+    assert r.returncode == EXIT_CONFIG
+    assert ("%s:%d: " % (p, line)) in r.stderr
+    for w in words:
+        assert w in r.stderr
+
+
+def test_missing_file():
+    p = LOGDIR / "no-such-file.ini"
+    for args in (("--check-config", p), ("-c", p)):
+        r = run(*args)
+        assert r.returncode == EXIT_CONFIG
+        assert "%s: cannot open" % p in r.stderr
+
+
+def test_check_config_good():
+    p = write("good", "[modbus]\nport = 5020\nword_order = dcba\n" + ROBOT +
+              "[robot b]\nhost = 127.0.0.3\nunit_id = 2\n")
+    r = run("--check-config", p)
+    assert r.returncode == EXIT_OK, r.stderr
+    assert "valid (2 robot(s), 0 GPIO line(s))" in r.stdout
+
+
+@pytest.mark.parametrize("example", sorted(
+    p.name for p in (TOP / "gateway" / "examples").glob("*.ini")))
+def test_examples_are_valid(example):
+    r = run("--check-config", TOP / "gateway" / "examples" / example)
+    assert r.returncode == EXIT_OK, r.stderr
+
+
+def test_usage_errors():
+    for args in (("--bogus",), ("extra",), ("-c",)):
+        r = run(*args)
+        assert r.returncode == EXIT_USAGE, (args, r)
+    assert run("--help").returncode == EXIT_OK
+    r = run("--version")
+    assert r.returncode == EXIT_OK and r.stdout.startswith("drgatewayd ")
+
+
+def test_runtime_error_exit_1():
+    """A valid configuration that cannot be served (the Modbus port is
+    taken) is a runtime error: exit 1, and the reason on stderr."""
+    busy = socket.socket()
+    busy.bind((GW_ADDR, 0))
+    busy.listen(1)
+    try:
+        port = busy.getsockname()[1]
+        p = write("busy", "[modbus]\nlisten = %s\nport = %d\n[robot a]\nhost = 127.0.0.2\n"
+                  "tcp_port = %d\nlocal_address = 127.0.0.1\nlocal_udp_port = %d\n"
+                  % (GW_ADDR, port, free_port("127.0.0.2"), free_port(GW_ADDR, tcp=False)))
+        r = run("-c", p)
+        assert r.returncode == EXIT_RUNTIME
+        assert "cannot listen on %s:%d" % (GW_ADDR, port) in r.stderr
+    finally:
+        busy.close()
+
+
+def test_gpio_chip_missing_exit_1():
+    p = write("nochip", "[modbus]\nlisten = 127.0.0.1\nport = %d\n" % free_port(GW_ADDR) +
+              ROBOT + "tcp_port = %d\nlocal_address = 127.0.0.1\nlocal_udp_port = %d\n"
+              % (free_port("127.0.0.2"), free_port(GW_ADDR, tcp=False)) +
+              "[gpio lamp]\nchip = no-such-gpio-chip\nline = 0\ndirection = output\n"
+              "field = io_state.cb_do[1]\n")
+    assert run("--check-config", p).returncode == EXIT_OK
+    r = run("-c", p)
+    assert r.returncode == EXIT_RUNTIME
+    assert "gpio lamp" in r.stderr
+
+
+def test_log_level_from_config():
+    sim = Drsim("cfg-loglevel").start()
+    g = Gateway("cfg-loglevel", sim, extra="[daemon]\nlog_level = warning\n")
+    try:
+        g.start(wait_link=False)
+        g.wait_link(True)
+        with g.raw() as m:
+            m.read(4, 0, 1)
+        assert "info:" not in g.log()
+        rc, _ = g.stop()
+        assert rc == 0
+    finally:
+        g.kill()
+        sim.kill()

@@ -1,0 +1,240 @@
+# SPDX-License-Identifier: MIT
+"""The robot link: loss is seen in the status block (and, by policy, in the
+robot data), and the link comes back by itself when the robot does,
+without restarting the gateway. Also explicit (polling) mode and two
+robots on two unit IDs."""
+import signal
+import struct
+import time
+
+import pytest
+
+from gwlib import (EX_TARGET_FAILED, EnipReader, Drsim, Gateway, INSTANCE, dint_regs,
+                   wait_for)
+
+
+def uptime(g):
+    st = g.status()
+    return st[14] << 16 | st[15]
+
+
+def int_out0(m, regmap, unit=1):
+    a = regmap.addr("IR", "int_out[0]")
+    return struct.unpack(">i", struct.pack(">HH", *m.read(4, a, 2, unit=unit)))[0]
+
+
+def put_int_in0(m, regmap, v, unit=1):
+    m.write_regs(regmap.addr("HR", "int_in[0]"), dint_regs(v, "abcd"), unit=unit)
+
+
+@pytest.fixture
+def pair(request):
+    """A fresh drsim and gateway; the test's own modbus/robot settings."""
+    marker = request.node.get_closest_marker("gw")
+    kw = dict(marker.kwargs) if marker else {}
+    name = request.node.name.replace("[", "-").replace("]", "")
+    sim = Drsim(name).start()
+    g = Gateway(name, sim, **kw)
+    try:
+        g.start()
+        g.sim = sim
+        yield g
+    finally:
+        g.kill()
+        sim.kill()
+
+
+def lose_link(g):
+    """SIGKILL drsim (no Forward Close) and wait until the status block
+    says the link is down. Returns the seconds that took."""
+    t0 = time.monotonic()
+    g.sim.kill()
+    g.wait_link(False)
+    took = time.monotonic() - t0
+    print("link loss seen after %.3f s" % took)
+    return took
+
+
+def restore_link(g):
+    pid = g.proc.pid
+    up0 = uptime(g)
+    g.sim.start(same_ports=True)
+    g.wait_link(True, seconds=60)
+    assert g.alive() and g.proc.pid == pid
+    assert uptime(g) >= up0  # the same process, never restarted
+
+
+@pytest.mark.gw(robot="rpi_ms = 10\ntimeout_multiplier = 2\n")
+def test_loss_and_recovery_hold(pair, regmap):
+    g = pair
+    with g.raw() as m:
+        put_int_in0(m, regmap, 1111)
+        wait_for(lambda: int_out0(m, regmap) == 1111, 10, "int_out[0] echo")
+        lose_link(g)
+        st = g.status()
+        assert st[1] != 2 and st[2] == 0
+        assert m.read(2, 0, 2) == [0, 0]
+        assert [st[16 + i] for i in range(6)] != [2] * 6
+        # hold: the last values stay readable, their age grows
+        assert int_out0(m, regmap) == 1111
+        assert m.read(4, regmap.addr("IR", "io_state.version.major"), 3) == [2, 12, 3]
+        age = g.status()[3]
+        wait_for(lambda: g.status()[3] > age, 10, "data age to grow")
+        g.log_wait("link down")
+        # writes while the robot is away are kept and sent when it is back
+        put_int_in0(m, regmap, 2222)
+        restore_link(g)
+        wait_for(lambda: int_out0(m, regmap) == 2222, 20, "int_out[0] after recovery")
+        assert g.status()[2] == 1 and m.read(2, 0, 2) == [1, 1]
+        put_int_in0(m, regmap, 3333)
+        wait_for(lambda: int_out0(m, regmap) == 3333, 10, "int_out[0] echo after recovery")
+    assert g.log().count("link up") >= 2
+
+
+@pytest.mark.gw(robot="rpi_ms = 10\ntimeout_multiplier = 0\n")
+def test_timeout_detection_without_fin(pair, regmap):
+    """A robot that stops answering (SIGSTOP: the TCP session stays open) is
+    noticed by the Class 1 connection timeout, RPI x 4 here."""
+    g = pair
+    t0 = time.monotonic()
+    g.sim.proc.send_signal(signal.SIGSTOP)
+    try:
+        g.wait_link(False)
+        print("silent robot noticed after %.3f s" % (time.monotonic() - t0))
+    finally:
+        g.sim.proc.send_signal(signal.SIGCONT)
+    g.wait_link(True, seconds=60)
+    with g.raw() as m:
+        put_int_in0(m, regmap, -5)
+        wait_for(lambda: int_out0(m, regmap) == -5, 10, "echo after the robot resumed")
+
+
+@pytest.mark.gw(modbus="on_link_loss = zero\n")
+def test_loss_zero(pair, regmap):
+    g = pair
+    ver = regmap.addr("IR", "io_state.version.major")
+    with g.raw() as m:
+        put_int_in0(m, regmap, 77)
+        wait_for(lambda: int_out0(m, regmap) == 77, 10, "int_out[0] echo")
+        lose_link(g)
+        assert m.read(4, ver, 3) == [0, 0, 0]
+        assert int_out0(m, regmap) == 0
+        assert m.read(2, regmap.addr("DI", "io_state.servo_on"), 1) == [0]
+        assert m.read(4, 32, 1) == [0x1234]  # test registers are not robot data
+        assert m.read(4, 0, 1) == [1]
+        # the O->T image is the gateway's own: not zeroed
+        assert m.read(3, regmap.addr("HR", "int_in[0]"), 2) == dint_regs(77, "abcd")
+        restore_link(g)
+        wait_for(lambda: m.read(4, ver, 3) == [2, 12, 3], 20, "io_state after recovery")
+        wait_for(lambda: int_out0(m, regmap) == 77, 20, "int_out[0] after recovery")
+
+
+@pytest.mark.gw(modbus="on_link_loss = exception\n")
+def test_loss_exception(pair, regmap):
+    g = pair
+    with g.raw() as m:
+        lose_link(g)
+        for fc, name in ((4, "io_state.cb_di"), (4, "joint_state.position[1]"),
+                         (4, "float_out[0]"), (2, "io_state.cb_di[1]"), (2, "bit_out[0]")):
+            area = "IR" if fc == 4 else "DI"
+            e = regmap.entry(area, name)
+            assert m.exception(bytes([fc]) + struct.pack(">HH", e["address"], e["count"])) \
+                == EX_TARGET_FAILED, name
+        sc = regmap.addr("IR", "float_out[0]", scaled=True)
+        assert m.exception(bytes([4]) + struct.pack(">HH", sc, 1)) == EX_TARGET_FAILED
+        # the status block and the test registers stay readable
+        st = m.read(4, 0, 40)
+        assert st[0] == 1 and st[1] != 2 and st[2] == 0 and st[32] == 0x1234
+        assert m.read(2, 0, 4)[:2] == [0, 0]
+        # the O->T image (holding registers, coils) is the gateway's own
+        assert len(m.read(3, regmap.addr("HR", "float_in[0]"), 48)) == 48
+        assert len(m.read(1, regmap.addr("CO", "bit_in[0]"), 64)) == 64
+        put_int_in0(m, regmap, 9)
+        restore_link(g)
+        wait_for(lambda: int_out0(m, regmap) == 9, 20, "int_out[0] after recovery")
+
+
+@pytest.mark.gw(robot="mode = explicit\nrpi_ms = 50\ntimeout_ms = 500\n")
+def test_explicit_mode(pair, regmap):
+    g = pair
+    with g.raw() as m:
+        st = m.read(4, 0, 40)
+        assert st[5] == 50 and st[16:26] == [0] * 10  # no Class 1 connections
+        rx = st[6] << 16 | st[7]
+        put_int_in0(m, regmap, 424242)
+        wait_for(lambda: int_out0(m, regmap) == 424242, 10, "echo through Set/Get_Attribute")
+        m.write_coils(regmap.addr("CO", "bit_in[0]"), [1, 0, 1, 1])
+        wait_for(lambda: m.read(2, regmap.addr("DI", "bit_out[0]"), 4) == [1, 0, 1, 1], 10,
+                 "bit_out echo")
+        wait_for(lambda: (lambda s: (s[6] << 16 | s[7]) > rx)(m.read(4, 0, 40)), 10,
+                 "polls counted")
+        assert m.read(4, regmap.addr("IR", "io_state.version.major"), 3) == [2, 12, 3]
+        lose_link(g)
+        restore_link(g)
+        wait_for(lambda: int_out0(m, regmap) == 424242, 20, "int_out[0] after recovery")
+    assert "connection open" not in g.sim.log()
+
+
+@pytest.fixture
+def two():
+    sims = [Drsim("two-a").start(), Drsim("two-b").start()]
+    g = Gateway("two", sims, modbus="on_link_loss = exception\n", unit_ids=[1, 7])
+    try:
+        g.start()
+        yield g
+    finally:
+        g.kill()
+        for s in sims:
+            s.kill()
+
+
+def test_two_robots(two, regmap):
+    g = two
+    enips = [EnipReader("127.0.0.2", s.tcp) for s in g.sims]
+    try:
+        with g.raw() as m:
+            put_int_in0(m, regmap, 11, unit=1)
+            put_int_in0(m, regmap, 77, unit=7)
+            wait_for(lambda: int_out0(m, regmap, 1) == 11 and int_out0(m, regmap, 7) == 77, 10,
+                     "each robot's echo on its own unit")
+            assert struct.unpack_from("<i", enips[0].get(INSTANCE["int_in"]))[0] == 11
+            assert struct.unpack_from("<i", enips[1].get(INSTANCE["int_in"]))[0] == 77
+            g.sims[0].kill()
+            g.wait_link(False, unit=1)
+            a = regmap.addr("IR", "int_out[0]")
+            assert m.exception(bytes([4]) + struct.pack(">HH", a, 2), unit=1) == EX_TARGET_FAILED
+            # the other robot is not affected
+            assert int_out0(m, regmap, 7) == 77 and g.status(7)[1] == 2
+            put_int_in0(m, regmap, 78, unit=7)
+            wait_for(lambda: int_out0(m, regmap, 7) == 78, 10, "unit 7 echo")
+            g.sims[0].start(same_ports=True)
+            g.wait_link(True, unit=1, seconds=60)
+            wait_for(lambda: int_out0(m, regmap, 1) == 11, 20, "unit 1 after recovery")
+    finally:
+        for e in enips:
+            e.close()
+
+
+def test_session_loss_alone_keeps_the_data(regmap):
+    """Class 1 connections outlive the TCP session that opened them (as on
+    a robot): drsim dropping the session every second does not take the
+    link down, and the data keeps flowing both ways."""
+    sim = Drsim("link-session-drop", "--drop-session-after", "1").start()
+    g = Gateway("link-session-drop", sim)
+    try:
+        g.start()
+        with g.raw() as m:
+            t0 = time.monotonic()
+            n = 0
+            while time.monotonic() - t0 < 3.5:
+                n += 1
+                put_int_in0(m, regmap, n)
+                wait_for(lambda: int_out0(m, regmap) == n, 10, "echo %d" % n)
+                st = m.read(4, 0, 3)
+                assert st[1:3] == [2, 1], st
+                time.sleep(0.1)
+        assert sim.log().count("closed (--drop-session-after)") >= 2
+        assert sim.log().count("connection open") == 6
+    finally:
+        g.kill()
+        sim.kill()

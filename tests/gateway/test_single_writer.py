@@ -1,0 +1,185 @@
+# SPDX-License-Identifier: MIT
+"""Single-writer mode (like the EK9000's write lock): the first client that
+writes owns the O->T areas and must keep changing the watchdog register;
+when it stops, the O->T image goes to its fallback and a fault bit latches
+until the reset register is written."""
+import struct
+import threading
+import time
+
+import pytest
+
+from gwlib import (EX_ILLEGAL_FUNCTION, Drsim, EnipReader, Gateway, INSTANCE, dint_regs,
+                   timeout, wait_for)
+
+WATCHDOG_MS = 1500
+HR_WATCHDOG, HR_RESET = 0, 1
+IR_FAULT, IR_WRITER = 26, 27
+
+
+@pytest.fixture
+def pair(request):
+    marker = request.node.get_closest_marker("gw")
+    robot = marker.kwargs.get("robot", "") if marker else ""
+    modbus = marker.kwargs.get("modbus", "") if marker else ""
+    name = request.node.name
+    sim = Drsim(name).start()
+    g = Gateway(name, sim, modbus="single_writer = yes\nwriter_watchdog_ms = %d\n%s"
+                % (WATCHDOG_MS, modbus), robot=robot)
+    try:
+        g.start()
+        g.enip = EnipReader("127.0.0.2", sim.tcp)
+        yield g
+        g.enip.close()
+    finally:
+        g.kill()
+        sim.kill()
+
+
+def robot_int_in0(g):
+    return struct.unpack_from("<i", g.enip.get(INSTANCE["int_in"]))[0]
+
+
+def fault(g):
+    st = g.status()
+    return st[IR_FAULT]
+
+
+class Bumper:
+    """Keeps changing the watchdog register from its own connection."""
+
+    def __init__(self, m, period=0.1):
+        self.m = m
+        self.period = period
+        self.stop = threading.Event()
+        self.errors = []
+        self.t = threading.Thread(target=self.run, daemon=True)
+
+    def run(self):
+        n = 0
+        while not self.stop.is_set():
+            n = (n + 1) & 0xFFFF
+            try:
+                self.m.write_reg(HR_WATCHDOG, n)
+            except Exception as e:  # noqa: BLE001 - reported by the test
+                self.errors.append(e)
+                return
+            self.stop.wait(self.period)
+
+    def __enter__(self):
+        self.t.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.stop.set()
+        self.t.join(timeout(10))
+
+
+def test_first_writer_owns_and_watchdog_keeps_it(pair, regmap):
+    g = pair
+    hr = regmap.addr("HR", "int_in[0]")
+    with g.raw() as a, g.raw() as b:
+        assert g.status()[IR_WRITER] == 0
+        a.write_regs(hr, dint_regs(42, "abcd"))
+        wait_for(lambda: g.status()[IR_WRITER] == 1, 10, "writer_present")
+        assert a.read(2, 3, 1) == [1]
+        # the second writer is refused, whatever it writes; it may read
+        assert b.exception(struct.pack(">BHHB", 0x10, hr, 2, 4) + bytes(4)) == \
+            EX_ILLEGAL_FUNCTION
+        assert b.exception(struct.pack(">BHH", 6, HR_WATCHDOG, 7)) == EX_ILLEGAL_FUNCTION
+        assert b.exception(struct.pack(">BHH", 5, regmap.addr("CO", "bit_in[0]"), 0xFF00)) == \
+            EX_ILLEGAL_FUNCTION
+        assert b.read(3, hr, 2) == dint_regs(42, "abcd")
+        with Bumper(a) as bump:
+            wait_for(lambda: robot_int_in0(g) == 42, 10, "int_in[0] at the robot")
+            # three watchdog periods with the owner alive: no fault
+            deadline = time.monotonic() + 3 * WATCHDOG_MS / 1000.0
+            while time.monotonic() < deadline:
+                assert fault(g) == 0 and robot_int_in0(g) == 42
+                time.sleep(0.1)
+        assert not bump.errors, bump.errors
+
+
+@pytest.mark.gw(robot="fallback = zero\n")
+def test_watchdog_expiry_zeroes_outputs_and_latches(pair, regmap):
+    g = pair
+    hr = regmap.addr("HR", "int_in[0]")
+    do = regmap.addr("HR", "io_control.cb_do")
+    with g.raw() as a, g.raw() as b:
+        a.write_regs(hr, dint_regs(4242, "abcd"))
+        a.write_reg(do, 0x8001)
+        wait_for(lambda: robot_int_in0(g) == 4242, 10, "int_in[0] at the robot")
+        ir_do = regmap.addr("IR", "io_state.cb_do")
+        wait_for(lambda: a.read(4, ir_do, 1) == [0x8001], 10, "io_state.cb_do")
+        t0 = time.monotonic()
+        # the owner goes quiet (never bumps the watchdog)
+        wait_for(lambda: fault(g) == 1, WATCHDOG_MS / 1000.0 + 10, "write_fault")
+        took = time.monotonic() - t0
+        assert took >= WATCHDOG_MS / 1000.0 - 0.3, "fault before the watchdog ran out"
+        print("write fault after %.2f s (watchdog %d ms)" % (took, WATCHDOG_MS))
+        # write_fault, and no writer (the block is refreshed 10 times a second)
+        wait_for(lambda: a.read(2, 2, 2) == [1, 0], 10, "write_fault without a writer")
+        # fallback zero: the robot sees zeros, drsim echoes them back
+        wait_for(lambda: robot_int_in0(g) == 0, 10, "int_in[0] = 0 at the robot")
+        int_out = regmap.addr("IR", "int_out[0]")
+        wait_for(lambda: a.read(4, int_out, 2) == [0, 0], 10, "int_out[0] echo of the zero")
+        wait_for(lambda: a.read(4, ir_do, 1) == [0], 10, "io_state.cb_do = 0")
+        assert a.read(3, hr, 2) == [0, 0] and a.read(3, do, 1) == [0]
+        g.log_wait("watchdog expired")
+        # latched: it stays set
+        time.sleep(0.5)
+        assert fault(g) == 1
+        # a reset clears it; whoever writes it is the new owner
+        b.write_reg(HR_RESET, 1)
+        wait_for(lambda: fault(g) == 0, 10, "write_fault reset")
+        wait_for(lambda: g.status()[IR_WRITER] == 1, 10, "b as the writer")
+        assert a.exception(struct.pack(">BHH", 6, HR_WATCHDOG, 1)) == EX_ILLEGAL_FUNCTION
+        with Bumper(b):
+            b.write_regs(hr, dint_regs(7, "abcd"))
+            wait_for(lambda: robot_int_in0(g) == 7, 10, "the new owner's value")
+            time.sleep(2 * WATCHDOG_MS / 1000.0)
+            assert fault(g) == 0 and robot_int_in0(g) == 7
+
+
+@pytest.mark.gw(robot="fallback = hold\n")
+def test_watchdog_expiry_hold(pair, regmap):
+    g = pair
+    hr = regmap.addr("HR", "int_in[0]")
+    with g.raw() as a:
+        a.write_regs(hr, dint_regs(99, "abcd"))
+        wait_for(lambda: robot_int_in0(g) == 99, 10, "int_in[0] at the robot")
+        wait_for(lambda: fault(g) == 1, WATCHDOG_MS / 1000.0 + 10, "write_fault")
+        assert robot_int_in0(g) == 99 and a.read(3, hr, 2) == dint_regs(99, "abcd")
+
+
+def test_writer_disconnect_is_a_fault(pair, regmap):
+    g = pair
+    hr = regmap.addr("HR", "int_in[0]")
+    with g.raw() as a:
+        a.write_regs(hr, dint_regs(5, "abcd"))
+        wait_for(lambda: g.status()[IR_WRITER] == 1, 10, "writer_present")
+    # the owner is gone: nobody owns the areas any more ...
+    wait_for(lambda: g.status()[IR_WRITER] == 0, 10, "writer gone")
+    # ... and its watchdog runs out
+    wait_for(lambda: fault(g) == 1, WATCHDOG_MS / 1000.0 + 10, "write_fault")
+    wait_for(lambda: robot_int_in0(g) == 0, 10, "fallback zero at the robot")
+
+
+def test_unchanged_watchdog_value_does_not_count(pair):
+    g = pair
+    with g.raw() as a:
+        a.write_reg(HR_WATCHDOG, 1234)
+        t0 = time.monotonic()
+        while fault(g) == 0:
+            a.write_reg(HR_WATCHDOG, 1234)  # written, but never changed
+            assert time.monotonic() - t0 < timeout(WATCHDOG_MS / 1000.0 + 10), "no fault"
+            time.sleep(0.05)
+
+
+@pytest.mark.gw(modbus="allow = 127.0.0.0/8 ro\n")
+def test_read_only_client_never_owns(pair):
+    g = pair
+    with g.raw() as a:
+        assert a.exception(struct.pack(">BHH", 6, HR_WATCHDOG, 1)) == EX_ILLEGAL_FUNCTION
+        time.sleep(0.3)
+        assert g.status()[IR_WRITER] == 0 and fault(g) == 0
