@@ -33,10 +33,16 @@ WERROR  ?= -Werror
 WARN    := -std=c99 -Wall -Wextra -Wpedantic $(WERROR) -Wshadow \
            -Wstrict-prototypes -Wmissing-prototypes -Wcast-align \
            -Wpointer-arith -Wformat=2 -Wvla
+# Hardening, on by default (check-hardening in mk/static.mk verifies the
+# programs): stack protector, glibc's checked calls (_FORTIFY_SOURCE needs
+# the -O in CFLAGS), full RELRO, and position-independent programs (the
+# library's objects add -fPIC after these; its link leaves out -pie).
 HARDEN  ?= -fstack-protector-strong -D_FORTIFY_SOURCE=2
+PIE_CFLAGS  ?= -fPIE
+PIE_LDFLAGS ?= -pie
 ALL_CPPFLAGS := -Ilib/include -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
-ALL_CFLAGS   := $(WARN) $(HARDEN) $(CFLAGS)
-ALL_LDFLAGS  := -Wl,-z,relro,-z,now $(LDFLAGS)
+ALL_CFLAGS   := $(WARN) $(HARDEN) $(PIE_CFLAGS) $(CFLAGS)
+ALL_LDFLAGS  := $(PIE_LDFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 
 pc = $(shell $(PKG_CONFIG) $(1) $(2) 2>/dev/null)
 
@@ -85,7 +91,8 @@ $(LIB_A): $(LIB_OBJ)
 	$(AR) rcs $@ $^
 
 $(LIB_SO): $(LIB_OBJ)
-	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,$(LIB_SO_NAME) $(ALL_LDFLAGS) -o $@ $^ -lm
+	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,$(LIB_SO_NAME) \
+	    $(filter-out $(PIE_LDFLAGS),$(ALL_LDFLAGS)) -o $@ $^ -lm
 	ln -sf $(notdir $@) $(B)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(B)/libdrgate.so
 

@@ -201,7 +201,7 @@ bool cli_read_input(const char *cmd, const char *path, uint8_t *buf,
     uint8_t extra;
     bool too_long = ok && n == CLI_INPUT_MAX && fread(&extra, 1, 1, fp) == 1;
     if (!is_stdin)
-        fclose(fp);
+        (void)fclose(fp); /* read only: nothing to lose */
     if (!ok) {
         cli_error(CLI_EXIT_USAGE, cmd, "%s: read error: %s", shown, strerror(err));
         return false;

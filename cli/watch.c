@@ -104,7 +104,8 @@ static void print_line(const watch_t *w)
     char when[32];
     clock_gettime(CLOCK_REALTIME, &ts);
     gmtime_r(&ts.tv_sec, &tm);
-    strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%S", &tm);
+    if (strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%S", &tm) == 0)
+        when[0] = '\0'; /* the array is indeterminate otherwise */
     printf("%s.%03ldZ", when, ts.tv_nsec / 1000000L);
     for (size_t i = 0; i < w->items.n; i++) {
         char path[64], value[64];
@@ -131,7 +132,8 @@ static void draw(watch_t *w)
     char when[16];
     clock_gettime(CLOCK_REALTIME, &ts);
     localtime_r(&ts.tv_sec, &tm);
-    strftime(when, sizeof when, "%H:%M:%S", &tm);
+    if (strftime(when, sizeof when, "%H:%M:%S", &tm) == 0)
+        when[0] = '\0';
     printf("%s\033[H\033[1m%s\033[0m  every %lu ms  sample %lu  %s  (Ctrl-C quits)\033[K\n",
            w->sample == 1 ? "\033[?25l\033[2J" : "", w->net.where, w->interval_ms,
            w->sample, when);

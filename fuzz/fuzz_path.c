@@ -70,7 +70,8 @@ static int same_value(const dr_value_t *a, const dr_value_t *b)
         float fa = (float)a->f, fb = (float)b->f;
         if (isnan(fa) || isnan(fb))
             return isnan(fa) && isnan(fb);
-        return memcmp(&fa, &fb, sizeof fa) == 0;
+        /* bitwise on purpose: -0.0f and 0.0f differ on the wire */
+        return memcmp(&fa, &fb, sizeof fa) == 0; // NOLINT(bugprone-suspicious-memory-comparison,cert-exp42-c,cert-flp37-c)
     }
     }
 }
@@ -156,7 +157,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
     /* The image: the rest of the input, repeated to the assembly's size. */
     size_t len = dr_asm_info((dr_asm_t)ref.field->assembly)->size;
-    uint8_t image[DR_ASM_MAX_SIZE], before[DR_ASM_MAX_SIZE];
+    uint8_t image[DR_ASM_MAX_SIZE] = {0}, before[DR_ASM_MAX_SIZE];
     for (size_t i = 0; i < len; i++)
         image[i] = image_n ? image_src[i % image_n] : 0;
     memcpy(before, image, len);

@@ -65,7 +65,7 @@ static int run_file(const char *path)
         return 1;
     }
     int rc = run_stream(f, path);
-    fclose(f);
+    (void)fclose(f); /* read only */
     return rc;
 }
 

@@ -573,6 +573,10 @@ static void modbus_allow(ctx_t *c, const char *v)
             return;
         }
     }
+    if (nw == 0) { /* not reached: begin_key refused an empty value */
+        fail(c, c->lineno, "allow has no value (%s)", form);
+        return;
+    }
     char *slash = strchr(word[0], '/');
     unsigned long prefix = 32;
     if (slash != NULL) {
@@ -1477,7 +1481,7 @@ bool gw_config_load(const char *path, gw_config_t *out, char *err,
     int ret = ini_parse_stream(read_line, c, on_key, c);
     int read_errno = errno;
     bool read_error = ferror(c->fp) != 0;
-    fclose(c->fp);
+    (void)fclose(c->fp); /* read only */
     c->fp = NULL;
 
     bool ok = false;

@@ -295,9 +295,11 @@ static size_t index_of_offset(const struct gw_gpio_be_req *req,
 int gw_gpio_be_read_events(struct gw_gpio_be_req *req,
                            gw_gpio_be_event_t *events, size_t cap, size_t *n)
 {
-    size_t want = cap < V2_EVENT_BUFFER ? cap : V2_EVENT_BUFFER, got = 0;
+    size_t want = cap, got = 0;
     int k;
 
+    if (want > V2_EVENT_BUFFER)
+        want = V2_EVENT_BUFFER;
     *n = 0;
     if (req->buf == NULL || want == 0)
         return 0;

@@ -161,7 +161,7 @@ static chip_t *get_chip(gw_gpiomap_t *m, const gw_gpiomap_t *old, const char *sp
                 gw_gpio_chip_close(c->chip);
                 free(c);
             }
-            snprintf(err, n, "more than %u GPIO chips", MAX_CHIPS);
+            snprintf(err, n, "more than %u GPIO chips", (unsigned)MAX_CHIPS);
             return NULL;
         }
         m->chips[m->nchips++] = c;

@@ -110,6 +110,9 @@ static void on_accept(void *obj, uint32_t events)
     for (;;) {
         struct sockaddr_in sin;
         socklen_t sl = sizeof sin;
+        /* zeroed: clang's analyzer does not see accept4 fill a sockaddr
+         * passed through glibc's transparent union (_GNU_SOURCE) */
+        memset(&sin, 0, sizeof sin);
         int fd = accept4(s->listen_fd, (struct sockaddr *)&sin, &sl, SOCK_NONBLOCK | SOCK_CLOEXEC);
         if (fd < 0)
             return; /* EAGAIN: all taken; other errors: try at the next event */

@@ -759,7 +759,7 @@ static void rd_short_string(rd_t *r, char *out, size_t cap)
     size_t k = 0;
     if (s != NULL)
         for (; k < n && k + 1 < cap; k++)
-            out[k] = (s[k] >= 0x20 && s[k] < 0x7F) ? (char)s[k] : '?';
+            out[k] = (char)((s[k] >= 0x20 && s[k] < 0x7F) ? s[k] : '?');
     out[k] = '\0';
 }
 

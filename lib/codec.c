@@ -121,13 +121,15 @@ typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24)
  * list (fields_internal.h): every offset, bit and count is a constant, so
  * each field compiles to a few loads and stores. */
 
-/* decode one field into struct member m from the wire bytes at p */
+/* decode one field into struct member m from the wire bytes at p (the
+ * aliases are function-like: cppcheck's preprocessor does not rescan an
+ * object-like alias of a function-like macro) */
 #define DEC_BIT(m, p, bit, n) (m) = ((p)[(bit) / 8u] >> ((bit) % 8u)) & 1u;
 #define DEC_BITS(m, p, bit, n) (m) = load_bits(p, bit, n);
 #define DEC_USINT(m, p, bit, n) memcpy(&(m), p, n);
-#define DEC_ENUM DEC_USINT
+#define DEC_ENUM(m, p, bit, n) DEC_USINT(m, p, bit, n)
 #define DEC_DINT(m, p, bit, n) words_from_wire((uint8_t *)&(m), p, n);
-#define DEC_REAL DEC_DINT
+#define DEC_REAL(m, p, bit, n) DEC_DINT(m, p, bit, n)
 #define DEC_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
     DEC_##K(o->M, buf + (OFF), BIT, N)
 
@@ -135,9 +137,9 @@ typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24)
 #define ENC_BIT(m, p, bit, n) (p)[(bit) / 8u] |= (uint8_t)((m) ? 1u << ((bit) % 8u) : 0u);
 #define ENC_BITS(m, p, bit, n) or_bits(p, bit, n, (uint64_t)(m));
 #define ENC_USINT(m, p, bit, n) memcpy(p, &(m), n);
-#define ENC_ENUM ENC_USINT
+#define ENC_ENUM(m, p, bit, n) ENC_USINT(m, p, bit, n)
 #define ENC_DINT(m, p, bit, n) words_to_wire(p, (const uint8_t *)&(m), n);
-#define ENC_REAL ENC_DINT
+#define ENC_REAL(m, p, bit, n) ENC_DINT(m, p, bit, n)
 #define ENC_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
     ENC_##K(o->M, buf + (OFF), BIT, N)
 
@@ -145,8 +147,8 @@ typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24)
 #define CHK_BIT(m, n, o2t) DR_OK
 #define CHK_BITS(m, n, o2t) (mask_fits((uint64_t)(m), n) ? DR_OK : DR_ERANGE)
 #define CHK_USINT(m, n, o2t) DR_OK
-#define CHK_ENUM CHK_USINT
-#define CHK_DINT CHK_USINT
+#define CHK_ENUM(m, n, o2t) CHK_USINT(m, n, o2t)
+#define CHK_DINT(m, n, o2t) CHK_USINT(m, n, o2t)
 #define CHK_REAL(m, n, o2t) ((o2t) ? reals_finite((const uint8_t *)&(m), n) : DR_OK)
 #define CHK_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
     if ((st = CHK_##K(o->M, N, o2t)) != DR_OK)                                 \
@@ -186,9 +188,9 @@ static dr_status_t reals_finite(const uint8_t *p, unsigned n)
 #define WIRE_BITS_BIT(n) 1u
 #define WIRE_BITS_BITS(n) (n)
 #define WIRE_BITS_USINT(n) (8u * (n))
-#define WIRE_BITS_ENUM WIRE_BITS_USINT
+#define WIRE_BITS_ENUM(n) WIRE_BITS_USINT(n)
 #define WIRE_BITS_DINT(n) (32u * (n))
-#define WIRE_BITS_REAL WIRE_BITS_DINT
+#define WIRE_BITS_REAL(n) WIRE_BITS_DINT(n)
 #define WIRE_BITS(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
     +WIRE_BITS_##K(N)
 #define BIT_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \

@@ -82,7 +82,7 @@ dr_status_t dr_path_parse_n(const char *path, size_t n, dr_ref_t *out)
             return DR_ENOENT;
     }
 
-    uint16_t count;
+    uint16_t count = 0;
     const dr_field_t *fields = dr_asm_fields(a, &count);
     const dr_field_t *f = NULL;
     for (unsigned i = 0; i < count && f == NULL; i++)
@@ -226,7 +226,7 @@ static unsigned edit_distance(const char *a, const char *b)
 static void consider(const char *path, dr_ref_t ref, unsigned *best_d,
                      char best[PATH_MAX_LEN])
 {
-    char cand[PATH_MAX_LEN];
+    char cand[PATH_MAX_LEN] = "";
     if (dr_ref_path(ref, cand, sizeof cand) != DR_OK)
         return;
     unsigned d = edit_distance(path, cand);

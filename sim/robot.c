@@ -185,7 +185,7 @@ static void update_joints(drsim_robot_t *r, double t, double dt, double q[6])
     }
     /* Gravity on the shoulder and elbow (arm masses ~25 kg and ~10 kg). */
     double s2 = sin(q[1] * DEG), s23 = sin((q[1] + q[2] - 90.0) * DEG);
-    double gravity[6] = {0.0, 9.81 * (25.0 * 0.31 * s2 + 10.0 * 0.62 * s2) +
+    const double gravity[6] = {0.0, 9.81 * (25.0 * 0.31 * s2 + 10.0 * 0.62 * s2) +
                                   9.81 * 10.0 * 0.28 * s23,
                          9.81 * 10.0 * 0.28 * s23, 0.0,
                          9.81 * 2.0 * 0.06 * sin(q[4] * DEG), 0.0};

@@ -99,7 +99,7 @@ static void test_joint_state_decode(void **state)
      * external torque) at 24*g, joint j at + 4*(j-1) */
     for (int g = 0; g < 6; g++)
         for (int j = 1; j <= 6; j++)
-            put_f32(buf, (size_t)(24 * g + 4 * (j - 1)), (float)(g * 100 + j) + 0.25f);
+            put_f32(buf, 24 * (size_t)g + 4 * (size_t)(j - 1), (float)(g * 100 + j) + 0.25f);
     dr_joint_state_t s;
     assert_int_equal(dr_joint_state_decode(buf, 144, &s), DR_OK);
     const float *groups[6] = {s.position, s.velocity, s.motor_current,
@@ -120,7 +120,7 @@ static void test_task_state_decode(void **state)
     (void)state;
     uint8_t buf[96];
     for (int i = 0; i < 24; i++)
-        put_f32(buf, (size_t)(4 * i), (float)i * 1.5f - 7.0f);
+        put_f32(buf, 4 * (size_t)i, (float)i * 1.5f - 7.0f);
     dr_task_state_t s;
     assert_int_equal(dr_task_state_decode(buf, 96, &s), DR_OK);
     /* spec order: position xyz, orientation abc, velocity xyz, angular
@@ -160,7 +160,7 @@ static void test_int_gpr_decode(void **state)
     (void)state;
     uint8_t buf[96];
     for (int r = 0; r < 24; r++)
-        put_u32(buf, (size_t)(4 * r), (uint32_t)(r * 1000 - 5000));
+        put_u32(buf, 4 * (size_t)r, (uint32_t)(r * 1000 - 5000));
     put_u32(buf, 4 * 22, 0x80000000u); /* INT32_MIN */
     put_u32(buf, 4 * 23, 0x7FFFFFFFu); /* INT32_MAX */
     dr_int_gpr_t g;
@@ -181,7 +181,7 @@ static void test_float_gpr_decode(void **state)
     (void)state;
     uint8_t buf[96];
     for (int r = 0; r < 24; r++)
-        put_f32(buf, (size_t)(4 * r), (float)r / 8.0f - 1.0f);
+        put_f32(buf, 4 * (size_t)r, (float)r / 8.0f - 1.0f);
     dr_float_gpr_t g;
     for (int a = DR_ASM_FLOAT_OUT; a <= DR_ASM_FLOAT_IN; a += DR_ASM_FLOAT_IN - DR_ASM_FLOAT_OUT) {
         assert_int_equal(dr_asm_decode((dr_asm_t)a, buf, 96, &g), DR_OK);

@@ -827,7 +827,7 @@ static void test_same_link(void **state)
     (void)state;
     gw_config_t c;
     gw_config_defaults(&c);
-    gw_robot_config_t a = c.robot[0], b = c.robot[0];
+    gw_robot_config_t a = c.robot[0], b;
     memcpy(a.host, "10.0.0.1", sizeof "10.0.0.1");
     b = a;
     assert_true(gw_robot_config_same_link(&a, &b));

@@ -55,7 +55,7 @@ static void test_joint_motion(void **state)
         for (int j = 0; j < 6; j++) {
             double v = (b.position[j] - a.position[j]) / 1e-3;
             assert_true(fabs(v - a.velocity[j]) < 2.0 + 0.02 * fabs(v));
-            assert_true(fabs(a.position[j]) <= 360.0f);
+            assert_true(fabsf(a.position[j]) <= 360.0f);
             assert_true(a.motor_temperature[j] > 20.0f && a.motor_temperature[j] < 80.0f);
             assert_true(fabsf(a.motor_current[j]) < 20.0f);
             assert_true(isfinite(a.torque[j]));
@@ -76,8 +76,9 @@ static void test_task_state(void **state)
     assert_int_equal(dr_task_state_decode(img.buf[DR_ASM_TASK_STATE], 96, &a), DR_OK);
     drsim_robot_update(&robot, 10 * S + 10000000, &img);
     assert_int_equal(dr_task_state_decode(img.buf[DR_ASM_TASK_STATE], 96, &b), DR_OK);
-    double reach = sqrt(a.position.x * a.position.x + a.position.y * a.position.y +
-                        a.position.z * a.position.z);
+    double reach = sqrt((double)a.position.x * a.position.x +
+                        (double)a.position.y * a.position.y +
+                        (double)a.position.z * a.position.z);
     assert_true(reach > 100.0 && reach < 1700.0);
     double vx = (b.position.x - a.position.x) / 0.01;
     assert_true(fabs(vx - b.velocity.x) < 1.0 + 0.01 * fabs(vx));

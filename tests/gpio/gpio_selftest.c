@@ -16,6 +16,7 @@
  */
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -50,7 +51,7 @@ static void check(int cond, const char *fmt, ...)
     vprintf(fmt, ap);
     va_end(ap);
     putchar('\n');
-    fflush(stdout);
+    (void)fflush(stdout);
     if (cond)
         passed++;
     else
@@ -121,13 +122,19 @@ static int chip_base(const char *chip)
     static char buf[8192];
     char key[40];
     const char *p;
-    unsigned int base;
+    char *end;
+    unsigned long base;
 
     if (read_file("/sys/kernel/debug/gpio", buf, sizeof buf) < 0)
         return -1;
     snprintf(key, sizeof key, "%s: GPIOs ", chip);
     p = strstr(buf, key);
-    if (p == NULL || sscanf(p + strlen(key), "%u", &base) != 1)
+    if (p == NULL)
+        return -1;
+    p += strlen(key);
+    errno = 0;
+    base = strtoul(p, &end, 10);
+    if (end == p || errno != 0 || base > INT_MAX)
         return -1;
     return (int)base;
 }
@@ -422,7 +429,7 @@ static void test_debounce(gw_gpio_request_t *req)
     wait_events(req, ev, 16, 20);
     check(input(req, IN_DEB, NULL) == 0, "a new level is not taken at once");
     ms = settle(req, IN_DEB, 1, DEBOUNCE_MS + 2000);
-    check(ms >= (long)DEBOUNCE_MS - 40 && ms >= 0,
+    check(ms >= (long)DEBOUNCE_MS - 40,
           "a held level is taken after the period (%ld ms, period %u)", ms,
           DEBOUNCE_MS);
     far_write("gpiochip0", IN_DEB, 0);
@@ -509,7 +516,7 @@ static int hold(unsigned int line)
         return 1;
     }
     printf("holding\n");
-    fflush(stdout);
+    (void)fflush(stdout);
     for (int i = 0; i < 300 && !stop; i++)
         sleep_ms(100);
     if (gw_gpio_request_release(req, &err) != GW_GPIO_OK)

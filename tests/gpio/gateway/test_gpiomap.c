@@ -65,7 +65,8 @@ static void fire_all(void)
 {
     gw_ev_t *copy[64];
     size_t n = nwatched;
-    memcpy(copy, watched, n * sizeof copy[0]);
+    for (size_t i = 0; i < n; i++)
+        copy[i] = watched[i];
     for (size_t i = 0; i < n; i++)
         copy[i]->fn(copy[i]->obj, EPOLLIN);
 }
