@@ -281,6 +281,10 @@ class Gateway:
         extra = self.extra if extra is None else extra
         text = ("; written by tests/gateway\n[modbus]\nlisten = %s\nport = %d\n%s\n"
                 % (listen or GW_ADDR, port or self.port, modbus))
+        if "timeout_multiplier" not in robot:
+            # x64: 640 ms at RPI 10 ms, so that a loaded test machine does
+            # not time connections out (tests of timeouts set their own)
+            robot = "timeout_multiplier = 4\n" + robot
         for i, sim in enumerate(self.sims):
             text += ("\n[robot r%d]\nhost = %s\ntcp_port = %d\nudp_port = %d\n"
                      "local_address = %s\nlocal_udp_port = %d\nunit_id = %d\n%s\n"
