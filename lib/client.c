@@ -1322,12 +1322,21 @@ dr_status_t dr_client_call_async(dr_client_t *c, uint8_t service,
     req_t *r = req_alloc(c, R_ASYNC);
     if (r == NULL)
         return DR_EFULL;
+    /* The callback is set only once the request is out: if sending fails
+     * the session (a peer that has just closed), the session's failure
+     * completes every request at once, and this one must not be called
+     * back before the caller has even seen it accepted: the failure is
+     * returned instead. */
+    dr_status_t st = send_rr(c, r, msg, w.len, false);
+    if (st == DR_OK && !r->active)
+        st = c->sess_error != DR_OK ? c->sess_error : DR_ECLOSED;
+    if (st != DR_OK) {
+        r->active = false;
+        return st;
+    }
     r->cb = done;
     r->cb_user = user;
-    dr_status_t st = send_rr(c, r, msg, w.len, false);
-    if (st != DR_OK)
-        r->active = false;
-    return st;
+    return DR_OK;
 }
 
 dr_status_t dr_client_get_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,

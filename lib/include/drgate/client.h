@@ -125,7 +125,10 @@ dr_status_t dr_client_asm_size_sync(dr_client_t *c, uint16_t instance,
 
 /* Asynchronous form for event loops: `done` is called from
  * dr_client_process() with the status and the reply data (valid only
- * during the call). DR_EFULL if too many requests are in flight. */
+ * during the call), never from within dr_client_call_async itself: a
+ * request that cannot be sent (no session, the session failing as it is
+ * sent) is refused with the error instead, and `done` is not called.
+ * DR_EFULL if too many requests are in flight. */
 typedef void (*dr_call_cb)(dr_client_t *c, dr_status_t status,
                            const uint8_t *data, size_t len, void *user);
 dr_status_t dr_client_call_async(dr_client_t *c, uint8_t service,

@@ -1,0 +1,1093 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The client's failure paths, on a scripted transport: a fake network and
+ * a virtual clock (dr_transport_t is the client's only way to the OS), and
+ * a peer that answers each request the way a test tells it to. What a real
+ * adapter rarely does on demand is done here exactly: a reply of the
+ * wrong size, an encapsulation error, a late or mismatched reply, a send
+ * that fails half way, a handle that cannot be opened, a pool that is full.
+ * The happy paths against a real peer are in test_client_sim.c.
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "drgate/client.h"
+
+#define TCP_H 10
+#define UDP_H 20
+#define TIMER_H 30
+#define FD_OF(h) ((h) + 100)
+#define PEER_ADDR 0x7F000002u
+#define MAX_UDP_IN 16
+
+typedef struct fake fake_t;
+
+/* Answers one CIP request: fills rsp (a whole Message Router reply) and
+ * returns true, or returns false for no answer at all. */
+typedef bool (*cip_fn)(fake_t *f, const dr_cip_req_t *req, uint8_t *rsp, size_t *rsp_len);
+
+struct fake {
+    uint64_t now;
+    dr_status_t resolve_st, connect_st, finish_st, timer_st, udp_open_st, udp_send_st;
+    dr_status_t send_st;      /* tcp_send's result (DR_OK: take the bytes) */
+    unsigned send_fail_after; /* >0: SendRRData number N makes tcp_send fail */
+    size_t send_max;          /* >0: at most this many bytes per tcp_send */
+    dr_status_t eof_st;       /* tcp_recv with nothing queued: DR_EAGAIN or DR_ECLOSED */
+    uint8_t out[4096];        /* bytes from the client, not yet a whole frame */
+    size_t out_len;
+    uint8_t in[8192];         /* bytes for the client to read */
+    size_t in_len;
+    /* the peer */
+    uint32_t session, reg_status;
+    bool reg_silent;
+    uint32_t next_status;     /* one-shot encapsulation status of the next reply */
+    uint16_t next_cmd;        /* one-shot command of the next reply (0: the request's) */
+    bool next_unknown_ctx;    /* one-shot: the next reply carries a context nobody sent */
+    bool next_no_b2;          /* one-shot: the next SendRRData reply has no 0xB2 item */
+    cip_fn cip;
+    size_t get_len;           /* Get_Attribute_Single data bytes */
+    uint8_t fo_general;       /* Forward Open refused with this general status */
+    uint16_t fo_ext;
+    unsigned rr, fwd_open, fwd_close, unregister, list_identity, closes;
+    uint32_t t2o_cid, o2t_cid;
+    /* UDP */
+    struct {
+        uint8_t buf[600];
+        size_t len;
+    } udp_in[MAX_UDP_IN];
+    unsigned udp_in_n;
+    uint8_t udp_last[600];
+    size_t udp_last_len;
+    dr_sockaddr_t udp_last_to;
+    unsigned udp_sent, udp_batches;
+    uint64_t armed;
+};
+
+/* ---- the scripted peer ------------------------------------------------------- */
+
+static void queue_encap(fake_t *f, uint16_t cmd, uint32_t session, uint32_t status,
+                        const uint8_t *ctx, const uint8_t *body, size_t len)
+{
+    uint8_t *p = f->in + f->in_len;
+    assert_true(f->in_len + 24 + len <= sizeof f->in);
+    memset(p, 0, 24);
+    dr_put_le16(p, cmd);
+    dr_put_le16(p + 2, (uint16_t)len);
+    dr_put_le32(p + 4, session);
+    dr_put_le32(p + 8, status);
+    memcpy(p + 12, ctx, 8);
+    if (len > 0)
+        memcpy(p + 24, body, len);
+    f->in_len += 24 + len;
+}
+
+static bool cip_default(fake_t *f, const dr_cip_req_t *req, uint8_t *rsp, size_t *rsp_len)
+{
+    dr_wr_t w;
+    uint8_t data[512];
+    dr_wr_init(&w, rsp, 560);
+    switch (req->service) {
+    case DR_CIP_SVC_GET_ATTRIBUTE_SINGLE:
+        memset(data, 0xA5, sizeof data);
+        dr_cip_rsp_write(&w, req->service | DR_CIP_REPLY, 0, NULL, 0, data, f->get_len);
+        break;
+    case DR_CIP_SVC_SET_ATTRIBUTE_SINGLE:
+        dr_cip_rsp_write(&w, req->service | DR_CIP_REPLY, 0, NULL, 0, NULL, 0);
+        break;
+    case DR_CIP_SVC_FORWARD_OPEN:
+    case DR_CIP_SVC_LARGE_FORWARD_OPEN: {
+        dr_fwd_open_t fo;
+        assert_int_equal(dr_fwd_open_parse(req->data, req->data_len,
+                                           req->service == DR_CIP_SVC_LARGE_FORWARD_OPEN, &fo),
+                         DR_OK);
+        f->fwd_open++;
+        if (f->fo_general != 0) {
+            dr_wr_t d;
+            dr_wr_init(&d, data, sizeof data);
+            dr_fwd_fail_write(&d, fo.conn_serial, fo.vendor, fo.orig_serial);
+            dr_cip_rsp_write(&w, req->service | DR_CIP_REPLY, f->fo_general, &f->fo_ext, 1,
+                             data, d.len);
+            break;
+        }
+        f->t2o_cid = fo.t2o_cid;
+        f->o2t_cid = 0x5000u + f->fwd_open;
+        dr_fwd_open_reply_t rp = {f->o2t_cid, fo.t2o_cid, fo.conn_serial, fo.vendor,
+                                  fo.orig_serial, fo.o2t_rpi_us, fo.t2o_rpi_us};
+        dr_wr_t d;
+        dr_wr_init(&d, data, sizeof data);
+        dr_fwd_open_reply_write(&d, &rp);
+        dr_cip_rsp_write(&w, req->service | DR_CIP_REPLY, 0, NULL, 0, data, d.len);
+        break;
+    }
+    case DR_CIP_SVC_FORWARD_CLOSE:
+        f->fwd_close++;
+        dr_cip_rsp_write(&w, req->service | DR_CIP_REPLY, 0, NULL, 0, NULL, 0);
+        break;
+    default:
+        dr_cip_rsp_write(&w, req->service | DR_CIP_REPLY, 0x08, NULL, 0, NULL, 0);
+        break;
+    }
+    *rsp_len = w.len;
+    return true;
+}
+
+/* A silent peer: no CIP request is ever answered. */
+static bool cip_silent(fake_t *f, const dr_cip_req_t *req, uint8_t *rsp, size_t *rsp_len)
+{
+    (void)f, (void)req, (void)rsp, (void)rsp_len;
+    return false;
+}
+
+static void peer_frame(fake_t *f, const uint8_t *frame, size_t len)
+{
+    dr_encap_t h;
+    const uint8_t *body;
+    assert_int_equal(dr_encap_parse(frame, len, &h, &body), DR_OK);
+    uint8_t ctx[8];
+    memcpy(ctx, h.context, 8);
+    if (f->next_unknown_ctx) {
+        f->next_unknown_ctx = false;
+        memset(ctx, 0xEE, 8);
+    }
+    uint32_t status = f->next_status;
+    f->next_status = 0;
+    uint16_t cmd = f->next_cmd != 0 ? f->next_cmd : h.command;
+    f->next_cmd = 0;
+    switch (h.command) {
+    case DR_ENCAP_REGISTER_SESSION: {
+        if (f->reg_silent)
+            return;
+        static const uint8_t reg[4] = {1, 0, 0, 0};
+        queue_encap(f, cmd, f->reg_status != 0 ? 0 : f->session, f->reg_status, ctx, reg, 4);
+        return;
+    }
+    case DR_ENCAP_UNREGISTER_SESSION:
+        f->unregister++;
+        f->eof_st = DR_ECLOSED; /* and the peer closes */
+        return;
+    case DR_ENCAP_LIST_IDENTITY: {
+        f->list_identity++;
+        dr_identity_t id;
+        memset(&id, 0, sizeof id);
+        id.vendor = 0x0A0B;
+        id.serial = 0x01020304;
+        strcpy(id.product_name, "fake adapter");
+        uint8_t b[128];
+        dr_wr_t w;
+        dr_wr_init(&w, b, sizeof b);
+        dr_list_identity_write(&w, &id);
+        queue_encap(f, cmd, f->session, status, ctx, b, w.len);
+        return;
+    }
+    case DR_ENCAP_SEND_RR_DATA:
+        break;
+    default:
+        fail_msg("unexpected encapsulation command 0x%04X", h.command);
+    }
+    f->rr++;
+    uint32_t iface;
+    uint16_t tmo;
+    dr_cpf_t cpf;
+    assert_int_equal(dr_rr_parse(body, h.length, &iface, &tmo, &cpf), DR_OK);
+    const dr_cpf_item_t *it = dr_cpf_find(&cpf, DR_CPF_UNCONNECTED_DATA);
+    assert_non_null(it);
+    dr_cip_req_t req;
+    assert_int_equal(dr_cip_req_parse(it->data, it->length, &req), DR_OK);
+    uint8_t rsp[560];
+    size_t rsp_len = 0;
+    if (!(f->cip != NULL ? f->cip : cip_default)(f, &req, rsp, &rsp_len))
+        return;
+    uint8_t b[600];
+    dr_wr_t w;
+    dr_wr_init(&w, b, sizeof b);
+    dr_rr_begin(&w, 0);
+    if (f->next_no_b2) {
+        f->next_no_b2 = false;
+        dr_cpf_begin(&w, 1);
+        size_t m = dr_cpf_item_begin(&w, DR_CPF_NULL);
+        dr_cpf_item_end(&w, m);
+    } else {
+        dr_cpf_begin(&w, 2);
+        size_t m = dr_cpf_item_begin(&w, DR_CPF_NULL);
+        dr_cpf_item_end(&w, m);
+        m = dr_cpf_item_begin(&w, DR_CPF_UNCONNECTED_DATA);
+        dr_wr_bytes(&w, rsp, rsp_len);
+        dr_cpf_item_end(&w, m);
+    }
+    assert_false(w.overflow);
+    queue_encap(f, cmd, f->session, status, ctx, b, w.len);
+}
+
+/* ---- the transport ------------------------------------------------------------ */
+
+static dr_status_t f_resolve(void *ctx, const char *host, uint32_t *addr)
+{
+    fake_t *f = ctx;
+    (void)host;
+    if (f->resolve_st != DR_OK)
+        return f->resolve_st;
+    *addr = PEER_ADDR;
+    return DR_OK;
+}
+
+static dr_status_t f_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
+{
+    fake_t *f = ctx;
+    assert_int_equal(to.addr, PEER_ADDR);
+    if (f->connect_st != DR_OK)
+        return f->connect_st;
+    f->out_len = f->in_len = 0;
+    f->eof_st = DR_EAGAIN;
+    *h = TCP_H;
+    return DR_OK;
+}
+
+static dr_status_t f_tcp_finish(void *ctx, int h)
+{
+    fake_t *f = ctx;
+    assert_int_equal(h, TCP_H);
+    return f->finish_st;
+}
+
+static dr_status_t f_tcp_send(void *ctx, int h, const uint8_t *buf, size_t len, size_t *sent)
+{
+    fake_t *f = ctx;
+    assert_int_equal(h, TCP_H);
+    if (f->send_st != DR_OK)
+        return f->send_st;
+    size_t n = f->send_max != 0 && len > f->send_max ? f->send_max : len;
+    /* A whole SendRRData frame at the front: fail on the Nth one. */
+    if (f->send_fail_after != 0 && f->out_len == 0 && len >= 24 &&
+        dr_get_le16(buf) == DR_ENCAP_SEND_RR_DATA && f->rr + 1 == f->send_fail_after) {
+        f->send_fail_after = 0;
+        return DR_ECLOSED;
+    }
+    assert_true(f->out_len + n <= sizeof f->out);
+    memcpy(f->out + f->out_len, buf, n);
+    f->out_len += n;
+    size_t total;
+    while (dr_encap_frame_len(f->out, f->out_len, &total) == DR_OK && total <= f->out_len) {
+        peer_frame(f, f->out, total);
+        memmove(f->out, f->out + total, f->out_len - total);
+        f->out_len -= total;
+    }
+    *sent = n;
+    return DR_OK;
+}
+
+static dr_status_t f_tcp_recv(void *ctx, int h, uint8_t *buf, size_t cap, size_t *got)
+{
+    fake_t *f = ctx;
+    assert_int_equal(h, TCP_H);
+    if (f->in_len == 0)
+        return f->eof_st;
+    size_t n = f->in_len < cap ? f->in_len : cap;
+    memcpy(buf, f->in, n);
+    memmove(f->in, f->in + n, f->in_len - n);
+    f->in_len -= n;
+    *got = n;
+    return DR_OK;
+}
+
+static dr_status_t f_tcp_addrs(void *ctx, int h, dr_sockaddr_t *local, dr_sockaddr_t *peer)
+{
+    (void)ctx, (void)h;
+    if (local != NULL)
+        *local = (dr_sockaddr_t){0x7F000001u, 40000};
+    if (peer != NULL)
+        *peer = (dr_sockaddr_t){PEER_ADDR, DR_ENIP_TCP_PORT};
+    return DR_OK;
+}
+
+static dr_status_t f_udp_open(void *ctx, dr_sockaddr_t local, int *h)
+{
+    fake_t *f = ctx;
+    (void)local;
+    if (f->udp_open_st != DR_OK)
+        return f->udp_open_st;
+    *h = UDP_H;
+    return DR_OK;
+}
+
+static dr_status_t f_udp_send(void *ctx, int h, const uint8_t *buf, size_t len, dr_sockaddr_t to)
+{
+    fake_t *f = ctx;
+    assert_int_equal(h, UDP_H);
+    if (f->udp_send_st != DR_OK)
+        return f->udp_send_st;
+    assert_true(len <= sizeof f->udp_last);
+    memcpy(f->udp_last, buf, len);
+    f->udp_last_len = len;
+    f->udp_last_to = to;
+    f->udp_sent++;
+    return DR_OK;
+}
+
+static dr_status_t f_udp_recv(void *ctx, int h, uint8_t *buf, size_t cap, size_t *got,
+                              dr_sockaddr_t *from)
+{
+    fake_t *f = ctx;
+    assert_int_equal(h, UDP_H);
+    if (f->udp_in_n == 0)
+        return DR_EAGAIN;
+    size_t n = f->udp_in[0].len;
+    assert_true(n <= cap);
+    memcpy(buf, f->udp_in[0].buf, n);
+    memmove(&f->udp_in[0], &f->udp_in[1], sizeof f->udp_in[0] * (f->udp_in_n - 1));
+    f->udp_in_n--;
+    *got = n;
+    *from = (dr_sockaddr_t){PEER_ADDR, DR_ENIP_UDP_PORT};
+    return DR_OK;
+}
+
+static dr_status_t f_udp_send_batch(void *ctx, int h, const dr_udp_msg_t *m, unsigned n,
+                                    unsigned *done)
+{
+    fake_t *f = ctx;
+    f->udp_batches++;
+    for (unsigned i = 0; i < n; i++) {
+        dr_status_t st = f_udp_send(ctx, h, m[i].buf, m[i].len, m[i].addr);
+        if (st != DR_OK)
+            return st;
+    }
+    *done = n;
+    return DR_OK;
+}
+
+static dr_status_t f_udp_recv_batch(void *ctx, int h, dr_udp_msg_t *m, unsigned n,
+                                    unsigned *done)
+{
+    unsigned k = 0;
+    while (k < n) {
+        dr_status_t st = f_udp_recv(ctx, h, m[k].buf, m[k].cap, &m[k].len, &m[k].addr);
+        if (st == DR_EAGAIN)
+            break;
+        k++;
+    }
+    *done = k;
+    return k == 0 ? DR_EAGAIN : DR_OK;
+}
+
+static dr_status_t f_timer_open(void *ctx, int *h)
+{
+    fake_t *f = ctx;
+    if (f->timer_st != DR_OK)
+        return f->timer_st;
+    *h = TIMER_H;
+    return DR_OK;
+}
+
+static dr_status_t f_timer_arm(void *ctx, int h, uint64_t deadline_us)
+{
+    fake_t *f = ctx;
+    assert_int_equal(h, TIMER_H);
+    f->armed = deadline_us;
+    return DR_OK;
+}
+
+static void f_close(void *ctx, int h)
+{
+    fake_t *f = ctx;
+    f->closes++;
+    if (h == TCP_H)
+        f->in_len = f->out_len = 0;
+}
+
+static uint64_t f_now(void *ctx)
+{
+    return ((fake_t *)ctx)->now;
+}
+
+static int f_fd(void *ctx, int h)
+{
+    (void)ctx;
+    return FD_OF(h);
+}
+
+/* Nothing to read: the virtual clock moves on, at most 1 ms at a time. */
+static dr_status_t f_wait(void *ctx, const int *h, const bool *want_out, int n,
+                          uint64_t deadline_us)
+{
+    fake_t *f = ctx;
+    (void)want_out;
+    for (int i = 0; i < n; i++) {
+        if (h[i] == TCP_H && (f->in_len > 0 || f->eof_st != DR_EAGAIN))
+            return DR_OK;
+        if (h[i] == UDP_H && f->udp_in_n > 0)
+            return DR_OK;
+    }
+    uint64_t next = f->now + 1000u;
+    f->now = deadline_us > f->now && deadline_us < next ? deadline_us : next;
+    return DR_OK;
+}
+
+static const dr_transport_ops_t fake_ops = {
+    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv, f_tcp_addrs,
+    f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
+    f_now,      f_fd,          f_wait,       NULL,         NULL};
+
+static const dr_transport_ops_t fake_batch_ops = {
+    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv, f_tcp_addrs,
+    f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
+    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch};
+
+/* ---- fixtures ------------------------------------------------------------------ */
+
+static fake_t F;
+
+static dr_client_config_t config(const dr_transport_ops_t *ops)
+{
+    dr_client_config_t cfg;
+    memset(&cfg, 0, sizeof cfg);
+    cfg.host = "robot";
+    cfg.timeout_ms = 100;
+    cfg.backoff_min_ms = 10;
+    cfg.backoff_max_ms = 40;
+    cfg.transport.ops = ops;
+    cfg.transport.ctx = &F;
+    return cfg;
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    memset(&F, 0, sizeof F);
+    F.now = 1000000u;
+    F.session = 0x11223344u;
+    F.eof_st = DR_EAGAIN;
+    F.get_len = 36;
+    return 0;
+}
+
+static dr_client_t *new_client(void)
+{
+    dr_client_config_t cfg = config(&fake_ops);
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    return c;
+}
+
+static dr_client_t *connected(void)
+{
+    dr_client_t *c = new_client();
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    assert_true(dr_client_ready(c));
+    return c;
+}
+
+/* Run the client's loop for `ms` of virtual time. */
+static void run_for(dr_client_t *c, unsigned ms)
+{
+    uint64_t end = F.now + (uint64_t)ms * 1000u;
+    while (F.now < end)
+        dr_client_run_once(c, 1);
+}
+
+/* ---- lifecycle ------------------------------------------------------------------- */
+
+static void test_state_names(void **state)
+{
+    (void)state;
+    assert_string_equal(dr_conn_state_name(DR_CONN_IDLE), "idle");
+    assert_string_equal(dr_conn_state_name(DR_CONN_OPENING), "opening");
+    assert_string_equal(dr_conn_state_name(DR_CONN_ESTABLISHED), "connected");
+    assert_string_equal(dr_conn_state_name(DR_CONN_TIMED_OUT), "timed out");
+    assert_string_equal(dr_conn_state_name(DR_CONN_RECONNECTING), "reconnecting");
+    assert_string_equal(dr_conn_state_name(DR_CONN_CLOSED), "closed");
+    assert_string_equal(dr_conn_state_name((dr_conn_state_t)42), "?");
+}
+
+static void test_new_refuses(void **state)
+{
+    (void)state;
+    char host[300];
+    dr_client_config_t cfg = config(&fake_ops);
+    assert_null(dr_client_new(NULL));
+    cfg.host = NULL;
+    assert_null(dr_client_new(&cfg));
+    memset(host, 'a', sizeof host - 1);
+    host[sizeof host - 1] = '\0';
+    cfg.host = host; /* 299 characters: more than a host name can be */
+    assert_null(dr_client_new(&cfg));
+    cfg.host = "robot";
+    cfg.local_addr = "nowhere";
+    F.resolve_st = DR_ENOTFOUND;
+    assert_null(dr_client_new(&cfg));
+    F.resolve_st = DR_OK;
+    F.timer_st = DR_EIO;
+    assert_null(dr_client_new(&cfg));
+    F.timer_st = DR_OK;
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    dr_client_free(c);
+    dr_client_free(NULL);
+}
+
+static void test_shared_port_limits(void **state)
+{
+    (void)state;
+    dr_status_t err = DR_OK;
+    dr_transport_t tp = {&fake_ops, &F};
+    F.resolve_st = DR_ENOTFOUND;
+    assert_null(dr_udp_port_new("nowhere", 0, tp, &err));
+    assert_int_equal(err, DR_ENOTFOUND);
+    F.resolve_st = DR_OK;
+    F.udp_open_st = DR_EIO;
+    assert_null(dr_udp_port_new(NULL, 0, tp, &err));
+    assert_int_equal(err, DR_EIO);
+    F.udp_open_st = DR_OK;
+    dr_udp_port_t *p = dr_udp_port_new("here", 0, tp, &err);
+    assert_non_null(p);
+    assert_int_equal(dr_udp_port_fd(p), FD_OF(UDP_H));
+    /* sixteen clients share one port; the seventeenth is refused until
+     * one of them is freed */
+    dr_client_t *c[17];
+    dr_client_config_t cfg = config(&fake_ops);
+    cfg.shared_udp = p;
+    for (int i = 0; i < 16; i++) {
+        c[i] = dr_client_new(&cfg);
+        assert_non_null(c[i]);
+    }
+    unsigned closes = F.closes;
+    assert_null(dr_client_new(&cfg));
+    assert_int_equal(F.closes, closes + 1); /* its timer was closed again */
+    dr_client_free(c[3]);
+    c[3] = dr_client_new(&cfg);
+    assert_non_null(c[3]);
+    /* a shared port is the application's to poll: not in the clients' fds */
+    dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
+    assert_int_equal(dr_client_pollfds(c[0], fds, DR_CLIENT_MAX_FDS), 1);
+    assert_int_equal(fds[0].fd, FD_OF(TIMER_H));
+    /* datagrams for nobody, or not even a Class 1 frame, are dropped */
+    F.udp_in[0].len = 3;
+    F.udp_in[1].len = 20;
+    dr_put_le16(F.udp_in[1].buf, 2);
+    F.udp_in_n = 2;
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(F.udp_in_n, 0);
+    for (int i = 0; i < 16; i++)
+        dr_client_free(c[i]);
+    dr_udp_port_free(p);
+    dr_udp_port_free(NULL);
+}
+
+/* ---- the session ------------------------------------------------------------------ */
+
+static void test_connect_failures(void **state)
+{
+    (void)state;
+    dr_client_t *c = new_client();
+    F.resolve_st = DR_ENOTFOUND;
+    assert_int_equal(dr_client_connect_sync(c), DR_ENOTFOUND);
+    assert_string_equal(dr_client_last_step(c), "resolve");
+    F.resolve_st = DR_OK;
+    F.connect_st = DR_ECONNREFUSED;
+    assert_int_equal(dr_client_connect_sync(c), DR_ECONNREFUSED);
+    assert_string_equal(dr_client_last_step(c), "connect");
+    F.connect_st = DR_OK;
+    /* the connect itself fails after a while */
+    F.finish_st = DR_ECONNREFUSED;
+    assert_int_equal(dr_client_connect_sync(c), DR_ECONNREFUSED);
+    /* or never finishes: the session times out */
+    F.finish_st = DR_EAGAIN;
+    uint64_t t0 = F.now;
+    assert_int_equal(dr_client_connect_sync(c), DR_ETIMEDOUT);
+    assert_true(F.now - t0 >= 100000u);
+    F.finish_st = DR_OK;
+    /* RegisterSession refused, or answered with session handle 0 */
+    F.reg_status = 0x0069;
+    assert_int_equal(dr_client_connect_sync(c), DR_ENCAP(0x0069));
+    assert_string_equal(dr_client_last_step(c), "register session");
+    F.reg_status = 0;
+    F.session = 0;
+    assert_int_equal(dr_client_connect_sync(c), DR_EMALFORMED);
+    F.session = 0x11223344u;
+    /* sending the RegisterSession fails */
+    F.send_st = DR_EIO;
+    assert_int_equal(dr_client_connect_sync(c), DR_EIO);
+    F.send_st = DR_OK;
+    /* and at last it works; a second connect is a no-op */
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    unsigned rr = F.rr;
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    assert_int_equal(F.rr, rr);
+    dr_client_free(c);
+    assert_int_equal(F.unregister, 1);
+}
+
+/* A frame longer than any the protocol allows: the stream is given up. */
+static void test_overlong_frame(void **state)
+{
+    (void)state;
+    dr_client_t *c = connected();
+    F.cip = cip_silent;
+    uint8_t ctx[8] = {0};
+    uint8_t big[700];
+    memset(big, 0, sizeof big);
+    queue_encap(&F, DR_ENCAP_SEND_RR_DATA, F.session, 0, ctx, big, sizeof big);
+    uint8_t buf[36];
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_ELONG);
+    assert_false(dr_client_ready(c));
+    dr_client_free(c);
+}
+
+/* ---- explicit messaging ------------------------------------------------------------ */
+
+static void test_reply_sizes(void **state)
+{
+    (void)state;
+    dr_client_t *c = connected();
+    uint8_t buf[96];
+    uint16_t size;
+    /* a reply of another size than the specification's is refused */
+    F.get_len = 35;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ELENGTH);
+    F.get_len = 36;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_OK);
+    assert_int_equal(buf[0], 0xA5);
+    /* the caller's length must be the assembly's; unknown assemblies */
+    assert_int_equal(dr_client_asm_read_sync(c, (dr_asm_t)99, buf, 36), DR_EINVAL);
+    assert_int_equal(dr_client_asm_write_sync(c, DR_ASM_INT_IN, buf, 95), DR_ELENGTH);
+    assert_int_equal(dr_client_asm_write_sync(c, (dr_asm_t)99, buf, 96), DR_EINVAL);
+    assert_int_equal(dr_client_asm_write_sync(c, DR_ASM_INT_IN, buf, 96), DR_OK);
+    /* attribute 4 is two bytes, nothing else */
+    F.get_len = 3;
+    assert_int_equal(dr_client_asm_size_sync(c, 101, &size), DR_EMALFORMED);
+    F.get_len = 2;
+    assert_int_equal(dr_client_asm_size_sync(c, 101, &size), DR_OK);
+    assert_int_equal(size, 0xA5A5);
+    /* the identity needs the whole Get_Attributes_All reply (here: 0x08) */
+    dr_identity_t id;
+    assert_int_equal(dr_client_identity_sync(c, &id), DR_CIP(0x08, 0));
+    /* a request too large for one message is refused before it is sent */
+    uint8_t huge[700] = {0};
+    unsigned rr = F.rr;
+    assert_int_equal(dr_client_call_sync(c, 0x10, NULL, 0, huge, sizeof huge, NULL, 0, NULL),
+                     DR_ENOSPACE);
+    assert_int_equal(F.rr, rr);
+    assert_int_equal(dr_client_instance(c, (dr_asm_t)99), 0);
+    assert_int_equal(dr_client_instance(c, DR_ASM_INT_IN), 109);
+    dr_client_free(c);
+}
+
+static void test_bad_replies(void **state)
+{
+    (void)state;
+    dr_client_t *c = connected();
+    uint8_t buf[36];
+    /* an encapsulation error in the reply */
+    F.next_status = 0x0003;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ENCAP(0x0003));
+    assert_true(dr_client_ready(c));
+    /* a reply with another command than the request's */
+    F.next_cmd = DR_ENCAP_LIST_SERVICES;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMISMATCH);
+    /* no 0xB2 item */
+    F.next_no_b2 = true;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMALFORMED);
+    /* a reply to nobody's request is ignored: the request times out */
+    F.next_unknown_ctx = true;
+    uint64_t t0 = F.now;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ETIMEDOUT);
+    assert_true(F.now - t0 >= 100000u);
+    assert_true(dr_client_ready(c));
+    /* "invalid session handle": the session is dropped */
+    F.next_status = 0x0064;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ENCAP(0x0064));
+    assert_false(dr_client_ready(c));
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ESESSION);
+    dr_client_free(c);
+}
+
+static void test_partial_sends_and_close(void **state)
+{
+    (void)state;
+    dr_client_t *c = new_client();
+    F.send_max = 7; /* every frame goes out in pieces */
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    uint8_t buf[36];
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_OK);
+    F.send_max = 0;
+    /* the peer closes while a request is out */
+    F.cip = cip_silent;
+    F.eof_st = DR_ECLOSED;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ECLOSED);
+    assert_false(dr_client_ready(c));
+    /* and a send that fails */
+    F.cip = NULL;
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    F.send_st = DR_EIO;
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EIO);
+    assert_false(dr_client_ready(c));
+    F.send_st = DR_OK;
+    dr_client_free(c);
+}
+
+static void test_list_identity(void **state)
+{
+    (void)state;
+    dr_client_t *c = new_client();
+    dr_identity_t id;
+    assert_int_equal(dr_client_list_identity_sync(c, &id), DR_ESESSION);
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    assert_int_equal(dr_client_list_identity_sync(c, &id), DR_OK);
+    assert_string_equal(id.product_name, "fake adapter");
+    assert_int_equal(id.serial, 0x01020304);
+    F.next_status = 0x0001;
+    assert_int_equal(dr_client_list_identity_sync(c, &id), DR_ENCAP(0x0001));
+    F.send_st = DR_EIO;
+    assert_int_equal(dr_client_list_identity_sync(c, &id), DR_EIO);
+    F.send_st = DR_OK;
+    dr_client_free(c);
+}
+
+/* ---- asynchronous requests ------------------------------------------------------- */
+
+typedef struct {
+    unsigned calls;
+    dr_status_t st;
+    size_t len;
+} async_t;
+
+static void on_async(dr_client_t *c, dr_status_t st, const uint8_t *data, size_t len, void *user)
+{
+    async_t *a = user;
+    (void)c, (void)data;
+    a->calls++;
+    a->st = st;
+    a->len = len;
+}
+
+static const uint8_t io_state_path[] = {0x20, 0x04, 0x24, 101, 0x30, 0x03};
+
+static void test_async(void **state)
+{
+    (void)state;
+    async_t a = {0, DR_OK, 0};
+    dr_client_t *c = new_client();
+    assert_int_equal(dr_client_call_async(c, 0x0E, io_state_path, sizeof io_state_path, NULL,
+                                          0, on_async, &a),
+                     DR_ESESSION);
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    assert_int_equal(dr_client_call_async(c, 0x0E, io_state_path, sizeof io_state_path, NULL,
+                                          0, on_async, &a),
+                     DR_OK);
+    assert_int_equal(a.calls, 0); /* only from the loop */
+    dr_client_process(c);
+    assert_int_equal(a.calls, 1);
+    assert_int_equal(a.st, DR_OK);
+    assert_int_equal(a.len, 36);
+    /* too large to send */
+    uint8_t huge[700] = {0};
+    assert_int_equal(dr_client_call_async(c, 0x10, io_state_path, sizeof io_state_path, huge,
+                                          sizeof huge, on_async, &a),
+                     DR_ENOSPACE);
+    /* eight at most in flight */
+    F.cip = cip_silent;
+    for (int i = 0; i < 8; i++)
+        assert_int_equal(dr_client_call_async(c, 0x0E, io_state_path, sizeof io_state_path,
+                                              NULL, 0, on_async, &a),
+                         DR_OK);
+    assert_int_equal(dr_client_call_async(c, 0x0E, io_state_path, sizeof io_state_path, NULL,
+                                          0, on_async, &a),
+                     DR_EFULL);
+    uint8_t buf[36];
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EFULL);
+    /* they time out, each called back once */
+    run_for(c, 150);
+    assert_int_equal(a.calls, 9);
+    assert_int_equal(a.st, DR_ETIMEDOUT);
+    dr_client_free(c);
+}
+
+/* The session fails while an asynchronous request is being sent (a peer
+ * that has just closed): the request is refused with the error, and its
+ * callback is not called from inside dr_client_call_async. drgatewayd's
+ * explicit mode counts requests in flight by the calls that returned
+ * DR_OK; a callback from inside the call left it counting one for ever,
+ * and it never polled again after such a session drop. */
+static void test_async_send_fails(void **state)
+{
+    (void)state;
+    async_t a = {0, DR_OK, 0};
+    dr_client_t *c = connected();
+    F.send_fail_after = F.rr + 1;
+    assert_int_equal(dr_client_call_async(c, 0x0E, io_state_path, sizeof io_state_path, NULL,
+                                          0, on_async, &a),
+                     DR_ECLOSED);
+    assert_int_equal(a.calls, 0);
+    assert_false(dr_client_ready(c));
+    run_for(c, 10);
+    assert_int_equal(a.calls, 0);
+    /* requests still out when the session fails are called back, once */
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    F.cip = cip_silent;
+    assert_int_equal(dr_client_call_async(c, 0x0E, io_state_path, sizeof io_state_path, NULL,
+                                          0, on_async, &a),
+                     DR_OK);
+    F.eof_st = DR_ECLOSED;
+    dr_client_process(c);
+    assert_int_equal(a.calls, 1);
+    assert_int_equal(a.st, DR_ECLOSED);
+    dr_client_free(c);
+}
+
+/* ---- Class 1 ------------------------------------------------------------------------ */
+
+typedef struct {
+    unsigned data, states;
+    dr_conn_state_t last;
+    dr_status_t why;
+} conn_log_t;
+
+static void on_data(dr_conn_t *cn, const uint8_t *data, size_t len, void *user)
+{
+    conn_log_t *l = user;
+    (void)cn, (void)data, (void)len;
+    l->data++;
+}
+
+static void on_state(dr_conn_t *cn, dr_conn_state_t s, dr_status_t why, void *user)
+{
+    conn_log_t *l = user;
+    (void)cn;
+    l->states++;
+    l->last = s;
+    l->why = why;
+}
+
+static dr_conn_config_t conn_config(conn_log_t *log)
+{
+    dr_conn_config_t cc;
+    memset(&cc, 0, sizeof cc);
+    cc.o2t_asm = DR_ASM_INT_IN;
+    cc.t2o_asm = DR_ASM_INT_OUT;
+    cc.rpi_us = 10000;
+    cc.timeout_mult = 0; /* x4: 40 ms */
+    cc.on_data = on_data;
+    cc.on_state = on_state;
+    cc.user = log;
+    return cc;
+}
+
+static void push_t2o(uint32_t cid, uint16_t seq, size_t len)
+{
+    uint8_t data[200];
+    memset(data, (int)seq, sizeof data);
+    dr_io_frame_t fr;
+    memset(&fr, 0, sizeof fr);
+    fr.cid = cid;
+    fr.encap_seq = seq;
+    fr.cip_seq = seq;
+    fr.data = data;
+    fr.data_len = len;
+    size_t n;
+    assert_true(F.udp_in_n < MAX_UDP_IN);
+    assert_int_equal(dr_io_frame_write(F.udp_in[F.udp_in_n].buf, 600, &fr, &n), DR_OK);
+    F.udp_in[F.udp_in_n++].len = n;
+}
+
+static void test_conn_add_refuses(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    dr_status_t err = DR_OK;
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log);
+    cc.t2o_asm = DR_ASM_INT_IN; /* not T->O */
+    assert_null(dr_client_conn_add(c, &cc, &err));
+    assert_int_equal(err, DR_EINVAL);
+    cc = conn_config(&log);
+    cc.o2t_asm = DR_ASM_INT_OUT; /* not O->T */
+    assert_null(dr_client_conn_add(c, &cc, &err));
+    cc = conn_config(&log);
+    cc.rpi_us = 0;
+    assert_null(dr_client_conn_add(c, &cc, &err));
+    cc = conn_config(&log);
+    cc.timeout_mult = 8;
+    assert_null(dr_client_conn_add(c, &cc, &err));
+    assert_null(dr_client_conn_add(c, NULL, NULL));
+    cc = conn_config(&log);
+    dr_conn_t *cn[DR_CLIENT_MAX_CONNS];
+    for (int i = 0; i < DR_CLIENT_MAX_CONNS; i++)
+        assert_non_null(cn[i] = dr_client_conn_add(c, &cc, &err));
+    assert_null(dr_client_conn_add(c, &cc, &err));
+    assert_int_equal(err, DR_EFULL);
+    dr_conn_remove(cn[5]);
+    dr_conn_remove(cn[5]); /* twice is harmless */
+    dr_conn_remove(NULL);
+    assert_non_null(dr_client_conn_add(c, &cc, &err));
+    /* outputs: the assembly's size, and never for an input-only connection */
+    uint8_t out[96] = {0};
+    assert_int_equal(dr_conn_set_output(cn[0], out, 95), DR_ELENGTH);
+    assert_int_equal(dr_conn_set_output(cn[0], NULL, 96), DR_EINVAL);
+    assert_int_equal(dr_conn_set_output(NULL, out, 96), DR_EINVAL);
+    cc.o2t_asm = -1;
+    cc.t2o_asm = DR_ASM_JOINT_STATE;
+    dr_conn_remove(cn[6]);
+    dr_conn_t *in_only = dr_client_conn_add(c, &cc, &err);
+    assert_non_null(in_only);
+    assert_int_equal(dr_conn_set_output(in_only, out, 96), DR_EINVAL);
+    dr_client_free(c);
+}
+
+static void test_class1_io(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log);
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    assert_ptr_equal(dr_conn_user(cn), &log);
+    assert_null(dr_conn_input(cn, NULL));
+    /* the event-loop API: descriptors, then process when they are ready */
+    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
+    int n = dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS);
+    assert_int_equal(n, 2); /* TCP (connecting: in and out) and the timer */
+    assert_int_equal(fds[0].fd, FD_OF(TCP_H));
+    assert_int_equal(fds[0].events, DR_POLL_IN | DR_POLL_OUT);
+    for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++) {
+        F.now += 1000u;
+        n = dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS);
+        for (int k = 0; k < n; k++)
+            fds[k].revents = 1;
+        dr_client_process_ready(c, fds, n);
+    }
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(F.fwd_open, 1);
+    /* the own UDP socket is in the descriptors now */
+    n = dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS);
+    assert_int_equal(n, 3);
+    assert_int_equal(fds[1].fd, FD_OF(UDP_H));
+    /* O->T: one datagram per RPI, one udp_send each (no batch op) */
+    uint8_t out[96];
+    memset(out, 0x3C, sizeof out);
+    assert_int_equal(dr_conn_set_output(cn, out, sizeof out), DR_OK);
+    unsigned sent = F.udp_sent;
+    for (int i = 0; i < 5; i++) {
+        F.now += 10000u;
+        push_t2o(F.t2o_cid, (uint16_t)(i + 1), 96);
+        dr_client_process(c);
+    }
+    assert_true(F.udp_sent >= sent + 4);
+    /* item count, sequenced address item (4 + 8), data item header, CIP
+     * sequence count, run/idle header, the assembly */
+    assert_int_equal(F.udp_last_len, 2 + 12 + 4 + 2 + 4 + 96);
+    assert_int_equal(F.udp_last[F.udp_last_len - 1], 0x3C);
+    assert_int_equal(F.udp_last_to.addr, PEER_ADDR);
+    assert_int_equal(F.udp_last[F.udp_last_len - 100], 1); /* run */
+    dr_conn_set_run(cn, false);
+    F.now += 10000u;
+    dr_client_process(c);
+    assert_int_equal(F.udp_last[F.udp_last_len - 100], 0); /* idle */
+    /* T->O: in order, lost, duplicate, wrong size, someone else's */
+    assert_int_equal(log.data, 5);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    push_t2o(F.t2o_cid, 8, 96);        /* 6 and 7 lost */
+    push_t2o(F.t2o_cid, 8, 96);        /* duplicate */
+    push_t2o(F.t2o_cid, 7, 96);        /* stale */
+    push_t2o(F.t2o_cid, 9, 95);        /* wrong size */
+    push_t2o(F.t2o_cid + 1, 10, 96);   /* another connection's ID */
+    dr_client_process(c);
+    assert_int_equal(log.data, 6);
+    assert_int_equal(st->rx_packets, 6);
+    assert_int_equal(st->rx_lost, 2);
+    assert_int_equal(st->rx_dropped_seq, 2);
+    assert_int_equal(st->rx_bad, 1);
+    size_t len = 0;
+    const uint8_t *in = dr_conn_input(cn, &len);
+    assert_non_null(in);
+    assert_int_equal(len, 96);
+    assert_int_equal(in[0], 8);
+    /* silence: the connection times out, closes and opens again */
+    run_for(c, 200);
+    assert_true(st->timeouts >= 1);
+    assert_true(F.fwd_open >= 2);
+    assert_true(F.fwd_close >= 1);
+    /* removing an established one sends a Forward Close */
+    for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++)
+        run_for(c, 5);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    unsigned closes = F.fwd_close;
+    dr_conn_remove(cn);
+    assert_int_equal(log.last, DR_CONN_CLOSED);
+    run_for(c, 5);
+    assert_int_equal(F.fwd_close, closes + 1);
+    dr_client_free(c);
+}
+
+/* Forward Open refusals: retried after a backoff; O->T sent in batches. */
+static void test_class1_refused_and_batch(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_config_t cfg = config(&fake_batch_ops);
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    dr_conn_config_t cc = conn_config(&log);
+    dr_conn_t *a = dr_client_conn_add(c, &cc, NULL);
+    cc.o2t_asm = DR_ASM_FLOAT_IN;
+    cc.t2o_asm = DR_ASM_FLOAT_OUT;
+    dr_conn_t *b = dr_client_conn_add(c, &cc, NULL);
+    F.fo_general = 0x01;
+    F.fo_ext = 0x0113; /* out of connections */
+    assert_int_equal(dr_client_start(c), DR_OK);
+    run_for(c, 30);
+    assert_int_equal(dr_conn_state(a), DR_CONN_RECONNECTING);
+    assert_int_equal(log.why, DR_CIP(0x01, 0x0113));
+    unsigned opens = F.fwd_open;
+    F.fo_general = 0;
+    run_for(c, 100);
+    assert_true(F.fwd_open > opens);
+    assert_int_equal(dr_conn_state(a), DR_CONN_ESTABLISHED);
+    assert_int_equal(dr_conn_state(b), DR_CONN_ESTABLISHED);
+    /* both produce on one time grid: one batch carries both */
+    unsigned batches = F.udp_batches, sent = F.udp_sent;
+    F.now += 10000u;
+    push_t2o(F.t2o_cid, 1, 96);
+    dr_client_process(c);
+    assert_int_equal(F.udp_batches, batches + 1);
+    assert_int_equal(F.udp_sent, sent + 2);
+    /* a UDP socket that cannot be opened: the open is retried later */
+    dr_client_close(c);
+    assert_int_equal(dr_conn_state(a), DR_CONN_CLOSED);
+    F.udp_open_st = DR_EIO;
+    assert_int_equal(dr_client_start(c), DR_OK);
+    run_for(c, 20);
+    assert_int_equal(dr_conn_state(a), DR_CONN_RECONNECTING);
+    assert_int_equal(log.why, DR_EIO);
+    assert_string_equal(dr_client_last_step(c), "bind UDP");
+    F.udp_open_st = DR_OK;
+    run_for(c, 100);
+    assert_int_equal(dr_conn_state(a), DR_CONN_ESTABLISHED);
+    dr_client_free(c);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup(test_state_names, setup),
+        cmocka_unit_test_setup(test_new_refuses, setup),
+        cmocka_unit_test_setup(test_shared_port_limits, setup),
+        cmocka_unit_test_setup(test_connect_failures, setup),
+        cmocka_unit_test_setup(test_overlong_frame, setup),
+        cmocka_unit_test_setup(test_reply_sizes, setup),
+        cmocka_unit_test_setup(test_bad_replies, setup),
+        cmocka_unit_test_setup(test_partial_sends_and_close, setup),
+        cmocka_unit_test_setup(test_list_identity, setup),
+        cmocka_unit_test_setup(test_async, setup),
+        cmocka_unit_test_setup(test_async_send_fails, setup),
+        cmocka_unit_test_setup(test_conn_add_refuses, setup),
+        cmocka_unit_test_setup(test_class1_io, setup),
+        cmocka_unit_test_setup(test_class1_refused_and_batch, setup),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
