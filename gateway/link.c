@@ -391,7 +391,12 @@ static void update_status(gw_link_t *l, uint64_t now)
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O && l->last_rx_us[a] < oldest)
             oldest = l->last_rx_us[a];
-    uint64_t age = oldest == 0 ? now - l->start_us : now - oldest;
+    /* `now` was taken before this tick processed the client, so data
+     * may be younger than it: that is age 0, not a wrapped-around age of
+     * 584,000 years (which flapped explicit links down as timed out and
+     * showed data_fresh 0, data_age 65535 for a moment). */
+    uint64_t since = oldest == 0 ? l->start_us : oldest;
+    uint64_t age = now > since ? now - since : 0;
     st->age_ms = (uint32_t)(age / 1000u > UINT32_MAX ? UINT32_MAX : age / 1000u);
     uint64_t limit;
     if (l->cfg.mode == GW_MODE_IMPLICIT) {
