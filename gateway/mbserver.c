@@ -14,10 +14,9 @@
 
 #include "log.h"
 #include "loop.h"
+#include "mbproto.h"
 #include "mbserver.h"
 
-#define MBAP_LEN 7u
-#define ADU_MAX 260u
 #define MAX_CLIENTS_HARD 256u
 
 typedef struct {
@@ -29,7 +28,7 @@ typedef struct {
     uint16_t port;
     bool rw;
     uint64_t last_us;
-    uint8_t buf[ADU_MAX];
+    uint8_t buf[GW_ADU_MAX];
     size_t len;
 } client_t;
 
@@ -41,6 +40,7 @@ struct gw_mbs {
     int listen_fd;
     modbus_t *ctx;          /* used only to build replies */
     modbus_mapping_t *map;  /* scratch: filled for each request */
+    gw_mb_result_t result;  /* of the request being answered */
     client_t clients[MAX_CLIENTS_HARD];
     unsigned nclients;
     client_t *writer;       /* single-writer mode: the owner */
@@ -165,80 +165,6 @@ static void on_accept(void *obj, uint32_t events)
 
 /* ---- requests --------------------------------------------------------------- */
 
-static int reply_exception(gw_mbs_t *s, client_t *cl, const uint8_t *req, int code)
-{
-    s->exceptions++;
-    modbus_set_socket(s->ctx, cl->fd);
-    return modbus_reply_exception(s->ctx, req, (unsigned)code);
-}
-
-static int fill_mapping(gw_mbs_t *s, gw_area_t area, uint16_t addr, uint16_t n,
-                        const uint16_t *v)
-{
-    for (uint16_t i = 0; i < n; i++) {
-        switch (area) {
-        case GW_COILS: s->map->tab_bits[addr + i] = (uint8_t)v[i]; break;
-        case GW_DISCRETE: s->map->tab_input_bits[addr + i] = (uint8_t)v[i]; break;
-        case GW_HOLDING: s->map->tab_registers[addr + i] = v[i]; break;
-        default: s->map->tab_input_registers[addr + i] = v[i]; break;
-        }
-    }
-    return 0;
-}
-
-/* Function code -> area and limits. */
-typedef struct {
-    gw_area_t area;
-    bool write;
-    bool bits;
-    uint16_t max;
-} fc_info_t;
-
-static bool fc_lookup(uint8_t fc, fc_info_t *fi)
-{
-    switch (fc) {
-    case 0x01: *fi = (fc_info_t){GW_COILS, false, true, MODBUS_MAX_READ_BITS}; return true;
-    case 0x02: *fi = (fc_info_t){GW_DISCRETE, false, true, MODBUS_MAX_READ_BITS}; return true;
-    case 0x03: *fi = (fc_info_t){GW_HOLDING, false, false, MODBUS_MAX_READ_REGISTERS}; return true;
-    case 0x04: *fi = (fc_info_t){GW_INPUT, false, false, MODBUS_MAX_READ_REGISTERS}; return true;
-    case 0x05: *fi = (fc_info_t){GW_COILS, true, true, 1}; return true;
-    case 0x06: *fi = (fc_info_t){GW_HOLDING, true, false, 1}; return true;
-    case 0x0F: *fi = (fc_info_t){GW_COILS, true, true, MODBUS_MAX_WRITE_BITS}; return true;
-    case 0x10: *fi = (fc_info_t){GW_HOLDING, true, false, MODBUS_MAX_WRITE_REGISTERS}; return true;
-    default: return false;
-    }
-}
-
-/* Decode the values of a write request into v[]; 0 or an exception. */
-static int write_values(uint8_t fc, const uint8_t *pdu, size_t pdu_len, uint16_t *addr,
-                        uint16_t *n, uint16_t *v)
-{
-    if (pdu_len < 5)
-        return GW_EX_ILLEGAL_VALUE;
-    *addr = be16(pdu + 1);
-    if (fc == 0x05 || fc == 0x06) {
-        if (pdu_len != 5)
-            return GW_EX_ILLEGAL_VALUE;
-        uint16_t x = be16(pdu + 3);
-        if (fc == 0x05 && x != 0xFF00 && x != 0x0000)
-            return GW_EX_ILLEGAL_VALUE;
-        *n = 1;
-        v[0] = fc == 0x05 ? (x == 0xFF00) : x;
-        return 0;
-    }
-    *n = be16(pdu + 3);
-    if (pdu_len < 6)
-        return GW_EX_ILLEGAL_VALUE;
-    size_t bytes = pdu[5];
-    bool bits = fc == 0x0F;
-    if (*n == 0 || *n > (bits ? MODBUS_MAX_WRITE_BITS : MODBUS_MAX_WRITE_REGISTERS) ||
-        bytes != (bits ? (*n + 7u) / 8u : 2u * *n) || pdu_len != 6 + bytes)
-        return GW_EX_ILLEGAL_VALUE;
-    for (uint16_t i = 0; i < *n; i++)
-        v[i] = bits ? (uint16_t)((pdu[6 + i / 8] >> (i % 8)) & 1u) : be16(pdu + 6 + 2 * i);
-    return 0;
-}
-
 static bool may_write(gw_mbs_t *s, client_t *cl)
 {
     if (!cl->rw)
@@ -254,73 +180,48 @@ static bool may_write(gw_mbs_t *s, client_t *cl)
     return s->writer == cl;
 }
 
-/* One complete ADU. Returns false if the client must be dropped. */
+static bool client_may_write(void *obj)
+{
+    client_t *cl = obj;
+    return may_write(cl->srv, cl);
+}
+
+/* One complete ADU (mbproto.c checks and applies it). Returns false if the
+ * client must be dropped. */
 static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t len)
 {
-    uint8_t unit_id = req[6];
-    const uint8_t *pdu = req + MBAP_LEN;
-    size_t pdu_len = len - MBAP_LEN;
-    uint8_t fc = pdu[0];
-    fc_info_t fi;
-    int ex = 0, rc;
-
-    gw_unit_t *u = s->hooks.unit_for(s->hooks.user, unit_id);
-    if (u == NULL)
-        ex = 0x0A; /* gateway path unavailable: no robot with this unit ID */
-    else if (!fc_lookup(fc, &fi))
-        ex = GW_EX_ILLEGAL_FUNCTION;
-    else if (fi.write && !may_write(s, cl))
-        ex = GW_EX_ILLEGAL_FUNCTION; /* read-only client, or not the writer */
+    const gw_mb_env_t env = {s->hooks.unit_for, s->hooks.user, client_may_write, cl};
+    int ex = gw_mbs_decide(req, len, &env, &s->result);
+    if (ex < 0)
+        return false; /* not reached: drain_frames hands whole frames only */
+    if (ex == 0 && s->result.write && s->result.dirty != 0)
+        s->hooks.on_write(s->hooks.user, s->result.unit_id, s->result.dirty);
     if (ex != 0)
-        return reply_exception(s, cl, req, ex) >= 0;
-
-    uint16_t v[MODBUS_MAX_READ_BITS];
-    uint16_t addr, n;
-    if (!fi.write) {
-        if (pdu_len != 5)
-            return reply_exception(s, cl, req, GW_EX_ILLEGAL_VALUE) >= 0;
-        addr = be16(pdu + 1);
-        n = be16(pdu + 3);
-        if (n == 0 || n > fi.max)
-            return reply_exception(s, cl, req, GW_EX_ILLEGAL_VALUE) >= 0;
-        ex = gw_regmap_read(u, fi.area, addr, n, v);
-    } else {
-        unsigned dirty = 0;
-        ex = write_values(fc, pdu, pdu_len, &addr, &n, v);
-        if (ex == 0)
-            ex = gw_regmap_write(u, fi.area, addr, n, v, &dirty);
-        if (ex == 0 && dirty != 0)
-            s->hooks.on_write(s->hooks.user, unit_id, dirty);
-    }
-    if (ex != 0)
-        return reply_exception(s, cl, req, ex) >= 0;
-    if (!fi.write)
-        fill_mapping(s, fi.area, addr, n, v);
+        s->exceptions++;
     modbus_set_socket(s->ctx, cl->fd);
-    rc = modbus_reply(s->ctx, req, (int)len, s->map);
-    return rc >= 0;
+    return gw_mbs_reply(s->ctx, s->map, req, len, ex, &s->result) >= 0;
 }
 
 /* Take complete frames out of the client's buffer. */
 static bool drain_frames(gw_mbs_t *s, client_t *cl)
 {
-    while (cl->len >= MBAP_LEN) {
-        uint16_t proto = be16(cl->buf + 2), mlen = be16(cl->buf + 4);
-        /* length counts the unit ID and the PDU: 2..254 */
-        if (proto != 0 || mlen < 2 || mlen > ADU_MAX - 6) {
-            gw_log(GW_LOG_WARNING, "modbus: malformed MBAP header (protocol %u, length %u)",
-                   proto, mlen);
-            return false;
-        }
-        size_t total = 6u + mlen;
-        if (cl->len < total)
+    for (;;) {
+        size_t total = 0;
+        switch (gw_mbap_frame(cl->buf, cl->len, &total)) {
+        case GW_MBAP_MORE:
             return true;
+        case GW_MBAP_BAD:
+            gw_log(GW_LOG_WARNING, "modbus: malformed MBAP header (protocol %u, length %u)",
+                   be16(cl->buf + 2), be16(cl->buf + 4));
+            return false;
+        case GW_MBAP_FRAME:
+            break;
+        }
         if (!handle_request(s, cl, cl->buf, total))
             return false;
         memmove(cl->buf, cl->buf + total, cl->len - total);
         cl->len -= total;
     }
-    return true;
 }
 
 static void on_client(void *obj, uint32_t events)

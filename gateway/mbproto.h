@@ -1,0 +1,74 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Modbus TCP requests without sockets: MBAP framing, the checks of a
+ * request, and their application to a unit's images through the register
+ * map (regmap.h). mbserver.c hands it what each client sends and answers
+ * through libmodbus; fuzz/fuzz_modbus.c hands it anything.
+ *
+ * Order of the checks, each answered with the first exception that
+ * applies: no unit with the unit ID (0x0A), a function code other than
+ * 01-06, 0F, 10 (0x01), a write from a client that may not write (0x01),
+ * a malformed request or count (0x03), then the register map's own answer
+ * (0x02, 0x03, 0x0B). A write that fails any check changes nothing.
+ */
+#ifndef DRGATE_GW_MBPROTO_H
+#define DRGATE_GW_MBPROTO_H
+
+#include <modbus.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "regmap.h"
+
+#define GW_MBAP_LEN 7u  /* transaction ID, protocol ID, length, unit ID */
+#define GW_ADU_MAX 260u /* MBAP + the largest PDU (253 bytes) */
+
+typedef enum {
+    GW_MBAP_MORE = 0, /* not a whole ADU yet: wait for more bytes */
+    GW_MBAP_FRAME,    /* *total bytes form one ADU */
+    GW_MBAP_BAD       /* protocol ID not 0, or a length outside 2..254 */
+} gw_mbap_t;
+
+/* The first ADU of the stream buf[0..len). */
+gw_mbap_t gw_mbap_frame(const uint8_t *buf, size_t len, size_t *total);
+
+/* What a request may reach: the units (robots) by unit ID, and the
+ * client's right to write. may_write is asked only for a write function
+ * code to a unit that exists (in single-writer mode, asking claims the
+ * lock for the first writer). */
+typedef struct {
+    gw_unit_t *(*unit_for)(void *units, uint8_t unit_id); /* NULL: none */
+    void *units;
+    bool (*may_write)(void *client);
+    void *client;
+} gw_mb_env_t;
+
+/* What gw_mbs_decide found. */
+typedef struct {
+    uint8_t unit_id, fc;
+    bool write;        /* fc is a write function (05, 06, 0F, 10) */
+    gw_area_t area;    /* valid once the function code is known */
+    uint16_t addr, count;
+    unsigned dirty;    /* accepted write: O->T images written (bit per assembly) */
+    /* Accepted read: the registers or bits (0/1) to answer with; write:
+     * the values decoded from the request. */
+    uint16_t values[MODBUS_MAX_READ_BITS];
+} gw_mb_result_t;
+
+/* Check one whole ADU (adu[0..len), as gw_mbap_frame found it) and apply
+ * it: read into r->values, or write to the unit. Returns 0 (answer with
+ * the data) or the Modbus exception code to answer with; -1 if adu is not
+ * a frame gw_mbap_frame accepts (nothing is looked at). */
+int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
+                  gw_mb_result_t *r);
+
+/* Answer the request through libmodbus on the context's socket: exception
+ * `ex` if not 0 (function code | 0x80, also for a request whose code has
+ * the high bit already), else the data (the mapping `map`, GW_AREA_SIZE
+ * entries per area, is scratch). Returns what libmodbus returns (< 0: send
+ * failed). */
+int gw_mbs_reply(modbus_t *ctx, modbus_mapping_t *map, const uint8_t *adu,
+                 size_t len, int ex, const gw_mb_result_t *r);
+
+#endif /* DRGATE_GW_MBPROTO_H */
