@@ -272,6 +272,12 @@ bool cli_items_add_arg(const char *cmd, cli_items_t *it, int argno,
 bool cli_resolve_path(const char *cmd, int argno, const char *arg,
                       const char *path, size_t len, dr_ref_t *out);
 
+/* Check one "FIELD=VALUE" argument of drcli set (number `argno`): a full
+ * path of an O->T field and a value that fits it, into *ref and *value.
+ * Prints why and returns false if it is not one. */
+bool cli_parse_assignment(const char *cmd, int argno, const char *arg,
+                          dr_ref_t *ref, dr_value_t *value);
+
 /* Mark the assemblies the items live in. */
 void cli_items_want(const cli_items_t *it, cli_images_t *im);
 

@@ -73,10 +73,8 @@ static void value_error(const char *cmd, int argno, const char *arg,
                   path, dr_strerror(st));
 }
 
-/* Check one "FIELD=VALUE" into *out. Prints why and returns false if it is
- * not a valid assignment of an O->T field. */
-static bool parse_assignment(const char *cmd, int argno, const char *arg,
-                             assignment_t *out)
+bool cli_parse_assignment(const char *cmd, int argno, const char *arg,
+                          dr_ref_t *ref, dr_value_t *value)
 {
     const char *eq = strchr(arg, '=');
     if (eq == NULL || eq == arg) {
@@ -84,21 +82,21 @@ static bool parse_assignment(const char *cmd, int argno, const char *arg,
                   argno, arg);
         return false;
     }
-    if (!cli_resolve_path(cmd, argno, arg, arg, (size_t)(eq - arg), &out->ref))
+    if (!cli_resolve_path(cmd, argno, arg, arg, (size_t)(eq - arg), ref))
         return false;
-    const dr_asm_info_t *info = dr_asm_info((dr_asm_t)out->ref.field->assembly);
+    const dr_asm_info_t *info = dr_asm_info((dr_asm_t)ref->field->assembly);
     if (info->dir != DR_DIR_O2T) {
         char path[64];
-        dr_ref_path(out->ref, path, sizeof path);
+        dr_ref_path(*ref, path, sizeof path);
         cli_error(CLI_EXIT_USAGE, cmd,
                   "argument %d '%s': %s is produced by the robot (T->O, %s) and "
                   "cannot be set; writable assemblies: io_control, bit_in, int_in, "
                   "float_in", argno, arg, path, info->name);
         return false;
     }
-    dr_status_t st = dr_text_parse(out->ref, eq + 1, DR_SET_O2T_ONLY, &out->value);
+    dr_status_t st = dr_text_parse(*ref, eq + 1, DR_SET_O2T_ONLY, value);
     if (st != DR_OK) {
-        value_error(cmd, argno, arg, out->ref, eq + 1, st);
+        value_error(cmd, argno, arg, *ref, eq + 1, st);
         return false;
     }
     return true;
@@ -188,7 +186,7 @@ static int run_set(const char *cmd, int argc, char **argv,
         return cli_error(CLI_EXIT_USAGE, cmd, "more than %zu assignments",
                          sizeof as / sizeof as[0]);
     for (int i = 0; i < npos; i++)
-        if (!parse_assignment(cmd, i + 1, argv[i], &as[i]))
+        if (!cli_parse_assignment(cmd, i + 1, argv[i], &as[i].ref, &as[i].value))
             return CLI_EXIT_USAGE;
 
     cli_net_t net;

@@ -5,6 +5,7 @@
  * `make fuzz-corpus` reruns it; the output is committed. Deterministic:
  * the same library gives the same files.
  */
+#include <dirent.h>
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -410,6 +411,504 @@ static void gen_path(void)
     }
 }
 
+/* ---- fuzz_modbus: [flags][k] pattern[k] then Modbus TCP ADUs ------------- */
+
+typedef struct {
+    uint8_t b[1024];
+    size_t n;
+} buf_t;
+
+static void b_u8(buf_t *b, uint8_t v)
+{
+    if (b->n < sizeof b->b)
+        b->b[b->n++] = v;
+    else
+        failed = 1;
+}
+
+static void b_be16(buf_t *b, uint16_t v)
+{
+    b_u8(b, (uint8_t)(v >> 8));
+    b_u8(b, (uint8_t)v);
+}
+
+static void b_bytes(buf_t *b, const void *p, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        b_u8(b, ((const uint8_t *)p)[i]);
+}
+
+static void mb_begin(buf_t *b, uint8_t flags)
+{
+    static const uint8_t pattern[8] = {0x00, 0x11, 0x42, 0x80, 0x3F, 0xC0, 0x01, 0xFF};
+    b->n = 0;
+    b_u8(b, flags);
+    b_u8(b, sizeof pattern);
+    b_bytes(b, pattern, sizeof pattern);
+}
+
+/* One ADU: MBAP (transaction ID from the position) + the PDU. */
+static void mb_adu(buf_t *b, uint8_t unit, const uint8_t *pdu, size_t n)
+{
+    b_be16(b, (uint16_t)(0x0100 + b->n));
+    b_be16(b, 0);
+    b_be16(b, (uint16_t)(n + 1));
+    b_u8(b, unit);
+    b_bytes(b, pdu, n);
+}
+
+/* fc addr count (reads), fc addr value (single writes). */
+static void mb_4(buf_t *b, uint8_t unit, uint8_t fc, uint16_t addr, uint16_t x)
+{
+    uint8_t pdu[5] = {fc, (uint8_t)(addr >> 8), (uint8_t)addr, (uint8_t)(x >> 8), (uint8_t)x};
+    mb_adu(b, unit, pdu, sizeof pdu);
+}
+
+static void mb_write_regs(buf_t *b, uint8_t unit, uint16_t addr, const uint16_t *v, uint16_t n)
+{
+    uint8_t pdu[6 + 2 * 16];
+    size_t k = 0;
+    pdu[k++] = 0x10;
+    pdu[k++] = (uint8_t)(addr >> 8);
+    pdu[k++] = (uint8_t)addr;
+    pdu[k++] = (uint8_t)(n >> 8);
+    pdu[k++] = (uint8_t)n;
+    pdu[k++] = (uint8_t)(2 * n);
+    for (uint16_t i = 0; i < n && i < 16; i++) {
+        pdu[k++] = (uint8_t)(v[i] >> 8);
+        pdu[k++] = (uint8_t)v[i];
+    }
+    mb_adu(b, unit, pdu, k);
+}
+
+static void mb_write_coils(buf_t *b, uint8_t unit, uint16_t addr, const uint8_t *bits,
+                           uint16_t n)
+{
+    uint8_t pdu[6 + 16];
+    size_t k = 0, bytes = (n + 7u) / 8u;
+    pdu[k++] = 0x0F;
+    pdu[k++] = (uint8_t)(addr >> 8);
+    pdu[k++] = (uint8_t)addr;
+    pdu[k++] = (uint8_t)(n >> 8);
+    pdu[k++] = (uint8_t)n;
+    pdu[k++] = (uint8_t)bytes;
+    for (size_t i = 0; i < bytes && i < 16; i++)
+        pdu[k++] = bits[i];
+    mb_adu(b, unit, pdu, k);
+}
+
+static void gen_modbus(void)
+{
+    /* Addresses: docs/register-map.md. O->T holding registers: io_control
+     * 100, bit_in 200, int_in 300, float_in 400 (scaled view +1000);
+     * control 0-1; T->O input registers 100-600, status 0-31, test 32-39;
+     * coils: io_control 100, bit_in 200. */
+    buf_t b;
+    const uint16_t real15[2] = {0x3FC0, 0x0000};   /* 1.5 in abcd */
+    const uint16_t dint[2] = {0xFFFF, 0xFFFE};     /* -2 */
+    const uint16_t nan[2] = {0x7FC0, 0x0000};
+    const uint8_t bits[8] = {0xA5, 0x5A, 0xFF, 0x00, 0x01, 0x80, 0x0F, 0xF0};
+
+    mb_begin(&b, 0x10);
+    mb_4(&b, 1, 0x01, 100, 16);
+    mb_4(&b, 1, 0x02, 0, 4);
+    mb_4(&b, 1, 0x03, 0, 2);
+    mb_4(&b, 1, 0x04, 0, 40);
+    mb_4(&b, 1, 0x04, 100, 18);
+    mb_4(&b, 1, 0x04, 1200, 6);
+    mb_4(&b, 1, 0x03, 400, 8);
+    mb_4(&b, 1, 0x03, 1400, 4);
+    put("modbus", "reads", b.b, b.n);
+
+    mb_begin(&b, 0x10);
+    mb_write_regs(&b, 1, 400, real15, 2);
+    mb_4(&b, 1, 0x03, 400, 2);
+    mb_write_regs(&b, 1, 300, dint, 2);
+    mb_4(&b, 1, 0x06, 1400, (uint16_t)-1234);
+    mb_4(&b, 1, 0x06, 1401, 0x8000); /* reads back as -32767 */
+    mb_4(&b, 1, 0x06, 0, 0x1234);  /* watchdog */
+    mb_4(&b, 1, 0x06, 1, 1);       /* fault reset */
+    mb_4(&b, 1, 0x06, 100, 0x00FF); /* io_control's mask */
+    mb_write_regs(&b, 1, 400, nan, 2); /* refused */
+    mb_4(&b, 1, 0x06, 300, 1);     /* half a DINT: refused */
+    put("modbus", "write_registers", b.b, b.n);
+
+    mb_begin(&b, 0x13); /* dcba */
+    mb_write_regs(&b, 1, 400, real15, 2);
+    mb_4(&b, 1, 0x03, 400, 2);
+    mb_4(&b, 1, 0x03, 1400, 1);
+    put("modbus", "word_order_dcba", b.b, b.n);
+
+    mb_begin(&b, 0x10);
+    mb_4(&b, 1, 0x05, 100, 0xFF00);
+    mb_4(&b, 1, 0x05, 101, 0x0000);
+    mb_4(&b, 1, 0x05, 102, 0x1234); /* refused */
+    mb_write_coils(&b, 1, 100, bits, 16);
+    mb_write_coils(&b, 1, 200, bits, 64);
+    mb_4(&b, 1, 0x01, 200, 64);
+    put("modbus", "write_coils", b.b, b.n);
+
+    mb_begin(&b, 0x10);
+    const uint8_t unknown[] = {0x2B, 0x0E, 0x01, 0x00};
+    mb_adu(&b, 1, unknown, sizeof unknown);
+    mb_4(&b, 9, 0x03, 0, 1);       /* no such unit */
+    mb_4(&b, 1, 0x03, 0, 0);       /* count 0 */
+    mb_4(&b, 1, 0x03, 2047, 2);    /* past the end */
+    mb_4(&b, 1, 0x04, 40, 1);      /* unmapped */
+    mb_4(&b, 1, 0x06, 500, 1);     /* nothing writable there */
+    const uint8_t short_read[] = {0x03, 0x00};
+    mb_adu(&b, 1, short_read, sizeof short_read);
+    mb_4(&b, 1, 0x83, 0, 1);       /* high bit set: the reply keeps it */
+    mb_4(&b, 7, 0xC8, 0, 1);
+    put("modbus", "exceptions", b.b, b.n);
+
+    mb_begin(&b, 0x30); /* read-only client */
+    mb_4(&b, 1, 0x06, 0, 1);
+    mb_4(&b, 1, 0x03, 0, 1);
+    put("modbus", "read_only", b.b, b.n);
+
+    mb_begin(&b, 0x08); /* on_link_loss = exception, link down */
+    mb_4(&b, 1, 0x04, 200, 2);
+    mb_4(&b, 1, 0x02, 100, 8);
+    mb_4(&b, 1, 0x04, 0, 32);
+    mb_4(&b, 1, 0x03, 400, 2);
+    put("modbus", "link_down_exception", b.b, b.n);
+
+    mb_begin(&b, 0x51); /* unit 2 too, cdab */
+    mb_write_regs(&b, 2, 400, real15, 2);
+    mb_4(&b, 2, 0x03, 400, 2);
+    mb_4(&b, 1, 0x03, 400, 2);
+    put("modbus", "two_units", b.b, b.n);
+
+    mb_begin(&b, 0x10);
+    mb_4(&b, 1, 0x03, 0, 1);
+    b_bytes(&b, "\x00\x01\x00\x01\x00\x06\x01", 7); /* protocol 1: dropped */
+    put("modbus", "bad_mbap", b.b, b.n);
+
+    mb_begin(&b, 0x10);
+    mb_4(&b, 1, 0x03, 0, 1);
+    b_bytes(&b, "\x00\x02\x00\x00\x00\x06\x01\x03", 8); /* cut short */
+    put("modbus", "partial", b.b, b.n);
+}
+
+/* ---- fuzz_config: the example files and a few of our own ---------------- */
+
+static void copy_dir(const char *target, const char *dir, const char *prefix)
+{
+    DIR *d = opendir(dir);
+    if (d == NULL) {
+        perror(dir);
+        failed = 1;
+        return;
+    }
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        size_t len = strlen(e->d_name);
+        if (len < 5 || strcmp(e->d_name + len - 4, ".ini") != 0)
+            continue;
+        char path[512], name[300];
+        static uint8_t data[65536];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        FILE *f = fopen(path, "rb");
+        size_t n = f != NULL ? fread(data, 1, sizeof data, f) : 0;
+        if (f == NULL || ferror(f)) {
+            perror(path);
+            failed = 1;
+        } else {
+            snprintf(name, sizeof name, "%s%.*s", prefix, (int)(len - 4), e->d_name);
+            put(target, name, data, n);
+        }
+        if (f != NULL)
+            (void)fclose(f); /* read only */
+    }
+    closedir(d);
+}
+
+static void gen_config(void)
+{
+    copy_dir("config", "gateway/examples", "example_");
+    copy_dir("config", "tests/gw_config", "test_");
+    const struct {
+        const char *name, *text;
+    } s[] = {
+        {"modbus_allow", "[daemon]\nlog_level = debug\n[modbus]\nlisten = 127.0.0.1\n"
+                         "port = 1502\nallow = 10.0.0.0/8 read-write\n"
+                         "allow = 192.168.1.7 read-only\nword_order = cdab\n"
+                         "on_link_loss = exception\nsingle_writer = yes\n"
+                         "[robot.arm1]\nhost = 10.0.0.5\nunit_id = 3\n"},
+        {"two_robots_clash", "[robot a]\nhost = h1\nunit_id = 2\n[robot b]\nhost = h2\n"
+                             "unit_id = 2\n"},
+        {"gpio_input", "[robot]\nhost = r\n[gpio.stop]\nchip = gpiochip0\nline = 4\n"
+                       "direction = input\nfield = io_control.cb_do[1]\n"
+                       "debounce_ms = 20\nactive_low = yes\nbias = pull-up\n"},
+        {"bom_crlf", "\xEF\xBB\xBF; comment\r\n[robot]\r\nhost = 1.2.3.4\r\n"},
+        {"indented", "[robot]\n  host = 1.2.3.4\n"},
+        {"no_close", "[robot\nhost = x\n"},
+        {"empty", ""},
+    };
+    for (size_t k = 0; k < sizeof s / sizeof s[0]; k++)
+        put("config", s[k].name, (const uint8_t *)s[k].text, strlen(s[k].text));
+}
+
+/* ---- fuzz_sim_request: [config] records ---------------------------------- */
+
+/* Record: op 0 + an encapsulation frame; op bit 3: session filled in. */
+static void sim_frame(buf_t *b, uint8_t op, uint16_t cmd, const uint8_t *body, size_t len)
+{
+    uint8_t f[DR_ENCAP_MAX_LEN];
+    dr_encap_t h = {cmd, 0, 0, 0, {0}, 0};
+    memcpy(h.context, ctx, 8);
+    if (len > 0)
+        memcpy(f + DR_ENCAP_HEADER_LEN, body, len);
+    if (dr_encap_write(f, sizeof f, &h, len) != DR_OK) {
+        failed = 1;
+        return;
+    }
+    b_u8(b, op);
+    b_bytes(b, f, DR_ENCAP_HEADER_LEN + len);
+}
+
+/* SendRRData (op 0x08: peer 0's session; 0x0C: peer 1's) around one CIP
+ * request. */
+static void sim_rr_op(buf_t *b, uint8_t op, const uint8_t *req, size_t len, bool t2o_sa)
+{
+    uint8_t body[DR_ENCAP_MAX_LEN];
+    dr_wr_t w;
+    dr_wr_init(&w, body, sizeof body);
+    dr_rr_begin(&w, 10);
+    dr_cpf_begin(&w, t2o_sa ? 3 : 2);
+    dr_cpf_item_end(&w, dr_cpf_item_begin(&w, DR_CPF_NULL));
+    size_t m = dr_cpf_item_begin(&w, DR_CPF_UNCONNECTED_DATA);
+    dr_wr_bytes(&w, req, len);
+    dr_cpf_item_end(&w, m);
+    if (t2o_sa) {
+        dr_sockaddr_t sa = {0x7F000002u, DR_ENIP_UDP_PORT};
+        dr_cpf_sockaddr_write(&w, DR_CPF_SOCKADDR_T2O, sa);
+    }
+    if (w.overflow)
+        failed = 1;
+    sim_frame(b, op, DR_ENCAP_SEND_RR_DATA, body, w.len);
+}
+
+static void sim_rr(buf_t *b, const uint8_t *req, size_t len, bool t2o_sa)
+{
+    sim_rr_op(b, 0x08, req, len, t2o_sa);
+}
+
+static void sim_register(buf_t *b, uint8_t op)
+{
+    const uint8_t reg[] = {0x01, 0x00, 0x00, 0x00};
+    sim_frame(b, op, DR_ENCAP_REGISTER_SESSION, reg, sizeof reg);
+}
+
+static size_t sim_fwd_open(uint8_t *req, size_t cap, bool large, uint16_t o2t_point,
+                           uint16_t t2o_point, uint16_t o2t_size, uint16_t t2o_size,
+                           uint8_t *path, size_t path_cap)
+{
+    dr_fwd_open_t fo = fwd_open(large, path, 0);
+    fo.path_len = dr_conn_path_write(path, path_cap, 1, o2t_point, t2o_point);
+    fo.o2t = (dr_netparams_t){o2t_size, DR_CONN_TYPE_P2P, 2, false, false};
+    fo.t2o = (dr_netparams_t){t2o_size, DR_CONN_TYPE_P2P, 2, false, false};
+    dr_wr_t w;
+    dr_wr_init(&w, req, cap);
+    dr_cip_req_write(&w, large ? DR_CIP_SVC_LARGE_FORWARD_OPEN : DR_CIP_SVC_FORWARD_OPEN,
+                     cm_path, sizeof cm_path, NULL, 0);
+    dr_fwd_open_write(&w, &fo);
+    if (w.overflow)
+        failed = 1;
+    return w.len;
+}
+
+/* Record: op 2 | 4 (connection number 0's ID filled in) + a Class 1 packet. */
+static void sim_io(buf_t *b, uint8_t op, size_t data_len, bool run_idle, uint16_t seq)
+{
+    uint8_t data[DR_ASM_MAX_SIZE], pkt[256];
+    for (size_t i = 0; i < sizeof data; i++)
+        data[i] = (uint8_t)(i * 13u);
+    dr_io_frame_t io = {0, seq, seq, data, data_len, 1, run_idle};
+    size_t n = 0;
+    if (dr_io_frame_write(pkt, sizeof pkt, &io, &n) != DR_OK || n > 255) {
+        failed = 1;
+        return;
+    }
+    b_u8(b, op);
+    b_u8(b, (uint8_t)n);
+    b_bytes(b, pkt, n);
+}
+
+static void gen_sim_request(void)
+{
+    buf_t b;
+    uint8_t req[256], path[64], body[64];
+    dr_wr_t w;
+
+    /* Sessions, the list commands, explicit requests, unregister. */
+    b.n = 0;
+    b_u8(&b, 0x12);
+    sim_register(&b, 0x00);
+    sim_frame(&b, 0x00, DR_ENCAP_LIST_IDENTITY, NULL, 0);
+    sim_frame(&b, 0x00, DR_ENCAP_LIST_SERVICES, NULL, 0);
+    sim_frame(&b, 0x00, DR_ENCAP_LIST_INTERFACES, NULL, 0);
+    sim_frame(&b, 0x00, DR_ENCAP_NOP, NULL, 0);
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, asm_path, sizeof asm_path, NULL, 0);
+    sim_rr(&b, req, w.len, false);
+    uint8_t p16[16];
+    dr_wr_t pw;
+    dr_wr_init(&pw, p16, sizeof p16);
+    dr_epath_write(&pw, DR_CIP_CLASS_IDENTITY, 1, -1);
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, DR_CIP_SVC_GET_ATTRIBUTES_ALL, p16, pw.len, NULL, 0);
+    sim_rr(&b, req, w.len, false);
+    dr_wr_init(&pw, p16, sizeof p16);
+    dr_epath_write(&pw, DR_CIP_CLASS_ASSEMBLY, 107, 3);
+    uint8_t twelve[12] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, p16, pw.len, twelve, sizeof twelve);
+    sim_rr(&b, req, w.len, false);
+    sim_frame(&b, 0x08, DR_ENCAP_UNREGISTER_SESSION, NULL, 0);
+    put("sim_request", "session_lists_explicit", b.b, b.n);
+
+    /* Forward Open, I/O both ways, Forward Close. */
+    b.n = 0;
+    b_u8(&b, 0x12);
+    sim_register(&b, 0x00);
+    size_t n = sim_fwd_open(req, sizeof req, false, 107, 101, 12 + 6, 36 + 2, path, sizeof path);
+    sim_rr(&b, req, n, true);
+    b_u8(&b, 0x03);
+    b_u8(&b, 4); /* 5 ms */
+    sim_io(&b, 0x06, 12, true, 1);
+    b_u8(&b, 0x03);
+    b_u8(&b, 9);
+    sim_io(&b, 0x06, 12, true, 2);
+    sim_io(&b, 0x06, 12, true, 2); /* duplicate */
+    b_u8(&b, 0x03);
+    b_u8(&b, 255);
+    dr_fwd_close_t fc = {0x0A, 0x0E, 0x42, 0xABCD, 0xDEADBEEFu, path, 0};
+    fc.path_len = dr_conn_path_write(path, sizeof path, 1, 107, 101);
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, DR_CIP_SVC_FORWARD_CLOSE, cm_path, sizeof cm_path, NULL, 0);
+    dr_fwd_close_write(&w, &fc);
+    sim_rr(&b, req, w.len, false);
+    put("sim_request", "fwd_open_io_close", b.b, b.n);
+
+    /* Large Forward Open of an input-only heartbeat; listen-only; timeout. */
+    b.n = 0;
+    b_u8(&b, 0x11);
+    sim_register(&b, 0x04);
+    /* Heartbeat points 198 (input only) and 199 (listen only), peer 1. */
+    n = sim_fwd_open(req, sizeof req, true, 198, 102, 6, 144 + 2, path, sizeof path);
+    sim_rr_op(&b, 0x0C, req, n, false);
+    n = sim_fwd_open(req, sizeof req, false, 199, 102, 2, 144 + 2, path, sizeof path);
+    sim_rr_op(&b, 0x0C, req, n, false);
+    sim_io(&b, 0x06, 0, true, 1);
+    b_u8(&b, 0x03);
+    b_u8(&b, 200);
+    put("sim_request", "heartbeats_timeout", b.b, b.n);
+
+    /* Unconnected Send around a Set_Attribute_Single of io_control. */
+    b.n = 0;
+    b_u8(&b, 0x12);
+    sim_register(&b, 0x00);
+    uint8_t inner[64];
+    dr_wr_t mw;
+    dr_wr_init(&mw, inner, sizeof inner);
+    dr_cip_req_write(&mw, DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, p16, pw.len, twelve, sizeof twelve);
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, DR_CIP_SVC_UNCONNECTED_SEND, cm_path, sizeof cm_path, NULL, 0);
+    dr_ucmm_send_write(&w, inner, mw.len, route, sizeof route);
+    sim_rr(&b, req, w.len, false);
+    put("sim_request", "unconnected_send", b.b, b.n);
+
+    /* UDP 44818: ListIdentity, ListServices, and a RegisterSession (ignored). */
+    b.n = 0;
+    b_u8(&b, 0x02);
+    const uint16_t cmds[3] = {DR_ENCAP_LIST_IDENTITY, DR_ENCAP_LIST_SERVICES,
+                              DR_ENCAP_REGISTER_SESSION};
+    for (int k = 0; k < 3; k++) {
+        buf_t t;
+        t.n = 0;
+        if (cmds[k] == DR_ENCAP_REGISTER_SESSION)
+            sim_register(&t, 0);
+        else
+            sim_frame(&t, 0, cmds[k], NULL, 0);
+        b_u8(&b, 0x01);
+        b_u8(&b, (uint8_t)(t.n - 1));
+        b_bytes(&b, t.b + 1, t.n - 1);
+    }
+    put("sim_request", "udp", b.b, b.n);
+
+    /* A session used without registering, then a broken frame. */
+    b.n = 0;
+    b_u8(&b, 0x00);
+    dr_wr_init(&w, body, sizeof body);
+    dr_cip_req_write(&w, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, asm_path, sizeof asm_path, NULL, 0);
+    sim_rr(&b, body, w.len, false);
+    sim_frame(&b, 0x00, 0x00FF, NULL, 0); /* no such command */
+    b_u8(&b, 0x00);
+    b_bytes(&b, "\x65\x00\x10\x00", 4); /* a header cut short */
+    put("sim_request", "no_session_bad_frame", b.b, b.n);
+}
+
+/* ---- fuzz_cli: [mode][flags] arguments separated by NULs ------------------ */
+
+static void cli_seed(const char *name, uint8_t mode, uint8_t flags, const char *const *argv,
+                     size_t argc, const uint8_t *tail, size_t tail_len)
+{
+    buf_t b;
+    b.n = 0;
+    b_u8(&b, mode);
+    b_u8(&b, flags);
+    for (size_t i = 0; i < argc; i++) {
+        b_bytes(&b, argv[i], strlen(argv[i]));
+        if (i + 1 < argc || tail != NULL)
+            b_u8(&b, 0);
+    }
+    if (tail != NULL)
+        b_bytes(&b, tail, tail_len);
+    put("cli", name, b.b, b.n);
+}
+
+#define ARGS(...) (const char *const[]){__VA_ARGS__}, \
+    sizeof (const char *const[]){__VA_ARGS__} / sizeof(const char *)
+
+static void gen_cli(void)
+{
+    cli_seed("encode_io_control", 0, 0, ARGS("io_control", "cb_do[3]=1", "ao[0]=2.5",
+                                             "io_control.tcp_do=0x3"), NULL, 0);
+    cli_seed("encode_float_in", 0, 0, ARGS("--hex", "float_in", "[7]=1.5", "float_in[0]=-1e-3"),
+             NULL, 0);
+    cli_seed("encode_bits", 0, 0, ARGS("dr8", "bit_in[5]=true", "bit_in=0xff"), NULL, 0);
+    cli_seed("encode_errors", 0, 0, ARGS("int_in", "[0]=-2147483648", "positon[1]=1",
+                                         "[99]=1", "io_state.cb_di[1]=1"), NULL, 0);
+    cli_seed("encode_help", 0, 0, ARGS("-h"), NULL, 0);
+    cli_seed("encode_unknown_option", 0, 0, ARGS("--nope", "io_control"), NULL, 0);
+
+    uint8_t img[DR_ASM_MAX_SIZE];
+    for (size_t i = 0; i < sizeof img; i++)
+        img[i] = (uint8_t)(i * 37u + 1u);
+    cli_seed("decode_raw", 1, 0, ARGS("io_control"), img, 12);
+    cli_seed("decode_json", 1, 2, ARGS("io_state"), img, 36);
+    char hex[3 * DR_ASM_MAX_SIZE + 1];
+    size_t h = 0;
+    for (size_t i = 0; i < 96; i++)
+        h += (size_t)snprintf(hex + h, sizeof hex - h, "%02x%c", img[i],
+                              i % 16 == 15 ? '\n' : ' ');
+    cli_seed("decode_hex", 1, 1, ARGS("float_in"), (const uint8_t *)hex, h);
+    cli_seed("decode_hex_json", 1, 3, ARGS("dr4"), (const uint8_t *)"01 02 03 04 05 06 07 0",
+             22);
+
+    cli_seed("set_get_args", 2, 0,
+             ARGS("io_control.cb_do[3]=1", "dr7.ao[0]=2.5", "io_state.robot_state=1",
+                  "float_in[23]=nan", "int_in[7]=-2147483648", "bit_in=0xffffffffffffffff",
+                  "io_state", "joint_state.position[3]", "joint_state.positon[3]",
+                  "io_control.cb_do[17]=1", "float_in[0]=3.4e38"), NULL, 0);
+    cli_seed("net_config", 3, 0, ARGS("192.168.137.100", "44818", "2000", "io_state=101",
+                                      "dr7=150"), NULL, 0);
+    cli_seed("net_config_bad", 3, 0, ARGS("robot", "0", "x", "nope=1", "io_state=65536"),
+             NULL, 0);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1)
@@ -420,5 +919,9 @@ int main(int argc, char **argv)
     gen_cip_request();
     gen_io_frame();
     gen_path();
+    gen_modbus();
+    gen_config();
+    gen_sim_request();
+    gen_cli();
     return failed;
 }

@@ -1,0 +1,297 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Modbus TCP requests through the gateway's check-and-apply path, as a
+ * client's byte stream reaches it: gw_mbap_frame cuts the stream into
+ * ADUs, gw_mbs_decide checks each one against the register map and the
+ * client's rights and applies it to the units' images (gw_regmap_read /
+ * gw_regmap_write), and gw_mbs_reply answers through libmodbus (on a
+ * socketpair here; the reply is read back and checked).
+ *
+ * Input layout (gen_corpus.c writes seeds in it):
+ *   [flags][k] pattern[k] stream...
+ * flags bits 0-1: word order; bits 2-3: on_link_loss (3 = hold); bit 4:
+ * link up; bit 5: the client may not write; bit 6: unit 2 exists too
+ * (unit 1 always does). The pattern of k & 63 bytes is repeated over every
+ * image of every unit; the rest is what the client sends.
+ *
+ * Properties: a frame the framer refuses ends the stream (the daemon drops
+ * the client); every request gets exactly one reply that echoes its MBAP
+ * header; an exception changes no unit, byte for byte; a read changes no
+ * unit; an accepted write changes only the addressed unit, only its O->T
+ * images, only the assemblies it reports dirty (and the control registers
+ * when it addresses them), and reads back as written; the client's right
+ * to write is asked for writes only; the exception codes are the
+ * documented ones; libmodbus answers exactly what the checks decided.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "../gateway/mbproto.h"
+#include "fuzz.h"
+
+#define UNITS 2
+
+static gw_unit_t units[UNITS];
+static bool unit2;
+static bool read_only;
+static unsigned asked; /* may_write calls for the current request */
+static int sv[2] = {-1, -1};
+static modbus_t *ctx;
+static modbus_mapping_t *map;
+static gw_mb_result_t res, back;
+
+static gw_unit_t *unit_for(void *user, uint8_t id)
+{
+    (void)user;
+    if (id == 1 || (id == 2 && unit2))
+        return &units[id - 1];
+    return NULL;
+}
+
+static bool may_write(void *client)
+{
+    (void)client;
+    asked++;
+    return !read_only;
+}
+
+static void setup(void)
+{
+    if (ctx != NULL)
+        return;
+    gw_regmap_init();
+    FUZZ_CHECK(socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) == 0);
+    FUZZ_CHECK(fcntl(sv[1], F_SETFL, O_NONBLOCK) == 0);
+    ctx = modbus_new_tcp("127.0.0.1", 502); /* only formats replies */
+    map = modbus_mapping_new(GW_AREA_SIZE, GW_AREA_SIZE, GW_AREA_SIZE, GW_AREA_SIZE);
+    FUZZ_CHECK(ctx != NULL && map != NULL);
+    modbus_set_socket(ctx, sv[0]);
+}
+
+/* Byte for byte, padding included: what "unchanged" means here. */
+static bool same_bytes(const void *a, const void *b, size_t n)
+{
+    return memcmp(a, b, n) == 0;
+}
+
+static uint16_t be16(const uint8_t *p)
+{
+    return (uint16_t)(p[0] << 8 | p[1]);
+}
+
+static bool is_write_fc(uint8_t fc)
+{
+    return fc == 0x05 || fc == 0x06 || fc == 0x0F || fc == 0x10;
+}
+
+static bool is_read_fc(uint8_t fc)
+{
+    return fc >= 0x01 && fc <= 0x04;
+}
+
+static bool is_t2o(unsigned a)
+{
+    return dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O;
+}
+
+/* What an accepted write may change in the unit it addressed. */
+static void check_write_effect(const gw_unit_t *before, const gw_unit_t *after,
+                               const gw_mb_result_t *r)
+{
+    FUZZ_CHECK(r->dirty != 0 || r->area == GW_HOLDING); /* control registers */
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        size_t size = dr_asm_info((dr_asm_t)a)->size;
+        bool dirty = (r->dirty >> a) & 1u;
+        if (is_t2o(a))
+            FUZZ_CHECK(!dirty);
+        if (!dirty)
+            FUZZ_CHECK(memcmp(before->img[a], after->img[a], sizeof before->img[a]) == 0);
+        /* Bytes past the assembly's size are never written. */
+        FUZZ_CHECK(memcmp(before->img[a] + size, after->img[a] + size,
+                          sizeof before->img[a] - size) == 0);
+    }
+    FUZZ_CHECK(r->dirty >> DR_ASM_COUNT == 0);
+    /* Member by member: *u = tmp need not copy the padding. */
+    const gw_status_t *x = &before->status, *y = &after->status;
+    FUZZ_CHECK(x->link_state == y->link_state && x->fresh == y->fresh &&
+               x->age_ms == y->age_ms && x->heartbeat == y->heartbeat &&
+               x->rpi_ms == y->rpi_ms && x->rx_packets == y->rx_packets &&
+               x->lost_packets == y->lost_packets && x->exceptions == y->exceptions &&
+               x->last_error == y->last_error && x->clients == y->clients &&
+               x->uptime_s == y->uptime_s &&
+               same_bytes(x->conn_state, y->conn_state, sizeof x->conn_state) &&
+               x->write_fault == y->write_fault && x->writer_present == y->writer_present &&
+               x->config_generation == y->config_generation);
+    FUZZ_CHECK(before->order == after->order && before->on_loss == after->on_loss);
+    bool control = r->area == GW_HOLDING && r->addr <= GW_HR_FAULT_RESET;
+    if (!control || r->addr > GW_HR_WATCHDOG)
+        FUZZ_CHECK(before->watchdog == after->watchdog);
+    if (!control || (uint32_t)r->addr + r->count <= GW_HR_FAULT_RESET)
+        FUZZ_CHECK(before->fault_reset == after->fault_reset);
+    /* The latched reset is only ever set by a write, never cleared. */
+    FUZZ_CHECK(!before->fault_reset || after->fault_reset);
+}
+
+/* An accepted write reads back as written through the same addresses. */
+static void check_read_back(const gw_mb_result_t *w)
+{
+    uint8_t adu[12] = {0, 1, 0, 0, 0, 6, w->unit_id,
+                       w->area == GW_COILS ? 0x01 : 0x03,
+                       (uint8_t)(w->addr >> 8), (uint8_t)w->addr,
+                       (uint8_t)(w->count >> 8), (uint8_t)w->count};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, NULL};
+    /* Writes take at most 1968 bits or 123 registers: one read covers them. */
+    FUZZ_CHECK(gw_mbs_decide(adu, sizeof adu, &env, &back) == 0);
+    for (uint16_t i = 0; i < w->count; i++) {
+        unsigned a = (unsigned)w->addr + i;
+        if (w->area == GW_HOLDING && a == GW_HR_FAULT_RESET)
+            continue; /* write 1 to reset: reads 0 */
+        if (w->area == GW_HOLDING && a >= 1000 && w->values[i] == 0x8000) {
+            /* A scaled view (1000 above its REAL): -32768 sets value /
+             * scale, and reads saturate at -32767 (-32768 is how a NaN
+             * reads); tests/gateway/test_map.py wants exactly this. */
+            FUZZ_CHECK(back.values[i] == 0x8001);
+            continue;
+        }
+        FUZZ_CHECK(back.values[i] == w->values[i]);
+    }
+}
+
+/* Read the reply libmodbus sent and check it against the decision. */
+static void check_reply(const uint8_t *adu, size_t len, int ex, const gw_mb_result_t *r)
+{
+    uint8_t rsp[GW_ADU_MAX + 16];
+    ssize_t n = recv(sv[1], rsp, sizeof rsp, 0);
+    FUZZ_CHECK(n >= 9);
+    /* One reply per request: nothing left over. */
+    uint8_t extra;
+    FUZZ_CHECK(recv(sv[1], &extra, 1, 0) < 0 && (errno == EAGAIN || errno == EWOULDBLOCK));
+    size_t rn = (size_t)n;
+    FUZZ_CHECK(memcmp(rsp, adu, 4) == 0);             /* transaction, protocol */
+    FUZZ_CHECK(be16(rsp + 4) == rn - 6u);             /* length */
+    FUZZ_CHECK(rsp[6] == adu[6]);                     /* unit ID */
+    uint8_t fc = adu[GW_MBAP_LEN];
+    if (ex != 0) {
+        FUZZ_CHECK(rn == 9 && rsp[7] == (uint8_t)(fc | 0x80) && rsp[8] == ex);
+        return;
+    }
+    FUZZ_CHECK(rsp[7] == fc);
+    switch (fc) {
+    case 0x01:
+    case 0x02:
+        FUZZ_CHECK(rsp[8] == (r->count + 7u) / 8u && rn == 9u + rsp[8]);
+        for (unsigned i = 0; i < r->count; i++)
+            FUZZ_CHECK(((rsp[9 + i / 8] >> (i % 8)) & 1u) == r->values[i]);
+        break;
+    case 0x03:
+    case 0x04:
+        FUZZ_CHECK(rsp[8] == 2u * r->count && rn == 9u + rsp[8]);
+        for (unsigned i = 0; i < r->count; i++)
+            FUZZ_CHECK(be16(rsp + 9 + 2 * i) == r->values[i]);
+        break;
+    case 0x05:
+    case 0x06:
+        FUZZ_CHECK(rn == len && memcmp(rsp, adu, len) == 0); /* an echo */
+        break;
+    default: /* 0x0F, 0x10: address and count */
+        FUZZ_CHECK(rn == 12 && be16(rsp + 8) == r->addr && be16(rsp + 10) == r->count);
+        break;
+    }
+}
+
+static void request(const uint8_t *adu, size_t len)
+{
+    static gw_unit_t before[UNITS];
+    memcpy(before, units, sizeof units);
+    const gw_mb_env_t env = {unit_for, NULL, may_write, NULL};
+    asked = 0;
+    int ex = gw_mbs_decide(adu, len, &env, &res);
+    uint8_t fc = adu[GW_MBAP_LEN];
+    gw_unit_t *u = unit_for(NULL, adu[6]);
+
+    FUZZ_CHECK(ex == 0 || ex == GW_EX_ILLEGAL_FUNCTION || ex == GW_EX_ILLEGAL_ADDRESS ||
+               ex == GW_EX_ILLEGAL_VALUE || ex == 0x0A || ex == GW_EX_TARGET_FAILED);
+    FUZZ_CHECK(res.unit_id == adu[6] && res.fc == fc);
+    FUZZ_CHECK((ex == 0x0A) == (u == NULL));
+    FUZZ_CHECK(asked == (u != NULL && is_write_fc(fc)));
+    if (u != NULL && !is_read_fc(fc) && !is_write_fc(fc))
+        FUZZ_CHECK(ex == GW_EX_ILLEGAL_FUNCTION);
+    if (u != NULL && is_write_fc(fc) && read_only)
+        FUZZ_CHECK(ex == GW_EX_ILLEGAL_FUNCTION);
+    if (ex == GW_EX_TARGET_FAILED)
+        FUZZ_CHECK(is_read_fc(fc) && u->on_loss == GW_LOSS_EXCEPTION &&
+                   u->status.link_state != 2 && (fc == 0x02 || fc == 0x04));
+
+    if (ex != 0 || !is_write_fc(fc)) {
+        /* Refused, or a read: nothing changed anywhere. */
+        FUZZ_CHECK(same_bytes(before, units, sizeof units));
+        FUZZ_CHECK(res.dirty == 0);
+    } else {
+        FUZZ_CHECK(res.write && res.count >= 1);
+        for (unsigned i = 0; i < UNITS; i++)
+            if (&units[i] != u)
+                FUZZ_CHECK(same_bytes(&before[i], &units[i], sizeof units[i]));
+        check_write_effect(&before[u - units], u, &res);
+    }
+    if (ex == 0 && is_read_fc(fc)) {
+        FUZZ_CHECK(!res.write && res.count >= 1);
+        if (fc <= 0x02)
+            for (unsigned i = 0; i < res.count; i++)
+                FUZZ_CHECK(res.values[i] <= 1);
+    }
+
+    FUZZ_CHECK(gw_mbs_reply(ctx, map, adu, len, ex, &res) >= 0);
+    check_reply(adu, len, ex, &res);
+
+    if (ex == 0 && is_write_fc(fc))
+        check_read_back(&res);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    setup();
+    if (size < 2)
+        return 0;
+    unsigned flags = data[0];
+    size_t k = data[1] & 63u;
+    if (size - 2 < k)
+        return 0;
+    const uint8_t *pat = data + 2;
+    const uint8_t *p = data + 2 + k, *end = data + size;
+
+    unit2 = (flags & 0x40u) != 0;
+    read_only = (flags & 0x20u) != 0;
+    memset(units, 0, sizeof units);
+    for (unsigned i = 0; i < UNITS; i++) {
+        gw_unit_t *u = &units[i];
+        for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+            size_t n = dr_asm_info((dr_asm_t)a)->size;
+            for (size_t j = 0; j < n; j++)
+                u->img[a][j] = k ? pat[(j + 7u * a) % k] : 0;
+        }
+        u->order = (gw_word_order_t)(flags & 3u);
+        u->on_loss = ((flags >> 2) & 3u) == 3 ? GW_LOSS_HOLD : (gw_link_loss_t)((flags >> 2) & 3u);
+        u->status.link_state = (flags & 0x10u) ? 2 : 0;
+        u->status.fresh = (flags & 0x10u) != 0;
+    }
+
+    while (p < end) {
+        size_t total = 0;
+        gw_mbap_t st = gw_mbap_frame(p, (size_t)(end - p), &total);
+        if (st != GW_MBAP_FRAME)
+            break; /* MORE: the client never finishes; BAD: dropped */
+        FUZZ_CHECK(total >= GW_MBAP_LEN + 1 && total <= GW_ADU_MAX &&
+                   total <= (size_t)(end - p));
+        /* Exactly the frame, on the heap: ASan sees a read past it. */
+        uint8_t *adu = malloc(total);
+        FUZZ_CHECK(adu != NULL);
+        memcpy(adu, p, total);
+        request(adu, total);
+        free(adu);
+        p += total;
+    }
+    return 0;
+}
