@@ -18,6 +18,8 @@ GW_BIN  := $(B)/drgatewayd
 GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) \
                $(SYSTEMD_LIBS) -lm
 BINS    += $(GW_BIN)
+# `all` was read before this fragment: name the daemon as its prerequisite.
+all: $(GW_BIN)
 
 $(GW_LIB_OBJ): $(B)/gateway/%.o: gateway/%.c $(GW_HDR) $(GPIO_HDR) $(LIB_HDR)
 	@mkdir -p $(dir $@)
