@@ -48,6 +48,7 @@ typedef struct {
     uint16_t last_watchdog[GW_MAX_ROBOTS];
     uint64_t watchdog_change_us;
     uint16_t generation;
+    int exit_status; /* 0 after a signal, 1 after a failure */
 } gw_t;
 
 static gw_t G; /* the daemon's state: large, one per process */
@@ -266,16 +267,58 @@ static bool start_links(gw_t *g)
 
 /* SIGHUP: a new config that does not validate is refused; robots whose
  * section did not change keep their connection and their data. */
+/* A failure the daemon cannot recover from: stop, and exit non-zero so
+ * that systemd's Restart=on-failure brings it back. */
+static void fail_stop(gw_t *g)
+{
+    g->stop = true;
+    g->exit_status = 1;
+}
+
+/* SIGHUP: a new config that does not validate, or whose new robots or GPIO
+ * lines cannot be started, is refused and the running one keeps going.
+ * Robots whose section did not change keep their connection and data.
+ * Everything that can fail is done before anything running is changed. */
 static void reload(gw_t *g)
 {
     static gw_config_t next;
+    static gw_unit_t units[GW_MAX_ROBOTS];
     char err[512];
     g->reload = false;
     if (!gw_config_load(g->cfg.path, &next, err, sizeof err)) {
         gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
         return;
     }
-    /* GPIO first: lines that cannot be had refuse the whole reload. The
+    gw_link_t *links[GW_MAX_ROBOTS] = {NULL};
+    bool kept[GW_MAX_ROBOTS] = {false}, fresh[GW_MAX_ROBOTS] = {false};
+    memset(units, 0, sizeof units);
+    for (unsigned n = 0; n < next.robot_count; n++)
+        for (unsigned o = 0; o < g->cfg.robot_count; o++)
+            if (!kept[o] && strcmp(next.robot[n].name, g->cfg.robot[o].name) == 0 &&
+                gw_robot_config_same_link(&next.robot[n], &g->cfg.robot[o])) {
+                units[n] = g->units[o];
+                links[n] = g->links[o];
+                kept[o] = true;
+            }
+    /* New and changed robots first: one that cannot start (its UDP port
+     * taken, say) refuses the reload while the old links still run. */
+    for (unsigned n = 0; n < next.robot_count; n++) {
+        if (links[n] != NULL)
+            continue;
+        units[n].order = next.modbus.word_order;
+        units[n].on_loss = next.modbus.on_link_loss;
+        links[n] = gw_link_new(&next.robot[n], n, &units[n], g->epfd, &link_hooks);
+        fresh[n] = true;
+        if (links[n] == NULL) {
+            gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: "
+                   "robot %s cannot be started", next.robot[n].name);
+            for (unsigned k = 0; k < n; k++)
+                if (fresh[k])
+                    gw_link_free(links[k]);
+            return;
+        }
+    }
+    /* GPIO next: lines that cannot be had refuse the whole reload. The
      * unchanged lines keep their requests; the map carries the robots'
      * states by name (they are set again below). */
     gw_gpiomap_hooks_t gh = {on_gpio_input, g};
@@ -288,26 +331,20 @@ static void reload(gw_t *g)
         break;
     case GW_GPIOMAP_REFUSED:
         gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
+        for (unsigned n = 0; n < next.robot_count; n++)
+            if (fresh[n])
+                gw_link_free(links[n]);
         return;
     case GW_GPIOMAP_BROKEN:
     default:
         gw_log(GW_LOG_ERROR, "reload: %s: stopping", err);
         g->gpio = NULL;
-        g->stop = true;
+        for (unsigned n = 0; n < next.robot_count; n++)
+            if (fresh[n])
+                gw_link_free(links[n]);
+        fail_stop(g);
         return;
     }
-    static gw_unit_t units[GW_MAX_ROBOTS];
-    gw_link_t *links[GW_MAX_ROBOTS] = {NULL};
-    bool kept[GW_MAX_ROBOTS] = {false};
-    memset(units, 0, sizeof units);
-    for (unsigned n = 0; n < next.robot_count; n++)
-        for (unsigned o = 0; o < g->cfg.robot_count; o++)
-            if (!kept[o] && strcmp(next.robot[n].name, g->cfg.robot[o].name) == 0 &&
-                gw_robot_config_same_link(&next.robot[n], &g->cfg.robot[o])) {
-                units[n] = g->units[o];
-                links[n] = g->links[o];
-                kept[o] = true;
-            }
     for (unsigned o = 0; o < g->cfg.robot_count; o++)
         if (!kept[o]) {
             gw_log(GW_LOG_INFO, "reload: robot %s changed or removed: closing its link",
@@ -326,16 +363,8 @@ static void reload(gw_t *g)
     g->generation++;
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         init_unit(g, r);
-        if (links[r] != NULL) {
-            g->links[r] = links[r];
-            gw_link_set_unit(links[r], r, &g->units[r]);
-        } else {
-            g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->units[r], g->epfd, &link_hooks);
-            if (g->links[r] == NULL) {
-                g->stop = true;
-                return;
-            }
-        }
+        g->links[r] = links[r];
+        gw_link_set_unit(links[r], r, &g->units[r]);
     }
     if (restart_modbus) {
         gw_mbs_free(g->mbs);
@@ -343,7 +372,7 @@ static void reload(gw_t *g)
         g->mbs = gw_mbs_new(&g->cfg.modbus, g->epfd, &mh, err, sizeof err);
         if (g->mbs == NULL) {
             gw_log(GW_LOG_ERROR, "reload: %s", err);
-            g->stop = true;
+            fail_stop(g);
             return;
         }
     }
@@ -441,6 +470,7 @@ static int run(gw_t *g)
         int n = epoll_wait(g->epfd, evs, 32, timeout);
         if (n < 0 && errno != EINTR) {
             gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
+            g->exit_status = 1;
             break;
         }
         for (int i = 0; i < n; i++) {
@@ -454,7 +484,7 @@ static int run(gw_t *g)
             reload(g);
     }
     shutdown_all(g);
-    return close_loop(g, 0);
+    return close_loop(g, g->exit_status);
 }
 
 /* ---- command line --------------------------------------------------------------- */

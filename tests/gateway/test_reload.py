@@ -183,9 +183,6 @@ def test_reload_same_port_other_address(pair):
     s.close()
 
 
-@pytest.mark.xfail(strict=True, reason="known bug: reload() in gateway/main.c frees the old "
-                   "links before it creates the new ones, and stops the daemon (exit 0) when "
-                   "one cannot be created")
 def test_reload_new_robot_that_cannot_start(pair):
     """A new robot whose local UDP port is taken cannot be started: the
     reload must not take the running gateway down."""
