@@ -24,6 +24,12 @@ static const struct {
 #define NPAIRS (sizeof pairs / sizeof pairs[0])
 #define T2O_COUNT 6u
 
+/* A descriptor of the client in the loop, and whose it is. */
+typedef struct {
+    gw_ev_t ev;
+    struct gw_link *link;
+} link_ev_t;
+
 struct gw_link {
     gw_robot_config_t cfg;
     unsigned robot;
@@ -33,7 +39,7 @@ struct gw_link {
     dr_client_t *client;
     dr_conn_t *conn[NPAIRS];
     struct shared_port *port;
-    gw_ev_t ev[DR_CLIENT_MAX_FDS];
+    link_ev_t ev[DR_CLIENT_MAX_FDS];
     bool up;
     uint64_t last_rx_us[DR_ASM_COUNT]; /* per T->O assembly */
     uint64_t start_us;
@@ -58,7 +64,13 @@ typedef struct shared_port {
     uint16_t num;
     unsigned refs;
     gw_ev_t ev;
+    uint64_t read_us; /* when it was last read to the end */
 } shared_port_t;
+
+/* A busy loop (many Modbus requests) reads the Class 1 port at least this
+ * often, rather than waiting for epoll to report it behind every ready
+ * Modbus client: see gw_link_tick(). */
+#define PORT_POLL_US 50u
 
 static shared_port_t ports[GW_MAX_ROBOTS];
 
@@ -98,12 +110,12 @@ static void sync_fds(gw_link_t *l)
                           ((fds[i].events & DR_POLL_OUT) ? EPOLLOUT : 0u);
             /* A slot whose fd moved must leave epoll before another takes it. */
             for (int j = 0; j < DR_CLIENT_MAX_FDS; j++)
-                if (j != i && l->ev[j].fd == fds[i].fd)
-                    gw_loop_unwatch(l->epfd, &l->ev[j]);
-            if (!gw_loop_watch(l->epfd, &l->ev[i], fds[i].fd, ev))
+                if (j != i && l->ev[j].ev.fd == fds[i].fd)
+                    gw_loop_unwatch(l->epfd, &l->ev[j].ev);
+            if (!gw_loop_watch(l->epfd, &l->ev[i].ev, fds[i].fd, ev))
                 gw_log_limited(GW_LOG_ERROR, &l->log_limit_us, "robot %s: epoll failed", l->cfg.name);
         } else {
-            gw_loop_unwatch(l->epfd, &l->ev[i]);
+            gw_loop_unwatch(l->epfd, &l->ev[i].ev);
         }
     }
 }
@@ -114,11 +126,112 @@ static void process(gw_link_t *l)
     sync_fds(l);
 }
 
+/* One of the client's descriptors is ready: only that one is read (its
+ * timer, TCP socket or own UDP socket), not every socket it has. */
 static void on_client_fd(void *obj, uint32_t events)
 {
-    (void)events;
-    process(obj);
+    link_ev_t *e = obj;
+    dr_pollfd_t fd = {e->ev.fd, 0, (short)(events != 0)};
+    dr_client_process_ready(e->link->client, &fd, 1);
+    sync_fds(e->link);
 }
+
+/* ---- latency instrumentation (make bench only) -------------------------------- */
+
+#ifdef GW_BENCH_LATENCY
+/* Built with -DGW_BENCH_LATENCY (bench/gw_bench.py's drgatewayd-lat, never
+ * the installed daemon): for every T->O packet, the kernel's receive
+ * timestamp of the datagram (SIOCGSTAMPNS on the Class 1 socket: when it
+ * entered this host's network stack), the time the event loop last woke up
+ * (epoll_wait returned: see bench/gw_lat_hook.h) and the time its data is in
+ * the unit image that Modbus reads answer from, all CLOCK_REALTIME. Kept in
+ * memory, written at exit to $GW_BENCH_LATENCY_FILE as lines
+ * "ARRIVAL WAKE VISIBLE" (ns). Costs one ioctl and two clock reads a packet,
+ * and the Class 1 port is read one datagram at a time (see port_transport),
+ * which puts the figures on the safe side by about a microsecond for each
+ * packet ahead in the same burst. */
+#include <linux/sockios.h>
+#include <sys/ioctl.h>
+#include <time.h>
+
+#define LAT_MAX (1u << 20)
+static struct lat_sample {
+    int64_t at_ns, wake_ns, vis_ns;
+} *lat_samples;
+static size_t lat_count;
+static int64_t lat_wake_ns;
+
+static int64_t realtime_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+/* The loop's epoll_wait (renamed by the hook); epoll_pwait with no signal
+ * mask is the same call. */
+int gw_bench_epoll_wait(int epfd, struct epoll_event *events, int maxevents, int timeout)
+{
+    int n = epoll_pwait(epfd, events, maxevents, timeout, NULL);
+    lat_wake_ns = realtime_ns();
+    return n;
+}
+
+static void lat_dump(void)
+{
+    const char *path = getenv("GW_BENCH_LATENCY_FILE");
+    FILE *f = path != NULL ? fopen(path, "w") : NULL;
+    if (f == NULL)
+        return;
+    for (size_t i = 0; i < lat_count; i++)
+        (void)fprintf(f, "%lld %lld %lld\n", (long long)lat_samples[i].at_ns,
+                      (long long)lat_samples[i].wake_ns, (long long)lat_samples[i].vis_ns);
+    if (fclose(f) != 0)
+        gw_log(GW_LOG_ERROR, "bench: cannot write %s", path);
+}
+
+static void lat_record(const gw_link_t *l)
+{
+    struct timespec arr;
+    int64_t now = realtime_ns();
+    if (l->port == NULL || ioctl(dr_udp_port_fd(l->port->port), SIOCGSTAMPNS, &arr) < 0)
+        return;
+    if (lat_samples == NULL) {
+        lat_samples = calloc(LAT_MAX, sizeof *lat_samples);
+        if (lat_samples == NULL)
+            return;
+        if (atexit(lat_dump) != 0) {
+            free(lat_samples);
+            lat_samples = NULL;
+            return;
+        }
+    }
+    int64_t at = (int64_t)arr.tv_sec * 1000000000 + arr.tv_nsec;
+    if (at > 0 && lat_count < LAT_MAX)
+        lat_samples[lat_count++] = (struct lat_sample){at, lat_wake_ns, now};
+}
+#define LAT_RECORD(l) lat_record(l)
+
+/* The daemon reads the Class 1 port in batches (recvmmsg); the socket's
+ * timestamp is that of the last datagram read, so this build reads them
+ * one at a time. */
+static dr_transport_ops_t lat_ops;
+static dr_transport_t port_transport(void)
+{
+    dr_transport_t t = dr_transport_posix();
+    lat_ops = *t.ops;
+    lat_ops.udp_recv_batch = NULL;
+    t.ops = &lat_ops;
+    return t;
+}
+#else
+#define LAT_RECORD(l) ((void)0)
+static dr_transport_t port_transport(void)
+{
+    dr_transport_t t = {NULL, NULL}; /* the default: POSIX */
+    return t;
+}
+#endif
 
 /* ---- implicit mode ----------------------------------------------------------- */
 
@@ -130,6 +243,7 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
             continue;
         dr_asm_t a = pairs[i].t2o;
         memcpy(l->unit->img[a], data, len);
+        LAT_RECORD(l); /* the new data is now what a Modbus read gets */
         l->last_rx_us[a] = gw_now_us();
         if (l->hooks.on_data != NULL)
             l->hooks.on_data(l->hooks.user, l->robot, a);
@@ -244,8 +358,10 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
 
 static void on_port(void *obj, uint32_t events)
 {
+    shared_port_t *sp = obj;
     (void)events;
-    dr_udp_port_process(((shared_port_t *)obj)->port);
+    dr_udp_port_process(sp->port);
+    sp->read_us = gw_now_us();
 }
 
 static shared_port_t *port_get(const gw_robot_config_t *rc, int epfd)
@@ -264,7 +380,7 @@ static shared_port_t *port_get(const gw_robot_config_t *rc, int epfd)
     if (free_slot == NULL)
         return NULL;
     dr_status_t err;
-    dr_transport_t tp = {NULL, NULL};
+    dr_transport_t tp = port_transport();
     free_slot->port = dr_udp_port_new(rc->local_addr[0] ? rc->local_addr : NULL, num, tp, &err);
     if (free_slot->port == NULL) {
         gw_log(GW_LOG_ERROR, "robot %s: cannot open UDP %s:%u for Class 1 I/O: %s", rc->name,
@@ -305,9 +421,10 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     l->epfd = epfd;
     l->hooks = *hooks;
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++) {
-        l->ev[i].fn = on_client_fd;
-        l->ev[i].obj = l;
-        l->ev[i].fd = -1;
+        l->ev[i].link = l;
+        l->ev[i].ev.fn = on_client_fd;
+        l->ev[i].ev.obj = &l->ev[i];
+        l->ev[i].ev.fd = -1;
     }
     gw_link_set_unit(l, robot, unit);
     dr_client_config_t cc;
@@ -350,7 +467,7 @@ void gw_link_free(gw_link_t *l)
     if (l == NULL)
         return;
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++)
-        gw_loop_unwatch(l->epfd, &l->ev[i]);
+        gw_loop_unwatch(l->epfd, &l->ev[i].ev);
     /* SIGTERM must end within a second even with a slow robot: the
      * Forward Close replies get a short wait. */
     if (l->client != NULL)
@@ -429,8 +546,21 @@ void gw_link_tick(gw_link_t *l, uint64_t now)
         explicit_poll(l, now);
         if (!dr_client_ready(l->client))
             link_set_up(l, false, DR_ESESSION);
+        process(l);
+    } else if (now >= dr_client_next_deadline(l->client)) {
+        dr_client_process_ready(l->client, NULL, 0); /* timers; no socket is ready */
+        sync_fds(l);
+    } else if (l->port != NULL && now - l->port->read_us >= PORT_POLL_US) {
+        /* Implicit mode, nothing due: the client's descriptors (its TCP
+         * socket and timer) and the shared UDP port are in the loop and
+         * processed when ready, so a turn of the loop (with one client:
+         * every Modbus request) need not cost two receives that find
+         * nothing. Only the port is read, at most every PORT_POLL_US: epoll
+         * reports it behind every ready Modbus client, and robot data must
+         * not wait for all of them. */
+        dr_udp_port_process(l->port->port);
+        l->port->read_us = now;
     }
-    process(l);
     update_status(l, now);
 }
 

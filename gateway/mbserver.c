@@ -232,21 +232,22 @@ static void on_client(void *obj, uint32_t events)
         client_close(cl, "connection error");
         return;
     }
-    for (;;) {
-        ssize_t got = recv(cl->fd, cl->buf + cl->len, sizeof cl->buf - cl->len, 0);
-        if (got < 0 && (errno == EAGAIN || errno == EINTR))
-            return;
-        if (got <= 0) {
-            client_close(cl, got == 0 ? "closed by the client" : "receive error");
-            return;
-        }
-        cl->len += (size_t)got;
-        cl->last_us = gw_now_us();
-        if (!drain_frames(s, cl)) {
-            client_close(cl, "bad request or send failure");
-            return;
-        }
+    /* One receive per readiness event, not until EAGAIN: a client that
+     * sends its next request as soon as it has the answer would otherwise
+     * keep the loop here, and the other clients, the robot links and the
+     * timers would wait (epoll is level-triggered: what is left is
+     * reported again at the next turn of the loop). */
+    ssize_t got = recv(cl->fd, cl->buf + cl->len, sizeof cl->buf - cl->len, 0);
+    if (got < 0 && (errno == EAGAIN || errno == EINTR))
+        return;
+    if (got <= 0) {
+        client_close(cl, got == 0 ? "closed by the client" : "receive error");
+        return;
     }
+    cl->len += (size_t)got;
+    cl->last_us = gw_now_us();
+    if (!drain_frames(s, cl))
+        client_close(cl, "bad request or send failure");
 }
 
 /* ---- lifecycle ----------------------------------------------------------------- */
@@ -407,9 +408,13 @@ void gw_mbs_tick(gw_mbs_t *s, uint64_t now)
     if (s->cfg.idle_timeout_s == 0)
         return;
     uint64_t limit = (uint64_t)s->cfg.idle_timeout_s * 1000000u;
-    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+    /* Called at every turn of the loop: stop after the last client. */
+    for (unsigned i = 0, seen = 0, n = s->nclients; i < MAX_CLIENTS_HARD && seen < n; i++) {
         client_t *cl = &s->clients[i];
-        if (cl->used && now - cl->last_us >= limit)
+        if (!cl->used)
+            continue;
+        seen++;
+        if (now - cl->last_us >= limit)
             client_close(cl, "idle timeout");
     }
 }
@@ -419,10 +424,13 @@ uint64_t gw_mbs_next_deadline(const gw_mbs_t *s)
     uint64_t d = UINT64_MAX;
     if (s->cfg.idle_timeout_s == 0)
         return d;
-    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+    for (unsigned i = 0, seen = 0; i < MAX_CLIENTS_HARD && seen < s->nclients; i++) {
         const client_t *cl = &s->clients[i];
+        if (!cl->used)
+            continue;
+        seen++;
         uint64_t t = cl->last_us + (uint64_t)s->cfg.idle_timeout_s * 1000000u;
-        if (cl->used && t < d)
+        if (t < d)
             d = t;
     }
     return d;
