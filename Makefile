@@ -186,11 +186,19 @@ check-summary:
 # mk/*.mk fragments add their own benchmark targets to BENCH_STEPS. Every
 # benchmark runs, even after one missed a goal; then the status says so.
 BENCH_STEPS :=
+# Every benchmark runs (one that misses a goal does not stop the others);
+# their output goes to $(B)/bench/out and a summary into docs/performance.md.
+BENCH_OUT := $(B)/bench/out
 bench: $(B)/bench/bench_codec
-	@st=0; $(B)/bench/bench_codec || st=1; \
+	@rm -rf $(BENCH_OUT); mkdir -p $(BENCH_OUT); st=0; \
+	$(B)/bench/bench_codec > $(BENCH_OUT)/bench-codec.txt 2>&1 || st=1; \
+	cat $(BENCH_OUT)/bench-codec.txt; \
 	for step in $(BENCH_STEPS); do \
-	    $(MAKE) --no-print-directory $$step || st=1; \
-	done; exit $$st
+	    $(MAKE) --no-print-directory $$step GW_BENCH_ARGS=--write-doc \
+	        > $(BENCH_OUT)/$$step.txt 2>&1 || st=1; \
+	    cat $(BENCH_OUT)/$$step.txt; \
+	done; \
+	sh mk/bench-report.sh $(BENCH_OUT) docs/performance.md; exit $$st
 
 $(B)/bench/%: bench/%.c $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
