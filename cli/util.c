@@ -11,34 +11,6 @@
 
 /* ---- assemblies ----------------------------------------------------------- */
 
-/* Levenshtein distance of two short names (assembly names and aliases are
- * under 16 characters; longer input is cut, which only worsens its score). */
-static unsigned name_distance(const char *a, const char *b)
-{
-    enum { MAXN = 32 };
-    unsigned row[MAXN + 1];
-    size_t la = strlen(a), lb = strlen(b);
-    la = la > MAXN ? MAXN : la;
-    lb = lb > MAXN ? MAXN : lb;
-    for (size_t j = 0; j <= lb; j++)
-        row[j] = (unsigned)j;
-    for (size_t i = 1; i <= la; i++) {
-        unsigned diag = row[0];
-        row[0] = (unsigned)i;
-        for (size_t j = 1; j <= lb; j++) {
-            unsigned up = row[j];
-            unsigned best = diag + (a[i - 1] != b[j - 1]);
-            if (up + 1 < best)
-                best = up + 1;
-            if (row[j - 1] + 1 < best)
-                best = row[j - 1] + 1;
-            diag = up;
-            row[j] = best;
-        }
-    }
-    return row[lb];
-}
-
 bool cli_lookup_asm(const char *cmd, const char *name, dr_asm_t *out)
 {
     if (dr_asm_lookup(name, out) == DR_OK)
@@ -49,7 +21,7 @@ bool cli_lookup_asm(const char *cmd, const char *name, dr_asm_t *out)
         const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
         const char *cand[2] = {info->name, info->alias};
         for (int k = 0; k < 2; k++) {
-            unsigned d = name_distance(name, cand[k]);
+            unsigned d = dr_edit_distance(name, cand[k]);
             if (d < best_d) {
                 best_d = d;
                 best = cand[k];

@@ -241,44 +241,14 @@ static bool has_space_or_control(const char *s)
     return false;
 }
 
-/* Levenshtein distance for "did you mean"; inputs are short names, longer
- * ones are cut (the suggestion only has to be plausible). */
-#define EDIT_MAX 48u
-static unsigned edit_distance(const char *a, const char *b)
-{
-    unsigned row[EDIT_MAX + 1];
-    size_t la = strlen(a), lb = strlen(b);
-    if (la > EDIT_MAX)
-        la = EDIT_MAX;
-    if (lb > EDIT_MAX)
-        lb = EDIT_MAX;
-    for (size_t j = 0; j <= lb; j++)
-        row[j] = (unsigned)j;
-    for (size_t i = 1; i <= la; i++) {
-        unsigned diag = row[0];
-        row[0] = (unsigned)i;
-        for (size_t j = 1; j <= lb; j++) {
-            unsigned up = row[j];
-            unsigned best = diag + (a[i - 1] != b[j - 1]);
-            if (up + 1 < best)
-                best = up + 1;
-            if (row[j - 1] + 1 < best)
-                best = row[j - 1] + 1;
-            diag = up;
-            row[j] = best;
-        }
-    }
-    return row[lb];
-}
-
 /* Is `cand` close enough to `typed` to suggest it? A third of the length,
  * at least 2 edits: "wordorder" -> "word_order", not "foo" -> "port". */
 static bool close_enough(const char *typed, const char *cand)
 {
     size_t n = strlen(cand);
     unsigned limit = n / 3 > 2 ? (unsigned)(n / 3) : 2u;
-    return edit_distance(typed, cand) <= limit &&
-           edit_distance(typed, cand) < n;
+    return dr_edit_distance(typed, cand) <= limit &&
+           dr_edit_distance(typed, cand) < n;
 }
 
 /* "a, b, c" into buf (cut if it does not fit; messages only). */
@@ -442,7 +412,7 @@ static void unknown_key(ctx_t *c, const char *name, const key_desc_t *keys,
     unsigned best_d = ~0u;
     char inst[DR_ASM_COUNT][40];
     for (size_t i = 0; i < n; i++) {
-        unsigned d = edit_distance(name, keys[i].name);
+        unsigned d = dr_edit_distance(name, keys[i].name);
         if (d < best_d && close_enough(name, keys[i].name)) {
             best_d = d;
             best = keys[i].name;
@@ -452,7 +422,7 @@ static void unknown_key(ctx_t *c, const char *name, const key_desc_t *keys,
     for (unsigned a = 0; robot && a < DR_ASM_COUNT; a++) {
         snprintf(inst[a], sizeof inst[a], INSTANCE_PREFIX "%s",
                  dr_asm_info((dr_asm_t)a)->name);
-        unsigned d = edit_distance(name, inst[a]);
+        unsigned d = dr_edit_distance(name, inst[a]);
         if (d < best_d && close_enough(name, inst[a])) {
             best_d = d;
             best = inst[a];
@@ -682,7 +652,7 @@ static void robot_instance(ctx_t *c, const char *name, const char *v)
         unsigned best_d = ~0u;
         for (unsigned i = 0; i < DR_ASM_COUNT; i++) {
             names[i] = dr_asm_info((dr_asm_t)i)->name;
-            unsigned d = edit_distance(asm_name, names[i]);
+            unsigned d = dr_edit_distance(asm_name, names[i]);
             if (d < best_d && close_enough(asm_name, names[i])) {
                 best_d = d;
                 best = names[i];
@@ -965,7 +935,7 @@ static void unknown_section(ctx_t *c, const char *kw, const char *rest)
     const char *best = NULL;
     unsigned best_d = ~0u;
     for (size_t i = 0; i < COUNT(kws); i++) {
-        unsigned d = edit_distance(kw, kws[i]);
+        unsigned d = dr_edit_distance(kw, kws[i]);
         if (d < best_d && close_enough(kw, kws[i])) {
             best_d = d;
             best = kws[i];

@@ -195,7 +195,7 @@ dr_status_t dr_leaf_at(uint16_t i, dr_ref_t *out)
 }
 
 /* Levenshtein distance, strings cut at PATH_MAX_LEN. */
-static unsigned edit_distance(const char *a, const char *b)
+unsigned dr_edit_distance(const char *a, const char *b)
 {
     unsigned row[PATH_MAX_LEN + 1];
     size_t la = strlen(a), lb = strlen(b);
@@ -229,7 +229,7 @@ static void consider(const char *path, dr_ref_t ref, unsigned *best_d,
     char cand[PATH_MAX_LEN] = "";
     if (dr_ref_path(ref, cand, sizeof cand) != DR_OK)
         return;
-    unsigned d = edit_distance(path, cand);
+    unsigned d = dr_edit_distance(path, cand);
     if (d < *best_d) {
         *best_d = d;
         memcpy(best, cand, sizeof cand);

@@ -288,6 +288,11 @@ dr_status_t dr_ref_path(dr_ref_t ref, char *out, size_t size);
  * mask paths), written into out[size]. Returns DR_OK, or DR_ENOSPACE. */
 dr_status_t dr_path_closest(const char *path, char *out, size_t size);
 
+/* Levenshtein distance between two names, each cut to 64 characters:
+ * what "closest known name" suggestions are ranked by (also used by the
+ * tools for assembly names and configuration keys). */
+unsigned dr_edit_distance(const char *a, const char *b);
+
 /* Iterate over every leaf (one element of one field) in table order:
  * i from 0 to dr_leaf_count()-1. Returns DR_OK or DR_EINDEX. */
 uint16_t dr_leaf_count(void);
