@@ -1278,13 +1278,13 @@ static dr_status_t wait_req(dr_client_t *c, req_t *r, size_t *rsp_len)
     return st;
 }
 
-dr_status_t dr_client_call_sync(dr_client_t *c, uint8_t service,
-                                const uint8_t *path, size_t path_len,
-                                const uint8_t *data, size_t data_len,
-                                uint8_t *rsp, size_t cap, size_t *rsp_len)
+/* Build a Message Router request and send it as a request of `kind`.
+ * A session that fails while it is being sent completes an async request
+ * on the spot (with no callback yet); that is reported as the failure. */
+static dr_status_t start_call(dr_client_t *c, req_kind_t kind, uint8_t service,
+                              const uint8_t *path, size_t path_len,
+                              const uint8_t *data, size_t data_len, req_t **out)
 {
-    if (rsp_len != NULL)
-        *rsp_len = 0;
     if (c->state != S_READY)
         return DR_ESESSION;
     uint8_t msg[DR_ENCAP_MAX_LEN];
@@ -1293,16 +1293,33 @@ dr_status_t dr_client_call_sync(dr_client_t *c, uint8_t service,
     dr_cip_req_write(&w, service, path, path_len, data, data_len);
     if (w.overflow)
         return DR_ENOSPACE;
-    req_t *r = req_alloc(c, R_USER);
+    req_t *r = req_alloc(c, kind);
     if (r == NULL)
         return DR_EFULL;
-    r->rsp = rsp;
-    r->cap = cap;
     dr_status_t st = send_rr(c, r, msg, w.len, false);
+    if (st == DR_OK && !r->active)
+        st = c->sess_error != DR_OK ? c->sess_error : DR_ECLOSED;
     if (st != DR_OK) {
         r->active = false;
         return st;
     }
+    *out = r;
+    return DR_OK;
+}
+
+dr_status_t dr_client_call_sync(dr_client_t *c, uint8_t service,
+                                const uint8_t *path, size_t path_len,
+                                const uint8_t *data, size_t data_len,
+                                uint8_t *rsp, size_t cap, size_t *rsp_len)
+{
+    req_t *r;
+    if (rsp_len != NULL)
+        *rsp_len = 0;
+    dr_status_t st = start_call(c, R_USER, service, path, path_len, data, data_len, &r);
+    if (st != DR_OK)
+        return st;
+    r->rsp = rsp; /* replies are only read by wait_req, after this */
+    r->cap = cap;
     return wait_req(c, r, rsp_len);
 }
 
@@ -1311,29 +1328,11 @@ dr_status_t dr_client_call_async(dr_client_t *c, uint8_t service,
                                  const uint8_t *data, size_t data_len,
                                  dr_call_cb done, void *user)
 {
-    if (c->state != S_READY)
-        return DR_ESESSION;
-    uint8_t msg[DR_ENCAP_MAX_LEN];
-    dr_wr_t w;
-    dr_wr_init(&w, msg, sizeof msg);
-    dr_cip_req_write(&w, service, path, path_len, data, data_len);
-    if (w.overflow)
-        return DR_ENOSPACE;
-    req_t *r = req_alloc(c, R_ASYNC);
-    if (r == NULL)
-        return DR_EFULL;
-    /* The callback is set only once the request is out: if sending fails
-     * the session (a peer that has just closed), the session's failure
-     * completes every request at once, and this one must not be called
-     * back before the caller has even seen it accepted: the failure is
-     * returned instead. */
-    dr_status_t st = send_rr(c, r, msg, w.len, false);
-    if (st == DR_OK && !r->active)
-        st = c->sess_error != DR_OK ? c->sess_error : DR_ECLOSED;
-    if (st != DR_OK) {
-        r->active = false;
+    req_t *r;
+    dr_status_t st = start_call(c, R_ASYNC, service, path, path_len, data, data_len, &r);
+    if (st != DR_OK)
         return st;
-    }
+    /* The callback only now: the caller must first see the request taken. */
     r->cb = done;
     r->cb_user = user;
     return DR_OK;
