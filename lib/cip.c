@@ -637,14 +637,23 @@ void dr_fwd_open_reply_write(dr_wr_t *w, const dr_fwd_open_reply_t *rp)
     dr_wr_u8(w, 0);
 }
 
-void dr_fwd_fail_write(dr_wr_t *w, uint16_t conn_serial, uint16_t vendor,
-                       uint32_t orig_serial)
+/* The serial triad, then an empty block: the remaining path of a refusal
+ * and the application reply of a Forward Close reply have the same shape
+ * (size in words, reserved byte). */
+static void serials_then_empty(dr_wr_t *w, uint16_t conn_serial, uint16_t vendor,
+                               uint32_t orig_serial)
 {
     dr_wr_u16(w, conn_serial);
     dr_wr_u16(w, vendor);
     dr_wr_u32(w, orig_serial);
-    dr_wr_u8(w, 0); /* remaining path size */
-    dr_wr_u8(w, 0);
+    dr_wr_u8(w, 0); /* size in words */
+    dr_wr_u8(w, 0); /* reserved */
+}
+
+void dr_fwd_fail_write(dr_wr_t *w, uint16_t conn_serial, uint16_t vendor,
+                       uint32_t orig_serial)
+{
+    serials_then_empty(w, conn_serial, vendor, orig_serial);
 }
 
 dr_status_t dr_fwd_close_parse(const uint8_t *data, size_t len, dr_fwd_close_t *out)
@@ -680,11 +689,7 @@ void dr_fwd_close_write(dr_wr_t *w, const dr_fwd_close_t *fc)
 void dr_fwd_close_reply_write(dr_wr_t *w, uint16_t conn_serial, uint16_t vendor,
                               uint32_t orig_serial)
 {
-    dr_wr_u16(w, conn_serial);
-    dr_wr_u16(w, vendor);
-    dr_wr_u32(w, orig_serial);
-    dr_wr_u8(w, 0); /* application reply size */
-    dr_wr_u8(w, 0);
+    serials_then_empty(w, conn_serial, vendor, orig_serial);
 }
 
 /* ---- Class 1 frames ------------------------------------------------------ */
