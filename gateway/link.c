@@ -540,7 +540,7 @@ static void update_status(gw_link_t *l, uint64_t now)
     st->link_state = l->up ? 2 : (dr_client_ready(l->client) ? 1 : 0);
 }
 
-void gw_link_tick(gw_link_t *l, uint64_t now)
+void gw_link_tick(gw_link_t *l, uint64_t now, bool busy)
 {
     if (l->cfg.mode == GW_MODE_EXPLICIT) {
         explicit_poll(l, now);
@@ -550,7 +550,7 @@ void gw_link_tick(gw_link_t *l, uint64_t now)
     } else if (now >= dr_client_next_deadline(l->client)) {
         dr_client_process_ready(l->client, NULL, 0); /* timers; no socket is ready */
         sync_fds(l);
-    } else if (l->port != NULL && now - l->port->read_us >= PORT_POLL_US) {
+    } else if (busy && l->port != NULL && now - l->port->read_us >= PORT_POLL_US) {
         /* Implicit mode, nothing due: the client's descriptors (its TCP
          * socket and timer) and the shared UDP port are in the loop and
          * processed when ready, so a turn of the loop (with one client:

@@ -32,7 +32,9 @@ void gw_link_free(gw_link_t *l);
 void gw_link_outputs_changed(gw_link_t *l, unsigned dirty);
 
 /* Timers: explicit polling, freshness, status block. */
-void gw_link_tick(gw_link_t *l, uint64_t now_us);
+/* busy: this turn of the loop handled more than one event (Modbus load),
+ * so the shared UDP port is read even if epoll has not reported it yet. */
+void gw_link_tick(gw_link_t *l, uint64_t now_us, bool busy);
 uint64_t gw_link_next_deadline(const gw_link_t *l);
 
 bool gw_link_up(const gw_link_t *l);

@@ -182,10 +182,10 @@ static void writer_watchdog(gw_t *g, uint64_t now)
 
 /* ---- status block and timers ------------------------------------------------- */
 
-static void tick(gw_t *g, uint64_t now)
+static void tick(gw_t *g, uint64_t now, bool busy)
 {
     for (unsigned r = 0; r < g->cfg.robot_count; r++)
-        gw_link_tick(g->links[r], now);
+        gw_link_tick(g->links[r], now, busy);
     gw_mbs_tick(g->mbs, now);
     gw_gpiomap_tick(g->gpio, now);
     writer_watchdog(g, now);
@@ -478,7 +478,7 @@ static int run(gw_t *g)
             ev->fn(ev->obj, evs[i].events);
         }
         now = gw_now_us();
-        tick(g, now);
+        tick(g, now, n > 1);
         notify_watchdog(g, now);
         if (g->reload)
             reload(g);
