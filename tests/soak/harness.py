@@ -7,12 +7,11 @@ valgrind; their logs go to files; nothing outlives the test.
 Only the standard library here; the Modbus clients are pymodbus (from
 .venv, tests/requirements.txt) in the tests themselves.
 """
-import ctypes
 import os
-import random
 import signal
 import socket
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -42,52 +41,10 @@ def wait_for(cond, seconds, what, interval=0.05):
         time.sleep(interval)
 
 
-def _port_range():
-    """Below the kernel's ephemeral range, so no outgoing socket takes a
-    port between our check and the process binding it."""
-    try:
-        lo, hi = (int(x) for x in Path("/proc/sys/net/ipv4/ip_local_port_range")
-                  .read_text().split())
-    except (OSError, ValueError):
-        lo, hi = 32768, 60999
-    if lo - 1 - 10000 >= 2000:
-        return 10000, lo - 1
-    return hi + 1, 65535
-
-
-_taken = set()
-
-
-def free_port(addr, tcp=True, udp=True):
-    rnd = random.SystemRandom()
-    first, last = _port_range()
-    for _ in range(500):
-        p = rnd.randint(first, last)
-        if p in _taken:
-            continue
-        ok = True
-        for kind, want in ((socket.SOCK_STREAM, tcp), (socket.SOCK_DGRAM, udp)):
-            if not want:
-                continue
-            s = socket.socket(socket.AF_INET, kind)
-            try:
-                s.bind((addr, p))
-            except OSError:
-                ok = False
-            finally:
-                s.close()
-        if ok:
-            _taken.add(p)
-            return p
-    raise RuntimeError("no free port on %s" % addr)
-
-
-def _die_with_parent():
-    # PR_SET_PDEATHSIG: a child must not outlive an aborted test run.
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)
-    except OSError:
-        pass
+# Free ports and children that die with the test: the gateway suite's
+# helpers (tests/gateway/gwlib.py), one copy for both.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "gateway"))
+from gwlib import _die_with_parent, free_port  # noqa: E402
 
 
 _procs = []
