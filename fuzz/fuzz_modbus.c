@@ -11,7 +11,7 @@
  *   [flags][k] pattern[k] stream...
  * flags bits 0-1: word order; bits 2-3: on_link_loss (3 = hold); bit 4:
  * link up; bit 5: the client may not write; bit 6: unit 2 exists too
- * (unit 1 always does). The pattern of k & 63 bytes is repeated over every
+ * (unit 1 always does); bit 7: unmapped_read = exception. The pattern of k & 63 bytes is repeated over every
  * image of every unit; the rest is what the client sends.
  *
  * Properties: a frame the framer refuses ends the stream (the daemon drops
@@ -21,7 +21,7 @@
  * images, only the assemblies it reports dirty (and the control registers
  * when it addresses them), and reads back as written; the client's right
  * to write is asked for writes only; the exception codes are the
- * documented ones; libmodbus answers exactly what the checks decided.
+ * documented ones; no read succeeds past a table's last mapped address; libmodbus answers exactly what the checks decided.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -238,6 +238,7 @@ static void request(const uint8_t *adu, size_t len)
     }
     if (ex == 0 && is_read_fc(fc)) {
         FUZZ_CHECK(!res.write && res.count >= 1);
+        FUZZ_CHECK((uint32_t)res.addr + res.count <= gw_regmap_extent(res.area));
         if (fc <= 0x02)
             for (unsigned i = 0; i < res.count; i++)
                 FUZZ_CHECK(res.values[i] <= 1);
@@ -274,6 +275,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         u->order = (gw_word_order_t)(flags & 3u);
         u->on_loss = ((flags >> 2) & 3u) == 3 ? GW_LOSS_HOLD : (gw_link_loss_t)((flags >> 2) & 3u);
+        u->unmapped = (flags & 0x80u) ? GW_UNMAPPED_EXCEPTION : GW_UNMAPPED_ZERO;
         u->status.link_state = (flags & 0x10u) ? 2 : 0;
         u->status.fresh = (flags & 0x10u) != 0;
     }

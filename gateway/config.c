@@ -64,6 +64,7 @@ enum {
     MK_WORD_ORDER,
     MK_ALLOW,
     MK_ON_LINK_LOSS,
+    MK_UNMAPPED_READ,
     MK_SINGLE_WRITER,
     MK_WRITER_WATCHDOG_MS,
     MK_COUNT
@@ -77,6 +78,7 @@ static const key_desc_t modbus_keys[MK_COUNT] = {
     [MK_WORD_ORDER] = { "word_order", "abcd, cdab, badc, dcba" },
     [MK_ALLOW] = { "allow", "a.b.c.d/len [ro|rw]" },
     [MK_ON_LINK_LOSS] = { "on_link_loss", "hold, zero, exception" },
+    [MK_UNMAPPED_READ] = { "unmapped_read", "zero, exception" },
     [MK_SINGLE_WRITER] = { "single_writer", "yes, no" },
     [MK_WRITER_WATCHDOG_MS] = { "writer_watchdog_ms", "10..60000" },
 };
@@ -93,6 +95,7 @@ enum {
     RK_TIMEOUT_MULTIPLIER,
     RK_TIMEOUT_MS,
     RK_FALLBACK,
+    RK_O2T_TIMING,
     RK_COUNT
 };
 static const key_desc_t robot_keys[RK_COUNT] = {
@@ -107,6 +110,7 @@ static const key_desc_t robot_keys[RK_COUNT] = {
     [RK_TIMEOUT_MULTIPLIER] = { "timeout_multiplier", "0..7" },
     [RK_TIMEOUT_MS] = { "timeout_ms", "10..60000" },
     [RK_FALLBACK] = { "fallback", "zero, hold" },
+    [RK_O2T_TIMING] = { "o2t_timing", "follow, strict" },
 };
 #define INSTANCE_PREFIX "instance."
 /* The kernel keeps line names to GPIO_MAX_NAME_SIZE - 1 characters: a
@@ -141,8 +145,10 @@ static const char *const yes_no[] = { "yes", "no" };
 static const char *const log_levels[] = { "error", "warning", "info", "debug" };
 static const char *const word_orders[] = { "abcd", "cdab", "badc", "dcba" };
 static const char *const link_loss_names[] = { "hold", "zero", "exception" };
+static const char *const unmapped_names[] = { "zero", "exception" };
 static const char *const mode_names[] = { "implicit", "explicit" };
 static const char *const fallback_names[] = { "zero", "hold" };
+static const char *const o2t_timing_names[] = { "follow", "strict" };
 static const char *const dir_names[] = { "output", "input" };
 static const char *const bias_names[] = { "as-is", "disable", "pull-up",
                                           "pull-down" };
@@ -630,6 +636,10 @@ static void modbus_key(ctx_t *c, const char *name, const char *v)
         if (get_enum(c, name, v, link_loss_names, COUNT(link_loss_names), &e))
             m->on_link_loss = (gw_link_loss_t)e;
         break;
+    case MK_UNMAPPED_READ:
+        if (get_enum(c, name, v, unmapped_names, COUNT(unmapped_names), &e))
+            m->unmapped_read = (gw_unmapped_read_t)e;
+        break;
     case MK_SINGLE_WRITER: get_bool(c, name, v, &m->single_writer); break;
     case MK_WRITER_WATCHDOG_MS:
         if (get_uint(c, name, v, 10, 60000, &n))
@@ -745,6 +755,10 @@ static void robot_key(ctx_t *c, const char *name, const char *v)
     case RK_FALLBACK:
         if (get_enum(c, name, v, fallback_names, COUNT(fallback_names), &e))
             r->fallback_hold = e == 1;
+        break;
+    case RK_O2T_TIMING:
+        if (get_enum(c, name, v, o2t_timing_names, COUNT(o2t_timing_names), &e))
+            r->o2t_strict = e == 1;
         break;
     default: break;
     }
@@ -1400,6 +1414,7 @@ void gw_config_defaults(gw_config_t *cfg)
     m->keepalive = true;
     m->word_order = GW_WORD_ABCD;
     m->on_link_loss = GW_LOSS_HOLD;
+    m->unmapped_read = GW_UNMAPPED_ZERO;
     m->allow_count = 0;
     m->single_writer = false;
     m->writer_watchdog_ms = 1000;
@@ -1500,7 +1515,7 @@ bool gw_robot_config_same_link(const gw_robot_config_t *a,
            strcmp(a->local_addr, b->local_addr) == 0 &&
            a->local_udp_port == b->local_udp_port && a->mode == b->mode &&
            a->rpi_ms == b->rpi_ms && a->timeout_mult == b->timeout_mult &&
-           a->timeout_ms == b->timeout_ms &&
+           a->timeout_ms == b->timeout_ms && a->o2t_strict == b->o2t_strict &&
            memcmp(a->instance, b->instance, sizeof a->instance) == 0;
 }
 

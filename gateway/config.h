@@ -30,6 +30,8 @@
 
 typedef enum { GW_WORD_ABCD = 0, GW_WORD_CDAB, GW_WORD_BADC, GW_WORD_DCBA } gw_word_order_t;
 typedef enum { GW_LOSS_HOLD = 0, GW_LOSS_ZERO, GW_LOSS_EXCEPTION } gw_link_loss_t;
+/* A read that covers reserved addresses between the map's blocks. */
+typedef enum { GW_UNMAPPED_ZERO = 0, GW_UNMAPPED_EXCEPTION } gw_unmapped_read_t;
 typedef enum { GW_MODE_IMPLICIT = 0, GW_MODE_EXPLICIT } gw_robot_mode_t;
 
 typedef struct {
@@ -46,6 +48,7 @@ typedef struct {
     bool keepalive;           /* default true */
     gw_word_order_t word_order; /* default abcd */
     gw_link_loss_t on_link_loss; /* default hold */
+    gw_unmapped_read_t unmapped_read; /* default zero */
     unsigned allow_count;     /* 0: everyone read-write */
     gw_allow_t allow[GW_MAX_ALLOW]; /* file order; the first match decides
                                        (the loader refuses shadowed entries) */
@@ -70,6 +73,10 @@ typedef struct {
     /* O->T image applied when the single writer's watchdog expires:
      * "zero" (default) or "hold". */
     bool fallback_hold;
+    /* implicit: O->T only on its own timer ("strict"), or also sent with
+     * an arriving T->O packet when due within a quarter RPI ("follow",
+     * default): one wake-up per RPI instead of two. */
+    bool o2t_strict;
     unsigned line;            /* where the section starts, for messages */
 } gw_robot_config_t;
 

@@ -280,6 +280,10 @@ static bool add_connections(gw_link_t *l)
         cc.t2o_asm = pairs[i].t2o;
         cc.rpi_us = l->cfg.rpi_ms * 1000u;
         cc.timeout_mult = l->cfg.timeout_mult;
+        /* Sending O->T with the T->O packet's wake-up halves the
+         * wake-ups; a quarter RPI early is well inside any adapter's
+         * timeout (at least 4 RPIs). */
+        cc.o2t_follow_us = l->cfg.o2t_strict ? 0u : cc.rpi_us / 4u;
         cc.on_data = on_conn_data;
         cc.on_state = on_conn_state;
         cc.user = l;

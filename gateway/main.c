@@ -251,6 +251,7 @@ static void init_unit(gw_t *g, unsigned r)
     gw_unit_t *u = &g->units[r];
     u->order = g->cfg.modbus.word_order;
     u->on_loss = g->cfg.modbus.on_link_loss;
+    u->unmapped = g->cfg.modbus.unmapped_read;
     u->status.config_generation = g->generation;
 }
 
@@ -307,6 +308,7 @@ static void reload(gw_t *g)
             continue;
         units[n].order = next.modbus.word_order;
         units[n].on_loss = next.modbus.on_link_loss;
+        units[n].unmapped = next.modbus.unmapped_read;
         links[n] = gw_link_new(&next.robot[n], n, &units[n], g->epfd, &link_hooks);
         fresh[n] = true;
         if (links[n] == NULL) {

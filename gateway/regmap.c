@@ -30,6 +30,7 @@ typedef struct {
 } slot_t;
 
 static slot_t map[GW_AREAS][GW_AREA_SIZE];
+static uint16_t extent[GW_AREAS]; /* one past the last mapped address */
 static bool built;
 
 /* Where each assembly starts: registers (and +1000 for the scaled view)
@@ -112,6 +113,10 @@ void gw_regmap_init(void)
     addr = 0;
     for (unsigned i = 0; i < CONTROL_REGS; i++)
         put(GW_HOLDING, &addr, SL_CONTROL, 0, 0, (int16_t)i);
+    for (unsigned t = 0; t < GW_AREAS; t++)
+        for (unsigned a = 0; a < GW_AREA_SIZE; a++)
+            if (map[t][a].kind != SL_NONE)
+                extent[t] = (uint16_t)(a + 1u);
     built = true;
 }
 
@@ -307,14 +312,24 @@ bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count)
     return false;
 }
 
+uint16_t gw_regmap_extent(gw_area_t area)
+{
+    return (unsigned)area < GW_AREAS ? extent[area] : 0;
+}
+
+/* Reserved addresses between the blocks read 0 by default, so that a PLC
+ * can read 125 registers in one request across blocks; past the table's
+ * last mapped address nothing is read. */
 int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
                    uint16_t count, uint16_t *values)
 {
-    if ((unsigned)area >= GW_AREAS || !in_range(addr, count))
+    if ((unsigned)area >= GW_AREAS || !in_range(addr, count) ||
+        (uint32_t)addr + count > extent[area])
         return GW_EX_ILLEGAL_ADDRESS;
-    for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
-        if (map[area][a].kind == SL_NONE)
-            return GW_EX_ILLEGAL_ADDRESS;
+    if (u->unmapped == GW_UNMAPPED_EXCEPTION)
+        for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
+            if (map[area][a].kind == SL_NONE)
+                return GW_EX_ILLEGAL_ADDRESS;
     if (u->on_loss == GW_LOSS_EXCEPTION && u->status.link_state != 2 &&
         (area == GW_INPUT || area == GW_DISCRETE) &&
         gw_regmap_touches_robot_data(area, addr, count))

@@ -59,6 +59,7 @@ typedef struct {
     uint8_t img[DR_ASM_COUNT][DR_ASM_MAX_SIZE]; /* wire images, both ways */
     gw_word_order_t order;
     gw_link_loss_t on_loss;
+    gw_unmapped_read_t unmapped; /* reserved addresses: read 0 or 0x02 */
     gw_status_t status;
     uint16_t watchdog;        /* last value written to the watchdog register */
     bool fault_reset;         /* set when a client wrote the reset register */
@@ -71,13 +72,17 @@ typedef struct {
 /* Build the map (once; cheap to call again). */
 void gw_regmap_init(void);
 
+/* One past the last mapped address of a table: reads end there. */
+uint16_t gw_regmap_extent(gw_area_t area);
+
 /* True if the robot data (not status/test/control) is addressed. */
 bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count);
 
 /* Read `count` registers (values) or bits (0/1 in values) starting at
- * `addr`. Returns 0 or a Modbus exception code (unmapped address: 0x02;
- * on_link_loss = exception and robot data addressed while the link is down:
- * 0x0B). */
+ * `addr`. Returns 0 or a Modbus exception code: 0x02 for an address past
+ * the table's last mapped one, or (unmapped = exception) for any reserved
+ * address in the range, which otherwise reads 0; 0x0B with on_link_loss =
+ * exception and robot data addressed while the link is down. */
 int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
                    uint16_t count, uint16_t *values);
 

@@ -70,6 +70,7 @@ struct dr_conn {
     uint32_t timeout_us;
     uint32_t backoff_ms;
     unsigned dup_retries;
+    unsigned follow_misses; /* T->O arrivals in a row outside the window */
     bool run, have_in;
     uint8_t out[DR_ASM_MAX_SIZE];
     uint8_t in[DR_ASM_MAX_SIZE];
@@ -826,6 +827,34 @@ static void flush_io(dr_client_t *c)
     c->tx_n = 0;
 }
 
+/* cfg.o2t_follow_us: an O->T packet due within the window is produced
+ * when the connection's T->O packet arrives, so that one wake-up serves
+ * both directions instead of one for the arrival and one for our own
+ * deadline moments later. The deadlines stay on their grid, so the rate
+ * is unchanged; a packet leaves at most the window early. When arrivals
+ * keep falling outside the window (the connection has just opened, or the
+ * two clocks drift apart) the grid moves: this packet goes now and the
+ * next ones are due half a window after the arrivals. Only for equal APIs
+ * both ways: otherwise the arrivals do not mark our periods. */
+#define FOLLOW_MISSES 3u
+
+static void follow_t2o(dr_conn_t *cn, uint64_t t)
+{
+    uint64_t api = cn->stats.o2t_api_us, win = cn->cfg.o2t_follow_us;
+    if (win == 0 || cn->state != DR_CONN_ESTABLISHED || api != cn->stats.t2o_api_us)
+        return;
+    if (win > api / 2)
+        win = api / 2;
+    if (cn->next_tx_us <= t + win) {
+        cn->follow_misses = 0;
+        conn_produce(cn, t);
+    } else if (++cn->follow_misses >= FOLLOW_MISSES) {
+        cn->follow_misses = 0;
+        conn_produce(cn, t);
+        cn->next_tx_us = t + api + win / 2;
+    }
+}
+
 static void conn_timers(dr_conn_t *cn, uint64_t t)
 {
     dr_client_t *c = cn->client;
@@ -1010,6 +1039,8 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
     cn->rx_deadline_us = t + cn->timeout_us;
     if (cn->cfg.on_data != NULL)
         cn->cfg.on_data(cn, cn->in, f.data_len, cn->cfg.user);
+    if (cn->used) /* the callback may have removed it */
+        follow_t2o(cn, t);
 }
 
 /* Everything that is waiting, bounded so a flood cannot starve the loop. */
@@ -1088,9 +1119,26 @@ int dr_udp_port_fd(const dr_udp_port_t *p)
     return p->tp.ops->fd(p->tp.ctx, p->h);
 }
 
+/* Re-arm only when the deadline moved; with none left, disarm, so an
+ * expired timer does not keep the caller's poll awake. */
+static void rearm(dr_client_t *c)
+{
+    uint64_t d = dr_client_next_deadline(c);
+    if (c->timer_polled && d != c->armed) {
+        c->tp.ops->timer_arm(c->tp.ctx, c->timer, d);
+        c->armed = d;
+    }
+}
+
 dr_status_t dr_udp_port_process(dr_udp_port_t *p)
 {
     read_udp(p, p->tp.ops->now_us(p->tp.ctx));
+    /* O->T produced on arrival (o2t_follow_us) goes now, and the timers
+     * move past the deadlines it served. */
+    for (unsigned i = 0; i < p->nclients; i++) {
+        flush_io(p->clients[i]);
+        rearm(p->clients[i]);
+    }
     return DR_OK;
 }
 
@@ -1153,13 +1201,7 @@ static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
         if (c->conns[i].used)
             conn_timers(&c->conns[i], t);
     flush_io(c);
-    /* Re-arm only when the deadline moved; with none left, disarm, so an
-     * expired timer does not keep the caller's poll awake. */
-    uint64_t d = dr_client_next_deadline(c);
-    if (c->timer_polled && d != c->armed) {
-        c->tp.ops->timer_arm(c->tp.ctx, c->timer, d);
-        c->armed = d;
-    }
+    rearm(c);
 }
 
 dr_status_t dr_client_process(dr_client_t *c)

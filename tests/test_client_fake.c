@@ -1071,6 +1071,105 @@ static void test_class1_refused_and_batch(void **state)
     dr_client_free(c);
 }
 
+/* o2t_follow_us: an O->T packet due within the window goes out with the
+ * arriving T->O packet (one wake-up for both), on the shared port the
+ * gateway uses; arrivals outside the window move the O->T schedule after
+ * three in a row; with no window, arrivals never send. */
+static void test_class1_follow(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_transport_t tp = {&fake_batch_ops, &F};
+    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
+    assert_non_null(p);
+    dr_client_config_t cfg = config(&fake_batch_ops);
+    cfg.shared_udp = p;
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms */
+    cc.o2t_follow_us = 2500;
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
+    (void)dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS); /* the timer is polled */
+    for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++) {
+        F.now += 1000u;
+        dr_client_process(c);
+    }
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    uint16_t seq = 1;
+
+    /* due in 1 ms: sent on arrival, the deadline keeps its grid */
+    uint64_t d = dr_client_next_deadline(c);
+    assert_int_equal(F.armed, d);
+    unsigned sent = F.udp_sent;
+    F.now = d - 1000u;
+    push_t2o(F.t2o_cid, seq++, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(F.udp_sent, sent + 1);
+    assert_int_equal(dr_client_next_deadline(c), d + 10000u);
+    assert_int_equal(F.armed, d + 10000u); /* the timer moved past it */
+    d += 10000u;
+
+    /* due in 6 ms, outside the window: not sent; the timer sends at the
+     * deadline. The third such arrival in a row moves the schedule. */
+    for (int miss = 1; miss <= 2; miss++) {
+        sent = F.udp_sent;
+        F.now = d - 6000u;
+        push_t2o(F.t2o_cid, seq++, 96);
+        dr_udp_port_process(p);
+        assert_int_equal(F.udp_sent, sent);
+        assert_int_equal(dr_client_next_deadline(c), d);
+        F.now = d;
+        dr_client_process_ready(c, NULL, 0);
+        assert_int_equal(F.udp_sent, sent + 1);
+        d += 10000u;
+    }
+    sent = F.udp_sent;
+    uint64_t t = d - 6000u;
+    F.now = t;
+    push_t2o(F.t2o_cid, seq++, 96);
+    dr_udp_port_process(p);
+    assert_int_equal(F.udp_sent, sent + 1);
+    assert_int_equal(dr_client_next_deadline(c), t + 10000u + 1250u);
+    /* from now on each arrival sends, half a window before the deadline */
+    for (int i = 1; i <= 3; i++) {
+        sent = F.udp_sent;
+        F.now = t + (uint64_t)i * 10000u;
+        push_t2o(F.t2o_cid, seq++, 96);
+        dr_udp_port_process(p);
+        assert_int_equal(F.udp_sent, sent + 1);
+        assert_int_equal(dr_client_next_deadline(c), t + (uint64_t)(i + 1) * 10000u + 1250u);
+    }
+    assert_int_equal(log.data, seq - 1);
+
+    /* no window: an arrival just before the deadline sends nothing */
+    dr_conn_remove(cn);
+    cc.o2t_follow_us = 0;
+    cn = dr_client_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++) {
+        F.now += 1000u;
+        dr_client_process(c);
+    }
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    for (int i = 0; i < 4; i++) {
+        d = dr_client_next_deadline(c);
+        sent = F.udp_sent;
+        F.now = d - 100u;
+        push_t2o(F.t2o_cid, (uint16_t)(i + 1), 96);
+        dr_udp_port_process(p);
+        assert_int_equal(F.udp_sent, sent);
+        F.now = d;
+        dr_client_process_ready(c, NULL, 0);
+        assert_int_equal(F.udp_sent, sent + 1);
+    }
+    dr_client_free(c);
+    dr_udp_port_free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1088,6 +1187,7 @@ int main(void)
         cmocka_unit_test_setup(test_conn_add_refuses, setup),
         cmocka_unit_test_setup(test_class1_io, setup),
         cmocka_unit_test_setup(test_class1_refused_and_batch, setup),
+        cmocka_unit_test_setup(test_class1_follow, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -85,6 +85,7 @@ static void test_defaults(void **state)
     assert_true(c.modbus.keepalive);
     assert_int_equal(c.modbus.word_order, GW_WORD_ABCD);
     assert_int_equal(c.modbus.on_link_loss, GW_LOSS_HOLD);
+    assert_int_equal(c.modbus.unmapped_read, GW_UNMAPPED_ZERO);
     assert_int_equal(c.modbus.allow_count, 0);
     assert_false(c.modbus.single_writer);
     assert_int_equal(c.modbus.writer_watchdog_ms, 1000);
@@ -104,6 +105,7 @@ static void test_defaults(void **state)
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         assert_int_equal(r->instance[a], 101 + a);
     assert_false(r->fallback_hold);
+    assert_false(r->o2t_strict);
     assert_int_equal(c.gpio[0].offset, -1);
     assert_int_equal(c.gpio[0].bias, GW_BIAS_AS_IS);
 }
@@ -163,6 +165,7 @@ static void test_all_keys(void **state)
     assert_int_equal(m->allow[2].mask, 0);
     assert_false(m->allow[2].read_write);
     assert_int_equal(m->on_link_loss, GW_LOSS_EXCEPTION);
+    assert_int_equal(m->unmapped_read, GW_UNMAPPED_EXCEPTION);
     assert_true(m->single_writer);
     assert_int_equal(m->writer_watchdog_ms, 250);
 
@@ -182,10 +185,12 @@ static void test_all_keys(void **state)
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         assert_int_equal(r->instance[a], 201 + a);
     assert_true(r->fallback_hold);
-    assert_int_equal(r->line, 21);
+    assert_true(r->o2t_strict);
+    assert_int_equal(r->line, 22);
     assert_string_equal(c.robot[1].name, "arm2");
     assert_int_equal(c.robot[1].unit_id, 8);
     assert_false(c.robot[1].fallback_hold);
+    assert_false(c.robot[1].o2t_strict);
 
     assert_int_equal(c.gpio_count, 2);
     const gw_gpio_config_t *g = &c.gpio[0];
@@ -343,12 +348,12 @@ typedef struct {
 
 #define MODBUS_KEYS                                                           \
     "listen, port, max_clients, idle_timeout, keepalive, word_order, allow, " \
-    "on_link_loss, "                                                          \
+    "on_link_loss, unmapped_read, "                                           \
     "single_writer, writer_watchdog_ms"
 #define ROBOT_KEYS                                                             \
     "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, mode, " \
     "rpi_ms, "                                                                 \
-    "timeout_multiplier, timeout_ms, fallback, instance.<assembly>"
+    "timeout_multiplier, timeout_ms, fallback, o2t_timing, instance.<assembly>"
 #define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME]"
 #define NOT_A_BIT                                                        \
     "(a GPIO line follows or drives one bit, e.g. io_state.cb_do[1] or " \
@@ -386,6 +391,8 @@ static const err_case_t err_cases[] = {
       "4: word_order 'ABCD' invalid (allowed: abcd, cdab, badc, dcba)" },
     { ROBOT "[modbus]\non_link_loss = keep\n",
       "4: on_link_loss 'keep' invalid (allowed: hold, zero, exception)" },
+    { ROBOT "[modbus]\nunmapped_read = hold\n",
+      "4: unmapped_read 'hold' invalid (allowed: zero, exception)" },
     { ROBOT "[modbus]\nkeepalive = maybe\n",
       "4: keepalive 'maybe' invalid (allowed: yes, no)" },
     { ROBOT "[modbus]\nsingle_writer = 1\n",
@@ -394,6 +401,8 @@ static const err_case_t err_cases[] = {
       "3: mode 'cyclic' invalid (allowed: implicit, explicit)" },
     { ROBOT "fallback = last\n",
       "3: fallback 'last' invalid (allowed: zero, hold)" },
+    { ROBOT "o2t_timing = early\n",
+      "3: o2t_timing 'early' invalid (allowed: follow, strict)" },
     { "[daemon]\nlog_level = verbose\n" ROBOT,
       "2: log_level 'verbose' invalid (allowed: error, warning, info, debug)" },
     { ROBOT GPIO_HEAD "direction = in\n",
@@ -867,6 +876,9 @@ static void test_same_link(void **state)
     assert_false(gw_robot_config_same_link(&a, &b));
     b = a;
     b.instance[DR_ASM_FLOAT_IN] = 1;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.o2t_strict = true;
     assert_false(gw_robot_config_same_link(&a, &b));
 }
 

@@ -14,8 +14,9 @@ from gwlib import (EX_ILLEGAL_ADDRESS, EX_ILLEGAL_FUNCTION, EX_ILLEGAL_VALUE,
 
 @pytest.fixture(scope="module")
 def gw():
+    """Strict about reserved addresses: every read of one is refused."""
     sim = Drsim("exc").start()
-    g = Gateway("exc", sim)
+    g = Gateway("exc", sim, modbus="unmapped_read = exception\n")
     try:
         g.start()
         g.sim = sim
@@ -81,6 +82,9 @@ def test_illegal_function_pymodbus(gw):
 
 
 # ---- 0x02 illegal address ----------------------------------------------------------------
+# With unmapped_read = exception (the module's gateway) any reserved address
+# in a read is refused; with the default (zero) they read 0 and only reads
+# past a table's last mapped address are (further below).
 
 @pytest.mark.parametrize("fc,addr,count", [
     (4, 50, 1),        # between the test registers and io_state
@@ -348,3 +352,86 @@ def test_allowlist_refuses_other_networks(gw_allow):
     assert "not in the allowlist" in gw_allow.log()
     with connect_from("127.0.0.1", gw_allow.port) as m:
         assert m.read(4, 32, 1) == [0x1234]
+
+
+# ---- reserved addresses with the default unmapped_read = zero ------------------------------
+
+@pytest.fixture(scope="module")
+def gw_zero():
+    sim = Drsim("exc-zero").start()
+    g = Gateway("exc-zero", sim)
+    try:
+        g.start()
+        yield g
+    finally:
+        g.kill()
+        sim.kill()
+
+
+def extents(regmap):
+    """One past the last mapped address of each table."""
+    ext = {}
+    for e in regmap.entries:
+        ext[e["area"]] = max(ext.get(e["area"], 0), e["address"] + e["count"])
+    return ext
+
+
+@pytest.mark.parametrize("fc,addr,count,want", [
+    (4, 50, 1, [0]),          # between the test registers and io_state
+    (4, 40, 60, [0] * 60),    # the whole gap
+    (3, 2, 3, [0, 0, 0]),     # after the control registers
+    (1, 0, 2, [0, 0]),        # no coil 0 or 1
+    (2, 4, 3, [0, 0, 0]),     # after the status bits
+])
+def test_reserved_addresses_read_zero(gw_zero, fc, addr, count, want):
+    with gw_zero.raw() as m:
+        assert m.read(fc, addr, count) == want
+
+
+def test_125_register_reads_across_blocks(gw_zero, regmap):
+    """A PLC reads 125 registers in one request: the blocks inside keep
+    their values, the reserved registers between them read 0."""
+    test0 = regmap.addr("IR", "test.u16 = 0x1234")
+    ver = regmap.addr("IR", "io_state.version.major")
+    with gw_zero.raw() as m:
+        whole = m.read(4, 0, 125)
+        assert whole[test0:test0 + 8] == m.read(4, test0, 8)
+        assert whole[ver:ver + 3] == [2, 12, 3]
+        mapped = {a for e in regmap.area("IR")
+                  for a in range(e["address"], e["address"] + e["count"])}
+        gaps = [a for a in range(125) if a not in mapped]
+        assert len(gaps) >= 60 and [whole[a] for a in gaps] == [0] * len(gaps)
+        # int_in (HR 300-347), the gap, float_in (HR 400-424): what was written is read
+        i0, f0 = regmap.addr("HR", "int_in[0]"), regmap.addr("HR", "float_in[0]")
+        m.write_regs(i0, dint_regs(-5, "abcd"))
+        m.write_regs(f0, real_regs(2.5, "abcd"))
+        hr = m.read(3, i0, 125)
+        assert hr[0:2] == dint_regs(-5, "abcd")
+        assert hr[f0 - i0:f0 - i0 + 2] == real_regs(2.5, "abcd")
+        assert hr[48:f0 - i0] == [0] * (f0 - i0 - 48)
+
+
+def test_reads_past_the_map_are_refused(gw_zero, regmap):
+    ext = extents(regmap)
+    with gw_zero.raw() as m:
+        for area, fc in (("CO", 1), ("DI", 2), ("HR", 3), ("IR", 4)):
+            e = ext[area]
+            assert m.exception(rd(fc, e, 1)) == EX_ILLEGAL_ADDRESS, area
+            assert m.exception(rd(fc, e - 1, 2)) == EX_ILLEGAL_ADDRESS, area
+            assert m.exception(rd(fc, e - 1, 1)) is None, area
+        assert m.exception(rd(4, 65500, 125)) == EX_ILLEGAL_ADDRESS
+        assert m.exception(rd(4, 2040, 10)) == EX_ILLEGAL_ADDRESS
+
+
+def test_writes_to_reserved_addresses_are_refused(gw_zero, regmap):
+    """Reading a gap is harmless; writing one is still an error, and a
+    write that runs into a gap changes nothing."""
+    # the packed bit_in words (one register each may be written) end at a gap
+    last = regmap.entry("HR", "bit_in")
+    end = last["address"] + last["count"]
+    with gw_zero.raw() as m:
+        before = m.read(3, end - 1, 1)
+        assert m.exception(struct.pack(">BHH", 6, 2, 1)) == EX_ILLEGAL_ADDRESS
+        assert m.exception(fc16(end - 1, [before[0] ^ 1, 0])) == EX_ILLEGAL_ADDRESS
+        assert m.read(3, end - 1, 1) == before
+        assert m.exception(struct.pack(">BHH", 5, 0, 0xFF00)) == EX_ILLEGAL_ADDRESS

@@ -239,3 +239,35 @@ def test_session_loss_alone_keeps_the_data(regmap):
     finally:
         g.kill()
         sim.kill()
+
+
+@pytest.mark.parametrize("timing", ["follow", "strict"])
+def test_o2t_timing(timing, regmap):
+    """Both O->T timings keep the robot's connections fed at the RPI: over
+    two seconds at RPI 2 ms no connection times out, and drsim consumed
+    about as many O->T packets as it produced T->O (counted per connection
+    in its log at the Forward Close)."""
+    import re
+    sim = Drsim("o2t-" + timing).start()
+    g = Gateway("o2t-" + timing, sim, robot="rpi_ms = 2\ntimeout_multiplier = 2\n"
+                "o2t_timing = %s\n" % timing)
+    try:
+        g.start()
+        with g.raw() as m:
+            put_int_in0(m, regmap, -77)
+            wait_for(lambda: int_out0(m, regmap) == -77, 10, "echo")
+        time.sleep(2.0)
+        assert "link down" not in g.log()
+        rc, _ = g.stop()
+        assert rc == 0
+        wait_for(lambda: sim.log().count("closed (forward close)") == 6, 10,
+                 "six Forward Closes in drsim's log")
+        closes = re.findall(r"closed \(([^)]*)\): (\d+) produced, (\d+) consumed", sim.log())
+        assert len(closes) == 6, closes  # nothing else closed: no timeout
+        for why, produced, consumed in closes:
+            p, c = int(produced), int(consumed)
+            assert why == "forward close" and p > 500, (why, p, c)
+            assert 0.9 * p <= c <= 1.1 * p, (timing, p, c)
+    finally:
+        g.kill()
+        sim.kill()

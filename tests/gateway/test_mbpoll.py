@@ -84,8 +84,10 @@ def test_coils_and_inputs(gw, regmap):
 
 
 def test_exception_reported(gw):
-    r = mbpoll(gw, "3", 50)
+    r = mbpoll(gw, "3", 1624)  # past the last input register
     assert r.returncode != 0
     assert "Illegal data address" in r.stderr
+    r = mbpoll(gw, "3", 50)  # a reserved register between blocks reads 0
+    assert r.returncode == 0 and values(r.stdout) == ["0"], (r.stdout, r.stderr)
     r = mbpoll(gw, "4", 2, 7)
     assert r.returncode != 0 and "Illegal data address" in r.stderr

@@ -148,7 +148,7 @@ def scenario(build, logdir, supp, results):
                interval=0.2)
     H.log("valgrind: writes echoed by drsim")
 
-    # exception replies: an unmapped address, a unit no robot has, a half REAL
+    # exception replies: an address past the map, a unit no robot has, a half REAL
     assert mb.read_input_registers(2000, count=2, slave=1).isError()
     assert mb.read_input_registers(0, count=2, slave=9).isError()
     assert mb.write_register(400, 1, slave=1).isError()

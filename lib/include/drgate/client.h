@@ -176,6 +176,11 @@ typedef struct {
     uint8_t timeout_mult;     /* code 0..7: timeout = API x (4 << code) */
     bool large;               /* use Large Forward Open (0x5B) first */
     bool t2o_run_idle;        /* T->O carries a run/idle header (no: modeless) */
+    uint32_t o2t_follow_us;   /* 0: O->T strictly on its own timer. Else an
+                                 O->T packet due within this window (at most
+                                 half the API) is sent when the T->O packet
+                                 arrives: one wake-up per period instead of
+                                 two, packets up to the window early */
     dr_conn_data_cb on_data;
     dr_conn_state_cb on_state;
     void *user;
