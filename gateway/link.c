@@ -1,9 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /* One robot's link: see link.h. */
+#include <arpa/inet.h>
+#include <netdb.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/epoll.h>
+#include <sys/socket.h>
 
 #include "drgate/client.h"
 #include "link.h"
@@ -235,6 +238,14 @@ static dr_transport_t port_transport(void)
 
 /* ---- implicit mode ----------------------------------------------------------- */
 
+/* on_link_loss = zero: the robot data reads 0 for as long as the link is
+ * down, also while some of its connections still deliver (the link is up
+ * only with all of them). */
+static bool data_withheld(const gw_link_t *l)
+{
+    return !l->up && l->unit->on_loss == GW_LOSS_ZERO;
+}
+
 static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void *user)
 {
     gw_link_t *l = user;
@@ -242,9 +253,11 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
         if (l->conn[i] != conn)
             continue;
         dr_asm_t a = pairs[i].t2o;
+        l->last_rx_us[a] = gw_now_us();
+        if (data_withheld(l))
+            continue;
         memcpy(l->unit->img[a], data, len);
         LAT_RECORD(l); /* the new data is now what a Modbus read gets */
-        l->last_rx_us[a] = gw_now_us();
         if (l->hooks.on_data != NULL)
             l->hooks.on_data(l->hooks.user, l->robot, a);
     }
@@ -320,11 +333,13 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
         return;
     }
     if (info->dir == DR_DIR_T2O) {
-        memcpy(l->unit->img[pc->a], data, len);
-        l->last_rx_us[pc->a] = gw_now_us();
+        l->last_rx_us[pc->a] = gw_now_us(); /* the link's health: counted anyway */
         l->unit->status.rx_packets++;
-        if (l->hooks.on_data != NULL)
-            l->hooks.on_data(l->hooks.user, l->robot, pc->a);
+        if (!data_withheld(l)) {
+            memcpy(l->unit->img[pc->a], data, len);
+            if (l->hooks.on_data != NULL)
+                l->hooks.on_data(l->hooks.user, l->robot, pc->a);
+        }
     }
     if (++l->poll_ok >= T2O_COUNT)
         link_set_up(l, true, DR_OK);
@@ -413,6 +428,31 @@ static void port_put(shared_port_t *sp, int epfd)
 
 /* ---- lifecycle ------------------------------------------------------------------ */
 
+/* The robot's IPv4 address as text. A host name is resolved here, once
+ * (at start and at SIGHUP), and the client gets the address: getaddrinfo
+ * blocks, and with a slow or absent DNS server every reconnect would stall
+ * the whole loop, Modbus clients included. */
+static bool resolve_host(const gw_robot_config_t *rc, char ip[INET_ADDRSTRLEN])
+{
+    struct in_addr a;
+    if (inet_pton(AF_INET, rc->host, &a) == 1)
+        return inet_ntop(AF_INET, &a, ip, INET_ADDRSTRLEN) != NULL;
+    struct addrinfo hints, *res = NULL;
+    memset(&hints, 0, sizeof hints);
+    hints.ai_family = AF_INET;
+    hints.ai_socktype = SOCK_STREAM;
+    int rv = getaddrinfo(rc->host, NULL, &hints, &res);
+    if (rv != 0 || res == NULL) {
+        gw_log(GW_LOG_ERROR, "robot %s: host '%s' does not resolve to an IPv4 address: %s",
+               rc->name, rc->host, rv != 0 ? gai_strerror(rv) : "no address");
+        return false;
+    }
+    const struct sockaddr_in *sin = (const struct sockaddr_in *)(const void *)res->ai_addr;
+    bool ok = inet_ntop(AF_INET, &sin->sin_addr, ip, INET_ADDRSTRLEN) != NULL;
+    freeaddrinfo(res);
+    return ok;
+}
+
 gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
                        int epfd, const gw_link_hooks_t *hooks)
 {
@@ -431,9 +471,14 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
         l->ev[i].ev.fd = -1;
     }
     gw_link_set_unit(l, robot, unit);
+    char ip[INET_ADDRSTRLEN];
+    if (!resolve_host(rc, ip)) {
+        gw_link_free(l);
+        return NULL;
+    }
     dr_client_config_t cc;
     memset(&cc, 0, sizeof cc);
-    cc.host = rc->host;
+    cc.host = ip;
     cc.tcp_port = rc->tcp_port;
     cc.udp_port = rc->udp_port;
     cc.local_addr = rc->local_addr[0] ? rc->local_addr : NULL;
@@ -460,8 +505,9 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     l->unit->status.rpi_ms = (uint16_t)rc->rpi_ms;
     dr_client_start(l->client);
     process(l);
-    gw_log(GW_LOG_INFO, "robot %s: connecting to %s (%s, RPI %u ms, unit ID %u)", rc->name,
-           rc->host, rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms,
+    gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s, RPI %u ms, unit ID %u)",
+           rc->name, rc->host, strcmp(ip, rc->host) != 0 ? " (" : "",
+           strcmp(ip, rc->host) != 0 ? ip : "", strcmp(ip, rc->host) != 0 ? ")" : "", rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms,
            rc->unit_id);
     return l;
 }

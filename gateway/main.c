@@ -45,6 +45,7 @@ typedef struct {
     uint64_t last_notify_us;
     /* single writer */
     bool writer_seen;
+    unsigned writer_claims; /* gw_mbs_writer_claims() when last looked */
     uint16_t last_watchdog[GW_MAX_ROBOTS];
     uint64_t watchdog_change_us;
     uint16_t generation;
@@ -144,10 +145,14 @@ static void writer_watchdog(gw_t *g, uint64_t now)
         g->writer_seen = false; /* a reload into the mode starts afresh */
         return;
     }
-    bool present = gw_mbs_writer_present(g->mbs);
-    if (present && !g->writer_seen)
-        g->watchdog_change_us = now; /* a new owner: its watchdog starts now */
-    g->writer_seen = g->writer_seen || present;
+    /* A new owner (the first, or one that took over from an owner that
+     * left while its watchdog still ran): its watchdog starts now. */
+    unsigned claims = gw_mbs_writer_claims(g->mbs);
+    if (claims != g->writer_claims) {
+        g->writer_claims = claims;
+        g->watchdog_change_us = now;
+    }
+    g->writer_seen = g->writer_seen || gw_mbs_writer_present(g->mbs);
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_unit_t *u = &g->units[r];
         if (u->watchdog != g->last_watchdog[r]) {

@@ -44,6 +44,7 @@ struct gw_mbs {
     client_t clients[MAX_CLIENTS_HARD];
     unsigned nclients;
     client_t *writer;       /* single-writer mode: the owner */
+    unsigned writer_claims; /* clients that became the owner so far */
     uint32_t exceptions;
     uint64_t refused_log_us;
 };
@@ -173,6 +174,7 @@ static bool may_write(gw_mbs_t *s, client_t *cl)
         return true;
     if (s->writer == NULL) {
         s->writer = cl; /* the first writer owns the O->T areas */
+        s->writer_claims++;
         char who[32];
         fmt_addr(cl->addr, cl->port, who, sizeof who);
         gw_log(GW_LOG_INFO, "modbus: %s is now the single writer", who);
@@ -449,6 +451,11 @@ uint32_t gw_mbs_exceptions(const gw_mbs_t *s)
 bool gw_mbs_writer_present(const gw_mbs_t *s)
 {
     return s->writer != NULL;
+}
+
+unsigned gw_mbs_writer_claims(const gw_mbs_t *s)
+{
+    return s->writer_claims;
 }
 
 void gw_mbs_release_writer(gw_mbs_t *s)

@@ -48,6 +48,9 @@ unsigned gw_mbs_client_count(const gw_mbs_t *s);
 uint32_t gw_mbs_exceptions(const gw_mbs_t *s);
 /* Single-writer mode: is a writer present? */
 bool gw_mbs_writer_present(const gw_mbs_t *s);
+/* How many times a client has become the writer: a new owner's watchdog
+ * starts when it takes over, not where the last one's stood. */
+unsigned gw_mbs_writer_claims(const gw_mbs_t *s);
 /* Drop the current writer (after a watchdog fault). */
 void gw_mbs_release_writer(gw_mbs_t *s);
 

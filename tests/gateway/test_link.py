@@ -5,12 +5,13 @@ without restarting the gateway. Also explicit (polling) mode and two
 robots on two unit IDs."""
 import signal
 import struct
+import subprocess
 import time
 
 import pytest
 
-from gwlib import (EX_TARGET_FAILED, EnipReader, Drsim, Gateway, INSTANCE, dint_regs,
-                   wait_for)
+from gwlib import (DRGATEWAYD, EX_TARGET_FAILED, GW_ADDR, SIM_ADDR, EnipReader, Drsim, Gateway,
+                   INSTANCE, dint_regs, free_port, timeout, wait_for)
 
 
 def uptime(g):
@@ -271,3 +272,57 @@ def test_o2t_timing(timing, regmap):
     finally:
         g.kill()
         sim.kill()
+
+
+@pytest.mark.parametrize("policy", ["zero", "hold"])
+def test_partial_link(policy, regmap):
+    """drsim takes only five of the six connections: the link is down, yet
+    five connections deliver. With on_link_loss = zero the robot data reads
+    0 all the same (the link is up only with all six); with hold the data
+    that arrives is shown, flagged stale."""
+    sim = Drsim("partial-" + policy, "--max-connections", "5").start()
+    g = Gateway("partial-" + policy, sim, modbus="on_link_loss = %s\n" % policy)
+    try:
+        g.start(wait_link=False)
+        wait_for(lambda: g.status()[16:22].count(2) == 5, 20, "five connections established")
+        time.sleep(0.3)  # several RPIs of data from the five
+        with g.raw() as m:
+            st = m.read(4, 0, 26)
+            assert st[1] != 2 and st[2] == 0  # link not up, data not fresh
+            robot = m.read(4, 100, 25) + m.read(4, 200, 72) + m.read(4, 300, 48)
+            if policy == "zero":
+                assert robot == [0] * len(robot)
+            else:
+                assert any(robot)
+        assert "0x0113" in g.log() or "out of connections" in g.log().lower()
+    finally:
+        g.kill()
+        sim.kill()
+
+
+def test_host_name_resolved_once(regmap):
+    """A host name is resolved when the configuration is loaded and the
+    link uses the address; one that does not resolve stops the start with
+    a message naming the robot and the host."""
+    sim = Drsim("byname", "-a", GW_ADDR).start()  # on 127.0.0.1, which localhost is
+    g = Gateway("byname", sim)
+    g.config_text_orig = g.config_text
+    g.config_text = lambda **kw: g.config_text_orig(**kw).replace(
+        "host = %s\n" % SIM_ADDR, "host = localhost\n")
+    try:
+        g.start()
+        assert "connecting to localhost (127.0.0.1)" in g.log()
+        with g.raw() as m:
+            assert m.read(4, regmap.addr("IR", "io_state.version.major"), 3) == [2, 12, 3]
+    finally:
+        g.kill()
+        sim.kill()
+    bad = Gateway("byname-bad", sim)
+    bad.port = free_port(GW_ADDR)
+    bad.local_udp = [free_port(GW_ADDR, tcp=False)]
+    bad.write_config(bad.config_text().replace("host = %s\n" % SIM_ADDR,
+                                               "host = no-such-robot.invalid\n"))
+    p = subprocess.run([str(DRGATEWAYD), "-c", str(bad.conf)], capture_output=True, text=True,
+                       timeout=timeout(30))
+    assert p.returncode == 1, (p.returncode, p.stderr)
+    assert "robot r0: host 'no-such-robot.invalid' does not resolve" in p.stderr

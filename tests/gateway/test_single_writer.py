@@ -166,6 +166,30 @@ def test_writer_disconnect_is_a_fault(pair, regmap):
     wait_for(lambda: robot_int_in0(g) == 0, 10, "fallback zero at the robot")
 
 
+def test_new_writer_gets_its_own_watchdog(pair, regmap):
+    """An owner that leaves lets its watchdog run on; a client that takes
+    over has the whole watchdog time from its first write, not what was
+    left of the old owner's."""
+    g = pair
+    w = WATCHDOG_MS / 1000.0
+    hr = regmap.addr("HR", "int_in[0]")
+    with g.raw() as a:
+        a.write_reg(HR_WATCHDOG, 1)
+        t_last = time.monotonic()
+        time.sleep(0.5 * w)
+    wait_for(lambda: g.status()[IR_WRITER] == 0, 10, "the first owner gone")
+    with g.raw() as b:
+        b.write_regs(hr, dint_regs(6, "abcd"))  # takes over, without a bump
+        t_claim = time.monotonic()
+        wait_for(lambda: g.status()[IR_WRITER] == 1, 0.2 * w, "the new owner")
+        # past where the old owner's watchdog ran out, inside the new one's
+        time.sleep(max(0.0, t_last + 1.25 * w - time.monotonic()))
+        assert fault(g) == 0
+        assert time.monotonic() - t_claim < w, "too slow to tell (machine overloaded)"
+        # and the new owner's own watchdog does run out
+        wait_for(lambda: fault(g) == 1, w + 10, "write_fault of the new owner")
+
+
 def test_unchanged_watchdog_value_does_not_count(pair):
     g = pair
     with g.raw() as a:
