@@ -257,6 +257,10 @@ static void init_unit(gw_t *g, unsigned r)
     u->order = g->cfg.modbus.word_order;
     u->on_loss = g->cfg.modbus.on_link_loss;
     u->unmapped = g->cfg.modbus.unmapped_read;
+    u->gpio_in_count = 0;
+    for (unsigned i = 0; i < g->cfg.gpio_count; i++)
+        if (g->cfg.gpio[i].dir == GW_GPIO_INPUT && g->cfg.gpio[i].robot_index == r)
+            u->gpio_in[u->gpio_in_count++] = g->cfg.gpio[i].field;
     u->status.config_generation = g->generation;
 }
 

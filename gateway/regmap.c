@@ -341,6 +341,34 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
 
 /* ---- writing ------------------------------------------------------------- */
 
+/* The bits of field f that GPIO inputs drive (a BIT field: bit 0). */
+static uint64_t gpio_bits(const gw_unit_t *u, const dr_field_t *f)
+{
+    uint64_t m = 0;
+    for (unsigned i = 0; i < u->gpio_in_count && i < GW_MAX_GPIO; i++) {
+        const dr_ref_t *r = &u->gpio_in[i];
+        if (r->field == f)
+            m |= f->kind == DR_KIND_BITS && r->elem >= 0 && r->elem < 64
+                     ? (uint64_t)1 << r->elem : (uint64_t)1;
+    }
+    return m;
+}
+
+/* A write may leave a GPIO-driven bit as it is, not change it: the input
+ * would overwrite it at its next edge, or not, and nobody could tell. */
+static bool changes_gpio_bit(const gw_unit_t *u, const slot_t *s, int16_t elem,
+                             uint64_t v)
+{
+    const dr_field_t *f = slot_field(s);
+    uint64_t owned = gpio_bits(u, f);
+    if (owned == 0)
+        return false;
+    if (elem < 0) /* the whole mask */
+        return ((v ^ get_value(u, s, -1).u) & owned) != 0;
+    uint64_t bit = f->kind == DR_KIND_BITS ? (uint64_t)1 << elem : 1u;
+    return (owned & bit) != 0 && v != get_value(u, s, elem).u;
+}
+
 static int status_to_exception(dr_status_t st)
 {
     return st == DR_OK ? 0 : (st == DR_EREADONLY ? GW_EX_ILLEGAL_ADDRESS : GW_EX_ILLEGAL_VALUE);
@@ -369,11 +397,15 @@ static int write_slot(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t *i,
     switch ((slot_kind_t)s->kind) {
     case SL_VALUE:
     case SL_BIT:
+        if (changes_gpio_bit(u, s, s->elem, v))
+            return GW_EX_ILLEGAL_ADDRESS;
         return set_field(u, s, s->elem, dr_value_uint(v), dirty);
     case SL_PACKED: {
         uint64_t mask = get_value(u, s, -1).u;
         unsigned shift = 16u * s->part;
         mask = (mask & ~((uint64_t)0xFFFF << shift)) | (uint64_t)v << shift;
+        if (changes_gpio_bit(u, s, -1, mask))
+            return GW_EX_ILLEGAL_ADDRESS;
         return set_field(u, s, -1, dr_value_uint(mask), dirty);
     }
     case SL_WORD32: {

@@ -61,6 +61,11 @@ typedef struct {
     gw_link_loss_t on_loss;
     gw_unmapped_read_t unmapped; /* reserved addresses: read 0 or 0x02 */
     gw_status_t status;
+    /* O->T bits driven by GPIO inputs (from the configuration): they
+     * belong to the input, and a Modbus write that would change one is
+     * refused (0x02). */
+    dr_ref_t gpio_in[GW_MAX_GPIO];
+    unsigned gpio_in_count;
     uint16_t watchdog;        /* last value written to the watchdog register */
     bool fault_reset;         /* set when a client wrote the reset register */
 } gw_unit_t;
@@ -87,8 +92,9 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
                    uint16_t count, uint16_t *values);
 
 /* Check and apply a write of `count` values to holding registers or coils.
- * Returns 0 or an exception code (0x02 read-only or unmapped address, or a
- * write that covers only one half of a 32-bit value; 0x03 a value out of
+ * Returns 0 or an exception code (0x02 read-only or unmapped address, a
+ * write that covers only one half of a 32-bit value, or one that would
+ * change a bit a GPIO input drives; 0x03 a value out of
  * range, NaN/infinite REAL). On error nothing changes. On success
  * *dirty has bit (1 << assembly) set for every O->T image written. */
 int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,

@@ -270,6 +270,11 @@ drive 7 0
 wait_mb 1 403 1 2000
 check $? "guard pin pulled low -> bit_in[3] = 1 -> robot echo on discrete input 403"
 drive 7 1
+# The bit is the guard input's: a Modbus write that would change it is
+# refused (exception 0x02) and the bit keeps the input's value.
+wait_mb 0 203 0 2000
+if mb_set 0 203 1; then r=1; else [ "$(mb_get 0 203)" = 0 ]; r=$?; fi
+check $r "Modbus write of coil 203 (bit_in[3], driven by the guard input) is refused"
 
 mb_set 0 202 1
 check $? "Modbus writes coil 202 (bit_in[2]) = 1"
