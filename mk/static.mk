@@ -51,13 +51,13 @@ STATIC_GROUPS += tests_sim
 STATIC_SRC_tests_sim   = $(sort $(wildcard tests/test_sim_*.c))
 STATIC_FLAGS_tests_sim = $(ALL_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
-STATIC_GROUPS += tests_gwconf
-STATIC_SRC_tests_gwconf   = tests/test_gw_config.c
-STATIC_FLAGS_tests_gwconf = $(ALL_CPPFLAGS) -Igateway -Itests -DGW_TEST_TOP='"$(CURDIR)"' \
+STATIC_GROUPS += tests_gw
+STATIC_SRC_tests_gw   = $(sort $(wildcard tests/test_gw_*.c))
+STATIC_FLAGS_tests_gw = $(ALL_CPPFLAGS) -Igateway -Itests -DGW_TEST_TOP='"$(CURDIR)"' \
                             $(INIH_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += tests
-STATIC_SRC_tests   = $(filter-out $(STATIC_SRC_tests_sim) $(STATIC_SRC_tests_gwconf), \
+STATIC_SRC_tests   = $(filter-out $(STATIC_SRC_tests_sim) $(STATIC_SRC_tests_gw), \
                        $(sort $(wildcard tests/*.c tests/support/*.c)))
 STATIC_FLAGS_tests = $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
