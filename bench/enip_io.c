@@ -19,7 +19,9 @@
  * the interval and of its deviation from the period; CPU shares come from
  * getrusage over the window.
  *
- * usage: enip_io [SECONDS [CONNECTIONS [RPI_US]]]     (10, 6, 1000)
+ * usage: enip_io [SECONDS [CONNECTIONS [RPI_US [FOLLOW_US]]]]  (10, 6, 1000, 0)
+ * FOLLOW_US is the connections' o2t_follow_us (0: O->T on the client's own
+ * timer only).
  * prints lines starting with "io" (parsed by bench/bench_enip.py).
  */
 #define _GNU_SOURCE
@@ -617,8 +619,11 @@ int main(int argc, char **argv)
     double secs = argc > 1 ? strtod(argv[1], NULL) : 10.0;
     unsigned nconn = argc > 2 ? (unsigned)strtoul(argv[2], NULL, 10) : 6u;
     uint32_t rpi = argc > 3 ? (uint32_t)strtoul(argv[3], NULL, 10) : 1000u;
-    if (!(secs > 0.0 && secs <= 60.0) || nconn < 1 || nconn > 16 || rpi < 1000u || rpi > 1000000u) {
-        fprintf(stderr, "usage: enip_io [SECONDS (<= 60) [CONNECTIONS (1..16) [RPI_US (>= 1000)]]]\n");
+    uint32_t follow = argc > 4 ? (uint32_t)strtoul(argv[4], NULL, 10) : 0u;
+    if (!(secs > 0.0 && secs <= 60.0) || nconn < 1 || nconn > 16 || rpi < 1000u ||
+        rpi > 1000000u || follow > rpi) {
+        fprintf(stderr, "usage: enip_io [SECONDS (<= 60) [CONNECTIONS (1..16) [RPI_US (>= 1000)"
+                        " [FOLLOW_US (<= RPI_US)]]]]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -667,6 +672,7 @@ int main(int argc, char **argv)
         cc.t2o_asm = pairs[i % 6].t2o;
         cc.rpi_us = rpi;
         cc.timeout_mult = 5; /* x128: a busy VM stalls for tens of ms */
+        cc.o2t_follow_us = follow;
         if (i >= 6)
             cc.o2t_asm = -1; /* O->T instances have one owner each */
         cn[i] = dr_client_conn_add(c, &cc, NULL);
