@@ -11,8 +11,10 @@
  *   [flags][k] pattern[k] stream...
  * flags bits 0-1: word order; bits 2-3: on_link_loss (3 = hold); bit 4:
  * link up; bit 5: the client may not write; bit 6: unit 2 exists too
- * (unit 1 always does); bit 7: unmapped_read = exception. The pattern of k & 63 bytes is repeated over every
- * image of every unit; the rest is what the client sends.
+ * (unit 1 always does); bit 7: unmapped_read = exception. The pattern of
+ * k & 63 bytes is repeated over every image of every unit; with k bit 6,
+ * GPIO inputs own bit_in[3] and io_control.cb_do[1] of every unit. The
+ * rest is what the client sends.
  *
  * Properties: a frame the framer refuses ends the stream (the daemon drops
  * the client); every request gets exactly one reply that echoes its MBAP
@@ -20,7 +22,8 @@
  * unit; an accepted write changes only the addressed unit, only its O->T
  * images, only the assemblies it reports dirty (and the control registers
  * when it addresses them), and reads back as written; the client's right
- * to write is asked for writes only; the exception codes are the
+ * to write is asked for writes only; no write changes a bit a GPIO input
+ * owns; the exception codes are the
  * documented ones; no read succeeds past a table's last mapped address; libmodbus answers exactly what the checks decided.
  */
 #include <errno.h>
@@ -126,6 +129,15 @@ static void check_write_effect(const gw_unit_t *before, const gw_unit_t *after,
                x->write_fault == y->write_fault && x->writer_present == y->writer_present &&
                x->config_generation == y->config_generation);
     FUZZ_CHECK(before->order == after->order && before->on_loss == after->on_loss);
+    /* A bit a GPIO input drives is the input's. */
+    for (unsigned i = 0; i < before->gpio_in_count; i++) {
+        dr_ref_t g = before->gpio_in[i];
+        size_t size = dr_asm_info((dr_asm_t)g.field->assembly)->size;
+        dr_value_t x0, x1;
+        FUZZ_CHECK(dr_field_get(before->img[g.field->assembly], size, g, &x0) == DR_OK &&
+                   dr_field_get(after->img[g.field->assembly], size, g, &x1) == DR_OK &&
+                   x0.u == x1.u);
+    }
     bool control = r->area == GW_HOLDING && r->addr <= GW_HR_FAULT_RESET;
     if (!control || r->addr > GW_HR_WATCHDOG)
         FUZZ_CHECK(before->watchdog == after->watchdog);
@@ -276,6 +288,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         u->order = (gw_word_order_t)(flags & 3u);
         u->on_loss = ((flags >> 2) & 3u) == 3 ? GW_LOSS_HOLD : (gw_link_loss_t)((flags >> 2) & 3u);
         u->unmapped = (flags & 0x80u) ? GW_UNMAPPED_EXCEPTION : GW_UNMAPPED_ZERO;
+        if (data[1] & 0x40u) {
+            static const char *const owned[] = {"bit_in[3]", "io_control.cb_do[1]"};
+            for (unsigned j = 0; j < 2; j++)
+                FUZZ_CHECK(dr_path_parse(owned[j], &u->gpio_in[u->gpio_in_count++]) == DR_OK);
+        }
         u->status.link_state = (flags & 0x10u) ? 2 : 0;
         u->status.fresh = (flags & 0x10u) != 0;
     }

@@ -580,6 +580,16 @@ static void gen_modbus(void)
     mb_4(&b, 1, 0x03, 400, 2);
     put("modbus", "two_units", b.b, b.n);
 
+    mb_begin(&b, 0x90); /* unmapped_read = exception */
+    b.b[1] |= 0x40;     /* GPIO inputs own bit_in[3] and io_control.cb_do[1] */
+    mb_4(&b, 1, 0x05, 203, 0xFF00); /* refused if it changes the bit */
+    mb_4(&b, 1, 0x05, 100, 0x0000);
+    mb_write_coils(&b, 1, 200, bits, 8);
+    mb_4(&b, 1, 0x06, 200, 0x0008);
+    mb_4(&b, 1, 0x06, 100, 0x0003);
+    mb_4(&b, 1, 0x04, 40, 1); /* reserved: refused in this mode */
+    put("modbus", "gpio_owned", b.b, b.n);
+
     mb_begin(&b, 0x10);
     mb_4(&b, 1, 0x03, 0, 1);
     b_bytes(&b, "\x00\x01\x00\x01\x00\x06\x01", 7); /* protocol 1: dropped */
