@@ -141,18 +141,24 @@ static int parse_common(const cli_cmd_t *self, int argc, char **argv,
     return rc != CLI_EXIT_OK ? rc : cli_net_config(self->name, o, cfg);
 }
 
+/* Parse, then connect: CLI_EXIT_OK with *net connected, -1 after printing
+ * the help, or the exit code of what failed. */
+static int open_common(const cli_cmd_t *self, const char *cmd, int argc, char **argv,
+                       const cli_net_opts_t *lead, cli_net_opts_t *o, cli_net_t *net)
+{
+    dr_client_config_t cfg;
+    int rc = parse_common(self, argc, argv, lead, o, &cfg);
+    return rc != CLI_EXIT_OK ? rc : cli_net_connect(cmd, &cfg, net);
+}
+
 static int run_identity(const char *cmd, int argc, char **argv,
                         const cli_net_opts_t *lead)
 {
     cli_net_opts_t o;
-    dr_client_config_t cfg;
-    int rc = parse_common(&cli_cmd_identity, argc, argv, lead, &o, &cfg);
+    cli_net_t net;
+    int rc = open_common(&cli_cmd_identity, cmd, argc, argv, lead, &o, &net);
     if (rc != CLI_EXIT_OK)
         return rc < 0 ? CLI_EXIT_OK : rc;
-    cli_net_t net;
-    rc = cli_net_connect(cmd, &cfg, &net);
-    if (rc != CLI_EXIT_OK)
-        return rc;
 
     dr_identity_t listed, object;
     int rc_list = CLI_EXIT_OK, rc_obj = CLI_EXIT_OK;
@@ -316,14 +322,10 @@ static int run_probe(const char *cmd, int argc, char **argv,
                      const cli_net_opts_t *lead)
 {
     cli_net_opts_t o;
-    dr_client_config_t cfg;
-    int rc = parse_common(&cli_cmd_probe, argc, argv, lead, &o, &cfg);
+    cli_net_t net;
+    int rc = open_common(&cli_cmd_probe, cmd, argc, argv, lead, &o, &net);
     if (rc != CLI_EXIT_OK)
         return rc < 0 ? CLI_EXIT_OK : rc;
-    cli_net_t net;
-    rc = cli_net_connect(cmd, &cfg, &net);
-    if (rc != CLI_EXIT_OK)
-        return rc;
 
     probe_row_t rows[DR_ASM_COUNT];
     unsigned good = 0;
