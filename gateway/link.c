@@ -505,10 +505,10 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     l->unit->status.rpi_ms = (uint16_t)rc->rpi_ms;
     dr_client_start(l->client);
     process(l);
+    bool named = strcmp(ip, rc->host) != 0; /* a host name: show its address too */
     gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s, RPI %u ms, unit ID %u)",
-           rc->name, rc->host, strcmp(ip, rc->host) != 0 ? " (" : "",
-           strcmp(ip, rc->host) != 0 ? ip : "", strcmp(ip, rc->host) != 0 ? ")" : "", rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms,
-           rc->unit_id);
+           rc->name, rc->host, named ? " (" : "", named ? ip : "", named ? ")" : "",
+           rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms, rc->unit_id);
     return l;
 }
 

@@ -251,12 +251,18 @@ static void on_signal(void *obj, uint32_t events)
     }
 }
 
+/* What [modbus] decides about how a unit answers. */
+static void unit_policy(gw_unit_t *u, const gw_modbus_config_t *m)
+{
+    u->order = m->word_order;
+    u->on_loss = m->on_link_loss;
+    u->unmapped = m->unmapped_read;
+}
+
 static void init_unit(gw_t *g, unsigned r)
 {
     gw_unit_t *u = &g->units[r];
-    u->order = g->cfg.modbus.word_order;
-    u->on_loss = g->cfg.modbus.on_link_loss;
-    u->unmapped = g->cfg.modbus.unmapped_read;
+    unit_policy(u, &g->cfg.modbus);
     u->gpio_in_count = 0;
     for (unsigned i = 0; i < g->cfg.gpio_count; i++)
         if (g->cfg.gpio[i].dir == GW_GPIO_INPUT && g->cfg.gpio[i].robot_index == r)
@@ -315,9 +321,7 @@ static void reload(gw_t *g)
     for (unsigned n = 0; n < next.robot_count; n++) {
         if (links[n] != NULL)
             continue;
-        units[n].order = next.modbus.word_order;
-        units[n].on_loss = next.modbus.on_link_loss;
-        units[n].unmapped = next.modbus.unmapped_read;
+        unit_policy(&units[n], &next.modbus); /* the new link may look at it */
         links[n] = gw_link_new(&next.robot[n], n, &units[n], g->epfd, &link_hooks);
         fresh[n] = true;
         if (links[n] == NULL) {

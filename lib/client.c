@@ -1134,8 +1134,11 @@ dr_status_t dr_udp_port_process(dr_udp_port_t *p)
 {
     read_udp(p, p->tp.ops->now_us(p->tp.ctx));
     /* O->T produced on arrival (o2t_follow_us) goes now, and the timers
-     * move past the deadlines it served. */
+     * move past the deadlines it served; a client that produced nothing
+     * has nothing to send and no deadline that moved earlier. */
     for (unsigned i = 0; i < p->nclients; i++) {
+        if (p->clients[i]->tx_n == 0)
+            continue;
         flush_io(p->clients[i]);
         rearm(p->clients[i]);
     }
