@@ -9,6 +9,7 @@ Everything that waits polls for a condition with a generous deadline
 (scaled by GW_TIMEOUT_SCALE); nothing relies on a fixed sleep being
 "long enough".
 """
+import contextlib
 import ctypes
 import json
 import math
@@ -560,6 +561,23 @@ class EnipReader:
 
 
 # ---- the register map -------------------------------------------------------------
+
+@contextlib.contextmanager
+def running(name, sim_args=(), start=True, **gw_kw):
+    """drsim NAME (with sim_args) and a Gateway NAME in front of it (gw_kw
+    as for Gateway), started unless start is False; g.sim is the drsim.
+    Both are killed on the way out, whatever happened."""
+    sim = Drsim(name, *sim_args).start()
+    g = Gateway(name, sim, **gw_kw)
+    g.sim = sim
+    try:
+        if start:
+            g.start()
+        yield g
+    finally:
+        g.kill()
+        sim.kill()
+
 
 class RegMap:
     """`drgatewayd --print-map --json`: addresses looked up by name."""

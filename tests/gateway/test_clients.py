@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from gwlib import GW_ADDR, Drsim, Gateway, closed_by_peer, timeout, wait_for
+from gwlib import GW_ADDR, closed_by_peer, running, timeout, wait_for
 
 MAX_CLIENTS = 4
 IDLE_S = 2
@@ -15,15 +15,9 @@ IDLE_S = 2
 
 @pytest.fixture(scope="module")
 def gw():
-    sim = Drsim("clients").start()
-    g = Gateway("clients", sim, modbus="max_clients = %d\nidle_timeout = %d\n"
-                % (MAX_CLIENTS, IDLE_S))
-    try:
-        g.start()
+    with running("clients",
+                 modbus="max_clients = %d\nidle_timeout = %d\n" % (MAX_CLIENTS, IDLE_S)) as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def raw_sock(g):
@@ -170,15 +164,9 @@ def test_client_vanishing_mid_frame(gw):
 
 @pytest.fixture(scope="module")
 def gw_full():
-    sim = Drsim("clients-full").start()
-    g = Gateway("clients-full", sim, modbus="max_clients = %d\nidle_timeout = 600\n"
-                % MAX_CLIENTS)
-    try:
-        g.start()
+    with running("clients-full",
+                 modbus="max_clients = %d\nidle_timeout = 600\n" % MAX_CLIENTS) as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def test_flood_beyond_max_clients(gw_full):

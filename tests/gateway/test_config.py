@@ -6,8 +6,8 @@ import subprocess
 
 import pytest
 
-from gwlib import (DRGATEWAYD, EXIT_CONFIG, EXIT_OK, EXIT_RUNTIME, EXIT_USAGE, GW_ADDR,
-                   LOGDIR, TOP, Drsim, Gateway, free_port, timeout)
+from gwlib import (DRGATEWAYD, EXIT_CONFIG, EXIT_OK, EXIT_RUNTIME, EXIT_USAGE, GW_ADDR, LOGDIR,
+                   TOP, free_port, running, timeout)
 
 ROBOT = "[robot a]\nhost = 127.0.0.2\n"
 
@@ -141,9 +141,7 @@ def test_gpio_chip_missing_exit_1():
 
 
 def test_log_level_from_config():
-    sim = Drsim("cfg-loglevel").start()
-    g = Gateway("cfg-loglevel", sim, extra="[daemon]\nlog_level = warning\n")
-    try:
+    with running("cfg-loglevel", start=False, extra="[daemon]\nlog_level = warning\n") as g:
         g.start(wait_link=False)
         g.wait_link(True)
         with g.raw() as m:
@@ -151,6 +149,3 @@ def test_log_level_from_config():
         assert "info:" not in g.log()
         rc, _ = g.stop()
         assert rc == 0
-    finally:
-        g.kill()
-        sim.kill()

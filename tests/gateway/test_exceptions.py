@@ -7,23 +7,16 @@ import threading
 
 import pytest
 
-from gwlib import (EX_ILLEGAL_ADDRESS, EX_ILLEGAL_FUNCTION, EX_ILLEGAL_VALUE,
-                   EX_PATH_UNAVAILABLE, Drsim, EnipReader, Gateway, GW_ADDR, INSTANCE,
-                   RawModbus, closed_by_peer, dint_regs, real_regs, wait_for)
+from gwlib import (EX_ILLEGAL_ADDRESS, EX_ILLEGAL_FUNCTION, EX_ILLEGAL_VALUE, EX_PATH_UNAVAILABLE,
+                   GW_ADDR, INSTANCE, EnipReader, RawModbus, closed_by_peer, dint_regs, real_regs,
+                   running, wait_for)
 
 
 @pytest.fixture(scope="module")
 def gw():
     """Strict about reserved addresses: every read of one is refused."""
-    sim = Drsim("exc").start()
-    g = Gateway("exc", sim, modbus="unmapped_read = exception\n")
-    try:
-        g.start()
-        g.sim = sim
+    with running("exc", modbus="unmapped_read = exception\n") as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 @pytest.fixture
@@ -291,14 +284,8 @@ def connect_from(src, port):
 
 @pytest.fixture(scope="module")
 def gw_ro():
-    sim = Drsim("exc-ro").start()
-    g = Gateway("exc-ro", sim, modbus="allow = 127.0.0.3/32 rw\nallow = 127.0.0.0/8 ro\n")
-    try:
-        g.start()
+    with running("exc-ro", modbus="allow = 127.0.0.3/32 rw\nallow = 127.0.0.0/8 ro\n") as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def test_read_only_client(gw_ro, regmap):
@@ -330,14 +317,8 @@ def test_read_only_client_pymodbus(gw_ro):
 
 @pytest.fixture(scope="module")
 def gw_allow():
-    sim = Drsim("exc-allow").start()
-    g = Gateway("exc-allow", sim, modbus="allow = 127.0.0.1/32 rw\n")
-    try:
-        g.start()
+    with running("exc-allow", modbus="allow = 127.0.0.1/32 rw\n") as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def test_allowlist_refuses_other_networks(gw_allow):
@@ -358,14 +339,8 @@ def test_allowlist_refuses_other_networks(gw_allow):
 
 @pytest.fixture(scope="module")
 def gw_zero():
-    sim = Drsim("exc-zero").start()
-    g = Gateway("exc-zero", sim)
-    try:
-        g.start()
+    with running("exc-zero") as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def extents(regmap):

@@ -9,20 +9,14 @@ import time
 
 import pytest
 
-from gwlib import LOGDIR, Drsim, Gateway, timeout
+from gwlib import LOGDIR, Drsim, Gateway, running, timeout
 
 
 @pytest.fixture
 def pair(request):
     name = request.node.name.replace("[", "-").replace("]", "")
-    sim = Drsim(name).start()
-    g = Gateway(name, sim)
-    try:
-        g.sim = sim
+    with running(name, start=False) as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["TERM", "INT"])

@@ -10,8 +10,8 @@ import time
 
 import pytest
 
-from gwlib import (DRGATEWAYD, EX_TARGET_FAILED, GW_ADDR, SIM_ADDR, EnipReader, Drsim, Gateway,
-                   INSTANCE, dint_regs, free_port, timeout, wait_for)
+from gwlib import (DRGATEWAYD, EX_TARGET_FAILED, GW_ADDR, INSTANCE, SIM_ADDR, Drsim, EnipReader,
+                   Gateway, dint_regs, free_port, running, timeout, wait_for)
 
 
 def uptime(g):
@@ -34,15 +34,8 @@ def pair(request):
     marker = request.node.get_closest_marker("gw")
     kw = dict(marker.kwargs) if marker else {}
     name = request.node.name.replace("[", "-").replace("]", "")
-    sim = Drsim(name).start()
-    g = Gateway(name, sim, **kw)
-    try:
-        g.start()
-        g.sim = sim
+    with running(name, **kw) as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def lose_link(g):
@@ -220,10 +213,7 @@ def test_session_loss_alone_keeps_the_data(regmap):
     """Class 1 connections outlive the TCP session that opened them (as on
     a robot): drsim dropping the session every second does not take the
     link down, and the data keeps flowing both ways."""
-    sim = Drsim("link-session-drop", "--drop-session-after", "1").start()
-    g = Gateway("link-session-drop", sim)
-    try:
-        g.start()
+    with running("link-session-drop", sim_args=("--drop-session-after", "1")) as g:
         with g.raw() as m:
             t0 = time.monotonic()
             n = 0
@@ -233,13 +223,10 @@ def test_session_loss_alone_keeps_the_data(regmap):
                 wait_for(lambda: int_out0(m, regmap) == n, 10, "echo %d" % n)
                 time.sleep(0.1)
             assert m.read(4, 1, 1) == [2]
-        assert sim.log().count("closed (--drop-session-after)") >= 2
+        assert g.sim.log().count("closed (--drop-session-after)") >= 2
         # the same six connections all along
-        assert sim.log().count("connection open") == 6
+        assert g.sim.log().count("connection open") == 6
         assert "link down" not in g.log()
-    finally:
-        g.kill()
-        sim.kill()
 
 
 @pytest.mark.parametrize("timing", ["follow", "strict"])
@@ -249,11 +236,8 @@ def test_o2t_timing(timing, regmap):
     about as many O->T packets as it produced T->O (counted per connection
     in its log at the Forward Close)."""
     import re
-    sim = Drsim("o2t-" + timing).start()
-    g = Gateway("o2t-" + timing, sim, robot="rpi_ms = 2\ntimeout_multiplier = 2\n"
-                "o2t_timing = %s\n" % timing)
-    try:
-        g.start()
+    with running("o2t-" + timing, robot="rpi_ms = 2\ntimeout_multiplier = 2\n"
+                 "o2t_timing = %s\n" % timing) as g:
         with g.raw() as m:
             put_int_in0(m, regmap, -77)
             wait_for(lambda: int_out0(m, regmap) == -77, 10, "echo")
@@ -261,17 +245,14 @@ def test_o2t_timing(timing, regmap):
         assert "link down" not in g.log()
         rc, _ = g.stop()
         assert rc == 0
-        wait_for(lambda: sim.log().count("closed (forward close)") == 6, 10,
+        wait_for(lambda: g.sim.log().count("closed (forward close)") == 6, 10,
                  "six Forward Closes in drsim's log")
-        closes = re.findall(r"closed \(([^)]*)\): (\d+) produced, (\d+) consumed", sim.log())
+        closes = re.findall(r"closed \(([^)]*)\): (\d+) produced, (\d+) consumed", g.sim.log())
         assert len(closes) == 6, closes  # nothing else closed: no timeout
         for why, produced, consumed in closes:
             p, c = int(produced), int(consumed)
             assert why == "forward close" and p > 500, (why, p, c)
             assert 0.9 * p <= c <= 1.1 * p, (timing, p, c)
-    finally:
-        g.kill()
-        sim.kill()
 
 
 @pytest.mark.parametrize("policy", ["zero", "hold"])
@@ -280,9 +261,8 @@ def test_partial_link(policy, regmap):
     five connections deliver. With on_link_loss = zero the robot data reads
     0 all the same (the link is up only with all six); with hold the data
     that arrives is shown, flagged stale."""
-    sim = Drsim("partial-" + policy, "--max-connections", "5").start()
-    g = Gateway("partial-" + policy, sim, modbus="on_link_loss = %s\n" % policy)
-    try:
+    with running("partial-" + policy, sim_args=("--max-connections", "5"), start=False,
+                 modbus="on_link_loss = %s\n" % policy) as g:
         g.start(wait_link=False)
         wait_for(lambda: g.status()[16:22].count(2) == 5, 20, "five connections established")
         time.sleep(0.3)  # several RPIs of data from the five
@@ -295,9 +275,6 @@ def test_partial_link(policy, regmap):
             else:
                 assert any(robot)
         assert "0x0113" in g.log() or "out of connections" in g.log().lower()
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def test_host_name_resolved_once(regmap):

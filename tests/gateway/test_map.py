@@ -13,30 +13,23 @@ import time
 
 import pytest
 
-from gwlib import (EnipReader, Drsim, Gateway, INSTANCE, ORDERS, ORDER_INDEX, REAL_123456,
-                   between, decode_t2o, dint_regs, f32, int16, noise_of, real_regs,
-                   regs_dint, regs_real, wait_for)
+from gwlib import (INSTANCE, ORDERS, ORDER_INDEX, REAL_123456, EnipReader, between, decode_t2o,
+                   dint_regs, f32, int16, noise_of, real_regs, regs_dint, regs_real, running,
+                   wait_for)
 
 
 @pytest.fixture(scope="module", params=ORDERS)
 def gw(request):
     order = request.param
-    sim = Drsim("map-%s" % order).start()
-    g = Gateway("map-%s" % order, sim, modbus="word_order = %s\n" % order)
-    try:
-        g.start()
+    with running("map-%s" % order, modbus="word_order = %s\n" % order) as g:
         g.order = order
-        g.sim = sim
         g.pm = g.pymodbus()
-        g.enip = EnipReader("127.0.0.2", sim.tcp)
+        g.enip = EnipReader("127.0.0.2", g.sim.tcp)
         yield g
         g.pm.close()
         g.enip.close()
         rc, _ = g.stop()
         assert rc == 0, g.log()
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def ok(r):

@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from gwlib import Drsim, EnipReader, Gateway, GW_ADDR, INSTANCE, timeout, wait_for
+from gwlib import GW_ADDR, INSTANCE, EnipReader, running, timeout, wait_for
 
 MBPOLL = shutil.which("mbpoll")
 pytestmark = pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (make deps)")
@@ -18,17 +18,11 @@ pytestmark = pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed 
 @pytest.fixture(scope="module", params=["abcd", "cdab"])
 def gw(request):
     order = request.param
-    sim = Drsim("mbpoll-%s" % order).start()
-    g = Gateway("mbpoll-%s" % order, sim, modbus="word_order = %s\n" % order)
-    try:
-        g.start()
+    with running("mbpoll-%s" % order, modbus="word_order = %s\n" % order) as g:
         g.order = order
-        g.enip = EnipReader("127.0.0.2", sim.tcp)
+        g.enip = EnipReader("127.0.0.2", g.sim.tcp)
         yield g
         g.enip.close()
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def mbpoll(g, kind, ref, *values, count=1):

@@ -9,22 +9,15 @@ import time
 
 import pytest
 
-from gwlib import (EX_ILLEGAL_FUNCTION, GW_ADDR, REAL_123456, Drsim, EnipReader, Gateway,
-                   INSTANCE, dint_regs, free_port, wait_for)
+from gwlib import (EX_ILLEGAL_FUNCTION, GW_ADDR, INSTANCE, REAL_123456, EnipReader, dint_regs,
+                   free_port, running, wait_for)
 
 
 @pytest.fixture
 def pair(request):
     name = request.node.name.replace("[", "-").replace("]", "")
-    sim = Drsim(name).start()
-    g = Gateway(name, sim)
-    try:
-        g.sim = sim
-        g.start()
+    with running(name) as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def rx(st):

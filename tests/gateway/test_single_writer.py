@@ -9,8 +9,8 @@ import time
 
 import pytest
 
-from gwlib import (EX_ILLEGAL_FUNCTION, SCALE, Drsim, EnipReader, Gateway, INSTANCE,
-                   dint_regs, timeout, wait_for)
+from gwlib import (EX_ILLEGAL_FUNCTION, INSTANCE, SCALE, EnipReader, dint_regs, running, timeout,
+                   wait_for)
 
 # generous for a loaded machine (the bumper thread must never be late)
 WATCHDOG_MS = int(1500 * SCALE)
@@ -24,17 +24,11 @@ def pair(request):
     robot = marker.kwargs.get("robot", "") if marker else ""
     modbus = marker.kwargs.get("modbus", "") if marker else ""
     name = request.node.name
-    sim = Drsim(name).start()
-    g = Gateway(name, sim, modbus="single_writer = yes\nwriter_watchdog_ms = %d\n%s"
-                % (WATCHDOG_MS, modbus), robot=robot)
-    try:
-        g.start()
-        g.enip = EnipReader("127.0.0.2", sim.tcp)
+    with running(name, modbus="single_writer = yes\nwriter_watchdog_ms = %d\n%s"
+                 % (WATCHDOG_MS, modbus), robot=robot) as g:
+        g.enip = EnipReader("127.0.0.2", g.sim.tcp)
         yield g
         g.enip.close()
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def robot_int_in0(g):

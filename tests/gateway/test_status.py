@@ -6,20 +6,13 @@ import time
 
 import pytest
 
-from gwlib import SCALE, Drsim, GW_ADDR, Gateway, wait_for
+from gwlib import GW_ADDR, SCALE, running, wait_for
 
 
 @pytest.fixture(scope="module")
 def gw(regmap):
-    sim = Drsim("status").start()
-    g = Gateway("status", sim, robot="rpi_ms = 20\n")
-    try:
-        g.start()
-        g.sim = sim
+    with running("status", robot="rpi_ms = 20\n") as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def st_addr(regmap, name):
@@ -107,14 +100,8 @@ def test_status_of_each_unit_only(gw):
 
 @pytest.fixture(scope="module")
 def gw_lossy():
-    sim = Drsim("status-drop", "--drop", "10", "--seed", "7").start()
-    g = Gateway("status-drop", sim)
-    try:
-        g.start()
+    with running("status-drop", sim_args=("--drop", "10", "--seed", "7")) as g:
         yield g
-    finally:
-        g.kill()
-        sim.kill()
 
 
 def test_lost_packets_counted(gw_lossy, regmap):
