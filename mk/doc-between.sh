@@ -1,0 +1,65 @@
+# shellcheck shell=sh disable=SC2154 # the caller sets the variables below
+# SPDX-License-Identifier: MIT
+# Sourced by mk/gen-docs.sh and mk/gen-regmap-doc.sh: a document whose text
+# between two marker lines is generated from the code, the prose around it
+# written by hand. The caller sets
+#   doc    the document            label  its name in messages and RESULTS
+#   begin  the first marker line   end    the last marker line
+#   blank  1: an empty line after the begin marker (0: the text brings it)
+#   source what generates the text, and the make target that rewrites it
+# and calls doc_between MODE GENERATED [RESULTS].
+
+# Print the document with the text between the markers replaced by $1.
+doc_render() {
+    n_begin=$(grep -cxF -- "$begin" "$doc" || true)
+    n_end=$(grep -cxF -- "$end" "$doc" || true)
+    if [ "$n_begin" != 1 ] || [ "$n_end" != 1 ]; then
+        echo "$label: $doc must hold each marker line exactly once:" >&2
+        echo "  $begin" >&2
+        echo "  $end" >&2
+        return 1
+    fi
+    awk -v begin="$begin" -v end="$end" -v gen="$1" -v blank="$blank" '
+        $0 == begin { print; if (blank) print ""
+                      while ((getline line < gen) > 0) print line
+                      skip = 1; next }
+        $0 == end   { print ""; skip = 0 }
+        !skip       { print }
+    ' "$doc"
+}
+
+# --write: replace the document if it changed. --check: compare, and add
+# "1 0 LABEL" or "0 1 LABEL" to RESULTS. Exits 1 on a failure.
+doc_between() {
+    rendered=$(mktemp)
+    if ! doc_render "$2" >"$rendered"; then
+        rm -f "$rendered"
+        [ "$1" != --check ] || { mkdir -p "$(dirname "$3")"; echo "0 1 $label" >>"$3"; }
+        exit 1
+    fi
+    case $1 in
+    --write)
+        if cmp -s "$rendered" "$doc"; then
+            echo "$label: $doc is up to date"
+        else
+            cp "$rendered" "$doc"
+            echo "$label: regenerated the tables in $doc"
+        fi
+        ;;
+    --check)
+        mkdir -p "$(dirname "$3")"
+        if cmp -s "$rendered" "$doc"; then
+            echo "$label: $doc matches $source"
+            echo "1 0 $label" >>"$3"
+        else
+            echo "$label: FAIL: $doc differs from what $source gives" >&2
+            echo "$label: (- is the document, + is the generated text)" >&2
+            diff -u "$doc" "$rendered" | sed 's/^/    /' >&2 || true
+            echo "0 1 $label" >>"$3"
+            rm -f "$rendered"
+            exit 1
+        fi
+        ;;
+    esac
+    rm -f "$rendered"
+}
