@@ -1,4 +1,4 @@
-# shellcheck shell=sh disable=SC2154 # the caller sets the variables below
+# shellcheck shell=sh disable=SC2154,SC2034 # variables shared with the caller
 # SPDX-License-Identifier: MIT
 # Sourced by mk/gen-docs.sh and mk/gen-regmap-doc.sh: a document whose text
 # between two marker lines is generated from the code, the prose around it
@@ -7,7 +7,19 @@
 #   begin  the first marker line   end    the last marker line
 #   blank  1: an empty line after the begin marker (0: the text brings it)
 #   source what generates the text, and the make target that rewrites it
-# and calls doc_between MODE GENERATED [RESULTS].
+#   tool   the program argument's name in the usage line
+# calls doc_args "$@" (sets mode and bin from --write BIN | --check BIN
+# RESULTS), generates the text, and calls doc_between MODE GENERATED
+# [RESULTS].
+
+doc_args() {
+    if [ $# -lt 2 ] || { [ "$1" != --write ] && [ "$1" != --check ]; } ||
+       { [ "$1" = --check ] && [ $# -lt 3 ]; }; then
+        echo "usage: $0 --write $tool | --check $tool RESULTS" >&2
+        exit 2
+    fi
+    mode=$1 bin=$2
+}
 
 # Print the document with the text between the markers replaced by $1.
 doc_render() {

@@ -21,16 +21,10 @@ blank=1
 # shellcheck disable=SC2016
 source='`drcli list --markdown` (make docs rewrites it)'
 
-usage() { echo "usage: $0 --write DRCLI | --check DRCLI RESULTS" >&2; exit 2; }
-[ $# -ge 2 ] || usage
-mode=$1 drcli=$2
-case $mode in
---write) ;;
---check) [ $# -ge 3 ] || usage ;;
-*) usage ;;
-esac
+tool=DRCLI
+doc_args "$@"
 
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-"$drcli" list --markdown >"$tmp/tables.md"
+"$bin" list --markdown >"$tmp/tables.md"
 doc_between "$mode" "$tmp/tables.md" "${3:-}"

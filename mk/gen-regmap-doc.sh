@@ -21,21 +21,15 @@ blank=0
 # shellcheck disable=SC2016
 source='`drgatewayd --print-map --markdown` (make regmap-docs rewrites it)'
 
-usage() { echo "usage: $0 --write DRGATEWAYD | --check DRGATEWAYD RESULTS" >&2; exit 2; }
-[ $# -ge 2 ] || usage
-mode=$1 daemon=$2
-case $mode in
---write) ;;
---check) [ $# -ge 3 ] || usage ;;
-*) usage ;;
-esac
+tool=DRGATEWAYD
+doc_args "$@"
 
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 status=0
-"$daemon" --print-map --markdown >"$tmp/map.md" || status=$?
+"$bin" --print-map --markdown >"$tmp/map.md" || status=$?
 if [ "$status" != 0 ] || [ ! -s "$tmp/map.md" ]; then
-    echo "$label: FAIL: $daemon --print-map --markdown failed" >&2
+    echo "$label: FAIL: $bin --print-map --markdown failed" >&2
     if [ "$mode" = --check ]; then
         mkdir -p "$(dirname "$3")"
         echo "0 1 $label" >>"$3"
