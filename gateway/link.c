@@ -33,6 +33,15 @@ typedef struct {
     struct gw_link *link;
 } link_ev_t;
 
+/* What an explicit-mode request's reply is for. It lives in the link, not
+ * in a table by robot position: a reload moves robots to other positions
+ * while their requests are out, and each reply must still reach its own
+ * link. */
+typedef struct {
+    struct gw_link *link;
+    dr_asm_t a;
+} poll_ctx_t;
+
 struct gw_link {
     gw_robot_config_t cfg;
     unsigned robot;
@@ -51,13 +60,9 @@ struct gw_link {
     unsigned in_flight;
     unsigned poll_ok;        /* replies of the current cycle */
     unsigned dirty;          /* O->T images still to send */
+    poll_ctx_t poll_ctx[DR_ASM_COUNT];
     uint64_t log_limit_us;
 };
-
-typedef struct {
-    gw_link_t *link;
-    dr_asm_t a;
-} poll_ctx_t;
 
 /* Robots whose links use the same local address and UDP port share one
  * socket (two sockets cannot both own 2222), polled here once for all. */
@@ -75,9 +80,21 @@ typedef struct shared_port {
  * Modbus client: see gw_link_tick(). */
 #define PORT_POLL_US 50u
 
-static shared_port_t ports[GW_MAX_ROBOTS];
+/* The daemon's shared UDP ports: one object for all its links, owned by
+ * the daemon (see link.h). */
+struct gw_link_ports {
+    shared_port_t port[GW_MAX_ROBOTS];
+};
 
-static poll_ctx_t poll_ctx[GW_MAX_ROBOTS][DR_ASM_COUNT];
+gw_link_ports_t *gw_link_ports_new(void)
+{
+    return calloc(1, sizeof(gw_link_ports_t));
+}
+
+void gw_link_ports_free(gw_link_ports_t *p)
+{
+    free(p); /* the links have given their ports back (port_put) */
+}
 
 static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
 {
@@ -366,7 +383,7 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
         dr_status_t st = dr_client_call_async(
             l->client, t2o ? DR_CIP_SVC_GET_ATTRIBUTE_SINGLE : DR_CIP_SVC_SET_ATTRIBUTE_SINGLE,
             path, w.len, t2o ? NULL : l->unit->img[a], t2o ? 0 : info->size, on_poll_reply,
-            &poll_ctx[l->robot][a]);
+            &l->poll_ctx[a]);
         if (st == DR_OK) {
             l->in_flight++;
             if (!t2o)
@@ -383,12 +400,12 @@ static void on_port(void *obj, uint32_t events)
     sp->read_us = gw_now_us();
 }
 
-static shared_port_t *port_get(const gw_robot_config_t *rc, int epfd)
+static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *rc, int epfd)
 {
     uint16_t num = rc->local_udp_port ? rc->local_udp_port : DR_ENIP_UDP_PORT;
     shared_port_t *free_slot = NULL;
     for (unsigned i = 0; i < GW_MAX_ROBOTS; i++) {
-        shared_port_t *sp = &ports[i];
+        shared_port_t *sp = &ports->port[i];
         if (sp->refs > 0 && sp->num == num && strcmp(sp->addr, rc->local_addr) == 0) {
             sp->refs++;
             return sp;
@@ -454,7 +471,7 @@ static bool resolve_host(const gw_robot_config_t *rc, char ip[INET_ADDRSTRLEN])
 }
 
 gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
-                       int epfd, const gw_link_hooks_t *hooks)
+                       int epfd, gw_link_ports_t *ports, const gw_link_hooks_t *hooks)
 {
     if (robot >= GW_MAX_ROBOTS)
         return NULL;
@@ -464,6 +481,10 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     l->cfg = *rc;
     l->epfd = epfd;
     l->hooks = *hooks;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        l->poll_ctx[a].link = l;
+        l->poll_ctx[a].a = (dr_asm_t)a;
+    }
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++) {
         l->ev[i].link = l;
         l->ev[i].ev.fn = on_client_fd;
@@ -486,7 +507,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     cc.timeout_ms = rc->timeout_ms;
     memcpy(cc.instance, rc->instance, sizeof cc.instance);
     if (rc->mode == GW_MODE_IMPLICIT) {
-        l->port = port_get(rc, epfd);
+        l->port = port_get(ports, rc, epfd);
         if (l->port == NULL) {
             gw_link_free(l);
             return NULL;
@@ -531,10 +552,6 @@ void gw_link_set_unit(gw_link_t *l, unsigned robot, gw_unit_t *unit)
 {
     l->robot = robot;
     l->unit = unit;
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
-        poll_ctx[robot][a].link = l;
-        poll_ctx[robot][a].a = (dr_asm_t)a;
-    }
 }
 
 void gw_link_outputs_changed(gw_link_t *l, unsigned dirty)

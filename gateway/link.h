@@ -15,6 +15,13 @@
 
 typedef struct gw_link gw_link_t;
 
+/* The local UDP ports the daemon's implicit-mode links share (robots on
+ * the same local address and port use one socket). The daemon owns it and
+ * frees it after the last link. */
+typedef struct gw_link_ports gw_link_ports_t;
+gw_link_ports_t *gw_link_ports_new(void);
+void gw_link_ports_free(gw_link_ports_t *p);
+
 typedef struct {
     /* The link came up (true) or went down (false). */
     void (*on_link)(void *user, unsigned robot, bool up, dr_status_t why);
@@ -24,7 +31,7 @@ typedef struct {
 } gw_link_hooks_t;
 
 gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
-                       int epfd, const gw_link_hooks_t *hooks);
+                       int epfd, gw_link_ports_t *ports, const gw_link_hooks_t *hooks);
 /* Forward Close, UnRegisterSession, free. NULL is fine. */
 void gw_link_free(gw_link_t *l);
 

@@ -37,6 +37,7 @@ typedef struct {
     int sigfd;
     gw_unit_t units[GW_MAX_ROBOTS];
     gw_link_t *links[GW_MAX_ROBOTS];
+    gw_link_ports_t *ports; /* the links' shared UDP ports */
     gw_mbs_t *mbs;
     gw_gpiomap_t *gpio;
     bool stop, reload;
@@ -274,7 +275,8 @@ static bool start_links(gw_t *g)
 {
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         init_unit(g, r);
-        g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->units[r], g->epfd, &link_hooks);
+        g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->units[r], g->epfd, g->ports,
+                                  &link_hooks);
         if (g->links[r] == NULL)
             return false;
     }
@@ -322,7 +324,7 @@ static void reload(gw_t *g)
         if (links[n] != NULL)
             continue;
         unit_policy(&units[n], &next.modbus); /* the new link may look at it */
-        links[n] = gw_link_new(&next.robot[n], n, &units[n], g->epfd, &link_hooks);
+        links[n] = gw_link_new(&next.robot[n], n, &units[n], g->epfd, g->ports, &link_hooks);
         fresh[n] = true;
         if (links[n] == NULL) {
             gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: "
@@ -433,6 +435,8 @@ static void shutdown_all(gw_t *g)
  * --track-fds in make check-valgrind checks it). */
 static int close_loop(gw_t *g, int status)
 {
+    gw_link_ports_free(g->ports); /* after the last link (shutdown_all) */
+    g->ports = NULL;
     if (g->sigfd >= 0)
         close(g->sigfd);
     if (g->epfd >= 0)
@@ -451,6 +455,11 @@ static int run(gw_t *g)
         return close_loop(g, 1);
     }
     g->start_us = gw_now_us();
+    g->ports = gw_link_ports_new();
+    if (g->ports == NULL) {
+        gw_log(GW_LOG_ERROR, "out of memory");
+        return close_loop(g, 1);
+    }
     gw_regmap_init();
     gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g};
     gw_gpiomap_hooks_t gh = {on_gpio_input, g};

@@ -195,3 +195,47 @@ def test_reload_new_robot_that_cannot_start(pair):
         assert st[1] == 2
     finally:
         busy.close()
+
+
+def test_reload_reindexing_keeps_explicit_polls():
+    """Issue 11 item 1. Two explicit-mode robots, the second (b) slow (40
+    ms replies, so a poll of it is nearly always out); a reload removes the
+    first and adds a new one (c): b moves from position 1 to 0 while its
+    requests are in flight. Its replies must still reach b (they used to
+    reach c's poll state: b's in-flight count never returned to 0 and b
+    stayed 'link down: timed out' for good)."""
+    from gwlib import Drsim, Gateway
+    sims = [Drsim("reidx-a").start(), Drsim("reidx-b", "--delay", "40").start(),
+            Drsim("reidx-c").start()]
+    robot = "mode = explicit\nrpi_ms = 50\ntimeout_ms = 500\n"
+    g = Gateway("reidx", sims[:2], robot=robot, unit_ids=[1, 2])
+    try:
+        g.start()
+        text = g.config_text()
+        head, sec_a, sec_b = text.split("\n[robot ")
+        sec_c = ("r2]\nhost = 127.0.0.2\ntcp_port = %d\nudp_port = %d\nlocal_address = %s\n"
+                 "local_udp_port = %d\nunit_id = 3\ntimeout_multiplier = 4\n%s\n"
+                 % (sims[2].tcp, sims[2].udp, GW_ADDR, free_port(GW_ADDR, tcp=False), robot))
+        mark = len(g.log())
+        g.write_config("\n[robot ".join([head, sec_b, sec_c]))
+        g.signal(signal.SIGHUP)
+        wait_for(lambda: g.status(2)[29] == 1, 10, "unit 2 serving generation 1")
+        g.wait_link(True, unit=3)
+
+        def polls(unit):
+            st = g.status(unit)
+            return st[6] << 16 | st[7]
+        # b keeps polling: its received count goes on rising for a second
+        # and more (1 s is twenty RPIs and many times its timeout)
+        n0 = polls(2)
+        wait_for(lambda: polls(2) >= n0 + 20, 10, "robot b's polls to go on")
+        time.sleep(1.0)
+        n1 = polls(2)
+        time.sleep(0.5)
+        assert polls(2) > n1
+        assert g.status(2)[1] == 2, g.log()[mark:]
+        assert "robot r1 (127.0.0.2): link down" not in g.log()[mark:], g.log()[mark:]
+    finally:
+        g.kill()
+        for s in sims:
+            s.kill()
