@@ -13,8 +13,9 @@
  * link up; bit 5: the client may not write; bit 6: unit 2 exists too
  * (unit 1 always does); bit 7: unmapped_read = exception. The pattern of
  * k & 63 bytes is repeated over every image of every unit; with k bit 6,
- * GPIO inputs own bit_in[3] and io_control.cb_do[1] of every unit. The
- * rest is what the client sends.
+ * GPIO inputs own bit_in[3] and io_control.cb_do[1] of every unit; with k
+ * bit 7, every unit's write fault is latched. The rest is what the client
+ * sends.
  *
  * Properties: a frame the framer refuses ends the stream (the daemon drops
  * the client); every request gets exactly one reply that echoes its MBAP
@@ -22,8 +23,11 @@
  * unit; an accepted write changes only the addressed unit, only its O->T
  * images, only the assemblies it reports dirty (and the control registers
  * when it addresses them), and reads back as written; the client's right
- * to write is asked for writes only; no write changes a bit a GPIO input
- * owns; the exception codes are the
+ * to write is asked for writes only, and the server is told of accepted
+ * writes only; no write changes a bit a GPIO input owns; with the write
+ * fault latched, the only write accepted is the fault reset (HR 1 = 1
+ * within HR 0-1), which clears it, and every other gets 0x04 unless an
+ * earlier check refused it; the exception codes are the
  * documented ones; no read succeeds past a table's last mapped address; libmodbus answers exactly what the checks decided.
  */
 #include <errno.h>
@@ -41,6 +45,7 @@ static gw_unit_t units[UNITS];
 static bool unit2;
 static bool read_only;
 static unsigned asked; /* may_write calls for the current request */
+static unsigned told;  /* wrote calls for the current request */
 static int sv[2] = {-1, -1};
 static modbus_t *ctx;
 static modbus_mapping_t *map;
@@ -59,6 +64,12 @@ static bool may_write(void *client)
     (void)client;
     asked++;
     return !read_only;
+}
+
+static void wrote(void *client)
+{
+    (void)client;
+    told++;
 }
 
 static void setup(void)
@@ -126,7 +137,8 @@ static void check_write_effect(const gw_unit_t *before, const gw_unit_t *after,
                x->last_error == y->last_error && x->clients == y->clients &&
                x->uptime_s == y->uptime_s &&
                same_bytes(x->conn_state, y->conn_state, sizeof x->conn_state) &&
-               x->write_fault == y->write_fault && x->writer_present == y->writer_present &&
+               (x->write_fault == y->write_fault || r->reset) &&
+               x->writer_present == y->writer_present &&
                x->config_generation == y->config_generation);
     FUZZ_CHECK(before->order == after->order && before->on_loss == after->on_loss);
     /* A bit a GPIO input drives is the input's. */
@@ -154,7 +166,7 @@ static void check_read_back(const gw_mb_result_t *w)
                        w->area == GW_COILS ? 0x01 : 0x03,
                        (uint8_t)(w->addr >> 8), (uint8_t)w->addr,
                        (uint8_t)(w->count >> 8), (uint8_t)w->count};
-    const gw_mb_env_t env = {unit_for, NULL, may_write, NULL};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL};
     /* Writes take at most 1968 bits or 123 registers: one read covers them. */
     FUZZ_CHECK(gw_mbs_decide(adu, sizeof adu, &env, &back) == 0);
     for (uint16_t i = 0; i < w->count; i++) {
@@ -218,14 +230,27 @@ static void request(const uint8_t *adu, size_t len)
 {
     static gw_unit_t before[UNITS];
     memcpy(before, units, sizeof units);
-    const gw_mb_env_t env = {unit_for, NULL, may_write, NULL};
-    asked = 0;
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL};
+    asked = told = 0;
     int ex = gw_mbs_decide(adu, len, &env, &res);
     uint8_t fc = adu[GW_MBAP_LEN];
     gw_unit_t *u = unit_for(NULL, adu[6]);
 
     FUZZ_CHECK(ex == 0 || ex == GW_EX_ILLEGAL_FUNCTION || ex == GW_EX_ILLEGAL_ADDRESS ||
-               ex == GW_EX_ILLEGAL_VALUE || ex == 0x0A || ex == GW_EX_TARGET_FAILED);
+               ex == GW_EX_ILLEGAL_VALUE || ex == 0x0A || ex == GW_EX_TARGET_FAILED ||
+               ex == GW_EX_DEVICE_FAILURE);
+    FUZZ_CHECK(told == (ex == 0 && is_write_fc(fc)));
+    bool latched = u != NULL && before[u - units].status.write_fault;
+    FUZZ_CHECK(res.reset == (latched && ex == 0 && is_write_fc(fc)));
+    if (ex == GW_EX_DEVICE_FAILURE)
+        FUZZ_CHECK(is_write_fc(fc) && latched);
+    if (res.reset) {
+        /* Only the reset passes a latched fault, and it clears it. */
+        FUZZ_CHECK(!u->status.write_fault && res.area == GW_HOLDING &&
+                   res.addr <= GW_HR_FAULT_RESET &&
+                   (uint32_t)res.addr + res.count == GW_HR_FAULT_RESET + 1u &&
+                   res.values[GW_HR_FAULT_RESET - res.addr] == 1);
+    }
     FUZZ_CHECK(res.unit_id == adu[6] && res.fc == fc);
     FUZZ_CHECK((ex == 0x0A) == (u == NULL));
     FUZZ_CHECK(asked == (u != NULL && is_write_fc(fc)));
@@ -293,6 +318,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             for (unsigned j = 0; j < 2; j++)
                 FUZZ_CHECK(dr_path_parse(owned[j], &u->gpio_in[u->gpio_in_count++]) == DR_OK);
         }
+        u->status.write_fault = (data[1] & 0x80u) != 0;
         u->status.link_state = (flags & 0x10u) ? 2 : 0;
         u->status.fresh = (flags & 0x10u) != 0;
     }

@@ -591,6 +591,17 @@ static void gen_modbus(void)
     put("modbus", "gpio_owned", b.b, b.n);
 
     mb_begin(&b, 0x10);
+    b.b[1] |= 0x80; /* the write fault is latched */
+    const uint16_t wd_reset[2] = {0x0007, 0x0001};
+    mb_4(&b, 1, 0x06, 0, 2);            /* the heartbeat: 0x04 */
+    mb_write_regs(&b, 1, 300, dint, 2); /* 0x04 */
+    mb_4(&b, 1, 0x05, 100, 0xFF00);     /* 0x04 */
+    mb_4(&b, 1, 0x06, 1, 0);            /* not a reset: 0x04 */
+    mb_write_regs(&b, 1, 0, wd_reset, 2); /* watchdog and reset: taken */
+    mb_write_regs(&b, 1, 300, dint, 2); /* taken */
+    put("modbus", "fault_latched", b.b, b.n);
+
+    mb_begin(&b, 0x10);
     mb_4(&b, 1, 0x03, 0, 1);
     b_bytes(&b, "\x00\x01\x00\x01\x00\x06\x01", 7); /* protocol 1: dropped */
     put("modbus", "bad_mbap", b.b, b.n);

@@ -130,11 +130,10 @@ static void writer_watchdog(gw_t *g, uint64_t now)
      * single-writer mode off must not hold the GPIO outputs for ever. */
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_unit_t *u = &g->units[r];
+        /* The write that reset the latch cleared write_fault at once
+         * (mbproto.c: writes pipelined behind it are taken) and logged it. */
         if (u->fault_reset) {
             u->fault_reset = false;
-            if (u->status.write_fault)
-                gw_log(GW_LOG_INFO, "robot %s: write fault reset", g->cfg.robot[r].name);
-            u->status.write_fault = false;
             gw_gpiomap_fault(g->gpio, r, false); /* outputs follow again */
         }
         /* Out of single-writer mode the register is just a register: a

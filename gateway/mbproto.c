@@ -73,6 +73,37 @@ static int write_values(uint8_t fc, const uint8_t *pdu, size_t pdu_len, uint16_t
     return 0;
 }
 
+/* A write of 1 to the fault-reset register, with nothing but the control
+ * registers around it: the one write a latched write fault lets through
+ * (a PLC may write its watchdog and the reset in one FC 16). */
+static bool is_fault_reset(gw_area_t area, uint16_t addr, uint16_t count, const uint16_t *v)
+{
+    return area == GW_HOLDING && addr <= GW_HR_FAULT_RESET &&
+           (uint32_t)addr + count > GW_HR_FAULT_RESET &&
+           (uint32_t)addr + count <= GW_HR_FAULT_RESET + 1u && v[GW_HR_FAULT_RESET - addr] == 1;
+}
+
+/* Check a decoded write against the fault latch, apply it, and tell the
+ * server it was applied. */
+static int apply_write(gw_unit_t *u, const gw_mb_env_t *env, gw_mb_result_t *r)
+{
+    bool reset = is_fault_reset(r->area, r->addr, r->count, r->values);
+    if (u->status.write_fault && !reset)
+        return GW_EX_DEVICE_FAILURE; /* latched: only the reset gets through */
+    int ex = gw_regmap_write(u, r->area, r->addr, r->count, r->values, &r->dirty);
+    if (ex != 0)
+        return ex;
+    if (reset && u->status.write_fault) {
+        /* Cleared at once: a request pipelined behind the reset is not
+         * refused; the daemon puts the GPIO outputs back at its next turn
+         * (u->fault_reset). */
+        u->status.write_fault = false;
+        r->reset = true;
+    }
+    env->wrote(env->client);
+    return 0;
+}
+
 int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
                   gw_mb_result_t *r)
 {
@@ -88,6 +119,7 @@ int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
     r->area = GW_COILS;
     r->addr = r->count = 0;
     r->dirty = 0;
+    r->reset = false;
 
     gw_unit_t *u = env->unit_for(env->units, r->unit_id);
     if (u == NULL)
@@ -109,9 +141,7 @@ int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
         return gw_regmap_read(u, fi.area, r->addr, r->count, r->values);
     }
     int ex = write_values(r->fc, pdu, pdu_len, &r->addr, &r->count, r->values);
-    if (ex == 0)
-        ex = gw_regmap_write(u, fi.area, r->addr, r->count, r->values, &r->dirty);
-    return ex;
+    return ex != 0 ? ex : apply_write(u, env, r);
 }
 
 int gw_mbs_reply(modbus_t *ctx, modbus_mapping_t *map, const uint8_t *adu,

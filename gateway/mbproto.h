@@ -8,8 +8,10 @@
  * Order of the checks, each answered with the first exception that
  * applies: no unit with the unit ID (0x0A), a function code other than
  * 01-06, 0F, 10 (0x01), a write from a client that may not write (0x01),
- * a malformed request or count (0x03), then the register map's own answer
- * (0x02, 0x03, 0x0B). A write that fails any check changes nothing.
+ * a malformed request or count (0x03), a write other than the fault reset
+ * to a unit whose write fault is latched (0x04), then the register map's
+ * own answer (0x02, 0x03, 0x0B). A write that fails any check changes
+ * nothing.
  */
 #ifndef DRGATE_GW_MBPROTO_H
 #define DRGATE_GW_MBPROTO_H
@@ -35,12 +37,14 @@ gw_mbap_t gw_mbap_frame(const uint8_t *buf, size_t len, size_t *total);
 
 /* What a request may reach: the units (robots) by unit ID, and the
  * client's right to write. may_write is asked only for a write function
- * code to a unit that exists (in single-writer mode, asking claims the
- * lock for the first writer). */
+ * code to a unit that exists, and changes nothing; wrote is told after a
+ * write was accepted and applied (in single-writer mode that makes the
+ * client the owner if there is none: a refused write never does). */
 typedef struct {
     gw_unit_t *(*unit_for)(void *units, uint8_t unit_id); /* NULL: none */
     void *units;
     bool (*may_write)(void *client);
+    void (*wrote)(void *client);
     void *client;
 } gw_mb_env_t;
 
@@ -51,6 +55,7 @@ typedef struct {
     gw_area_t area;    /* valid once the function code is known */
     uint16_t addr, count;
     unsigned dirty;    /* accepted write: O->T images written (bit per assembly) */
+    bool reset;        /* accepted write: it cleared the unit's latched write fault */
     /* Accepted read: the registers or bits (0/1) to answer with; write:
      * the values decoded from the request. */
     uint16_t values[MODBUS_MAX_READ_BITS];

@@ -166,36 +166,48 @@ static void on_accept(void *obj, uint32_t events)
 
 /* ---- requests --------------------------------------------------------------- */
 
-static bool may_write(gw_mbs_t *s, client_t *cl)
-{
-    if (!cl->rw)
-        return false;
-    if (!s->cfg.single_writer)
-        return true;
-    if (s->writer == NULL) {
-        s->writer = cl; /* the first writer owns the O->T areas */
-        s->writer_claims++;
-        char who[32];
-        fmt_addr(cl->addr, cl->port, who, sizeof who);
-        gw_log(GW_LOG_INFO, "modbus: %s is now the single writer", who);
-    }
-    return s->writer == cl;
-}
-
+/* The right to write; asking changes nothing (a write refused by a later
+ * check must not make its client the owner). */
 static bool client_may_write(void *obj)
 {
+    const client_t *cl = obj;
+    const gw_mbs_t *s = cl->srv;
+    if (!cl->rw)
+        return false;
+    return !s->cfg.single_writer || s->writer == NULL || s->writer == cl;
+}
+
+/* A write of this client was applied: in single-writer mode, with no
+ * owner, it is the owner from now on (the first writer, or the one whose
+ * fault reset got through). */
+static void client_wrote(void *obj)
+{
     client_t *cl = obj;
-    return may_write(cl->srv, cl);
+    gw_mbs_t *s = cl->srv;
+    if (!s->cfg.single_writer || s->writer != NULL)
+        return;
+    s->writer = cl;
+    s->writer_claims++;
+    char who[32];
+    fmt_addr(cl->addr, cl->port, who, sizeof who);
+    gw_log(GW_LOG_INFO, "modbus: %s is now the single writer", who);
 }
 
 /* One complete ADU (mbproto.c checks and applies it). Returns false if the
  * client must be dropped. */
 static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t len)
 {
-    const gw_mb_env_t env = {s->hooks.unit_for, s->hooks.user, client_may_write, cl};
+    const gw_mb_env_t env = {s->hooks.unit_for, s->hooks.user, client_may_write, client_wrote,
+                             cl};
     int ex = gw_mbs_decide(req, len, &env, &s->result);
     if (ex < 0)
         return false; /* not reached: drain_frames hands whole frames only */
+    if (s->result.reset) {
+        char who[32];
+        fmt_addr(cl->addr, cl->port, who, sizeof who);
+        gw_log(GW_LOG_INFO, "modbus: client %s reset the write fault of unit %u", who,
+               s->result.unit_id);
+    }
     if (ex == 0 && s->result.write && s->result.dirty != 0)
         s->hooks.on_write(s->hooks.user, s->result.unit_id, s->result.dirty);
     if (ex != 0)

@@ -33,6 +33,7 @@ enum {
     GW_EX_ILLEGAL_FUNCTION = 0x01,
     GW_EX_ILLEGAL_ADDRESS = 0x02,
     GW_EX_ILLEGAL_VALUE = 0x03,
+    GW_EX_DEVICE_FAILURE = 0x04, /* a write while the write fault is latched */
     GW_EX_TARGET_FAILED = 0x0B
 };
 

@@ -47,6 +47,7 @@ REAL_123456 = {
 EX_ILLEGAL_FUNCTION = 0x01
 EX_ILLEGAL_ADDRESS = 0x02
 EX_ILLEGAL_VALUE = 0x03
+EX_DEVICE_FAILURE = 0x04
 EX_PATH_UNAVAILABLE = 0x0A
 EX_TARGET_FAILED = 0x0B
 
@@ -397,8 +398,9 @@ class RawModbus:
     """Modbus TCP frames built and parsed here with struct: for exact
     requests (bad quantities, odd function codes, malformed headers)."""
 
-    def __init__(self, host, port, connect_timeout=5.0):
-        self.sock = socket.create_connection((host, port), timeout=timeout(connect_timeout))
+    def __init__(self, host, port, connect_timeout=5.0, source=None):
+        self.sock = socket.create_connection((host, port), timeout=timeout(connect_timeout),
+                                             source_address=(source, 0) if source else None)
         self.sock.settimeout(timeout(10))
         self.tid = random.randint(0, 0xFFFF)
         self.lock = threading.Lock()

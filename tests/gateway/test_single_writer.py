@@ -202,3 +202,103 @@ def test_read_only_client_never_owns(pair):
         assert a.exception(struct.pack(">BHH", 6, HR_WATCHDOG, 1)) == EX_ILLEGAL_FUNCTION
         time.sleep(0.3)
         assert g.status()[IR_WRITER] == 0 and fault(g) == 0
+
+
+# ---- the fault latch (issue 11 item 2) ----------------------------------------------
+# States: free (no owner, no fault), owned, faulted (latched, no owner).
+# free --write by a rw client--> owned; owned --watchdog expires--> faulted;
+# faulted --any write but the reset--> faulted, refused with 0x04 and no
+# owner taken; faulted --reset by a rw client--> owned by that client;
+# faulted --reset by a ro client--> faulted, 0x01.
+
+def fc6(addr, v):
+    return struct.pack(">BHH", 6, addr, v)
+
+
+def fc16(addr, values):
+    return struct.pack(">BHHB", 0x10, addr, len(values), 2 * len(values)) + \
+        struct.pack(">%dH" % len(values), *values)
+
+
+def fault_after_quiet_owner(g, a, hr, value):
+    a.write_regs(hr, dint_regs(value, "abcd"))
+    a.write_reg(HR_WATCHDOG, 1)
+    wait_for(lambda: robot_int_in0(g) == value, 10, "int_in[0] at the robot")
+    wait_for(lambda: fault(g) == 1, WATCHDOG_MS / 1000.0 + 10, "write_fault")
+    wait_for(lambda: g.status()[IR_WRITER] == 0, 10, "no owner after the fault")
+    wait_for(lambda: robot_int_in0(g) == 0, 10, "fallback zero at the robot")
+
+
+def test_faulted_refuses_every_write_but_the_reset(pair, regmap):
+    """The reported defect: after the watchdog fault, the old owner (a PLC
+    rewriting its heartbeat) or any other client took ownership with an
+    ordinary write, which reached the robot with write_fault still 1, and
+    an HMI's reset then got 0x01. Now every write but the reset gets 0x04
+    and takes no ownership."""
+    from gwlib import EX_DEVICE_FAILURE
+    g = pair
+    hr = regmap.addr("HR", "int_in[0]")
+    co = regmap.addr("CO", "bit_in[0]")
+    with g.raw() as plc, g.raw() as hmi:
+        fault_after_quiet_owner(g, plc, hr, 1234)
+        for m in (plc, hmi):
+            for pdu in (fc6(HR_WATCHDOG, 2), fc6(HR_WATCHDOG, 3),      # the heartbeat
+                        fc16(hr, dint_regs(77, "abcd")),               # robot data
+                        struct.pack(">BHH", 5, co, 0xFF00),            # a coil
+                        fc6(HR_RESET, 0),                              # not a reset
+                        fc16(HR_RESET, [1, 0]),                        # reset + more
+                        fc16(HR_RESET, [1] + dint_regs(1, "abcd"))):
+                assert m.exception(pdu) == EX_DEVICE_FAILURE, pdu.hex()
+        time.sleep(0.3)
+        st = g.status()
+        assert st[IR_FAULT] == 1 and st[IR_WRITER] == 0
+        assert plc.read(2, 2, 2) == [1, 0]           # DI 2 write_fault, DI 3 writer
+        assert robot_int_in0(g) == 0 and plc.read(3, hr, 2) == [0, 0]
+        # reads go on
+        assert hmi.read(4, 32, 1) == [0x1234]
+        # the HMI's reset gets through and makes it the owner
+        hmi.write_reg(HR_RESET, 1)
+        assert fault(g) == 0
+        wait_for(lambda: g.status()[IR_WRITER] == 1, 10, "the HMI as the owner")
+        assert "client 127.0.0.1:%d reset the write fault of unit 1" % \
+            hmi.sock.getsockname()[1] in g.log()
+        assert plc.exception(fc6(HR_WATCHDOG, 9)) == EX_ILLEGAL_FUNCTION
+        with Bumper(hmi):
+            hmi.write_regs(hr, dint_regs(55, "abcd"))
+            wait_for(lambda: robot_int_in0(g) == 55, 10, "the new owner's value")
+
+
+def test_reset_with_watchdog_in_one_request_and_pipelined_write(pair, regmap):
+    """FC 16 over HR 0-1 (watchdog and reset) is a reset; a write sent in
+    the same segment right behind the reset is taken (the latch clears at
+    once, not at the next turn of the loop)."""
+    g = pair
+    hr = regmap.addr("HR", "int_in[0]")
+    with g.raw() as plc:
+        fault_after_quiet_owner(g, plc, hr, 4321)
+        with g.raw() as m:
+            reset = struct.pack(">HHHB", 1, 0, 1 + len(fc16(0, [7, 1])), 1) + fc16(0, [7, 1])
+            wr = fc16(hr, dint_regs(88, "abcd"))
+            write = struct.pack(">HHHB", 2, 0, 1 + len(wr), 1) + wr
+            m.sock.sendall(reset + write)
+            for tid in (1, 2):
+                rtid, _, _, rpdu = m.recv_adu()
+                assert rtid == tid and rpdu[0] == 0x10, rpdu.hex()
+            assert fault(g) == 0
+            wait_for(lambda: robot_int_in0(g) == 88, 10, "the write behind the reset")
+            assert plc.exception(fc6(HR_WATCHDOG, 5)) == EX_ILLEGAL_FUNCTION
+
+
+@pytest.mark.gw(modbus="allow = 127.0.0.3/32 ro\nallow = 127.0.0.0/8 rw\n")
+def test_fault_reset_needs_the_right_to_write(pair, regmap):
+    from gwlib import GW_ADDR, RawModbus
+    g = pair
+    hr = regmap.addr("HR", "int_in[0]")
+    with g.raw() as plc, RawModbus(GW_ADDR, g.port, source="127.0.0.3") as ro:
+        fault_after_quiet_owner(g, plc, hr, 99)
+        assert ro.exception(fc6(HR_RESET, 1)) == EX_ILLEGAL_FUNCTION
+        time.sleep(0.2)
+        assert fault(g) == 1 and g.status()[IR_WRITER] == 0
+        plc.write_reg(HR_RESET, 1)   # the old owner may reset too: it owns again
+        assert fault(g) == 0
+        wait_for(lambda: g.status()[IR_WRITER] == 1, 10, "owner again")
