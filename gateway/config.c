@@ -67,6 +67,7 @@ enum {
     MK_UNMAPPED_READ,
     MK_SINGLE_WRITER,
     MK_WRITER_WATCHDOG_MS,
+    MK_REQUEST_TIMEOUT_MS,
     MK_COUNT
 };
 static const key_desc_t modbus_keys[MK_COUNT] = {
@@ -81,6 +82,7 @@ static const key_desc_t modbus_keys[MK_COUNT] = {
     [MK_UNMAPPED_READ] = { "unmapped_read", "zero, exception" },
     [MK_SINGLE_WRITER] = { "single_writer", "yes, no" },
     [MK_WRITER_WATCHDOG_MS] = { "writer_watchdog_ms", "10..60000" },
+    [MK_REQUEST_TIMEOUT_MS] = { "request_timeout_ms", "100..60000" },
 };
 
 enum {
@@ -644,6 +646,10 @@ static void modbus_key(ctx_t *c, const char *name, const char *v)
     case MK_WRITER_WATCHDOG_MS:
         if (get_uint(c, name, v, 10, 60000, &n))
             m->writer_watchdog_ms = (unsigned)n;
+        break;
+    case MK_REQUEST_TIMEOUT_MS:
+        if (get_uint(c, name, v, 100, 60000, &n))
+            m->request_timeout_ms = (unsigned)n;
         break;
     default: /* -1: already reported */ break;
     }
@@ -1418,6 +1424,7 @@ void gw_config_defaults(gw_config_t *cfg)
     m->allow_count = 0;
     m->single_writer = false;
     m->writer_watchdog_ms = 1000;
+    m->request_timeout_ms = 3000;
     for (unsigned i = 0; i < GW_MAX_ROBOTS; i++)
         robot_defaults(&cfg->robot[i]);
     for (unsigned i = 0; i < GW_MAX_GPIO; i++)

@@ -55,6 +55,8 @@ typedef struct {
     /* Single-writer mode (EK9000-like write lock). */
     bool single_writer;       /* default false */
     unsigned writer_watchdog_ms; /* default 1000 */
+    /* A request must be complete this long after its first byte. */
+    unsigned request_timeout_ms; /* default 3000, 100..60000 */
 } gw_modbus_config_t;
 
 typedef struct {

@@ -4,6 +4,7 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <modbus.h>
+#include <stdio.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <stdlib.h>
@@ -27,7 +28,8 @@ typedef struct {
     uint32_t addr;
     uint16_t port;
     bool rw;
-    uint64_t last_us;
+    uint64_t last_us; /* accepted, or its last complete request */
+    uint64_t req_us;  /* first byte of the request in buf; 0: none pending */
     uint8_t buf[GW_ADU_MAX];
     size_t len;
 } client_t;
@@ -104,6 +106,33 @@ static void set_keepalive(int fd)
 
 static void on_client(void *obj, uint32_t events);
 
+/* All max_clients slots taken: the client that has gone longest without a
+ * complete request makes room, if that is at least request_timeout_ms (a
+ * client that polls, however slowly, is never pushed out by one that
+ * merely connects) and it is not the single writer. NULL: none qualifies,
+ * the newcomer is refused. */
+static client_t *evict_idle(gw_mbs_t *s, const char *newcomer)
+{
+    uint64_t now = gw_now_us(), min_idle = (uint64_t)s->cfg.request_timeout_ms * 1000u;
+    client_t *victim = NULL;
+    if (s->nclients != s->cfg.max_clients)
+        return NULL; /* over the limit after a reload: one slot would not do */
+    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+        client_t *cl = &s->clients[i];
+        if (cl->used && cl != s->writer && now - cl->last_us >= min_idle &&
+            (victim == NULL || cl->last_us < victim->last_us))
+            victim = cl;
+    }
+    if (victim != NULL) {
+        char why[160];
+        snprintf(why, sizeof why, "evicted for %s (no request for %llu ms, all %u slots taken)",
+                 newcomer, (unsigned long long)((now - victim->last_us) / 1000u),
+                 s->cfg.max_clients);
+        client_close(victim, why);
+    }
+    return victim;
+}
+
 static void on_accept(void *obj, uint32_t events)
 {
     gw_mbs_t *s = obj;
@@ -132,6 +161,8 @@ static void on_accept(void *obj, uint32_t events)
             for (unsigned i = 0; i < MAX_CLIENTS_HARD && cl == NULL; i++)
                 if (!s->clients[i].used)
                     cl = &s->clients[i];
+        if (cl == NULL)
+            cl = evict_idle(s, who);
         if (cl == NULL) {
             gw_log_limited(GW_LOG_WARNING, &s->refused_log_us,
                            "modbus: refused %s: %u clients already (max_clients)", who,
@@ -216,8 +247,8 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
     return gw_mbs_reply(s->ctx, s->map, req, len, ex, &s->result) >= 0;
 }
 
-/* Take complete frames out of the client's buffer. */
-static bool drain_frames(gw_mbs_t *s, client_t *cl)
+/* Take complete frames out of the client's buffer; *frames counts them. */
+static bool drain_frames(gw_mbs_t *s, client_t *cl, unsigned *frames)
 {
     for (;;) {
         size_t total = 0;
@@ -233,6 +264,7 @@ static bool drain_frames(gw_mbs_t *s, client_t *cl)
         }
         if (!handle_request(s, cl, cl->buf, total))
             return false;
+        ++*frames;
         memmove(cl->buf, cl->buf + total, cl->len - total);
         cl->len -= total;
     }
@@ -258,10 +290,22 @@ static void on_client(void *obj, uint32_t events)
         client_close(cl, got == 0 ? "closed by the client" : "receive error");
         return;
     }
+    uint64_t now = gw_now_us();
+    if (cl->len == 0)
+        cl->req_us = now; /* a request's first byte: its deadline starts */
     cl->len += (size_t)got;
-    cl->last_us = gw_now_us();
-    if (!drain_frames(s, cl))
+    unsigned frames = 0;
+    if (!drain_frames(s, cl, &frames)) {
         client_close(cl, "bad request or send failure");
+        return;
+    }
+    /* Only whole requests count as activity (idle timeout, eviction): a
+     * client that trickles bytes is not busy. What is left in the buffer
+     * is the start of a request that arrived now. */
+    if (frames > 0) {
+        cl->last_us = now;
+        cl->req_us = cl->len > 0 ? now : 0;
+    }
 }
 
 /* ---- lifecycle ----------------------------------------------------------------- */
@@ -417,18 +461,31 @@ bool gw_mbs_reconfigure(gw_mbs_t *s, const gw_modbus_config_t *cfg)
     return true;
 }
 
+/* When a client's time is up: a pending request's deadline, or the idle
+ * timeout since its last complete request. */
+static uint64_t client_deadline(const gw_mbs_t *s, const client_t *cl)
+{
+    uint64_t d = UINT64_MAX;
+    if (s->cfg.idle_timeout_s != 0)
+        d = cl->last_us + (uint64_t)s->cfg.idle_timeout_s * 1000000u;
+    if (cl->req_us != 0 && cl->req_us + (uint64_t)s->cfg.request_timeout_ms * 1000u < d)
+        d = cl->req_us + (uint64_t)s->cfg.request_timeout_ms * 1000u;
+    return d;
+}
+
 void gw_mbs_tick(gw_mbs_t *s, uint64_t now)
 {
-    if (s->cfg.idle_timeout_s == 0)
-        return;
-    uint64_t limit = (uint64_t)s->cfg.idle_timeout_s * 1000000u;
     /* Called at every turn of the loop: stop after the last client. */
     for (unsigned i = 0, seen = 0, n = s->nclients; i < MAX_CLIENTS_HARD && seen < n; i++) {
         client_t *cl = &s->clients[i];
         if (!cl->used)
             continue;
         seen++;
-        if (now - cl->last_us >= limit)
+        if (now < client_deadline(s, cl))
+            continue;
+        if (cl->req_us != 0 && now - cl->req_us >= (uint64_t)s->cfg.request_timeout_ms * 1000u)
+            client_close(cl, "request not complete within request_timeout_ms");
+        else
             client_close(cl, "idle timeout");
     }
 }
@@ -436,14 +493,12 @@ void gw_mbs_tick(gw_mbs_t *s, uint64_t now)
 uint64_t gw_mbs_next_deadline(const gw_mbs_t *s)
 {
     uint64_t d = UINT64_MAX;
-    if (s->cfg.idle_timeout_s == 0)
-        return d;
     for (unsigned i = 0, seen = 0; i < MAX_CLIENTS_HARD && seen < s->nclients; i++) {
         const client_t *cl = &s->clients[i];
         if (!cl->used)
             continue;
         seen++;
-        uint64_t t = cl->last_us + (uint64_t)s->cfg.idle_timeout_s * 1000000u;
+        uint64_t t = client_deadline(s, cl);
         if (t < d)
             d = t;
     }

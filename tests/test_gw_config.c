@@ -89,6 +89,7 @@ static void test_defaults(void **state)
     assert_int_equal(c.modbus.allow_count, 0);
     assert_false(c.modbus.single_writer);
     assert_int_equal(c.modbus.writer_watchdog_ms, 1000);
+    assert_int_equal(c.modbus.request_timeout_ms, 3000);
     assert_int_equal(c.robot_count, 0);
     assert_int_equal(c.gpio_count, 0);
     assert_string_equal(c.log_level, "info");
@@ -168,6 +169,7 @@ static void test_all_keys(void **state)
     assert_int_equal(m->unmapped_read, GW_UNMAPPED_EXCEPTION);
     assert_true(m->single_writer);
     assert_int_equal(m->writer_watchdog_ms, 250);
+    assert_int_equal(m->request_timeout_ms, 1500);
 
     assert_int_equal(c.robot_count, 2);
     const gw_robot_config_t *r = &c.robot[0];
@@ -186,7 +188,7 @@ static void test_all_keys(void **state)
         assert_int_equal(r->instance[a], 201 + a);
     assert_true(r->fallback_hold);
     assert_true(r->o2t_strict);
-    assert_int_equal(r->line, 22);
+    assert_int_equal(r->line, 23);
     assert_string_equal(c.robot[1].name, "arm2");
     assert_int_equal(c.robot[1].unit_id, 8);
     assert_false(c.robot[1].fallback_hold);
@@ -349,7 +351,7 @@ typedef struct {
 #define MODBUS_KEYS                                                           \
     "listen, port, max_clients, idle_timeout, keepalive, word_order, allow, " \
     "on_link_loss, unmapped_read, "                                           \
-    "single_writer, writer_watchdog_ms"
+    "single_writer, writer_watchdog_ms, request_timeout_ms"
 #define ROBOT_KEYS                                                             \
     "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, mode, " \
     "rpi_ms, "                                                                 \
@@ -441,6 +443,8 @@ static const err_case_t err_cases[] = {
       "0..86400)" },
     { ROBOT "[modbus]\nwriter_watchdog_ms = 5\n",
       "4: writer_watchdog_ms 5 out of range (allowed: 10..60000)" },
+    { ROBOT "[modbus]\nrequest_timeout_ms = 99\n",
+      "4: request_timeout_ms 99 out of range (allowed: 100..60000)" },
     { ROBOT "rpi_ms = 10ms\n", "3: rpi_ms '10ms' invalid: trailing 'ms' after "
                                "the number (allowed: 1..10000)" },
     { ROBOT "rpi_ms = 10001\n",

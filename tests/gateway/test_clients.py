@@ -204,3 +204,124 @@ def test_flood_beyond_max_clients(gw_full):
             s.close()
     # room again
     assert served(gw)
+
+
+# ---- slot exhaustion (issue 11 item 3) ------------------------------------------------
+
+class Trickler:
+    """A client that sends one byte of a never-ending stream of requests
+    every 0.5 s until the gateway closes it."""
+
+    def __init__(self, g):
+        import threading
+        self.sock = raw_sock(g)
+        self.closed_after = None
+        self.stop = threading.Event()
+        self.t = threading.Thread(target=self.run, daemon=True)
+        self.t.start()
+
+    def run(self):
+        stream = req(5, READ_TEST) * 1000
+        t0 = time.monotonic()
+        for b in stream:
+            try:
+                self.sock.sendall(bytes([b]))
+            except OSError:
+                break
+            if self.stop.wait(0.5):
+                return
+        self.closed_after = time.monotonic() - t0
+
+    def close(self):
+        self.stop.set()
+        self.t.join(timeout(10))
+        self.sock.close()
+
+
+def test_trickling_clients_do_not_lock_out_a_plc(gw_full):
+    """Four clients that trickle one byte every 0.5 s took all four slots
+    for good (any byte reset the idle timeout; a request had no deadline).
+    Now each is closed request_timeout_ms (3 s by default) after its
+    request's first byte, and a PLC gets in."""
+    gw = gw_full
+    wait_for(lambda: connected(gw) == 1, 15, "no other clients left")
+    mark = len(gw.log())
+    ts = [Trickler(gw) for _ in range(MAX_CLIENTS)]
+    try:
+        wait_for(lambda: connected_or_full(gw), 10, "the tricklers in")
+        t0 = time.monotonic()
+        assert served(gw)
+        print("a PLC served %.2f s after four tricklers took every slot" %
+              (time.monotonic() - t0))
+        for t in ts:
+            assert closed_by_peer(t.sock, 15)
+        log = gw.log()[mark:]
+        assert log.count("request not complete within request_timeout_ms") == MAX_CLIENTS, log
+    finally:
+        for t in ts:
+            t.close()
+
+
+def connected_or_full(g):
+    """True once a new client is refused or sees every slot taken."""
+    try:
+        with g.raw() as m:
+            return m.read(4, 13, 1)[0] >= MAX_CLIENTS
+    except (OSError, ConnectionError):
+        return True
+
+
+@pytest.fixture(scope="module")
+def gw_evict():
+    with running("clients-evict",
+                 modbus="max_clients = %d\nidle_timeout = 600\nrequest_timeout_ms = 500\n"
+                 "single_writer = yes\nwriter_watchdog_ms = 60000\n" % MAX_CLIENTS) as g:
+        yield g
+
+
+def test_full_slots_evict_the_longest_idle_non_writer(gw_evict):
+    """All slots taken: a newcomer evicts the client that has gone longest
+    without a complete request, if that is at least request_timeout_ms and
+    it is not the single writer; with every client active it is refused."""
+    gw = gw_evict
+    wait_for(lambda: connected(gw) == 0 or connected(gw) == 1, 15, "no other clients left")
+    ms = [gw.raw() for _ in range(MAX_CLIENTS)]
+    newcomer = None
+    try:
+        ms[0].write_reg(0, 1)                    # the single writer, then quiet
+        time.sleep(0.05)
+        for m in ms[1:]:                          # ms[1] the longest idle after it
+            assert m.read(4, 32, 1) == [0x1234]
+            time.sleep(0.05)
+        # every one active within request_timeout_ms: a newcomer is refused
+        for m in ms:
+            m.read(4, 32, 1)
+        s = raw_sock(gw)
+        s.sendall(req(1, READ_TEST))
+        assert closed_by_peer(s, 10), "a newcomer pushed out an active client"
+        s.close()
+        for m in ms:
+            assert m.read(4, 32, 1) == [0x1234]
+        # now idle for longer than request_timeout_ms, in the same order
+        ms[0].write_reg(0, 2)
+        for m in ms[1:]:
+            time.sleep(0.05)
+            m.read(4, 32, 1)
+        time.sleep(0.8)
+        mark = len(gw.log())
+        newcomer = gw.raw()
+        assert newcomer.read(4, 32, 1) == [0x1234]
+        assert closed_by_peer(ms[1].sock, 10), "the longest idle non-writer stays"
+        who = "127.0.0.1:%d" % newcomer.sock.getsockname()[1]
+        line = [l for l in gw.log()[mark:].splitlines() if "evicted" in l]
+        assert len(line) == 1 and ("127.0.0.1:%d" % ms[1].sock.getsockname()[1]) in line[0] \
+            and "evicted for %s" % who in line[0], line
+        # the writer (idle the longest) and the others are still served
+        ms[0].write_reg(0, 3)
+        for m in ms[2:]:
+            assert m.read(4, 32, 1) == [0x1234]
+    finally:
+        for m in ms:
+            m.close()
+        if newcomer is not None:
+            newcomer.close()
