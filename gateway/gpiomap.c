@@ -55,7 +55,7 @@ struct gw_gpiomap {
     unsigned nlines;
     robot_t robot[GW_MAX_ROBOTS];
     uint64_t next_resync_us;
-    uint64_t log_limit_us;
+    gw_log_limit_t log_limit;
 };
 
 static void on_events(void *obj, uint32_t events);
@@ -376,7 +376,7 @@ gw_gpiomap_reload_t gw_gpiomap_reload(gw_gpiomap_t *old, const gw_config_t *cfg,
         for (unsigned o = 0; o < old->cfg.robot_count && o < GW_MAX_ROBOTS; o++)
             if (strcmp(old->robot[o].name, m->robot[r].name) == 0)
                 m->robot[r] = old->robot[o];
-    m->log_limit_us = old->log_limit_us;
+    m->log_limit = old->log_limit;
     unsigned nkept = 0;
     for (unsigned i = 0; i < m->nlines; i++)
         nkept += keep[i] != NULL;
@@ -402,7 +402,7 @@ static void write_line(gw_gpiomap_t *m, line_t *l, int v)
         return;
     gw_gpio_error_t e;
     if (gw_gpio_request_set_value(l->req, l->offset, v, &e) != GW_GPIO_OK) {
-        gw_log_limited(GW_LOG_ERROR, &m->log_limit_us, "gpio %s: %s", l->cfg->name, e.msg);
+        gw_log_limited(GW_LOG_ERROR, &m->log_limit, "gpio %s: %s", l->cfg->name, e.msg);
         l->last = -1;
         return;
     }
@@ -501,7 +501,7 @@ static void poll_inputs(gw_gpiomap_t *m, uint64_t now_ns)
         int v;
         gw_gpio_error_t e;
         if (gw_gpio_request_input_value(l->req, l->offset, now_ns, &v, NULL, &e) != GW_GPIO_OK) {
-            gw_log_limited(GW_LOG_ERROR, &m->log_limit_us, "gpio %s: %s", l->cfg->name, e.msg);
+            gw_log_limited(GW_LOG_ERROR, &m->log_limit, "gpio %s: %s", l->cfg->name, e.msg);
             continue;
         }
         const dr_field_t *f = l->cfg->field.field;
@@ -536,7 +536,7 @@ static void on_events(void *obj, uint32_t events)
                     gw_loop_unwatch(m->epfd, &l->ev[i]);
                 l->nev = 0;
             } else {
-                gw_log_limited(GW_LOG_ERROR, &m->log_limit_us, "gpio %s: %s", l->cfg->name, e.msg);
+                gw_log_limited(GW_LOG_ERROR, &m->log_limit, "gpio %s: %s", l->cfg->name, e.msg);
             }
             break;
         }
@@ -556,7 +556,7 @@ void gw_gpiomap_tick(gw_gpiomap_t *m, uint64_t now_us)
             gw_gpio_error_t e;
             if (l->cfg->dir == GW_GPIO_INPUT && l->req != NULL &&
                 gw_gpio_request_sync_inputs(l->req, now_ns, &e) != GW_GPIO_OK)
-                gw_log_limited(GW_LOG_ERROR, &m->log_limit_us, "gpio %s: %s", l->cfg->name, e.msg);
+                gw_log_limited(GW_LOG_ERROR, &m->log_limit, "gpio %s: %s", l->cfg->name, e.msg);
         }
     }
     poll_inputs(m, now_ns);

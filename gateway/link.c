@@ -61,7 +61,8 @@ struct gw_link {
     unsigned poll_ok;        /* replies of the current cycle */
     unsigned dirty;          /* O->T images still to send */
     poll_ctx_t poll_ctx[DR_ASM_COUNT];
-    uint64_t log_limit_us;
+    gw_log_limit_t log_limit;
+    const char *closing; /* gw_link_free's reason: a planned link down */
 };
 
 /* Robots whose links use the same local address and UDP port share one
@@ -108,9 +109,12 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
     if (why != DR_OK) {
         l->unit->status.last_error = DR_IS_CIP(why) ? DR_CIP_EXTENDED(why) : (uint16_t)why;
     }
-    gw_log(up ? GW_LOG_INFO : GW_LOG_WARNING, "robot %s (%s): link %s%s%s", l->cfg.name,
-           l->cfg.host, up ? "up" : "down", why != DR_OK ? ": " : "",
-           why != DR_OK ? dr_strerror(why) : "");
+    /* Closed on purpose (SIGTERM, reload): not a fault, and the reason is
+     * ours, not what the closing connections report. */
+    const char *reason = l->closing != NULL ? l->closing : why != DR_OK ? dr_strerror(why) : "";
+    gw_log(up || l->closing != NULL ? GW_LOG_INFO : GW_LOG_WARNING,
+           "robot %s (%s): link %s%s%s", l->cfg.name, l->cfg.host, up ? "up" : "down",
+           reason[0] != '\0' ? ": " : "", reason);
     if (l->hooks.on_link != NULL)
         l->hooks.on_link(l->hooks.user, l->robot, up, why);
 }
@@ -133,7 +137,7 @@ static void sync_fds(gw_link_t *l)
                 if (j != i && l->ev[j].ev.fd == fds[i].fd)
                     gw_loop_unwatch(l->epfd, &l->ev[j].ev);
             if (!gw_loop_watch(l->epfd, &l->ev[i].ev, fds[i].fd, ev))
-                gw_log_limited(GW_LOG_ERROR, &l->log_limit_us, "robot %s: epoll failed", l->cfg.name);
+                gw_log_limited(GW_LOG_ERROR, &l->log_limit, "robot %s: epoll failed", l->cfg.name);
         } else {
             gw_loop_unwatch(l->epfd, &l->ev[i].ev);
         }
@@ -293,7 +297,7 @@ static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, 
     }
     if (st != DR_CONN_ESTABLISHED) {
         if (why != DR_OK)
-            gw_log_limited(GW_LOG_WARNING, &l->log_limit_us, "robot %s: connection %s: %s",
+            gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: connection %s: %s",
                            l->cfg.name, dr_conn_state_name(st), dr_strerror(why));
         link_set_up(l, false, why);
     } else if (all) {
@@ -342,7 +346,7 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
     if (st == DR_OK && info->dir == DR_DIR_T2O && len != info->size)
         st = DR_ELENGTH;
     if (st != DR_OK) {
-        gw_log_limited(GW_LOG_WARNING, &l->log_limit_us, "robot %s: %s %s: %s", l->cfg.name,
+        gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s %s: %s", l->cfg.name,
                        info->dir == DR_DIR_T2O ? "get" : "set", info->name, dr_strerror(st));
         if (info->dir == DR_DIR_O2T)
             l->dirty |= 1u << pc->a; /* send it again next cycle */
@@ -494,7 +498,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     gw_link_set_unit(l, robot, unit);
     char ip[INET_ADDRSTRLEN];
     if (!resolve_host(rc, ip)) {
-        gw_link_free(l);
+        gw_link_free(l, NULL);
         return NULL;
     }
     dr_client_config_t cc;
@@ -509,7 +513,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     if (rc->mode == GW_MODE_IMPLICIT) {
         l->port = port_get(ports, rc, epfd);
         if (l->port == NULL) {
-            gw_link_free(l);
+            gw_link_free(l, NULL);
             return NULL;
         }
         cc.shared_udp = l->port->port;
@@ -517,7 +521,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     l->client = dr_client_new(&cc);
     if (l->client == NULL || (rc->mode == GW_MODE_IMPLICIT && !add_connections(l))) {
         gw_log(GW_LOG_ERROR, "robot %s: cannot create the EtherNet/IP client", rc->name);
-        gw_link_free(l);
+        gw_link_free(l, NULL);
         return NULL;
     }
     l->start_us = gw_now_us();
@@ -533,10 +537,11 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     return l;
 }
 
-void gw_link_free(gw_link_t *l)
+void gw_link_free(gw_link_t *l, const char *why)
 {
     if (l == NULL)
         return;
+    l->closing = why != NULL ? why : "closed";
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++)
         gw_loop_unwatch(l->epfd, &l->ev[i].ev);
     /* SIGTERM must end within a second even with a slow robot: the

@@ -32,8 +32,10 @@ typedef struct {
 
 gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
                        int epfd, gw_link_ports_t *ports, const gw_link_hooks_t *hooks);
-/* Forward Close, UnRegisterSession, free. NULL is fine. */
-void gw_link_free(gw_link_t *l);
+/* Forward Close, UnRegisterSession, free. NULL is fine. why: the reason
+ * the link goes down on purpose, logged at info level ("gateway
+ * stopping"), NULL for "closed". */
+void gw_link_free(gw_link_t *l, const char *why);
 
 /* O->T images changed (bit per assembly): send them from the next RPI. */
 void gw_link_outputs_changed(gw_link_t *l, unsigned dirty);

@@ -12,7 +12,6 @@
 #define LIMIT_US 10000000u
 
 static gw_log_level_t max_level = GW_LOG_INFO;
-static unsigned suppressed;
 
 void gw_log_set_level(gw_log_level_t max)
 {
@@ -32,7 +31,8 @@ int gw_log_level_parse(const char *name, gw_log_level_t *out)
     return 0;
 }
 
-static void vlog(gw_log_level_t level, const char *fmt, va_list ap)
+/* suppressed: a count of the same kind to end the line with (0: none). */
+static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
 {
     static const char *const words[8] = {"", "", "", "error", "warning", "", "info", "debug"};
     if (level > max_level)
@@ -42,6 +42,9 @@ static void vlog(gw_log_level_t level, const char *fmt, va_list ap)
     else
         fprintf(stderr, "drgatewayd: %s: ", words[level]);
     vfprintf(stderr, fmt, ap);
+    if (suppressed > 0)
+        fprintf(stderr, " [%u similar message%s suppressed]", suppressed,
+                suppressed == 1 ? "" : "s");
     fputc('\n', stderr);
 }
 
@@ -49,24 +52,21 @@ void gw_log(gw_log_level_t level, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    vlog(level, fmt, ap);
+    vlog(level, 0, fmt, ap);
     va_end(ap);
 }
 
-void gw_log_limited(gw_log_level_t level, uint64_t *last_us, const char *fmt, ...)
+void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
 {
     uint64_t now = gw_now_us();
-    if (*last_us != 0 && now - *last_us < LIMIT_US) {
-        suppressed++;
+    if (limit->last_us != 0 && now - limit->last_us < LIMIT_US) {
+        limit->suppressed++;
         return;
     }
-    *last_us = now;
+    limit->last_us = now;
     va_list ap;
     va_start(ap, fmt);
-    vlog(level, fmt, ap);
+    vlog(level, limit->suppressed, fmt, ap);
     va_end(ap);
-    if (suppressed > 0) {
-        gw_log(level, "(%u similar messages suppressed)", suppressed);
-        suppressed = 0;
-    }
+    limit->suppressed = 0;
 }

@@ -19,9 +19,18 @@ int gw_log_level_parse(const char *name, gw_log_level_t *out);
 #endif
 
 void gw_log(gw_log_level_t level, const char *fmt, ...) GW_PRINTF(2, 3);
-/* At most one line every 10 s per *last_us; the lines in between are
- * counted and the count is reported with the next one that passes. */
-void gw_log_limited(gw_log_level_t level, uint64_t *last_us, const char *fmt, ...)
+
+/* One kind of message that may repeat (one per call site and object):
+ * zero-initialised. */
+typedef struct {
+    uint64_t last_us;    /* when one was last printed */
+    unsigned suppressed; /* of this kind since */
+} gw_log_limit_t;
+
+/* At most one line every 10 s per limit; the lines in between are counted
+ * there, and the count is printed at the end of the next line of the same
+ * kind that passes ("... [N similar messages suppressed]"). */
+void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
     GW_PRINTF(3, 4);
 
 #endif

@@ -330,7 +330,7 @@ static void reload(gw_t *g)
                    "robot %s cannot be started", next.robot[n].name);
             for (unsigned k = 0; k < n; k++)
                 if (fresh[k])
-                    gw_link_free(links[k]);
+                    gw_link_free(links[k], "reload refused");
             return;
         }
     }
@@ -349,7 +349,7 @@ static void reload(gw_t *g)
         gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
         for (unsigned n = 0; n < next.robot_count; n++)
             if (fresh[n])
-                gw_link_free(links[n]);
+                gw_link_free(links[n], "reload refused");
         return;
     case GW_GPIOMAP_BROKEN:
     default:
@@ -357,7 +357,7 @@ static void reload(gw_t *g)
         g->gpio = NULL;
         for (unsigned n = 0; n < next.robot_count; n++)
             if (fresh[n])
-                gw_link_free(links[n]);
+                gw_link_free(links[n], "reload refused");
         fail_stop(g);
         return;
     }
@@ -365,7 +365,7 @@ static void reload(gw_t *g)
         if (!kept[o]) {
             gw_log(GW_LOG_INFO, "reload: robot %s changed or removed: closing its link",
                    g->cfg.robot[o].name);
-            gw_link_free(g->links[o]);
+            gw_link_free(g->links[o], "configuration reloaded: robot changed or removed");
         }
     g->gpio = gpio;
     bool restart_modbus = !gw_mbs_reconfigure(g->mbs, &next.modbus);
@@ -424,7 +424,7 @@ static void shutdown_all(gw_t *g)
     sd_notify(0, "STOPPING=1");
     gw_gpiomap_safe_all(g->gpio); /* first: the cell is safe whatever follows */
     for (unsigned r = 0; r < g->cfg.robot_count; r++)
-        gw_link_free(g->links[r]); /* Forward Close, UnRegisterSession */
+        gw_link_free(g->links[r], "gateway stopping"); /* Forward Close, UnRegisterSession */
     gw_mbs_free(g->mbs);
     gw_gpiomap_free(g->gpio);
     gw_log(GW_LOG_INFO, "stopped");

@@ -48,7 +48,7 @@ struct gw_mbs {
     client_t *writer;       /* single-writer mode: the owner */
     unsigned writer_claims; /* clients that became the owner so far */
     uint32_t exceptions;
-    uint64_t refused_log_us;
+    gw_log_limit_t refused_log;
 };
 
 static uint16_t be16(const uint8_t *p)
@@ -164,7 +164,7 @@ static void on_accept(void *obj, uint32_t events)
         if (cl == NULL)
             cl = evict_idle(s, who);
         if (cl == NULL) {
-            gw_log_limited(GW_LOG_WARNING, &s->refused_log_us,
+            gw_log_limited(GW_LOG_WARNING, &s->refused_log,
                            "modbus: refused %s: %u clients already (max_clients)", who,
                            s->nclients);
             close(fd);
@@ -221,7 +221,7 @@ static void client_wrote(void *obj)
     s->writer_claims++;
     char who[32];
     fmt_addr(cl->addr, cl->port, who, sizeof who);
-    gw_log(GW_LOG_INFO, "modbus: %s is now the single writer", who);
+    gw_log(GW_LOG_INFO, "modbus: client %s is now the single writer", who);
 }
 
 /* One complete ADU (mbproto.c checks and applies it). Returns false if the
@@ -255,10 +255,14 @@ static bool drain_frames(gw_mbs_t *s, client_t *cl, unsigned *frames)
         switch (gw_mbap_frame(cl->buf, cl->len, &total)) {
         case GW_MBAP_MORE:
             return true;
-        case GW_MBAP_BAD:
-            gw_log(GW_LOG_WARNING, "modbus: malformed MBAP header (protocol %u, length %u)",
+        case GW_MBAP_BAD: {
+            char who[32];
+            fmt_addr(cl->addr, cl->port, who, sizeof who);
+            gw_log(GW_LOG_WARNING,
+                   "modbus: client %s: malformed MBAP header (protocol %u, length %u)", who,
                    be16(cl->buf + 2), be16(cl->buf + 4));
             return false;
+        }
         case GW_MBAP_FRAME:
             break;
         }

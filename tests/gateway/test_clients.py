@@ -134,6 +134,9 @@ def test_malformed_mbap_closes_that_connection_only(gw, header):
         bad.sendall(header + READ_TEST + b"\x00" * 8)
         assert closed_by_peer(bad), "a malformed header must close the connection"
         wait_for(lambda: "malformed MBAP header" in gw.log()[mark:], 10, "the log line")
+        # the line names the client (issue 11 item 4)
+        line = [l for l in gw.log()[mark:].splitlines() if "malformed MBAP header" in l][0]
+        assert "client 127.0.0.1:%d: malformed" % bad.getsockname()[1] in line, line
         assert other.read(4, 32, 1) == [0x1234]
         assert served(gw)
     finally:
@@ -325,3 +328,37 @@ def test_full_slots_evict_the_longest_idle_non_writer(gw_evict):
             m.close()
         if newcomer is not None:
             newcomer.close()
+
+
+def test_suppressed_counts_stay_with_their_kind():
+    """Issue 11 item 4: the rate limiter counted every kind in one counter
+    and printed it after the next limited line of any kind (185 max_clients
+    refusals reported under a robot timeout line). The count belongs to
+    its kind and ends that kind's next line."""
+    with running("log-kinds", modbus="max_clients = 1\nidle_timeout = 600\n") as g:
+        with g.raw() as m:
+            assert m.read(4, 32, 1) == [0x1234]
+            mark = len(g.log())
+            t0 = time.monotonic()
+            for _ in range(6):
+                s = raw_sock(g)
+                assert closed_by_peer(s, 10)
+                s.close()
+            wait_for(lambda: "max_clients" in g.log()[mark:], 10, "the first refusal")
+            assert g.log()[mark:].count("max_clients") == 1
+            g.sim.kill()                        # a limited line of another kind
+            wait_for(lambda: "link down" in g.log()[mark:], 20, "the robot's link down")
+            robot = [l for l in g.log()[mark:].splitlines() if "robot r0" in l]
+            assert robot and "suppressed" not in g.log()[mark:], g.log()[mark:]
+            # past the limiter's 10 s, the next refusal carries the count
+            # (the holder keeps polling: an idle one would be evicted)
+            while time.monotonic() < t0 + 10.5:
+                assert m.read(4, 32, 1) == [0x1234]
+                time.sleep(0.2)
+            s = raw_sock(g)
+            assert closed_by_peer(s, 10)
+            s.close()
+            wait_for(lambda: g.log()[mark:].count("max_clients") == 2, 10, "the next refusal")
+            line = [l for l in g.log()[mark:].splitlines() if "max_clients" in l][1]
+            assert "refused 127.0.0.1:" in line and \
+                line.endswith("[5 similar messages suppressed]"), line

@@ -38,6 +38,9 @@ def test_signal_stops_cleanly(pair, sig):
     assert log.count("closed (forward close)") == 6, log
     assert "unregistered" in log
     assert "stopped" in g.log()
+    # a planned stop is no fault: info, with the reason (issue 11 item 4)
+    assert "info: robot r0 (127.0.0.2): link down: gateway stopping" in g.log(), g.log()
+    assert "warning" not in g.log(), g.log()
 
 
 def test_sigterm_with_the_robot_gone(pair):
