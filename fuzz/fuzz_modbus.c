@@ -98,7 +98,29 @@ static uint16_t be16(const uint8_t *p)
 
 static bool is_write_fc(uint8_t fc)
 {
-    return fc == 0x05 || fc == 0x06 || fc == 0x0F || fc == 0x10;
+    return fc == 0x05 || fc == 0x06 || fc == 0x0F || fc == 0x10 || fc == 0x17;
+}
+
+/* FC 43 / MEI 14's reply: its header, then objects in ascending id order
+ * filling exactly the PDU, as many as it says. */
+static void check_device_id(const gw_mb_result_t *r, const uint8_t *adu)
+{
+    const uint8_t *p = r->pdu;
+    FUZZ_CHECK(r->pdu_len >= 7 && p[0] == 0x2B && p[1] == 0x0E && p[2] == adu[GW_MBAP_LEN + 2]);
+    FUZZ_CHECK(p[3] == 0x83 && (p[4] == 0x00 || p[4] == 0xFF));
+    size_t n = 7;
+    unsigned objects = 0;
+    int last = -1;
+    while (n < r->pdu_len) {
+        FUZZ_CHECK(n + 2 <= r->pdu_len && n + 2u + p[n + 1] <= r->pdu_len);
+        FUZZ_CHECK((int)p[n] > last);
+        last = p[n];
+        n += 2u + p[n + 1];
+        objects++;
+    }
+    FUZZ_CHECK(n == r->pdu_len && objects == p[6] && objects >= 1);
+    if (adu[GW_MBAP_LEN + 2] == 4)
+        FUZZ_CHECK(objects == 1 && r->pdu[7] == adu[GW_MBAP_LEN + 3]);
 }
 
 static bool is_read_fc(uint8_t fc)
@@ -166,7 +188,7 @@ static void check_read_back(const gw_mb_result_t *w)
                        w->area == GW_COILS ? 0x01 : 0x03,
                        (uint8_t)(w->addr >> 8), (uint8_t)w->addr,
                        (uint8_t)(w->count >> 8), (uint8_t)w->count};
-    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
     /* Writes take at most 1968 bits or 123 registers: one read covers them. */
     FUZZ_CHECK(gw_mbs_decide(adu, sizeof adu, &env, &back) == 0);
     for (uint16_t i = 0; i < w->count; i++) {
@@ -220,6 +242,15 @@ static void check_reply(const uint8_t *adu, size_t len, int ex, const gw_mb_resu
     case 0x06:
         FUZZ_CHECK(rn == len && memcmp(rsp, adu, len) == 0); /* an echo */
         break;
+    case 0x17:
+    case 0x2B: /* built by mbproto.c: exactly its PDU */
+        FUZZ_CHECK(rn == GW_MBAP_LEN + r->pdu_len && memcmp(rsp + 7, r->pdu, r->pdu_len) == 0);
+        if (fc == 0x17) {
+            FUZZ_CHECK(rsp[8] == 2u * r->rcount);
+            for (unsigned i = 0; i < r->rcount; i++)
+                FUZZ_CHECK(be16(rsp + 9 + 2 * i) == r->rvalues[i]);
+        }
+        break;
     default: /* 0x0F, 0x10: address and count */
         FUZZ_CHECK(rn == 12 && be16(rsp + 8) == r->addr && be16(rsp + 10) == r->count);
         break;
@@ -230,7 +261,7 @@ static void request(const uint8_t *adu, size_t len)
 {
     static gw_unit_t before[UNITS];
     memcpy(before, units, sizeof units);
-    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
     asked = told = 0;
     int ex = gw_mbs_decide(adu, len, &env, &res);
     uint8_t fc = adu[GW_MBAP_LEN];
@@ -254,8 +285,11 @@ static void request(const uint8_t *adu, size_t len)
     FUZZ_CHECK(res.unit_id == adu[6] && res.fc == fc);
     FUZZ_CHECK((ex == 0x0A) == (u == NULL));
     FUZZ_CHECK(asked == (u != NULL && is_write_fc(fc)));
-    if (u != NULL && !is_read_fc(fc) && !is_write_fc(fc))
+    if (u != NULL && !is_read_fc(fc) && !is_write_fc(fc) && fc != 0x2B)
         FUZZ_CHECK(ex == GW_EX_ILLEGAL_FUNCTION);
+    if (ex == 0 && fc == 0x2B)
+        check_device_id(&res, adu);
+    FUZZ_CHECK((res.pdu_len > 0) == (ex == 0 && (fc == 0x17 || fc == 0x2B)));
     if (u != NULL && is_write_fc(fc) && read_only)
         FUZZ_CHECK(ex == GW_EX_ILLEGAL_FUNCTION);
     if (ex == GW_EX_TARGET_FAILED)
@@ -286,6 +320,18 @@ static void request(const uint8_t *adu, size_t len)
 
     if (ex == 0 && is_write_fc(fc))
         check_read_back(&res);
+    if (ex == 0 && fc == 0x17) {
+        /* FC 23's read part is what the registers read after its write. */
+        uint8_t rd[12] = {0, 1, 0, 0, 0, 6, res.unit_id, 0x03,
+                          (uint8_t)(res.raddr >> 8), (uint8_t)res.raddr,
+                          (uint8_t)(res.rcount >> 8), (uint8_t)res.rcount};
+        uint16_t rv[MODBUS_MAX_WR_READ_REGISTERS];
+        uint16_t rn = res.rcount;
+        memcpy(rv, res.rvalues, sizeof rv);
+        const gw_mb_env_t env2 = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+        FUZZ_CHECK(gw_mbs_decide(rd, sizeof rd, &env2, &back) == 0 && back.count == rn &&
+                   memcmp(back.values, rv, rn * sizeof rv[0]) == 0);
+    }
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -319,6 +365,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 FUZZ_CHECK(dr_path_parse(owned[j], &u->gpio_in[u->gpio_in_count++]) == DR_OK);
         }
         u->status.write_fault = (data[1] & 0x80u) != 0;
+        memcpy(u->name, i == 0 ? "arm1" : "arm2", sizeof "arm1");
         u->status.link_state = (flags & 0x10u) ? 2 : 0;
         u->status.fresh = (flags & 0x10u) != 0;
     }

@@ -590,6 +590,29 @@ static void gen_modbus(void)
     mb_4(&b, 1, 0x04, 40, 1); /* reserved: refused in this mode */
     put("modbus", "gpio_owned", b.b, b.n);
 
+    mb_begin(&b, 0x50); /* unit 2 too */
+    /* FC 23: read HR 300-303 and write int_in[0] (HR 300-301) */
+    const uint8_t rw[] = {0x17, 0x01, 0x2C, 0x00, 0x04, 0x01, 0x2C, 0x00, 0x02, 0x04,
+                          0xFF, 0xFF, 0xFF, 0xFE};
+    mb_adu(&b, 1, rw, sizeof rw);
+    const uint8_t rw_bad[] = {0x17, 0x01, 0x2C, 0x00, 0x04, 0x01, 0x2D, 0x00, 0x01, 0x02,
+                              0x00, 0x01}; /* half a DINT: nothing applied */
+    mb_adu(&b, 2, rw_bad, sizeof rw_bad);
+    const uint8_t rw_read_bad[] = {0x17, 0x07, 0xFF, 0x00, 0x02, 0x01, 0x2C, 0x00, 0x02, 0x04,
+                                   0x00, 0x00, 0x00, 0x05}; /* read past the end */
+    mb_adu(&b, 1, rw_read_bad, sizeof rw_read_bad);
+    for (uint8_t code = 1; code <= 4; code++) {
+        const uint8_t devid[] = {0x2B, 0x0E, code, code == 4 ? 0x81 : 0x00};
+        mb_adu(&b, 2, devid, sizeof devid);
+    }
+    const uint8_t devid_restart[] = {0x2B, 0x0E, 0x02, 0x03}; /* no VendorUrl: from 0 */
+    mb_adu(&b, 1, devid_restart, sizeof devid_restart);
+    const uint8_t devid_none[] = {0x2B, 0x0E, 0x04, 0x03};  /* no such object: 0x02 */
+    mb_adu(&b, 1, devid_none, sizeof devid_none);
+    const uint8_t canopen[] = {0x2B, 0x0D, 0x00, 0x00};     /* another MEI type: 0x01 */
+    mb_adu(&b, 1, canopen, sizeof canopen);
+    put("modbus", "read_write_device_id", b.b, b.n);
+
     mb_begin(&b, 0x10);
     b.b[1] |= 0x80; /* the write fault is latched */
     const uint16_t wd_reset[2] = {0x0007, 0x0001};

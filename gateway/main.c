@@ -263,6 +263,7 @@ static void init_unit(gw_t *g, unsigned r)
 {
     gw_unit_t *u = &g->units[r];
     unit_policy(u, &g->cfg.modbus);
+    memcpy(u->name, g->cfg.robot[r].name, sizeof u->name);
     u->gpio_in_count = 0;
     for (unsigned i = 0; i < g->cfg.gpio_count; i++)
         if (g->cfg.gpio[i].dir == GW_GPIO_INPUT && g->cfg.gpio[i].robot_index == r)
@@ -384,7 +385,7 @@ static void reload(gw_t *g)
     }
     if (restart_modbus) {
         gw_mbs_free(g->mbs);
-        gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g};
+        gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g, DRGATE_VERSION};
         g->mbs = gw_mbs_new(&g->cfg.modbus, g->epfd, &mh, err, sizeof err);
         if (g->mbs == NULL) {
             gw_log(GW_LOG_ERROR, "reload: %s", err);
@@ -460,7 +461,7 @@ static int run(gw_t *g)
         return close_loop(g, 1);
     }
     gw_regmap_init();
-    gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g};
+    gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g, DRGATE_VERSION};
     gw_gpiomap_hooks_t gh = {on_gpio_input, g};
     g->mbs = gw_mbs_new(&g->cfg.modbus, g->epfd, &mh, err, sizeof err);
     if (g->mbs == NULL) {

@@ -2,7 +2,13 @@
 /* Modbus TCP framing and request checks: see mbproto.h. */
 #include "mbproto.h"
 
+#include <stdio.h>
 #include <string.h>
+#include <sys/socket.h>
+
+#define FC_READ_WRITE 0x17
+#define FC_MEI 0x2B
+#define MEI_DEVICE_ID 0x0E
 
 static uint16_t be16(const uint8_t *p)
 {
@@ -83,13 +89,21 @@ static bool is_fault_reset(gw_area_t area, uint16_t addr, uint16_t count, const 
            (uint32_t)addr + count <= GW_HR_FAULT_RESET + 1u && v[GW_HR_FAULT_RESET - addr] == 1;
 }
 
+/* A latched write fault lets only the reset through. */
+static int latch_check(const gw_unit_t *u, const gw_mb_result_t *r)
+{
+    if (u->status.write_fault && !is_fault_reset(r->area, r->addr, r->count, r->values))
+        return GW_EX_DEVICE_FAILURE;
+    return 0;
+}
+
 /* Check a decoded write against the fault latch, apply it, and tell the
  * server it was applied. */
 static int apply_write(gw_unit_t *u, const gw_mb_env_t *env, gw_mb_result_t *r)
 {
     bool reset = is_fault_reset(r->area, r->addr, r->count, r->values);
-    if (u->status.write_fault && !reset)
-        return GW_EX_DEVICE_FAILURE; /* latched: only the reset gets through */
+    if (latch_check(u, r) != 0)
+        return GW_EX_DEVICE_FAILURE;
     int ex = gw_regmap_write(u, r->area, r->addr, r->count, r->values, &r->dirty);
     if (ex != 0)
         return ex;
@@ -101,6 +115,139 @@ static int apply_write(gw_unit_t *u, const gw_mb_env_t *env, gw_mb_result_t *r)
         r->reset = true;
     }
     env->wrote(env->client);
+    return 0;
+}
+
+/* ---- FC 23: read/write multiple registers ---------------------------------- */
+
+/* Request: read address, read count, write address, write count, byte
+ * count, values. The write is applied first, then the read made (as the
+ * specification says), and nothing is applied unless both parts pass. */
+static int decide_read_write(gw_unit_t *u, const gw_mb_env_t *env, const uint8_t *pdu,
+                             size_t pdu_len, gw_mb_result_t *r)
+{
+    r->write = true;
+    r->area = GW_HOLDING;
+    if (!env->may_write(env->client))
+        return GW_EX_ILLEGAL_FUNCTION;
+    if (pdu_len < 10)
+        return GW_EX_ILLEGAL_VALUE;
+    r->raddr = be16(pdu + 1);
+    r->rcount = be16(pdu + 3);
+    r->addr = be16(pdu + 5);
+    r->count = be16(pdu + 7);
+    if (r->rcount == 0 || r->rcount > MODBUS_MAX_WR_READ_REGISTERS || r->count == 0 ||
+        r->count > MODBUS_MAX_WR_WRITE_REGISTERS || pdu[9] != 2u * r->count ||
+        pdu_len != 10u + pdu[9])
+        return GW_EX_ILLEGAL_VALUE;
+    for (uint16_t i = 0; i < r->count; i++)
+        r->values[i] = be16(pdu + 10 + 2 * i);
+    int ex = latch_check(u, r);
+    /* The read part's answer depends only on its addresses: checked now,
+     * before anything is written. */
+    if (ex == 0)
+        ex = gw_regmap_read(u, GW_HOLDING, r->raddr, r->rcount, r->rvalues);
+    if (ex == 0)
+        ex = apply_write(u, env, r);
+    if (ex == 0)
+        ex = gw_regmap_read(u, GW_HOLDING, r->raddr, r->rcount, r->rvalues);
+    if (ex != 0)
+        return ex; /* the second read cannot fail where the first passed */
+    r->pdu[0] = FC_READ_WRITE;
+    r->pdu[1] = (uint8_t)(2u * r->rcount);
+    for (uint16_t i = 0; i < r->rcount; i++) {
+        r->pdu[2 + 2 * i] = (uint8_t)(r->rvalues[i] >> 8);
+        r->pdu[3 + 2 * i] = (uint8_t)r->rvalues[i];
+    }
+    r->pdu_len = 2u + 2u * r->rcount;
+    return 0;
+}
+
+/* ---- FC 43 / MEI 14: read device identification ---------------------------- */
+
+/* The objects, by id: basic 0x00-0x02, regular 0x04-0x06 (no VendorUrl,
+ * 0x03: the gateway has none to give), extended 0x80-0x81 (the unit's
+ * robot). Writes object `id` into out[n]; returns its length, or -1 if
+ * there is no such object. */
+static int devid_object(const gw_unit_t *u, const char *version, uint8_t id, char *out,
+                        size_t n)
+{
+    switch (id) {
+    case 0x00: return snprintf(out, n, "drgate");
+    case 0x01: return snprintf(out, n, "drgatewayd");
+    case 0x02: return snprintf(out, n, "%s", version != NULL ? version : "");
+    case 0x04: return snprintf(out, n, "drgate Modbus TCP gateway for Doosan robots");
+    case 0x05: return snprintf(out, n, "drgatewayd");
+    case 0x06: /* UserApplicationName: the robot this unit serves */
+    case 0x80: return snprintf(out, n, "%s", u->name);
+    case 0x81: { /* the controller's version, as io_state reports it */
+        static const char *const part[3] = {"io_state.version.major", "io_state.version.minor",
+                                            "io_state.version.patch"};
+        uint64_t v[3] = {0, 0, 0};
+        for (unsigned i = 0; i < 3; i++) {
+            dr_ref_t ref;
+            dr_value_t x;
+            if (dr_path_parse(part[i], &ref) == DR_OK &&
+                dr_field_get(u->img[DR_ASM_IO_STATE], dr_asm_info(DR_ASM_IO_STATE)->size, ref,
+                             &x) == DR_OK)
+                v[i] = x.u;
+        }
+        return snprintf(out, n, "%u.%u.%u", (unsigned)v[0], (unsigned)v[1], (unsigned)v[2]);
+    }
+    default: return -1;
+    }
+}
+
+/* The last object id of each read code's category (1 basic, 2 regular,
+ * 3 extended). */
+static const uint8_t devid_last[4] = {0, 0x02, 0x06, 0x81};
+
+/* Request: MEI type 0x0E, read device id code (1-3 stream access by
+ * category, 4 one object), object id. */
+static int decide_device_id(const gw_unit_t *u, const gw_mb_env_t *env, const uint8_t *pdu,
+                            size_t pdu_len, gw_mb_result_t *r)
+{
+    if (pdu_len >= 2 && pdu[1] != MEI_DEVICE_ID)
+        return GW_EX_ILLEGAL_FUNCTION; /* another MEI type (0x0D CANopen) */
+    if (pdu_len != 4 || pdu[2] < 1 || pdu[2] > 4)
+        return GW_EX_ILLEGAL_VALUE;
+    uint8_t code = pdu[2], first = pdu[3];
+    char text[GW_ADU_MAX];
+    if (code == 4 && devid_object(u, env->version, first, text, sizeof text) < 0)
+        return GW_EX_ILLEGAL_ADDRESS;
+    uint8_t last = code == 4 ? first : devid_last[code];
+    /* Stream access from an object the category does not have starts
+     * over at object 0 (the specification's rule). */
+    if (code != 4 && (first > last || devid_object(u, env->version, first, text,
+                                                   sizeof text) < 0))
+        first = 0;
+    uint8_t *p = r->pdu;
+    p[0] = FC_MEI;
+    p[1] = MEI_DEVICE_ID;
+    p[2] = code;
+    p[3] = 0x83; /* conformity: extended, stream and individual access */
+    p[4] = 0x00; /* more follows */
+    p[5] = 0x00; /* next object id */
+    p[6] = 0;    /* number of objects */
+    size_t n = 7;
+    for (unsigned id = first; id <= last; id++) {
+        int len = devid_object(u, env->version, (uint8_t)id, text, sizeof text);
+        if (len < 0)
+            continue;
+        if (len > 245)
+            len = 245; /* one object alone always fits a reply */
+        if (n + 2u + (size_t)len > sizeof r->pdu) {
+            p[4] = 0xFF; /* the rest in the next request, from this one */
+            p[5] = (uint8_t)id;
+            break;
+        }
+        p[n] = (uint8_t)id;
+        p[n + 1] = (uint8_t)len;
+        memcpy(p + n + 2, text, (size_t)len);
+        n += 2u + (size_t)len;
+        p[6]++;
+    }
+    r->pdu_len = n;
     return 0;
 }
 
@@ -120,10 +267,16 @@ int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
     r->addr = r->count = 0;
     r->dirty = 0;
     r->reset = false;
+    r->raddr = r->rcount = 0;
+    r->pdu_len = 0;
 
     gw_unit_t *u = env->unit_for(env->units, r->unit_id);
     if (u == NULL)
         return 0x0A; /* gateway path unavailable: no robot with this unit ID */
+    if (r->fc == FC_READ_WRITE)
+        return decide_read_write(u, env, pdu, pdu_len, r);
+    if (r->fc == FC_MEI)
+        return decide_device_id(u, env, pdu, pdu_len, r);
     if (!fc_lookup(r->fc, &fi))
         return GW_EX_ILLEGAL_FUNCTION;
     r->write = fi.write;
@@ -144,6 +297,23 @@ int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
     return ex != 0 ? ex : apply_write(u, env, r);
 }
 
+/* A reply built here: the request's MBAP header with the new length, on
+ * the context's socket, all of it or an error (as libmodbus's own send). */
+static int send_pdu(modbus_t *ctx, const uint8_t *adu, const uint8_t *pdu, size_t pdu_len)
+{
+    uint8_t out[GW_ADU_MAX];
+    if (pdu_len > sizeof out - GW_MBAP_LEN)
+        return -1;
+    memcpy(out, adu, 4); /* transaction and protocol identifiers */
+    out[4] = (uint8_t)((pdu_len + 1u) >> 8);
+    out[5] = (uint8_t)(pdu_len + 1u);
+    out[6] = adu[6];
+    memcpy(out + GW_MBAP_LEN, pdu, pdu_len);
+    size_t n = GW_MBAP_LEN + pdu_len;
+    ssize_t sent = send(modbus_get_socket(ctx), out, n, MSG_NOSIGNAL);
+    return sent == (ssize_t)n ? (int)n : -1;
+}
+
 int gw_mbs_reply(modbus_t *ctx, modbus_mapping_t *map, const uint8_t *adu,
                  size_t len, int ex, const gw_mb_result_t *r)
 {
@@ -160,6 +330,8 @@ int gw_mbs_reply(modbus_t *ctx, modbus_mapping_t *map, const uint8_t *adu,
     }
     if (ex != 0)
         return modbus_reply_exception(ctx, adu, (unsigned)ex);
+    if (r->pdu_len > 0)
+        return send_pdu(ctx, adu, r->pdu, r->pdu_len);
     if (!r->write) {
         for (uint16_t i = 0; i < r->count; i++) {
             unsigned a = (unsigned)r->addr + i;

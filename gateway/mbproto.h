@@ -7,11 +7,15 @@
  *
  * Order of the checks, each answered with the first exception that
  * applies: no unit with the unit ID (0x0A), a function code other than
- * 01-06, 0F, 10 (0x01), a write from a client that may not write (0x01),
- * a malformed request or count (0x03), a write other than the fault reset
- * to a unit whose write fault is latched (0x04), then the register map's
- * own answer (0x02, 0x03, 0x0B). A write that fails any check changes
- * nothing.
+ * 01-06, 0F, 10, 17, 2B (0x01), a write from a client that may not write
+ * (0x01), a malformed request or count (0x03), a write other than the
+ * fault reset to a unit whose write fault is latched (0x04), then the
+ * register map's own answer (0x02, 0x03, 0x0B). A write that fails any
+ * check changes nothing; FC 23 (read/write multiple registers) checks its
+ * read part before it applies its write part, so a refused FC 23 changes
+ * nothing either. FC 43 / MEI 14 (read device identification) answers
+ * from the unit's identity (gw_unit_t name, io_state's version) and the
+ * gateway's version (gw_mb_env_t).
  */
 #ifndef DRGATE_GW_MBPROTO_H
 #define DRGATE_GW_MBPROTO_H
@@ -46,12 +50,13 @@ typedef struct {
     bool (*may_write)(void *client);
     void (*wrote)(void *client);
     void *client;
+    const char *version; /* the gateway's, for FC 43 (MajorMinorRevision) */
 } gw_mb_env_t;
 
 /* What gw_mbs_decide found. */
 typedef struct {
     uint8_t unit_id, fc;
-    bool write;        /* fc is a write function (05, 06, 0F, 10) */
+    bool write;        /* fc is a write function (05, 06, 0F, 10, 17) */
     gw_area_t area;    /* valid once the function code is known */
     uint16_t addr, count;
     unsigned dirty;    /* accepted write: O->T images written (bit per assembly) */
@@ -59,6 +64,14 @@ typedef struct {
     /* Accepted read: the registers or bits (0/1) to answer with; write:
      * the values decoded from the request. */
     uint16_t values[MODBUS_MAX_READ_BITS];
+    /* FC 23: its read part (values: its write part), read after the write. */
+    uint16_t raddr, rcount;
+    uint16_t rvalues[MODBUS_MAX_WR_READ_REGISTERS];
+    /* FC 23 and 43 accepted: the reply PDU, built here (libmodbus has no
+     * FC 43, and its FC 23 answers with the values written, not what the
+     * registers read back as). */
+    uint8_t pdu[GW_ADU_MAX - GW_MBAP_LEN];
+    size_t pdu_len;
 } gw_mb_result_t;
 
 /* Check one whole ADU (adu[0..len), as gw_mbap_frame found it) and apply

@@ -229,7 +229,7 @@ static void client_wrote(void *obj)
 static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t len)
 {
     const gw_mb_env_t env = {s->hooks.unit_for, s->hooks.user, client_may_write, client_wrote,
-                             cl};
+                             cl, s->hooks.version};
     int ex = gw_mbs_decide(req, len, &env, &s->result);
     if (ex < 0)
         return false; /* not reached: drain_frames hands whole frames only */

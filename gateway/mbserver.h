@@ -24,6 +24,7 @@ typedef struct {
     /* O->T images of `unit_id` changed (bit per assembly). */
     void (*on_write)(void *user, uint8_t unit_id, unsigned dirty);
     void *user;
+    const char *version; /* the gateway's, for FC 43 device identification */
 } gw_mbs_hooks_t;
 
 /* Listen as `cfg` says and register in the epoll set. NULL on error with

@@ -67,6 +67,7 @@ typedef struct {
      * refused (0x02). */
     dr_ref_t gpio_in[GW_MAX_GPIO];
     unsigned gpio_in_count;
+    char name[GW_NAME_MAX];   /* the robot's, for FC 43 device identification */
     uint16_t watchdog;        /* last value written to the watchdog register */
     bool fault_reset;         /* set when a client wrote the reset register */
 } gw_unit_t;

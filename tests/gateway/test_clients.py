@@ -259,7 +259,11 @@ def test_trickling_clients_do_not_lock_out_a_plc(gw_full):
         for t in ts:
             assert closed_by_peer(t.sock, 15)
         log = gw.log()[mark:]
-        assert log.count("request not complete within request_timeout_ms") == MAX_CLIENTS, log
+        # each closed at its request's deadline, or evicted for the PLC
+        # when that came first (both 3 s: whichever the loop saw first)
+        assert log.count("request not complete within request_timeout_ms") + \
+            log.count("evicted for") == MAX_CLIENTS, log
+        assert log.count("request not complete within request_timeout_ms") >= MAX_CLIENTS - 1
     finally:
         for t in ts:
             t.close()
@@ -335,9 +339,11 @@ def test_suppressed_counts_stay_with_their_kind():
     and printed it after the next limited line of any kind (185 max_clients
     refusals reported under a robot timeout line). The count belongs to
     its kind and ends that kind's next line."""
-    with running("log-kinds", modbus="max_clients = 1\nidle_timeout = 600\n") as g:
-        with g.raw() as m:
-            assert m.read(4, 32, 1) == [0x1234]
+    # two slots, two holders: the start-up's own quick connections (status
+    # reads) never find the gateway full, so the first refusal is ours
+    with running("log-kinds", modbus="max_clients = 2\nidle_timeout = 600\n") as g:
+        with g.raw() as m, g.raw() as m2:
+            assert m.read(4, 32, 1) == [0x1234] and m2.read(4, 32, 1) == [0x1234]
             mark = len(g.log())
             t0 = time.monotonic()
             for _ in range(6):
@@ -351,9 +357,9 @@ def test_suppressed_counts_stay_with_their_kind():
             robot = [l for l in g.log()[mark:].splitlines() if "robot r0" in l]
             assert robot and "suppressed" not in g.log()[mark:], g.log()[mark:]
             # past the limiter's 10 s, the next refusal carries the count
-            # (the holder keeps polling: an idle one would be evicted)
+            # (the holders keep polling: an idle one would be evicted)
             while time.monotonic() < t0 + 10.5:
-                assert m.read(4, 32, 1) == [0x1234]
+                assert m.read(4, 32, 1) == [0x1234] and m2.read(4, 32, 1) == [0x1234]
                 time.sleep(0.2)
             s = raw_sock(g)
             assert closed_by_peer(s, 10)

@@ -52,15 +52,14 @@ def fc15(addr, bits, count=None):
 # ---- 0x01 illegal function -----------------------------------------------------------
 
 @pytest.mark.parametrize("pdu", [
-    bytes([0x2B, 0x0E, 0x01, 0x00]),                       # read device identification
-    struct.pack(">BHHHHB", 0x17, 100, 2, 400, 2, 4) + bytes(8),  # read/write multiple
+    bytes([0x2B, 0x0D, 0x00, 0x00]),                       # MEI type 13 (CANopen)
     bytes([0x07]),                                          # read exception status
     bytes([0x08, 0x00, 0x00, 0x12, 0x34]),                  # diagnostics
     bytes([0x0B]), bytes([0x11]),                           # comm event counter, slave id
     struct.pack(">BHHH", 0x16, 100, 0xFFFF, 0),             # mask write register
     struct.pack(">BH", 0x18, 0),                            # read FIFO queue
     bytes([0x00]), bytes([0x41, 1, 2, 3]), bytes([0x7F]),
-], ids=lambda p: "fc%02x" % p[0])
+], ids=lambda p: "fc%02x" % p[0] + ("-mei%02x" % p[1] if p[0] == 0x2B else ""))
 def test_illegal_function(gw, pdu, m):
     assert m.exception(pdu) == EX_ILLEGAL_FUNCTION
 
@@ -68,7 +67,7 @@ def test_illegal_function(gw, pdu, m):
 def test_illegal_function_pymodbus(gw):
     pm = gw.pymodbus()
     try:
-        r = pm.read_device_information(slave=1)
+        r = pm.mask_write_register(address=100, and_mask=0xFFFF, or_mask=0, slave=1)
         assert r.isError() and r.exception_code == EX_ILLEGAL_FUNCTION
     finally:
         pm.close()
@@ -261,7 +260,7 @@ def test_exceptions_are_counted(gw, m):
 
 def test_connection_survives_exceptions(gw, m):
     """An exception answers the request; the connection stays for the next."""
-    for pdu in (bytes([0x2B, 0x0E, 1, 0]), rd(4, 50, 1), rd(3, 400, 0),
+    for pdu in (bytes([0x2B, 0x0E, 5, 0]), rd(4, 50, 1), rd(3, 400, 0),
                 struct.pack(">BHH", 6, 102, 2)):
         assert m.exception(pdu) is not None
         assert m.exception(rd(4, 0, 1), unit=77) == EX_PATH_UNAVAILABLE
