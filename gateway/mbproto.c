@@ -234,8 +234,8 @@ static int decide_device_id(const gw_unit_t *u, const gw_mb_env_t *env, const ui
         int len = devid_object(u, env->version, (uint8_t)id, text, sizeof text);
         if (len < 0)
             continue;
-        if (len > 245)
-            len = 245; /* one object alone always fits a reply */
+        if ((size_t)len > sizeof r->pdu - 9u)
+            len = (int)(sizeof r->pdu - 9u); /* one object alone always fits a reply */
         if (n + 2u + (size_t)len > sizeof r->pdu) {
             p[4] = 0xFF; /* the rest in the next request, from this one */
             p[5] = (uint8_t)id;

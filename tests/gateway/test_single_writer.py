@@ -302,3 +302,18 @@ def test_fault_reset_needs_the_right_to_write(pair, regmap):
         plc.write_reg(HR_RESET, 1)   # the old owner may reset too: it owns again
         assert fault(g) == 0
         wait_for(lambda: g.status()[IR_WRITER] == 1, 10, "owner again")
+
+
+def test_refused_write_takes_no_ownership(pair, regmap):
+    """free --a write that fails a check--> free: only an applied write
+    makes its client the owner (a refused one used to claim the lock)."""
+    from gwlib import EX_ILLEGAL_ADDRESS, EX_ILLEGAL_VALUE
+    g = pair
+    with g.raw() as a, g.raw() as b:
+        assert a.exception(fc6(HR_RESET, 2)) == EX_ILLEGAL_VALUE
+        assert a.exception(fc6(regmap.addr("HR", "int_in[0]"), 1)) == EX_ILLEGAL_ADDRESS
+        time.sleep(0.3)
+        assert g.status()[IR_WRITER] == 0
+        b.write_reg(HR_WATCHDOG, 1)                  # b's applied write: b owns
+        wait_for(lambda: g.status()[IR_WRITER] == 1, 10, "b as the owner")
+        assert a.exception(fc6(HR_WATCHDOG, 2)) == EX_ILLEGAL_FUNCTION
