@@ -9,6 +9,13 @@
  * per sample before the median. memcpy is called through a volatile
  * pointer so that the compiler can neither drop nor inline it: like the
  * codec, which lives in another translation unit, it stays a real call.
+ *
+ * `bench_codec --count N` times nothing: it makes N calls of each of the
+ * three and exits, for an instruction count that a busy machine does not
+ * change (docs/performance.md):
+ *   valgrind --tool=callgrind build/bench/bench_codec --count 10000
+ * then callgrind_annotate --inclusive=yes: Ir of copy_all, decode_all and
+ * encode_all, divided by N.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -128,7 +135,25 @@ static double median(double *v, size_t n)
     return v[n / 2];
 }
 
-int main(void)
+/* --count N: N untimed calls of each, for instruction counting. */
+static int count_only(const char *arg)
+{
+    char *end;
+    long n = strtol(arg, &end, 10);
+    if (*end != '\0' || n <= 0) {
+        fprintf(stderr, "bench_codec: --count takes a positive number, not '%s'\n", arg);
+        return 2;
+    }
+    for (long i = 0; i < n; i++)
+        copy_all();
+    for (long i = 0; i < n; i++)
+        decode_all();
+    for (long i = 0; i < n; i++)
+        encode_all();
+    return 0;
+}
+
+int main(int argc, char **argv)
 {
     static double t_copy[SAMPLES], t_dec[SAMPLES], t_enc[SAMPLES];
     static double r_dec[SAMPLES], r_enc[SAMPLES];
@@ -145,6 +170,12 @@ int main(void)
             fprintf(stderr, "bench: %s does not round-trip\n", dr_asm_info((dr_asm_t)a)->name);
             return 2;
         }
+    }
+    if (argc == 3 && strcmp(argv[1], "--count") == 0)
+        return count_only(argv[2]);
+    if (argc != 1) {
+        fprintf(stderr, "usage: bench_codec [--count N]\n");
+        return 2;
     }
 
     for (int w = 0; w < 20; w++) { /* warm caches and clocks */
