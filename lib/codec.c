@@ -125,7 +125,7 @@ typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24)
  * aliases are function-like: cppcheck's preprocessor does not rescan an
  * object-like alias of a function-like macro) */
 #define DEC_BIT(m, p, bit, n) (m) = ((p)[(bit) / 8u] >> ((bit) % 8u)) & 1u;
-#define DEC_BITS(m, p, bit, n) (m) = load_bits(p, bit, n);
+#define DEC_BITS(m, p, bit, n) (m) = load_bits((p) + (bit) / 8u, (bit) % 8u, n);
 #define DEC_USINT(m, p, bit, n) memcpy(&(m), p, n);
 #define DEC_ENUM(m, p, bit, n) DEC_USINT(m, p, bit, n)
 #define DEC_DINT(m, p, bit, n) words_from_wire((uint8_t *)&(m), p, n);
@@ -135,7 +135,7 @@ typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24)
 
 /* encode one field onto zeroed wire bytes at p */
 #define ENC_BIT(m, p, bit, n) (p)[(bit) / 8u] |= (uint8_t)((m) ? 1u << ((bit) % 8u) : 0u);
-#define ENC_BITS(m, p, bit, n) or_bits(p, bit, n, (uint64_t)(m));
+#define ENC_BITS(m, p, bit, n) or_bits((p) + (bit) / 8u, (bit) % 8u, n, (uint64_t)(m));
 #define ENC_USINT(m, p, bit, n) memcpy(p, &(m), n);
 #define ENC_ENUM(m, p, bit, n) ENC_USINT(m, p, bit, n)
 #define ENC_DINT(m, p, bit, n) words_to_wire(p, (const uint8_t *)&(m), n);
@@ -197,17 +197,20 @@ static dr_status_t reals_finite(const uint8_t *p, unsigned n)
     +(DR_KIND_##K == DR_KIND_BIT || DR_KIND_##K == DR_KIND_BITS)
 
 #define DEFINE_CODEC(ID, name, T, FIELDS, O2T, SIZE)                                 \
-    static void decode_##name(const uint8_t *buf, void *out)                  \
+    static dr_status_t decode_##name(const uint8_t *restrict buf,            \
+                                     void *restrict out)                      \
     {                                                                         \
-        T *o = out;                                                           \
+        T *restrict o = out;                                                  \
         if (sizeof *o != 0 FIELDS(MEMBER_BYTES, DR_ASM_##ID, T))              \
             memset(o, 0, sizeof *o); /* padding, so structs compare equal */  \
         FIELDS(DEC_FIELD, DR_ASM_##ID, T)                                     \
+        return DR_OK;                                                         \
     }                                                                         \
     /* every value is checked before the first byte is written */           \
-    static dr_status_t encode_##name(const void *in, uint8_t *buf)           \
+    static dr_status_t encode_##name(const void *restrict in,                \
+                                     uint8_t *restrict buf)                   \
     {                                                                         \
-        const T *o = in;                                                      \
+        const T *restrict o = in;                                             \
         const bool o2t = O2T;                                                 \
         dr_status_t st = DR_OK;                                               \
         (void)o2t;                                                            \
@@ -221,32 +224,33 @@ static dr_status_t reals_finite(const uint8_t *p, unsigned n)
     }
 DR_ASSEMBLIES(DEFINE_CODEC)
 
+/* The wire size sits next to the functions (the same SIZE as
+ * dr_asm_info's), so a call is one bounds check, one length check and a
+ * tail call, without asking fields.c first. */
 typedef struct {
-    void (*decode)(const uint8_t *buf, void *out);
-    dr_status_t (*encode)(const void *in, uint8_t *buf);
+    dr_status_t (*decode)(const uint8_t *restrict buf, void *restrict out);
+    dr_status_t (*encode)(const void *restrict in, uint8_t *restrict buf);
+    size_t size;
 } asm_codec_t;
 
 #define CODEC_ENTRY(ID, name, T, FIELDS, O2T, SIZE)                            \
-    {decode_##name, encode_##name},
+    {decode_##name, encode_##name, SIZE},
 static const asm_codec_t codecs[DR_ASM_COUNT] = {DR_ASSEMBLIES(CODEC_ENTRY)};
 
 dr_status_t dr_asm_decode(dr_asm_t a, const uint8_t *buf, size_t len, void *out)
 {
-    const dr_asm_info_t *info = dr_asm_info(a);
-    if (info == NULL || buf == NULL || out == NULL)
+    if ((unsigned)a >= DR_ASM_COUNT || buf == NULL || out == NULL)
         return DR_EINVAL;
-    if (len != info->size)
+    if (len != codecs[a].size)
         return DR_ELENGTH;
-    codecs[a].decode(buf, out);
-    return DR_OK;
+    return codecs[a].decode(buf, out);
 }
 
 dr_status_t dr_asm_encode(dr_asm_t a, const void *in, uint8_t *buf, size_t len)
 {
-    const dr_asm_info_t *info = dr_asm_info(a);
-    if (info == NULL || buf == NULL || in == NULL)
+    if ((unsigned)a >= DR_ASM_COUNT || buf == NULL || in == NULL)
         return DR_EINVAL;
-    if (len != info->size)
+    if (len != codecs[a].size)
         return DR_ELENGTH;
     return codecs[a].encode(in, buf);
 }

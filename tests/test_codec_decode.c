@@ -267,6 +267,32 @@ static void test_decode_errors(void **state)
     assert_int_equal(dr_asm_encode(DR_ASM_IO_STATE, &s, buf, 12), DR_ELENGTH);
 }
 
+/* dr_asm_decode/dr_asm_encode check the length against their own copy of
+ * each wire size (lib/codec.c): it must be dr_asm_info's, for all ten. */
+static void test_length_check_every_assembly(void **state)
+{
+    (void)state;
+    uint8_t buf[DR_ASM_MAX_SIZE + 1] = {0};
+    union { dr_io_state_t a; dr_joint_state_t b; dr_task_state_t c;
+            dr_bit_gpr_t d; dr_int_gpr_t e; dr_float_gpr_t f;
+            dr_io_control_t g; } s;
+    memset(&s, 0, sizeof s);
+    for (int a = 0; a < DR_ASM_COUNT; a++) {
+        size_t size = dr_asm_info((dr_asm_t)a)->size;
+        assert_int_equal(dr_asm_decode((dr_asm_t)a, buf, size - 1, &s), DR_ELENGTH);
+        assert_int_equal(dr_asm_decode((dr_asm_t)a, buf, size + 1, &s), DR_ELENGTH);
+        assert_int_equal(dr_asm_decode((dr_asm_t)a, buf, size, &s), DR_OK);
+        assert_int_equal(dr_asm_encode((dr_asm_t)a, &s, buf, size - 1), DR_ELENGTH);
+        assert_int_equal(dr_asm_encode((dr_asm_t)a, &s, buf, size + 1), DR_ELENGTH);
+        assert_int_equal(dr_asm_encode((dr_asm_t)a, &s, buf, size), DR_OK);
+    }
+    assert_int_equal(dr_asm_decode((dr_asm_t)-1, buf, 8, &s), DR_EINVAL);
+    assert_int_equal(dr_asm_encode((dr_asm_t)-1, &s, buf, 8), DR_EINVAL);
+    assert_int_equal(dr_asm_encode(DR_ASM_COUNT, &s, buf, 8), DR_EINVAL);
+    assert_int_equal(dr_asm_encode(DR_ASM_BIT_IN, NULL, buf, 8), DR_EINVAL);
+    assert_int_equal(dr_asm_decode(DR_ASM_BIT_IN, buf, 8, NULL), DR_EINVAL);
+}
+
 static void test_encode_errors_write_nothing(void **state)
 {
     (void)state;
@@ -311,6 +337,7 @@ int main(void)
         cmocka_unit_test(test_io_control),
         cmocka_unit_test(test_round_trip_all),
         cmocka_unit_test(test_decode_errors),
+        cmocka_unit_test(test_length_check_every_assembly),
         cmocka_unit_test(test_encode_errors_write_nothing),
     };
     return cmocka_run_group_tests_name("codec_decode", tests, NULL, NULL);

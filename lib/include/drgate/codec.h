@@ -200,7 +200,8 @@ const char *dr_robot_state_name(unsigned value);
  * to the struct named in dr_asm_info(a)->struct_size: dr_io_state_t for
  * io_state, dr_bit_gpr_t for bit_out/bit_in, ...).
  * Errors: DR_EINVAL (bad assembly or NULL), DR_ELENGTH (len != size).
- * On error `out` is untouched. */
+ * On error `out` is untouched. `buf` and `out` must not overlap (the
+ * decoders are compiled on that assumption, as if `restrict`). */
 dr_status_t dr_asm_decode(dr_asm_t a, const uint8_t *buf, size_t len,
                           void *out);
 
@@ -208,7 +209,7 @@ dr_status_t dr_asm_decode(dr_asm_t a, const uint8_t *buf, size_t len,
  * Every value is checked before any byte is written:
  * DR_ERANGE (a mask with bits beyond its count), DR_ENONFINITE (NaN or
  * infinity in an O->T REAL), DR_ELENGTH, DR_EINVAL. On error `buf` is
- * untouched. */
+ * untouched. `in` and `buf` must not overlap. */
 dr_status_t dr_asm_encode(dr_asm_t a, const void *in, uint8_t *buf,
                           size_t len);
 
