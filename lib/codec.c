@@ -4,6 +4,7 @@
  * Everything here walks dr_field_table; no offset is known to this file.
  */
 #include <float.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "drgate/codec.h"
@@ -196,11 +197,29 @@ static dr_status_t reals_finite(const uint8_t *p, unsigned n)
 #define BIT_FIELD(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)       \
     +(DR_KIND_##K == DR_KIND_BIT || DR_KIND_##K == DR_KIND_BITS)
 
+/* An assembly is "flat" when its struct is its wire image on a
+ * little-endian host: nothing but REAL/DINT runs, each member at its wire
+ * offset, no padding and no reserved bytes (joint_state, task_state and
+ * the int and float registers). Its fields then move as one memcpy of the
+ * whole image instead of one per field; everywhere else (big-endian hosts,
+ * assemblies with bits or bytes) the field-by-field code below runs. All
+ * of it is a constant expression, so only one of the two is compiled. */
+#define SAME_WORDS(A, T, M, K, OFF, BIT, N, FIRST, IDX, NAME, UNIT, HELP)      \
+    &&(DR_KIND_##K == DR_KIND_DINT || DR_KIND_##K == DR_KIND_REAL) &&         \
+        offsetof(T, M) == (OFF)
+#define FLAT(T, FIELDS, SIZE)                                                 \
+    (HOST_IS_LE && sizeof(T) == (SIZE) &&                                     \
+     (0 FIELDS(MEMBER_BYTES, 0, T)) == (SIZE) FIELDS(SAME_WORDS, 0, T))
+
 #define DEFINE_CODEC(ID, name, T, FIELDS, O2T, SIZE)                                 \
     static dr_status_t decode_##name(const uint8_t *restrict buf,            \
                                      void *restrict out)                      \
     {                                                                         \
         T *restrict o = out;                                                  \
+        if (FLAT(T, FIELDS, SIZE)) {                                          \
+            memcpy(o, buf, SIZE);                                             \
+            return DR_OK;                                                     \
+        }                                                                     \
         if (sizeof *o != 0 FIELDS(MEMBER_BYTES, DR_ASM_##ID, T))              \
             memset(o, 0, sizeof *o); /* padding, so structs compare equal */  \
         FIELDS(DEC_FIELD, DR_ASM_##ID, T)                                     \
@@ -215,6 +234,10 @@ static dr_status_t reals_finite(const uint8_t *p, unsigned n)
         dr_status_t st = DR_OK;                                               \
         (void)o2t;                                                            \
         FIELDS(CHK_FIELD, DR_ASM_##ID, T)                                     \
+        if (FLAT(T, FIELDS, SIZE)) {                                          \
+            memcpy(buf, o, SIZE);                                             \
+            return DR_OK;                                                     \
+        }                                                                     \
         /* reserved bits are 0, and bit fields are OR-ed onto zeros */        \
         if ((0u FIELDS(WIRE_BITS, 0, T)) != 8u * (SIZE) ||                    \
             (0 FIELDS(BIT_FIELD, 0, T)) > 0)                                  \
