@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Table-driven decode, encode and per-field access of the assemblies.
- * Everything here walks dr_field_table; no offset is known to this file.
+ * Decode, encode and per-field access of the assemblies. Whole-assembly
+ * decode and encode are expanded per assembly from the field lists of
+ * fields_internal.h; per-field access walks dr_field_table. No offset is
+ * written down in this file.
  */
 #include <float.h>
 #include <stddef.h>
@@ -124,7 +126,11 @@ typedef char assert_float_is_binary32[(sizeof(float) == 4 && FLT_MANT_DIG == 24)
 
 /* decode one field into struct member m from the wire bytes at p (the
  * aliases are function-like: cppcheck's preprocessor does not rescan an
- * object-like alias of a function-like macro) */
+ * object-like alias of a function-like macro). A bit field is read from
+ * the byte holding its first bit, as wide as it needs (tool_do, six bits at
+ * bit 16 of its row: one byte, not three): a 3-byte load went through a
+ * stack temporary, which cost a store-forwarding stall and a stack
+ * protector. */
 #define DEC_BIT(m, p, bit, n) (m) = ((p)[(bit) / 8u] >> ((bit) % 8u)) & 1u;
 #define DEC_BITS(m, p, bit, n) (m) = load_bits((p) + (bit) / 8u, (bit) % 8u, n);
 #define DEC_USINT(m, p, bit, n) memcpy(&(m), p, n);
@@ -211,6 +217,10 @@ static dr_status_t reals_finite(const uint8_t *p, unsigned n)
     (HOST_IS_LE && sizeof(T) == (SIZE) &&                                     \
      (0 FIELDS(MEMBER_BYTES, 0, T)) == (SIZE) FIELDS(SAME_WORDS, 0, T))
 
+/* Wire bytes and struct never overlap (codec.h says so): `restrict` lets
+ * the compiler keep a wire byte in a register across the stores of the
+ * bits it holds, and merge neighbouring stores, instead of reloading it
+ * after every store to a bool (char types may alias anything). */
 #define DEFINE_CODEC(ID, name, T, FIELDS, O2T, SIZE)                                 \
     static dr_status_t decode_##name(const uint8_t *restrict buf,            \
                                      void *restrict out)                      \
