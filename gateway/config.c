@@ -98,6 +98,9 @@ enum {
     RK_TIMEOUT_MS,
     RK_FALLBACK,
     RK_O2T_TIMING,
+    RK_CONFIG_INSTANCE,
+    RK_INPUT_ONLY_HEARTBEAT,
+    RK_LISTEN_ONLY_HEARTBEAT,
     RK_COUNT
 };
 static const key_desc_t robot_keys[RK_COUNT] = {
@@ -113,8 +116,13 @@ static const key_desc_t robot_keys[RK_COUNT] = {
     [RK_TIMEOUT_MS] = { "timeout_ms", "10..60000" },
     [RK_FALLBACK] = { "fallback", "zero, hold" },
     [RK_O2T_TIMING] = { "o2t_timing", "follow, strict" },
+    [RK_CONFIG_INSTANCE] = { "config_instance", "1..65535" },
+    [RK_INPUT_ONLY_HEARTBEAT] = { "input_only_heartbeat", "1..65535" },
+    [RK_LISTEN_ONLY_HEARTBEAT] = { "listen_only_heartbeat", "1..65535" },
 };
 #define INSTANCE_PREFIX "instance."
+#define OPEN_PREFIX "open."
+#define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
 /* The kernel keeps line names to GPIO_MAX_NAME_SIZE - 1 characters: a
  * longer name can never match. */
 #define GPIO_LINE_NAME_MAX 31
@@ -174,6 +182,7 @@ typedef enum {
 typedef struct {
     unsigned key[RK_COUNT];
     unsigned instance[DR_ASM_COUNT];
+    unsigned open[DR_ASM_COUNT];
 } robot_lines_t;
 
 typedef struct {
@@ -276,7 +285,7 @@ static void join_names(const char *const *names, size_t n, char *buf,
 
 static void join_keys(const key_desc_t *keys, size_t n, char *buf, size_t size)
 {
-    const char *names[16];
+    const char *names[24] = { NULL }; /* the longest list: [robot]'s keys */
     for (size_t i = 0; i < n && i < COUNT(names); i++)
         names[i] = keys[i].name;
     join_names(names, n < COUNT(names) ? n : COUNT(names), buf, size);
@@ -418,7 +427,7 @@ static void unknown_key(ctx_t *c, const char *name, const key_desc_t *keys,
 {
     const char *best = NULL;
     unsigned best_d = ~0u;
-    char inst[DR_ASM_COUNT][40];
+    char inst[2 * DR_ASM_COUNT][40];
     for (size_t i = 0; i < n; i++) {
         unsigned d = dr_edit_distance(name, keys[i].name);
         if (d < best_d && close_enough(name, keys[i].name)) {
@@ -427,9 +436,10 @@ static void unknown_key(ctx_t *c, const char *name, const key_desc_t *keys,
         }
     }
     /* "instanse.io_state" should point at "instance.io_state". */
-    for (unsigned a = 0; robot && a < DR_ASM_COUNT; a++) {
-        snprintf(inst[a], sizeof inst[a], INSTANCE_PREFIX "%s",
-                 dr_asm_info((dr_asm_t)a)->name);
+    for (unsigned a = 0; robot && a < 2 * DR_ASM_COUNT; a++) {
+        snprintf(inst[a], sizeof inst[a], "%s%s",
+                 a < DR_ASM_COUNT ? INSTANCE_PREFIX : OPEN_PREFIX,
+                 dr_asm_info((dr_asm_t)(a % DR_ASM_COUNT))->name);
         unsigned d = dr_edit_distance(name, inst[a]);
         if (d < best_d && close_enough(name, inst[a])) {
             best_d = d;
@@ -439,7 +449,7 @@ static void unknown_key(ctx_t *c, const char *name, const key_desc_t *keys,
     char allowed[300];
     join_keys(keys, n, allowed, sizeof allowed);
     if (robot)
-        strncat(allowed, ", " INSTANCE_PREFIX "<assembly>",
+        strncat(allowed, ", " INSTANCE_PREFIX "<assembly>, " OPEN_PREFIX "<T->O assembly>",
                 sizeof allowed - strlen(allowed) - 1);
     if (best != NULL)
         fail(c, c->lineno,
@@ -657,36 +667,55 @@ static void modbus_key(ctx_t *c, const char *name, const char *v)
 
 /* ---- [robot NAME] ------------------------------------------------------- */
 
+/* The assembly `asm_name` (the part of key `name` after its prefix);
+ * false, with a did-you-mean message, if there is no such assembly. */
+static bool key_assembly(ctx_t *c, const char *name, const char *asm_name, dr_asm_t *a)
+{
+    if (dr_asm_lookup(asm_name, a) == DR_OK)
+        return true;
+    const char *names[DR_ASM_COUNT];
+    const char *best = NULL;
+    unsigned best_d = ~0u;
+    for (unsigned i = 0; i < DR_ASM_COUNT; i++) {
+        names[i] = dr_asm_info((dr_asm_t)i)->name;
+        unsigned d = dr_edit_distance(asm_name, names[i]);
+        if (d < best_d && close_enough(asm_name, names[i])) {
+            best_d = d;
+            best = names[i];
+        }
+    }
+    char allowed[200];
+    join_names(names, DR_ASM_COUNT, allowed, sizeof allowed);
+    if (best != NULL)
+        fail(c, c->lineno,
+             "unknown assembly '%s' in '%s' (did you mean '%s'? allowed: "
+             "%s, or dr1..dr10)",
+             asm_name, name, best, allowed);
+    else
+        fail(c, c->lineno,
+             "unknown assembly '%s' in '%s' (allowed: %s, or dr1..dr10)",
+             asm_name, name, allowed);
+    return false;
+}
+
+/* "io_state, joint_state, ..." for the assemblies of one direction. */
+static void join_dir(dr_dir_t dir, char *buf, size_t size)
+{
+    const char *names[DR_ASM_COUNT];
+    size_t n = 0;
+    for (unsigned i = 0; i < DR_ASM_COUNT; i++)
+        if (dr_asm_info((dr_asm_t)i)->dir == dir)
+            names[n++] = dr_asm_info((dr_asm_t)i)->name;
+    join_names(names, n, buf, size);
+}
+
 static void robot_instance(ctx_t *c, const char *name, const char *v)
 {
     gw_robot_config_t *r = &c->cfg.robot[c->idx];
     const char *asm_name = name + strlen(INSTANCE_PREFIX);
     dr_asm_t a;
-    if (dr_asm_lookup(asm_name, &a) != DR_OK) {
-        const char *names[DR_ASM_COUNT];
-        const char *best = NULL;
-        unsigned best_d = ~0u;
-        for (unsigned i = 0; i < DR_ASM_COUNT; i++) {
-            names[i] = dr_asm_info((dr_asm_t)i)->name;
-            unsigned d = dr_edit_distance(asm_name, names[i]);
-            if (d < best_d && close_enough(asm_name, names[i])) {
-                best_d = d;
-                best = names[i];
-            }
-        }
-        char allowed[200];
-        join_names(names, DR_ASM_COUNT, allowed, sizeof allowed);
-        if (best != NULL)
-            fail(c, c->lineno,
-                 "unknown assembly '%s' in '%s' (did you mean '%s'? allowed: "
-                 "%s, or dr1..dr10)",
-                 asm_name, name, best, allowed);
-        else
-            fail(c, c->lineno,
-                 "unknown assembly '%s' in '%s' (allowed: %s, or dr1..dr10)",
-                 asm_name, name, allowed);
+    if (!key_assembly(c, name, asm_name, &a))
         return;
-    }
     /* instance.io_state and instance.dr1 are the same key. */
     unsigned *seen = &c->robot[c->idx].instance[a];
     if (*seen != 0) {
@@ -703,11 +732,89 @@ static void robot_instance(ctx_t *c, const char *name, const char *v)
         r->instance[a] = (uint16_t)n;
 }
 
+/* The value of open.<T->O assembly>: "owner:<O->T assembly>",
+ * "input_only", "listen_only" or "none". */
+static void open_value(ctx_t *c, const char *name, const char *v, gw_open_t *o)
+{
+    static const char *const kinds[] = { "owner", "input_only", "listen_only", "none" };
+    size_t n = strcspn(v, ":");
+    for (unsigned k = 1; k < COUNT(kinds); k++)
+        if (strcmp(v, kinds[k]) == 0) {
+            o->kind = (gw_open_kind_t)k;
+            o->o2t = -1;
+            return;
+        }
+    if (strcmp(v, kinds[0]) == 0) {
+        fail(c, c->lineno, "%s 'owner' invalid: an owner connection needs its O->T partner, "
+             "e.g. owner:io_control (allowed: " OPEN_ALLOWED ")", name);
+        return;
+    }
+    if (n != strlen(kinds[0]) || strncmp(v, kinds[0], n) != 0 || v[n] != ':') {
+        const char *best = NULL;
+        unsigned best_d = ~0u;
+        for (unsigned k = 0; k < COUNT(kinds); k++) {
+            unsigned d = dr_edit_distance(v, kinds[k]);
+            if (d < best_d && close_enough(v, kinds[k])) {
+                best_d = d;
+                best = kinds[k];
+            }
+        }
+        if (best != NULL)
+            fail(c, c->lineno, "%s '%s' invalid (did you mean '%s'? allowed: " OPEN_ALLOWED ")",
+                 name, v, best);
+        else
+            fail(c, c->lineno, "%s '%s' invalid (allowed: " OPEN_ALLOWED ")", name, v);
+        return;
+    }
+    dr_asm_t p;
+    if (!key_assembly(c, name, v + n + 1, &p))
+        return;
+    if (dr_asm_info(p)->dir != DR_DIR_O2T) {
+        char allowed[120];
+        join_dir(DR_DIR_O2T, allowed, sizeof allowed);
+        fail(c, c->lineno, "%s '%s' invalid: %s is produced by the robot (T->O), an owner's "
+             "partner must be an O->T assembly (allowed: %s)", name, v, dr_asm_info(p)->name,
+             allowed);
+        return;
+    }
+    o->kind = GW_OPEN_OWNER;
+    o->o2t = (int)p;
+}
+
+static void robot_open(ctx_t *c, const char *name, const char *v)
+{
+    gw_robot_config_t *r = &c->cfg.robot[c->idx];
+    dr_asm_t a;
+    if (!key_assembly(c, name, name + strlen(OPEN_PREFIX), &a))
+        return;
+    if (dr_asm_info(a)->dir != DR_DIR_T2O) {
+        char allowed[120];
+        join_dir(DR_DIR_T2O, allowed, sizeof allowed);
+        fail(c, c->lineno, "key '%s' invalid: %s is consumed by the robot (O->T); open.* names "
+             "a T->O assembly, which brings its O->T partner with owner:<O->T> (allowed: %s)",
+             name, dr_asm_info(a)->name, allowed);
+        return;
+    }
+    /* open.io_state and open.dr1 are the same key. */
+    unsigned *seen = &c->robot[c->idx].open[a];
+    if (*seen != 0) {
+        fail(c, c->lineno, "key '%s' repeated in [%s] (open of %s, first at line %u)", name,
+             c->sec_text, dr_asm_info(a)->name, *seen);
+        return;
+    }
+    *seen = c->lineno;
+    open_value(c, name, v, &r->open[a]);
+}
+
 static void robot_key(ctx_t *c, const char *name, const char *v)
 {
     gw_robot_config_t *r = &c->cfg.robot[c->idx];
     if (strncmp(name, INSTANCE_PREFIX, strlen(INSTANCE_PREFIX)) == 0) {
         robot_instance(c, name, v);
+        return;
+    }
+    if (strncmp(name, OPEN_PREFIX, strlen(OPEN_PREFIX)) == 0) {
+        robot_open(c, name, v);
         return;
     }
     int k = begin_key(c, robot_keys, RK_COUNT, c->robot[c->idx].key, name, v,
@@ -765,6 +872,18 @@ static void robot_key(ctx_t *c, const char *name, const char *v)
     case RK_O2T_TIMING:
         if (get_enum(c, name, v, o2t_timing_names, COUNT(o2t_timing_names), &e))
             r->o2t_strict = e == 1;
+        break;
+    case RK_CONFIG_INSTANCE:
+        if (get_uint(c, name, v, 1, 65535, &n))
+            r->config_instance = (uint16_t)n;
+        break;
+    case RK_INPUT_ONLY_HEARTBEAT:
+        if (get_uint(c, name, v, 1, 65535, &n))
+            r->input_only_heartbeat = (uint16_t)n;
+        break;
+    case RK_LISTEN_ONLY_HEARTBEAT:
+        if (get_uint(c, name, v, 1, 65535, &n))
+            r->listen_only_heartbeat = (uint16_t)n;
         break;
     default: break;
     }
@@ -940,6 +1059,22 @@ static void robot_defaults(gw_robot_config_t *r)
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         r->instance[a] = DR_ASM_DEFAULT_INSTANCE(a);
     r->fallback_hold = false;
+    gw_robot_default_plan(r);
+}
+
+void gw_robot_default_plan(gw_robot_config_t *r)
+{
+    r->config_instance = 1;
+    r->input_only_heartbeat = 198;
+    r->listen_only_heartbeat = 199;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        r->open[a] = (gw_open_t){ GW_OPEN_NONE, -1 };
+    r->open[DR_ASM_IO_STATE] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_IO_CONTROL };
+    r->open[DR_ASM_BIT_OUT] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_BIT_IN };
+    r->open[DR_ASM_INT_OUT] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_INT_IN };
+    r->open[DR_ASM_FLOAT_OUT] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_FLOAT_IN };
+    r->open[DR_ASM_JOINT_STATE] = (gw_open_t){ GW_OPEN_INPUT_ONLY, -1 };
+    r->open[DR_ASM_TASK_STATE] = (gw_open_t){ GW_OPEN_INPUT_ONLY, -1 };
 }
 
 static void gpio_defaults(gw_gpio_config_t *g)
@@ -1219,6 +1354,76 @@ static unsigned line_or(unsigned key_line, unsigned section_line)
     return key_line != 0 ? key_line : section_line;
 }
 
+/* A connection point of the plan (config_instance or a heartbeat in use)
+ * that is also an assembly's instance: the target could not tell them
+ * apart. False after reporting it. */
+static bool check_point(ctx_t *c, const gw_robot_config_t *r, const robot_lines_t *rl,
+                        int key, uint16_t inst)
+{
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        if (r->instance[a] != inst)
+            continue;
+        unsigned lk = line_or(rl->key[key], r->line), la = line_or(rl->instance[a], r->line);
+        fail(c, lk > la ? lk : la,
+             "robot '%s': %s %u is also the instance of %s (a connection point names one "
+             "thing)", r->name, robot_keys[key].name, (unsigned)inst, dr_asm_info((dr_asm_t)a)->name);
+        return false;
+    }
+    return true;
+}
+
+/* The connection plan: every O->T assembly has at most one owner, at
+ * least one connection is opened, the instances it uses are distinct. */
+static bool check_plan(ctx_t *c, const gw_robot_config_t *r, const robot_lines_t *rl)
+{
+    int owner[DR_ASM_COUNT];
+    bool any = false, input_only = false, listen_only = false;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        owner[a] = -1;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        const gw_open_t *o = &r->open[a];
+        any |= o->kind != GW_OPEN_NONE;
+        input_only |= o->kind == GW_OPEN_INPUT_ONLY;
+        listen_only |= o->kind == GW_OPEN_LISTEN_ONLY;
+        if (o->kind != GW_OPEN_OWNER)
+            continue;
+        if (owner[o->o2t] >= 0) {
+            /* Reported where the second one (in the file) is. */
+            unsigned b = (unsigned)owner[o->o2t];
+            unsigned la = line_or(rl->open[a], r->line), lb = line_or(rl->open[b], r->line);
+            unsigned later = la >= lb ? a : b, earlier = la >= lb ? b : a;
+            char where[32];
+            if (rl->open[earlier] != 0)
+                snprintf(where, sizeof where, "line %u", rl->open[earlier]);
+            else
+                snprintf(where, sizeof where, "the default");
+            fail(c, la >= lb ? la : lb,
+                 "robot '%s': O->T %s has two owners, %s and %s (%s; one exclusive owner "
+                 "connection per O->T assembly: make one of them input_only or listen_only)",
+                 r->name, dr_asm_info((dr_asm_t)o->o2t)->name,
+                 dr_asm_info((dr_asm_t)later)->name, dr_asm_info((dr_asm_t)earlier)->name, where);
+            return false;
+        }
+        owner[o->o2t] = (int)a;
+    }
+    if (!any) {
+        fail(c, r->line, "robot '%s': every open.* is none: nothing would be opened (allowed: "
+             OPEN_ALLOWED ")", r->name);
+        return false;
+    }
+    if (input_only && listen_only && r->input_only_heartbeat == r->listen_only_heartbeat) {
+        unsigned li = line_or(rl->key[RK_INPUT_ONLY_HEARTBEAT], r->line);
+        unsigned ll = line_or(rl->key[RK_LISTEN_ONLY_HEARTBEAT], r->line);
+        fail(c, li > ll ? li : ll,
+             "robot '%s': input_only_heartbeat and listen_only_heartbeat are both %u (the robot "
+             "tells the two kinds apart by it)", r->name, (unsigned)r->input_only_heartbeat);
+        return false;
+    }
+    return check_point(c, r, rl, RK_CONFIG_INSTANCE, r->config_instance) &&
+           (!input_only || check_point(c, r, rl, RK_INPUT_ONLY_HEARTBEAT, r->input_only_heartbeat)) &&
+           (!listen_only || check_point(c, r, rl, RK_LISTEN_ONLY_HEARTBEAT, r->listen_only_heartbeat));
+}
+
 static void check_robots(ctx_t *c)
 {
     gw_config_t *g = &c->cfg;
@@ -1256,6 +1461,8 @@ static void check_robots(ctx_t *c)
                 return;
             }
         }
+        if (!check_plan(c, r, rl))
+            return;
         for (unsigned j = 0; j < i; j++) {
             const gw_robot_config_t *o = &g->robot[j];
             if (o->unit_id == r->unit_id) {
@@ -1512,6 +1719,14 @@ bool gw_config_load(const char *path, gw_config_t *out, char *err,
     return ok;
 }
 
+static bool same_plan(const gw_robot_config_t *a, const gw_robot_config_t *b)
+{
+    for (unsigned i = 0; i < DR_ASM_COUNT; i++)
+        if (a->open[i].kind != b->open[i].kind || a->open[i].o2t != b->open[i].o2t)
+            return false;
+    return true;
+}
+
 bool gw_robot_config_same_link(const gw_robot_config_t *a,
                                const gw_robot_config_t *b)
 {
@@ -1523,7 +1738,10 @@ bool gw_robot_config_same_link(const gw_robot_config_t *a,
            a->local_udp_port == b->local_udp_port && a->mode == b->mode &&
            a->rpi_ms == b->rpi_ms && a->timeout_mult == b->timeout_mult &&
            a->timeout_ms == b->timeout_ms && a->o2t_strict == b->o2t_strict &&
-           memcmp(a->instance, b->instance, sizeof a->instance) == 0;
+           memcmp(a->instance, b->instance, sizeof a->instance) == 0 &&
+           a->config_instance == b->config_instance &&
+           a->input_only_heartbeat == b->input_only_heartbeat &&
+           a->listen_only_heartbeat == b->listen_only_heartbeat && same_plan(a, b);
 }
 
 const char *gw_word_order_name(gw_word_order_t w)

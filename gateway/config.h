@@ -33,6 +33,15 @@ typedef enum { GW_LOSS_HOLD = 0, GW_LOSS_ZERO, GW_LOSS_EXCEPTION } gw_link_loss_
 /* A read that covers reserved addresses between the map's blocks. */
 typedef enum { GW_UNMAPPED_ZERO = 0, GW_UNMAPPED_EXCEPTION } gw_unmapped_read_t;
 typedef enum { GW_MODE_IMPLICIT = 0, GW_MODE_EXPLICIT } gw_robot_mode_t;
+/* How a T->O assembly is opened (open.<assembly>): an exclusive owner
+ * connection with its O->T partner, input-only or listen-only (heartbeat
+ * O->T), or not at all. */
+typedef enum { GW_OPEN_OWNER = 0, GW_OPEN_INPUT_ONLY, GW_OPEN_LISTEN_ONLY, GW_OPEN_NONE } gw_open_kind_t;
+
+typedef struct {
+    gw_open_kind_t kind;
+    int o2t; /* owner: the O->T dr_asm_t; else -1 */
+} gw_open_t;
 
 typedef struct {
     uint32_t net;      /* IPv4 network, host order */
@@ -72,6 +81,17 @@ typedef struct {
     uint8_t timeout_mult;     /* code 0..7, default 2 */
     uint32_t timeout_ms;      /* explicit request timeout, default 1000 */
     uint16_t instance[DR_ASM_COUNT]; /* default 101..110 */
+    /* The connection plan (implicit mode; explicit mode polls what it
+     * opens): the configuration instance of every Forward Open (default
+     * 1), the heartbeat connection points of input-only (198) and
+     * listen-only (199) connections, and how each T->O assembly is opened,
+     * indexed by dr_asm_t (O->T entries are GW_OPEN_NONE). Default: the
+     * four owner pairs io_control/io_state, bit_in/bit_out, int_in/int_out,
+     * float_in/float_out, joint_state and task_state input-only. */
+    uint16_t config_instance;
+    uint16_t input_only_heartbeat;
+    uint16_t listen_only_heartbeat;
+    gw_open_t open[DR_ASM_COUNT];
     /* O->T image applied when the single writer's watchdog expires:
      * "zero" (default) or "hold". */
     bool fallback_hold;
@@ -117,6 +137,9 @@ typedef struct {
  * the file itself, such as "cannot open", have no LINE); *out is written
  * only on success, so a failed reload leaves the running config intact. */
 bool gw_config_load(const char *path, gw_config_t *out, char *err, size_t errlen);
+
+/* Today's connection plan (see gw_robot_config_t.open) into r. */
+void gw_robot_default_plan(gw_robot_config_t *r);
 
 /* Defaults for everything (used before parsing). */
 void gw_config_defaults(gw_config_t *cfg);

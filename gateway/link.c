@@ -13,19 +13,16 @@
 #include "log.h"
 #include "loop.h"
 
-/* The robot's data set needs six Class 1 connections: every T->O assembly
- * once, the four O->T assemblies paired with their natural partner, and
- * two input-only connections (heartbeat O->T). */
-static const struct {
-    int o2t;
-    dr_asm_t t2o;
-} pairs[] = {
-    {DR_ASM_IO_CONTROL, DR_ASM_IO_STATE}, {DR_ASM_BIT_IN, DR_ASM_BIT_OUT},
-    {DR_ASM_INT_IN, DR_ASM_INT_OUT},      {DR_ASM_FLOAT_IN, DR_ASM_FLOAT_OUT},
-    {-1, DR_ASM_JOINT_STATE},             {-1, DR_ASM_TASK_STATE},
+/* One Class 1 connection per T->O assembly, as the configuration's plan
+ * opens it (gw_robot_config_t.open; by default the four O->T assemblies
+ * paired with their natural partner and two input-only connections). Its
+ * slot, and so its conn_state register, follows this order whatever the
+ * plan: an assembly that is not opened leaves its slot empty. */
+static const dr_asm_t slot_t2o[] = {
+    DR_ASM_IO_STATE, DR_ASM_BIT_OUT, DR_ASM_INT_OUT, DR_ASM_FLOAT_OUT,
+    DR_ASM_JOINT_STATE, DR_ASM_TASK_STATE,
 };
-#define NPAIRS (sizeof pairs / sizeof pairs[0])
-#define T2O_COUNT 6u
+#define NPAIRS (sizeof slot_t2o / sizeof slot_t2o[0])
 
 /* A descriptor of the client in the loop, and whose it is. */
 typedef struct {
@@ -63,6 +60,8 @@ struct gw_link {
     poll_ctx_t poll_ctx[DR_ASM_COUNT];
     gw_log_limit_t log_limit;
     const char *closing; /* gw_link_free's reason: a planned link down */
+    unsigned t2o_planned;    /* T->O assemblies the plan opens (explicit: polls) */
+    unsigned o2t_planned;    /* O->T assemblies with an owner connection */
 };
 
 /* Robots whose links use the same local address and UDP port share one
@@ -97,6 +96,26 @@ void gw_link_ports_free(gw_link_ports_t *p)
     free(p); /* the links have given their ports back (port_put) */
 }
 
+/* Why the link failed, in the status block: last_error (IR 12) holds the
+ * CIP extended status (the general status when the reply had none), an
+ * encapsulation status or a drgate code; last_cip_general (IR 30) the CIP
+ * general status, 0 for anything that is not a CIP refusal. Kept for
+ * every failure, not only the ones that change the link's state: an
+ * adapter that refuses every Forward Open never brings the link up. */
+static void link_record_error(gw_link_t *l, dr_status_t why)
+{
+    if (why == DR_OK)
+        return;
+    gw_status_t *st = &l->unit->status;
+    if (DR_IS_CIP(why)) {
+        st->last_cip_general = DR_CIP_GENERAL(why);
+        st->last_error = DR_CIP_EXTENDED(why) != 0 ? DR_CIP_EXTENDED(why) : DR_CIP_GENERAL(why);
+    } else {
+        st->last_cip_general = 0;
+        st->last_error = (uint16_t)why;
+    }
+}
+
 static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
 {
     if (l->up == up)
@@ -106,9 +125,7 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
      * may come back without it (a restart), so all of them go again. */
     if (!up && l->cfg.mode == GW_MODE_EXPLICIT)
         l->dirty = (1u << DR_ASM_COUNT) - 1u;
-    if (why != DR_OK) {
-        l->unit->status.last_error = DR_IS_CIP(why) ? DR_CIP_EXTENDED(why) : (uint16_t)why;
-    }
+    link_record_error(l, why);
     /* Closed on purpose (SIGTERM, reload): not a fault, and the reason is
      * ours, not what the closing connections report. */
     const char *reason = l->closing != NULL ? l->closing : why != DR_OK ? dr_strerror(why) : "";
@@ -273,7 +290,7 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
     for (unsigned i = 0; i < NPAIRS; i++) {
         if (l->conn[i] != conn)
             continue;
-        dr_asm_t a = pairs[i].t2o;
+        dr_asm_t a = slot_t2o[i];
         l->last_rx_us[a] = gw_now_us();
         if (data_withheld(l))
             continue;
@@ -282,6 +299,33 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
         if (l->hooks.on_data != NULL)
             l->hooks.on_data(l->hooks.user, l->robot, a);
     }
+}
+
+/* "robot R: io_state (owner io_control): reconnecting: Forward Open refused:
+ * CIP 0x01/0x0129 invalid configuration application path", at most as often
+ * as the link's rate limit lets through. */
+static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr_status_t why)
+{
+    dr_asm_t a = DR_ASM_IO_STATE;
+    for (unsigned i = 0; i < NPAIRS; i++)
+        if (l->conn[i] == conn)
+            a = slot_t2o[i];
+    const gw_open_t *o = &l->cfg.open[a];
+    char how[48];
+    if (o->kind == GW_OPEN_OWNER)
+        snprintf(how, sizeof how, "owner %s", dr_asm_info((dr_asm_t)o->o2t)->name);
+    else
+        snprintf(how, sizeof how, "%s", o->kind == GW_OPEN_LISTEN_ONLY ? "listen-only" : "input-only");
+    if (DR_IS_CIP(why))
+        gw_log_limited(GW_LOG_WARNING, &l->log_limit,
+                       "robot %s: %s (%s): %s: Forward Open refused: CIP 0x%02X/0x%04X %s",
+                       l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
+                       (unsigned)DR_CIP_GENERAL(why), (unsigned)DR_CIP_EXTENDED(why),
+                       dr_strerror(why));
+    else
+        gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s (%s): %s: %s",
+                       l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
+                       dr_strerror(why));
 }
 
 static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, void *user)
@@ -296,9 +340,10 @@ static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, 
             all = false;
     }
     if (st != DR_CONN_ESTABLISHED) {
-        if (why != DR_OK)
-            gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: connection %s: %s",
-                           l->cfg.name, dr_conn_state_name(st), dr_strerror(why));
+        if (why != DR_OK) {
+            link_record_error(l, why);
+            log_conn_error(l, conn, st, why);
+        }
         link_set_up(l, false, why);
     } else if (all) {
         link_set_up(l, true, DR_OK);
@@ -308,10 +353,18 @@ static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, 
 static bool add_connections(gw_link_t *l)
 {
     for (unsigned i = 0; i < NPAIRS; i++) {
+        const gw_open_t *o = &l->cfg.open[slot_t2o[i]];
+        if (o->kind == GW_OPEN_NONE)
+            continue;
         dr_conn_config_t cc;
         memset(&cc, 0, sizeof cc);
-        cc.o2t_asm = pairs[i].o2t;
-        cc.t2o_asm = pairs[i].t2o;
+        cc.o2t_asm = o->kind == GW_OPEN_OWNER ? o->o2t : -1;
+        cc.t2o_asm = slot_t2o[i];
+        cc.config_instance = l->cfg.config_instance;
+        /* Listen-only is input-only on the wire; the heartbeat connection
+         * point tells the robot which of the two it is. */
+        cc.heartbeat_instance = o->kind == GW_OPEN_LISTEN_ONLY ? l->cfg.listen_only_heartbeat
+                                                               : l->cfg.input_only_heartbeat;
         cc.rpi_us = l->cfg.rpi_ms * 1000u;
         cc.timeout_mult = l->cfg.timeout_mult;
         /* Sending O->T with the T->O packet's wake-up halves the
@@ -325,14 +378,22 @@ static bool add_connections(gw_link_t *l)
         l->conn[i] = dr_client_conn_add(l->client, &cc, &err);
         if (l->conn[i] == NULL)
             return false;
-        if (pairs[i].o2t >= 0)
-            (void)dr_conn_set_output(l->conn[i], l->unit->img[pairs[i].o2t],
-                                     dr_asm_info((dr_asm_t)pairs[i].o2t)->size);
+        if (cc.o2t_asm >= 0)
+            (void)dr_conn_set_output(l->conn[i], l->unit->img[cc.o2t_asm],
+                                     dr_asm_info((dr_asm_t)cc.o2t_asm)->size);
     }
     return true;
 }
 
 /* ---- explicit mode ------------------------------------------------------------- */
+
+static unsigned planned_t2o(const gw_link_t *l)
+{
+    unsigned n = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        n += (l->t2o_planned >> a) & 1u;
+    return n;
+}
 
 static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, size_t len,
                           void *user)
@@ -350,6 +411,7 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
                        info->dir == DR_DIR_T2O ? "get" : "set", info->name, dr_strerror(st));
         if (info->dir == DR_DIR_O2T)
             l->dirty |= 1u << pc->a; /* send it again next cycle */
+        link_record_error(l, st); /* also when the link was never up */
         link_set_up(l, false, st);
         return;
     }
@@ -362,7 +424,7 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
                 l->hooks.on_data(l->hooks.user, l->robot, pc->a);
         }
     }
-    if (++l->poll_ok >= T2O_COUNT)
+    if (info->dir == DR_DIR_T2O && ++l->poll_ok >= planned_t2o(l))
         link_set_up(l, true, DR_OK);
 }
 
@@ -377,6 +439,10 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
     for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
         const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
         bool t2o = info->dir == DR_DIR_T2O;
+        /* The plan says what is polled: T->O assemblies it opens, O->T
+         * assemblies it gives an owner. */
+        if (!((t2o ? l->t2o_planned : l->o2t_planned) & (1u << a)))
+            continue;
         if (!t2o && !(l->dirty & (1u << a)))
             continue;
         uint8_t path[12];
@@ -484,6 +550,14 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
         return NULL;
     l->cfg = *rc;
     l->epfd = epfd;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        const gw_open_t *o = &rc->open[a];
+        if (o->kind == GW_OPEN_NONE)
+            continue;
+        l->t2o_planned |= 1u << a;
+        if (o->kind == GW_OPEN_OWNER)
+            l->o2t_planned |= 1u << o->o2t;
+    }
     l->hooks = *hooks;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
         l->poll_ctx[a].link = l;
@@ -496,6 +570,10 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
         l->ev[i].ev.fd = -1;
     }
     gw_link_set_unit(l, robot, unit);
+    unit->o2t_unsent = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T && !(l->o2t_planned & (1u << a)))
+            unit->o2t_unsent |= 1u << a;
     char ip[INET_ADDRSTRLEN];
     if (!resolve_host(rc, ip)) {
         gw_link_free(l, NULL);
@@ -566,10 +644,12 @@ void gw_link_outputs_changed(gw_link_t *l, unsigned dirty)
         l->next_poll_us = 0; /* send soon, not a whole period later */
         return;
     }
-    for (unsigned i = 0; i < NPAIRS; i++)
-        if (pairs[i].o2t >= 0 && (dirty & (1u << pairs[i].o2t)))
-            (void)dr_conn_set_output(l->conn[i], l->unit->img[pairs[i].o2t],
-                                     dr_asm_info((dr_asm_t)pairs[i].o2t)->size);
+    for (unsigned i = 0; i < NPAIRS; i++) {
+        const gw_open_t *o = &l->cfg.open[slot_t2o[i]];
+        if (o->kind == GW_OPEN_OWNER && (dirty & (1u << o->o2t)))
+            (void)dr_conn_set_output(l->conn[i], l->unit->img[o->o2t],
+                                     dr_asm_info((dr_asm_t)o->o2t)->size);
+    }
 }
 
 /* Status block values derived from the connections. */
@@ -578,7 +658,7 @@ static void update_status(gw_link_t *l, uint64_t now)
     gw_status_t *st = &l->unit->status;
     uint64_t oldest = UINT64_MAX;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O && l->last_rx_us[a] < oldest)
+        if ((l->t2o_planned & (1u << a)) && l->last_rx_us[a] < oldest)
             oldest = l->last_rx_us[a];
     /* `now` was taken before this tick processed the client, so data
      * may be younger than it: that is age 0, not a wrapped-around age of
@@ -591,6 +671,8 @@ static void update_status(gw_link_t *l, uint64_t now)
     if (l->cfg.mode == GW_MODE_IMPLICIT) {
         uint32_t rx = 0, lost = 0, api = 0;
         for (unsigned i = 0; i < NPAIRS; i++) {
+            if (l->conn[i] == NULL)
+                continue;
             const dr_conn_stats_t *cs = dr_conn_stats(l->conn[i]);
             rx += (uint32_t)cs->rx_packets;
             lost += (uint32_t)cs->rx_lost;

@@ -224,6 +224,7 @@ static uint16_t status_reg(const gw_unit_t *u, unsigned i)
     case 27: return st->writer_present;
     case 28: return (uint16_t)u->order;
     case 29: return st->config_generation;
+    case 30: return st->last_cip_general;
     default:
         if (i >= 16 && i < 16 + GW_MAX_CONN_STATUS)
             return st->conn_state[i - 16];
@@ -379,6 +380,8 @@ static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
 {
     const dr_field_t *f = slot_field(s);
     dr_ref_t ref = {f, elem};
+    if (u->o2t_unsent & (1u << f->assembly))
+        return GW_EX_ILLEGAL_ADDRESS;
     int ex = status_to_exception(dr_field_set(u->img[f->assembly], asm_size(f), ref, &v,
                                               DR_SET_O2T_ONLY));
     if (ex == 0)
@@ -484,7 +487,7 @@ static const char *const status_names[STATUS_REGS] = {
     "status.conn_state[5]", "status.conn_state[6]", "status.conn_state[7]",
     "status.conn_state[8]", "status.conn_state[9]", "status.write_fault",
     "status.writer_present", "status.word_order (0 abcd, 1 cdab, 2 badc, 3 dcba)",
-    "status.config_generation", "status.reserved30", "status.reserved31",
+    "status.config_generation", "status.last_cip_general", "status.reserved31",
 };
 static const char *const status_bit_names[STATUS_BITS] = {
     "status.link_up", "status.data_fresh", "status.write_fault", "status.writer_present"};

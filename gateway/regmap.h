@@ -47,6 +47,7 @@ typedef struct {
     uint32_t rx_packets, lost_packets;
     uint32_t exceptions;      /* Modbus exceptions sent */
     uint16_t last_error;      /* CIP extended status or drgate code */
+    uint16_t last_cip_general; /* CIP general status of last_error, 0: not CIP */
     uint16_t clients;
     uint32_t uptime_s;
     uint16_t conn_state[GW_MAX_CONN_STATUS]; /* dr_conn_state_t per connection */
@@ -68,6 +69,10 @@ typedef struct {
     dr_ref_t gpio_in[GW_MAX_GPIO];
     unsigned gpio_in_count;
     char name[GW_NAME_MAX];   /* the robot's, for FC 43 device identification */
+    /* O->T assemblies the connection plan gives no owner connection (set
+     * by the link): nothing would carry a write to the robot, so writes
+     * are refused (0x02) rather than kept where nobody reads them. */
+    unsigned o2t_unsent;
     uint16_t watchdog;        /* last value written to the watchdog register */
     bool fault_reset;         /* set when a client wrote the reset register */
 } gw_unit_t;

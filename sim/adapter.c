@@ -35,8 +35,11 @@ enum {
     CM_RPI = 0x0111,
     CM_OUT_OF_CONNS = 0x0113,
     CM_CONFIG_PATH = 0x0118,
+    CM_NOT_LISTEN_ONLY = 0x0119, /* non-listen only connection not opened */
     CM_O2T_TYPE = 0x0123,
     CM_T2O_TYPE = 0x0124,
+    CM_CONFIG_APP_PATH = 0x0129, /* invalid configuration application path */
+    CM_CONSUMING_PATH = 0x012A,  /* invalid consuming application path */
     CM_BAD_SEGMENT = 0x0315,
     CM_UCMM_PARAM = 0x0205
 };
@@ -100,6 +103,8 @@ void drsim_config_default(drsim_config_t *cfg)
     cfg->max_conns = 16;
     cfg->tcp_port = DR_ENIP_TCP_PORT;
     cfg->udp_port = DR_ENIP_UDP_PORT;
+    cfg->hb_input_only = DRSIM_HB_INPUT_ONLY;
+    cfg->hb_listen_only = DRSIM_HB_LISTEN_ONLY;
 }
 
 void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns)
@@ -381,6 +386,7 @@ static void assembly_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
 typedef struct {
     uint16_t config, o2t_point, t2o_point;
     int o2t_asm; /* -1: heartbeat */
+    bool listen_only; /* on the listen-only heartbeat point */
     dr_asm_t t2o_asm;
 } fo_plan_t;
 
@@ -395,20 +401,30 @@ static uint16_t fo_path(const drsim_t *s, const dr_fwd_open_t *fo, fo_plan_t *pl
         p.has_attr || p.points != 2)
         return CM_BAD_SEGMENT;
     /* drsim has no configuration assembly: any instance is fine as long
-     * as it carries no data. */
+     * as it carries no data, unless --config-instance names the one an
+     * EDS would. */
     if (p.data_words > 0)
         return CM_CONFIG_PATH;
+    if (s->cfg.config_instance != 0 && p.inst != s->cfg.config_instance)
+        return CM_CONFIG_APP_PATH;
     plan->config = p.inst;
     plan->o2t_point = p.point[0];
     plan->t2o_point = p.point[1];
     int o = drsim_asm_of_instance(s, p.point[0]);
     int t = drsim_asm_of_instance(s, p.point[1]);
-    if (p.point[0] == DRSIM_HB_INPUT_ONLY || p.point[0] == DRSIM_HB_LISTEN_ONLY)
+    uint16_t hb = p.point[0];
+    if (hb != 0 && (hb == s->cfg.hb_input_only || hb == s->cfg.hb_listen_only)) {
         plan->o2t_asm = -1;
-    else if (o >= 0 && !is_t2o((dr_asm_t)o))
+        plan->listen_only = hb == s->cfg.hb_listen_only;
+    } else if (o >= 0 && !is_t2o((dr_asm_t)o)) {
         plan->o2t_asm = o;
-    else
+    } else if (o < 0) {
+        /* Neither an O->T assembly nor a heartbeat point this target
+         * offers (such as 198 on one that has no input-only). */
+        return CM_CONSUMING_PATH;
+    } else {
         return CM_BAD_SEGMENT;
+    }
     if (t < 0 || !is_t2o((dr_asm_t)t))
         return CM_BAD_SEGMENT;
     plan->t2o_asm = (dr_asm_t)t;
@@ -439,6 +455,17 @@ static drsim_conn_t *conn_by_triad(drsim_t *s, uint16_t serial, uint16_t vendor,
             return c;
     }
     return NULL;
+}
+
+/* A listen-only connection joins the data of an exclusive owner or
+ * input-only connection of the same T->O assembly (multicast on a real
+ * target); without one there is nothing to listen to. */
+static bool t2o_produced(const drsim_t *s, dr_asm_t t2o)
+{
+    for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++)
+        if (s->conn[i].used && !s->conn[i].listen_only && s->conn[i].t2o_asm == t2o)
+            return true;
+    return false;
 }
 
 static bool rpi_ok(uint32_t us)
@@ -481,6 +508,8 @@ static uint16_t fo_check(drsim_t *s, const dr_fwd_open_t *fo,
         for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++)
             if (s->conn[i].used && s->conn[i].o2t_asm == plan->o2t_asm)
                 return CM_OWNERSHIP;
+    if (plan->listen_only && !t2o_produced(s, plan->t2o_asm))
+        return CM_NOT_LISTEN_ONLY;
     if (drsim_conn_count(s) >= s->cfg.max_conns)
         return CM_OUT_OF_CONNS;
     return 0;
@@ -517,6 +546,7 @@ static drsim_conn_t *conn_open(req_ctx_t *ctx, const dr_fwd_open_t *fo,
     c->o2t_point = plan->o2t_point;
     c->t2o_point = plan->t2o_point;
     c->config_inst = plan->config;
+    c->listen_only = plan->listen_only;
     c->o2t_run_idle = plan->o2t_asm >= 0 || fo->o2t.size == 6;
     c->o2t_data_len = plan->o2t_asm >= 0 ? dr_asm_info((dr_asm_t)plan->o2t_asm)->size : 0;
     /* Timers run in nanoseconds: the APIs are the RPIs, unrounded. */

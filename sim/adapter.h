@@ -53,9 +53,16 @@ typedef struct {
     uint32_t address;          /* our IPv4 (host order); 0: any */
     uint16_t tcp_port;         /* encapsulation port, for ListIdentity */
     uint16_t udp_port;         /* Class 1 port, announced in 0x8000 items */
+    /* Connection points the EDS of a real controller decides: */
+    uint16_t config_instance;  /* the only configuration instance accepted
+                                  (others: 0x01/0x0129); 0: any */
+    uint16_t hb_input_only;    /* input-only heartbeat point (198); 0: none */
+    uint16_t hb_listen_only;   /* listen-only heartbeat point (199); 0: none */
 } drsim_config_t;
 
-/* Defaults: instances 101..110, echo on, 16 connections, ports 44818/2222. */
+/* Defaults: instances 101..110, echo on, 16 connections, ports 44818/2222,
+ * any configuration instance, heartbeats 198 (input-only) and 199
+ * (listen-only). */
 void drsim_config_default(drsim_config_t *cfg);
 
 /* One TCP peer as the event loop knows it. */
@@ -76,6 +83,7 @@ typedef struct {
     dr_asm_t t2o_asm;
     uint16_t o2t_point, t2o_point, config_inst;
     bool o2t_run_idle;         /* O->T carries the 32-bit run/idle header */
+    bool listen_only;          /* opened on the listen-only heartbeat point */
     size_t o2t_data_len;       /* O->T data bytes after the headers */
     uint32_t o2t_api_us, t2o_api_us;
     uint64_t timeout_ns;       /* O->T silence that closes the connection */

@@ -72,6 +72,19 @@ static void usage(FILE *f)
 "                            bit_out/int_out/float_out\n"
 "      --seed N              seed for noise, drops, serial number, IDs (0)\n"
 "\n"
+"Connection points (what a controller's EDS decides):\n"
+"      --config-instance N   accept only configuration instance N in a\n"
+"                            Forward Open; others are refused with 0x01/0x0129\n"
+"                            (default: any)\n"
+"      --input-only-heartbeat N\n"
+"      --listen-only-heartbeat N\n"
+"                            heartbeat connection point of input-only\n"
+"                            (default 198) and listen-only (199) connections;\n"
+"                            0: that kind is not offered. Another point is\n"
+"                            refused with 0x01/0x012A; listen-only without an\n"
+"                            owner or input-only connection of the same T->O\n"
+"                            with 0x01/0x0119\n"
+"\n"
 "Fault injection:\n"
 "      --drop PERCENT        drop that share of produced and consumed I/O\n"
 "                            packets (deterministic for a given --seed)\n"
@@ -146,7 +159,7 @@ static int check_instances(const drsim_config_t *cfg)
 {
     for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
         uint16_t v = cfg->instance[a];
-        if (v == DRSIM_HB_INPUT_ONLY || v == DRSIM_HB_LISTEN_ONLY) {
+        if ((v == cfg->hb_input_only || v == cfg->hb_listen_only) && v != 0) {
             fprintf(stderr, "drsim: instance %u is a heartbeat connection point\n", v);
             return -1;
         }
@@ -158,12 +171,18 @@ static int check_instances(const drsim_config_t *cfg)
                 return -1;
             }
     }
+    if (cfg->hb_input_only != 0 && cfg->hb_input_only == cfg->hb_listen_only) {
+        fprintf(stderr, "drsim: input-only and listen-only heartbeat are both %u\n",
+                (unsigned)cfg->hb_input_only);
+        return -1;
+    }
     return 0;
 }
 
 enum {
     OPT_NO_ECHO = 256, OPT_SEED, OPT_DROP, OPT_DELAY, OPT_STOP_PRODUCING,
-    OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO
+    OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO,
+    OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY
 };
 
 static const struct option long_options[] = {
@@ -172,6 +191,9 @@ static const struct option long_options[] = {
     {"udp-port", required_argument, NULL, 'u'},
     {"instance", required_argument, NULL, 'i'},
     {"max-connections", required_argument, NULL, OPT_MAX_CONNS},
+    {"config-instance", required_argument, NULL, OPT_CONFIG_INSTANCE},
+    {"input-only-heartbeat", required_argument, NULL, OPT_HB_INPUT_ONLY},
+    {"listen-only-heartbeat", required_argument, NULL, OPT_HB_LISTEN_ONLY},
     {"no-echo", no_argument, NULL, OPT_NO_ECHO},
     {"seed", required_argument, NULL, OPT_SEED},
     {"drop", required_argument, NULL, OPT_DROP},
@@ -255,6 +277,19 @@ static int parse_options(int argc, char **argv, options_t *o)
             break;
         case OPT_NO_LARGE_FO:
             o->cfg.no_large_fo = true;
+            break;
+        case OPT_CONFIG_INSTANCE:
+            if (parse_uint(optarg, 1, 0xFFFF, &n) != 0)
+                return bad("--config-instance", optarg);
+            o->cfg.config_instance = (uint16_t)n;
+            break;
+        case OPT_HB_INPUT_ONLY:
+        case OPT_HB_LISTEN_ONLY:
+            if (parse_uint(optarg, 0, 0xFFFF, &n) != 0)
+                return bad(c == OPT_HB_INPUT_ONLY ? "--input-only-heartbeat"
+                                                  : "--listen-only-heartbeat", optarg);
+            *(c == OPT_HB_INPUT_ONLY ? &o->cfg.hb_input_only : &o->cfg.hb_listen_only) =
+                (uint16_t)n;
             break;
         case OPT_DROP_SESSION:
             if (parse_seconds(optarg, &o->drop_session_ns) != 0)

@@ -188,6 +188,16 @@ static void test_all_keys(void **state)
         assert_int_equal(r->instance[a], 201 + a);
     assert_true(r->fallback_hold);
     assert_true(r->o2t_strict);
+    assert_int_equal(r->config_instance, 150);
+    assert_int_equal(r->input_only_heartbeat, 151);
+    assert_int_equal(r->listen_only_heartbeat, 152);
+    assert_int_equal(r->open[DR_ASM_IO_STATE].o2t, DR_ASM_BIT_IN);
+    assert_int_equal(r->open[DR_ASM_JOINT_STATE].kind, GW_OPEN_OWNER);
+    assert_int_equal(r->open[DR_ASM_JOINT_STATE].o2t, DR_ASM_IO_CONTROL);
+    assert_int_equal(r->open[DR_ASM_TASK_STATE].kind, GW_OPEN_LISTEN_ONLY);
+    assert_int_equal(r->open[DR_ASM_BIT_OUT].kind, GW_OPEN_NONE);
+    assert_int_equal(r->open[DR_ASM_INT_OUT].kind, GW_OPEN_INPUT_ONLY);
+    assert_int_equal(r->open[DR_ASM_FLOAT_OUT].o2t, DR_ASM_INT_IN);
     assert_int_equal(r->line, 23);
     assert_string_equal(c.robot[1].name, "arm2");
     assert_int_equal(c.robot[1].unit_id, 8);
@@ -355,7 +365,10 @@ typedef struct {
 #define ROBOT_KEYS                                                             \
     "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, mode, " \
     "rpi_ms, "                                                                 \
-    "timeout_multiplier, timeout_ms, fallback, o2t_timing, instance.<assembly>"
+    "timeout_multiplier, timeout_ms, fallback, o2t_timing, config_instance, "  \
+    "input_only_heartbeat, listen_only_heartbeat, instance.<assembly>, "       \
+    "open.<T->O assembly>"
+#define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
 #define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME]"
 #define NOT_A_BIT                                                        \
     "(a GPIO line follows or drives one bit, e.g. io_state.cb_do[1] or " \
@@ -653,6 +666,64 @@ static const err_case_t err_cases[] = {
       "unit_id, allowed: 1..247)" },
     { ROBOT "[robot b]\nunit_id = 2\nhost = 10.0.0.1\n",
       "5: robot 'b': 10.0.0.1:44818 is already robot 'a' (line 1)" },
+    /* connection plans */
+    { ROBOT "opn.io_state = none\n",
+      "3: unknown key 'opn.io_state' in [robot a] (did you mean "
+      "'open.io_state'? allowed: " ROBOT_KEYS ")" },
+    { ROBOT "open.io_stat = none\n",
+      "3: unknown assembly 'io_stat' in 'open.io_stat' (did you mean "
+      "'io_state'? allowed: io_state, joint_state, task_state, bit_out, "
+      "int_out, float_out, io_control, bit_in, int_in, float_in, or "
+      "dr1..dr10)" },
+    { ROBOT "open.io_control = input_only\n",
+      "3: key 'open.io_control' invalid: io_control is consumed by the robot "
+      "(O->T); open.* names a T->O assembly, which brings its O->T partner "
+      "with owner:<O->T> (allowed: io_state, joint_state, task_state, "
+      "bit_out, int_out, float_out)" },
+    { ROBOT "open.joint_state = input-only\n",
+      "3: open.joint_state 'input-only' invalid (did you mean 'input_only'? "
+      "allowed: " OPEN_ALLOWED ")" },
+    { ROBOT "open.joint_state = owner\n",
+      "3: open.joint_state 'owner' invalid: an owner connection needs its "
+      "O->T partner, e.g. owner:io_control (allowed: " OPEN_ALLOWED ")" },
+    { ROBOT "open.joint_state = owner:task_state\n",
+      "3: open.joint_state 'owner:task_state' invalid: task_state is "
+      "produced by the robot (T->O), an owner's partner must be an O->T "
+      "assembly (allowed: io_control, bit_in, int_in, float_in)" },
+    { ROBOT "open.joint_state = owner:bit_inn\n",
+      "3: unknown assembly 'bit_inn' in 'open.joint_state' (did you mean "
+      "'bit_in'? allowed: io_state, joint_state, task_state, bit_out, "
+      "int_out, float_out, io_control, bit_in, int_in, float_in, or "
+      "dr1..dr10)" },
+    { ROBOT "open.dr1 = none\nopen.io_state = none\n",
+      "4: key 'open.io_state' repeated in [robot a] (open of io_state, first "
+      "at line 3)" },
+    { ROBOT "open.joint_state = owner:bit_in\n",
+      "3: robot 'a': O->T bit_in has two owners, joint_state and bit_out "
+      "(the default; one exclusive owner connection per O->T assembly: make one "
+      "of them input_only or listen_only)" },
+    { ROBOT "open.bit_out = owner:bit_in\nopen.joint_state = owner:bit_in\n",
+      "4: robot 'a': O->T bit_in has two owners, joint_state and bit_out "
+      "(line 3; one exclusive owner connection per O->T assembly: make one "
+      "of them input_only or listen_only)" },
+    { ROBOT "open.io_state = none\nopen.joint_state = none\nopen.task_state = "
+      "none\nopen.bit_out = none\nopen.int_out = none\nopen.float_out = "
+      "none\n",
+      "1: robot 'a': every open.* is none: nothing would be opened (allowed: "
+      OPEN_ALLOWED ")" },
+    { ROBOT "config_instance = 0\n",
+      "3: config_instance 0 out of range (allowed: 1..65535)" },
+    { ROBOT "input_only_heartbeat = 65536\n",
+      "3: input_only_heartbeat 65536 out of range (allowed: 1..65535)" },
+    { ROBOT "config_instance = 104\n",
+      "3: robot 'a': config_instance 104 is also the instance of bit_out (a "
+      "connection point names one thing)" },
+    { ROBOT "input_only_heartbeat = 199\nopen.task_state = listen_only\n",
+      "3: robot 'a': input_only_heartbeat and listen_only_heartbeat are both "
+      "199 (the robot tells the two kinds apart by it)" },
+    { ROBOT "open.task_state = listen_only\ninstance.float_in = 199\n",
+      "4: robot 'a': listen_only_heartbeat 199 is also the instance of "
+      "float_in (a connection point names one thing)" },
     { ROBOT "instance.bit_in = 102\n",
       "3: robot 'a': instance 102 used by both joint_state and bit_in (each "
       "assembly needs its "
@@ -886,6 +957,61 @@ static void test_same_link(void **state)
     assert_false(gw_robot_config_same_link(&a, &b));
 }
 
+/* The default plan is today's six connections; the keys change it. */
+static void test_connection_plan(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\n", &c, err, sizeof err));
+    const gw_robot_config_t *r = &c.robot[0];
+    assert_int_equal(r->config_instance, 1);
+    assert_int_equal(r->input_only_heartbeat, 198);
+    assert_int_equal(r->listen_only_heartbeat, 199);
+    assert_int_equal(r->open[DR_ASM_IO_STATE].kind, GW_OPEN_OWNER);
+    assert_int_equal(r->open[DR_ASM_IO_STATE].o2t, DR_ASM_IO_CONTROL);
+    assert_int_equal(r->open[DR_ASM_BIT_OUT].o2t, DR_ASM_BIT_IN);
+    assert_int_equal(r->open[DR_ASM_INT_OUT].o2t, DR_ASM_INT_IN);
+    assert_int_equal(r->open[DR_ASM_FLOAT_OUT].o2t, DR_ASM_FLOAT_IN);
+    assert_int_equal(r->open[DR_ASM_JOINT_STATE].kind, GW_OPEN_INPUT_ONLY);
+    assert_int_equal(r->open[DR_ASM_TASK_STATE].kind, GW_OPEN_INPUT_ONLY);
+    for (unsigned a = DR_ASM_IO_CONTROL; a < DR_ASM_COUNT; a++)
+        assert_int_equal(r->open[a].kind, GW_OPEN_NONE);
+    /* config 199 (which the listen-only default would collide with, but
+     * nothing listens), io_state and float_out swapped partners, one
+     * listen-only, one not opened, drN aliases. */
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nconfig_instance = 199\n"
+                          "input_only_heartbeat = 250\nopen.dr1 = owner:float_in\n"
+                          "open.float_out = owner:dr7\nopen.bit_out = input_only\n"
+                          "open.int_out = none\nlisten_only_heartbeat = 251\n"
+                          "open.task_state = listen_only\n",
+                          &c, err, sizeof err));
+    assert_string_equal(err, "");
+    assert_int_equal(r->config_instance, 199);
+    assert_int_equal(r->input_only_heartbeat, 250);
+    assert_int_equal(r->listen_only_heartbeat, 251);
+    assert_int_equal(r->open[DR_ASM_IO_STATE].o2t, DR_ASM_FLOAT_IN);
+    assert_int_equal(r->open[DR_ASM_FLOAT_OUT].o2t, DR_ASM_IO_CONTROL);
+    assert_int_equal(r->open[DR_ASM_BIT_OUT].kind, GW_OPEN_INPUT_ONLY);
+    assert_int_equal(r->open[DR_ASM_BIT_OUT].o2t, -1);
+    assert_int_equal(r->open[DR_ASM_INT_OUT].kind, GW_OPEN_NONE);
+    assert_int_equal(r->open[DR_ASM_TASK_STATE].kind, GW_OPEN_LISTEN_ONLY);
+    assert_int_equal(r->open[DR_ASM_JOINT_STATE].kind, GW_OPEN_INPUT_ONLY);
+    /* A plan change is a link change (SIGHUP reconnects). */
+    gw_config_t d;
+    gw_config_defaults(&d);
+    gw_robot_config_t a = d.robot[0], b = a;
+    assert_true(gw_robot_config_same_link(&a, &b));
+    b.open[DR_ASM_INT_OUT].kind = GW_OPEN_NONE;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.config_instance = 2;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.listen_only_heartbeat = 2;
+    assert_false(gw_robot_config_same_link(&a, &b));
+}
+
 static void test_word_order_name(void **state)
 {
     (void)state;
@@ -915,6 +1041,7 @@ int main(void)
         cmocka_unit_test(test_small_error_buffer),
         cmocka_unit_test(test_same_link),
         cmocka_unit_test(test_word_order_name),
+        cmocka_unit_test(test_connection_plan),
     };
     return cmocka_run_group_tests_name("gw_config", tests, make_tmpdir,
                                        remove_tmpdir);

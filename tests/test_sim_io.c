@@ -167,7 +167,7 @@ static void test_forward_open_sockaddr_and_large(void **state)
     /* Input-only connections do not own anything. */
     assert_int_equal(drsim_identity_status(&f.sim) & 0x1, 0);
     /* A zero address in 0x8001 means the originator's own. */
-    dr_fwd_open_t fo2 = fo_make(DRSIM_HB_LISTEN_ONLY, 101, 2, 38, 1000, path, sizeof path);
+    dr_fwd_open_t fo2 = fo_make(DRSIM_HB_INPUT_ONLY, 101, 2, 38, 1000, path, sizeof path);
     dr_sockaddr_t port_only = {0, 2400};
     assert_int_equal(fo_send(&f, &fo2, &port_only), DR_OK);
     dr_fwd_open_reply_t r;
@@ -262,6 +262,50 @@ static void test_refuse_fault(void **state)
     assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0113));
     assert_int_equal(f.rsp.ext_count, 1);
     assert_int_equal(drsim_conn_count(&f.sim), 0);
+}
+
+/* What a controller's EDS decides: the configuration instance and the
+ * heartbeat points; listen-only needs a connection that produces its T->O. */
+static void test_connection_points(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.config_instance = 199;
+    cfg.hb_input_only = 0; /* no input-only */
+    cfg.hb_listen_only = 252;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint8_t path[16];
+    /* Configuration instance 1 where the EDS says 199. */
+    dr_fwd_open_t fo = fo_make(107, 101, 18, 38, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0129));
+    fo.path_len = dr_conn_path_write(path, sizeof path, 199, 107, 101);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    /* Input-only is not offered: 198 is no consuming point here. */
+    fo = fo_make(DRSIM_HB_INPUT_ONLY, 102, 6, 146, 10000, path, sizeof path);
+    fo.path_len = dr_conn_path_write(path, sizeof path, 199, DRSIM_HB_INPUT_ONLY, 102);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x012A));
+    /* Listen-only to joint_state, which nobody produces: 0x0119. */
+    fo = fo_make(252, 102, 6, 146, 10000, path, sizeof path);
+    fo.path_len = dr_conn_path_write(path, sizeof path, 199, 252, 102);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0119));
+    /* Listen-only to io_state, which the owner above produces. */
+    fo = fo_make(252, 101, 6, 38, 10000, path, sizeof path);
+    fo.path_len = dr_conn_path_write(path, sizeof path, 199, 252, 101);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f.rsp.data, f.rsp.data_len, &r), DR_OK);
+    drsim_conn_t *c = drsim_conn_by_o2t(&f.sim, r.o2t_cid);
+    assert_non_null(c);
+    assert_true(c->listen_only);
+    assert_int_equal(c->o2t_asm, -1);
+    /* A listen-only connection does not make another one possible. */
+    dr_fwd_open_t lo2 = fo_make(252, 103, 6, 98, 10000, path, sizeof path);
+    lo2.path_len = dr_conn_path_write(path, sizeof path, 199, 252, 103);
+    assert_int_equal(fo_send(&f, &lo2, NULL), DR_CIP(0x01, 0x0119));
+    assert_int_equal(drsim_conn_count(&f.sim), 2);
 }
 
 /* Opens io_control/io_state at 10 ms, returns the O->T connection ID. */
@@ -428,6 +472,7 @@ int main(void)
         cmocka_unit_test(test_forward_open_sockaddr_and_large),
         cmocka_unit_test(test_forward_open_refused),
         cmocka_unit_test(test_refuse_fault),
+        cmocka_unit_test(test_connection_points),
         cmocka_unit_test(test_sequence_handling),
         cmocka_unit_test(test_timeouts),
         cmocka_unit_test(test_drop_and_stop),
