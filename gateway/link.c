@@ -657,6 +657,15 @@ static void update_status(gw_link_t *l, uint64_t now)
 {
     gw_status_t *st = &l->unit->status;
     uint64_t oldest = UINT64_MAX;
+    /* A packet that repeats the last data (same CIP sequence count) calls
+     * no on_data, yet says the data is current: age goes by the last
+     * packet the connection took, which is on the same monotonic clock. */
+    if (l->cfg.mode == GW_MODE_IMPLICIT)
+        for (unsigned i = 0; i < NPAIRS; i++) {
+            uint64_t t = l->conn[i] ? dr_conn_stats(l->conn[i])->last_rx_us : 0;
+            if (t > l->last_rx_us[slot_t2o[i]])
+                l->last_rx_us[slot_t2o[i]] = t;
+        }
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if ((l->t2o_planned & (1u << a)) && l->last_rx_us[a] < oldest)
             oldest = l->last_rx_us[a];

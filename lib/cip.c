@@ -205,23 +205,41 @@ dr_status_t dr_encap_write(uint8_t *buf, size_t cap, const dr_encap_t *hdr,
 
 /* ---- CPF ----------------------------------------------------------------- */
 
-dr_status_t dr_cpf_parse(const uint8_t *buf, size_t len, dr_cpf_t *cpf)
+/* The declared items, each length-checked; what follows them is left in
+ * the reader for the caller to judge. */
+static dr_status_t cpf_items(rd_t *r, dr_cpf_t *cpf)
 {
-    rd_t r;
-    rd_init(&r, buf, len);
-    cpf->count = rd_u16(&r);
-    if (r.short_)
+    cpf->count = rd_u16(r);
+    if (r->short_)
         return DR_ESHORT;
     if (cpf->count > DR_CPF_MAX_ITEMS)
         return DR_EMALFORMED;
     for (unsigned i = 0; i < cpf->count; i++) {
-        cpf->item[i].type = rd_u16(&r);
-        cpf->item[i].length = rd_u16(&r);
-        cpf->item[i].data = rd_take(&r, cpf->item[i].length);
-        if (r.short_)
+        cpf->item[i].type = rd_u16(r);
+        cpf->item[i].length = rd_u16(r);
+        cpf->item[i].data = rd_take(r, cpf->item[i].length);
+        if (r->short_)
             return DR_ESHORT;
     }
-    return rd_done(&r);
+    return DR_OK;
+}
+
+dr_status_t dr_cpf_parse(const uint8_t *buf, size_t len, dr_cpf_t *cpf)
+{
+    rd_t r;
+    rd_init(&r, buf, len);
+    dr_status_t st = cpf_items(&r, cpf);
+    return st != DR_OK ? st : rd_done(&r);
+}
+
+dr_status_t dr_cpf_parse_reply(const uint8_t *buf, size_t len, dr_cpf_t *cpf,
+                               size_t *extra)
+{
+    rd_t r;
+    rd_init(&r, buf, len);
+    dr_status_t st = cpf_items(&r, cpf);
+    *extra = st == DR_OK ? rd_left(&r) : 0;
+    return st;
 }
 
 const dr_cpf_item_t *dr_cpf_find(const dr_cpf_t *cpf, uint16_t type)

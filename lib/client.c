@@ -64,7 +64,8 @@ struct dr_conn {
     dr_sockaddr_t o2t_to;
     uint16_t o2t_seq16;
     uint32_t o2t_seq32;
-    uint16_t t2o_seq16;
+    uint16_t t2o_seq16;  /* CIP sequence count of the last new data */
+    uint32_t t2o_seq32;  /* encapsulation sequence number of the last packet */
     bool have_t2o_seq;
     uint64_t next_tx_us, rx_deadline_us, retry_us;
     uint32_t timeout_us;
@@ -109,6 +110,7 @@ struct dr_client {
     dr_conn_t *tx_conn[DR_CLIENT_MAX_CONNS];
     unsigned tx_n;
     const char *step;
+    dr_client_stats_t stats;
     dr_conn_t conns[DR_CLIENT_MAX_CONNS];
 };
 
@@ -246,6 +248,11 @@ uint16_t dr_client_instance(const dr_client_t *c, dr_asm_t a)
 const char *dr_client_last_step(const dr_client_t *c)
 {
     return c->step;
+}
+
+const dr_client_stats_t *dr_client_stats(const dr_client_t *c)
+{
+    return &c->stats;
 }
 
 void dr_client_set_timeout(dr_client_t *c, uint32_t timeout_ms)
@@ -914,9 +921,15 @@ static void on_rr_reply(dr_client_t *c, req_t *r, const uint8_t *body, size_t le
     dr_cip_rsp_t rsp;
     const dr_cpf_item_t *it;
     dr_status_t st = DR_EMALFORMED;
-    if (len >= 6 && dr_cpf_parse(body + 6, len - 6, &cpf) == DR_OK &&
+    size_t extra = 0;
+    /* Lenient about what follows the declared items (an adapter seen in
+     * the field appends an echo of our 0x8001 item to a refusal): dropping
+     * the reply would lose its CIP status. */
+    if (len >= 6 && dr_cpf_parse_reply(body + 6, len - 6, &cpf, &extra) == DR_OK &&
         (it = dr_cpf_find(&cpf, DR_CPF_UNCONNECTED_DATA)) != NULL &&
         dr_cip_rsp_parse(it->data, it->length, &rsp) == DR_OK) {
+        if (extra > 0)
+            c->stats.replies_trailing++;
         req_finish(c, r, dr_cip_rsp_status(&rsp), &rsp, &cpf);
         return;
     }
@@ -1023,20 +1036,34 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
         cn->stats.rx_bad++;
         return;
     }
-    /* Duplicates and stale packets: wrap-safe compare of the sequence count. */
-    if (cn->have_t2o_seq && !dr_seq16_newer(f.cip_seq, cn->t2o_seq16)) {
+    /* Liveness goes by the 32-bit encapsulation sequence number, which the
+     * producer advances with every packet: one that is not newer than the
+     * last one taken (wrap-safe) is a duplicate or came late, and does not
+     * count as a sign of life. */
+    if (cn->have_t2o_seq && !dr_seq32_newer(f.encap_seq, cn->t2o_seq32)) {
         cn->stats.rx_dropped_seq++;
         return;
     }
-    if (cn->have_t2o_seq)
+    cn->t2o_seq32 = f.encap_seq;
+    cn->stats.rx_packets++;
+    cn->stats.last_rx_us = t;
+    cn->rx_deadline_us = t + cn->timeout_us;
+    /* The 16-bit CIP sequence count says whether the data is new: a
+     * producer may keep it while its data is unchanged, and only the
+     * encapsulation sequence number moves (seen on a real adapter). A count that went back with a newer packet is a producer
+     * that started counting again: new data, no gap. */
+    if (cn->have_t2o_seq && f.cip_seq == cn->t2o_seq16) {
+        cn->stats.rx_repeats++;
+        if (cn->used)
+            follow_t2o(cn, t);
+        return;
+    }
+    if (cn->have_t2o_seq && dr_seq16_newer(f.cip_seq, cn->t2o_seq16))
         cn->stats.rx_lost += (uint16_t)(f.cip_seq - cn->t2o_seq16 - 1u);
     cn->have_t2o_seq = true;
     cn->t2o_seq16 = f.cip_seq;
     memcpy(cn->in, f.data, f.data_len);
     cn->have_in = true;
-    cn->stats.rx_packets++;
-    cn->stats.last_rx_us = t;
-    cn->rx_deadline_us = t + cn->timeout_us;
     if (cn->cfg.on_data != NULL)
         cn->cfg.on_data(cn, cn->in, f.data_len, cn->cfg.user);
     if (cn->used) /* the callback may have removed it */

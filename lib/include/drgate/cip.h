@@ -120,6 +120,14 @@ typedef struct {
  * DR_CPF_MAX_ITEMS items; DR_ESHORT / DR_ELONG on disagreeing lengths. */
 dr_status_t dr_cpf_parse(const uint8_t *buf, size_t len, dr_cpf_t *cpf);
 
+/* The same for a reply that we only read: every declared item is still
+ * length-checked, but bytes after them are not an error. They are left
+ * out and counted in *extra (some adapters append an item they did not
+ * count, e.g. an echo of the request's 0x8001 item; Wireshark ignores it
+ * too). Requests, which we act on, go through dr_cpf_parse. */
+dr_status_t dr_cpf_parse_reply(const uint8_t *buf, size_t len, dr_cpf_t *cpf,
+                               size_t *extra);
+
 /* First item of `type`, NULL if none. */
 const dr_cpf_item_t *dr_cpf_find(const dr_cpf_t *cpf, uint16_t type);
 

@@ -147,6 +147,14 @@ uint16_t dr_client_instance(const dr_client_t *c, dr_asm_t a);
  * "set", "forward open", ... (static string). */
 const char *dr_client_last_step(const dr_client_t *c);
 
+/* What the session saw that was accepted but not as it should be. */
+typedef struct {
+    uint64_t replies_trailing; /* SendRRData replies with bytes after their
+                                  declared CPF items (ignored) */
+} dr_client_stats_t;
+
+const dr_client_stats_t *dr_client_stats(const dr_client_t *c);
+
 /* ---- Class 1 implicit I/O -------------------------------------------- */
 
 typedef enum {
@@ -202,10 +210,23 @@ dr_status_t dr_conn_set_output(dr_conn_t *conn, const uint8_t *data, size_t len)
 /* The run/idle bit sent in the O->T header (default run). */
 void dr_conn_set_run(dr_conn_t *conn, bool run);
 
+/* T->O sequence handling: a packet whose 32-bit encapsulation sequence
+ * number is not newer (wrap-safe) than the last one taken is a duplicate
+ * or late: dropped (rx_dropped_seq), and it does not keep the connection
+ * alive. Every newer packet does (rx_packets, last_rx_us, the timeout).
+ * Whether it carries new data goes by the 16-bit CIP sequence count: the
+ * same count as the last new data is a repeat (rx_repeats: no copy, no
+ * on_data), as producers may send while their data is unchanged; any
+ * other count is new data, and a newer one counts the counts skipped
+ * (rx_lost). A count that goes back (a producer that started counting
+ * again) is new data with no gap. New samples: rx_packets - rx_repeats. */
 typedef struct {
-    uint64_t rx_packets, rx_dropped_seq, rx_bad, tx_packets;
-    uint64_t rx_lost;          /* gaps in the T->O sequence count */
-    uint64_t last_rx_us;       /* monotonic time of the last T->O data */
+    uint64_t rx_packets;       /* T->O packets taken: new data and repeats */
+    uint64_t rx_dropped_seq;   /* stale or duplicate (encapsulation sequence) */
+    uint64_t rx_bad, tx_packets;
+    uint64_t rx_lost;          /* gaps in the CIP sequence count of new data */
+    uint64_t rx_repeats;       /* packets taken that repeat the CIP count */
+    uint64_t last_rx_us;       /* monotonic time of the last packet taken */
     uint32_t o2t_api_us, t2o_api_us; /* from the Forward Open reply */
     uint32_t o2t_cid, t2o_cid;
     uint32_t opens, timeouts;
