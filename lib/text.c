@@ -2,6 +2,7 @@
 /* Values as text and back (see drgate/text.h). */
 #include <errno.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,6 +14,30 @@ static dr_status_t fit(int n, size_t size)
     return (n < 0 || (size_t)n >= size) ? DR_ENOSPACE : DR_OK;
 }
 
+/* Shortest digits of f: the fewest significant digits (1..9; 9 always
+ * do for binary32) whose text reads back to the same float, as "d.ddd"
+ * in digits[] without the point, and the decimal exponent of the first. */
+static int shortest_digits(float f, char digits[16], int *exp10)
+{
+    char tmp[32];
+    for (int prec = 1;; prec++) {
+        snprintf(tmp, sizeof tmp, "%.*e", prec - 1, (double)f);
+        if (strtof(tmp, NULL) == f || prec == 9)
+            break;
+    }
+    /* tmp: [-]d[.ddd]e[+-]xx */
+    const char *p = tmp + (tmp[0] == '-');
+    int n = 0;
+    for (; *p != 'e'; p++)
+        if (*p != '.')
+            digits[n++] = *p;
+    while (n > 1 && digits[n - 1] == '0')
+        n--; /* %e pads to the precision asked: 100 is "1.00e+02" at 3 */
+    digits[n] = '\0';
+    *exp10 = (int)strtol(p + 1, NULL, 10);
+    return n;
+}
+
 dr_status_t dr_text_real(float f, char *out, size_t size)
 {
     if (out == NULL || size == 0)
@@ -21,15 +46,38 @@ dr_status_t dr_text_real(float f, char *out, size_t size)
         return fit(snprintf(out, size, "nan"), size);
     if (f > 3.4028235e38f || f < -3.4028235e38f)
         return fit(snprintf(out, size, f > 0 ? "inf" : "-inf"), size);
-    /* The shortest precision whose text reads back to the same float;
-     * 9 significant digits always do for binary32. */
-    for (int prec = 1; prec <= 9; prec++) {
-        char tmp[32];
-        snprintf(tmp, sizeof tmp, "%.*g", prec, (double)f);
-        if (strtof(tmp, NULL) == f || prec == 9)
-            return fit(snprintf(out, size, "%s", tmp), size);
+    if (f == 0.0f) /* -0 keeps its sign: it reads back to the same bits */
+        return fit(snprintf(out, size, signbit(f) ? "-0" : "0"), size);
+    char d[16], text[48];
+    int e;
+    int n = shortest_digits(f, d, &e);
+    size_t k = 0;
+    if (f < 0)
+        text[k++] = '-';
+    if (e < DR_TEXT_PLAIN_MIN_EXP || e > DR_TEXT_PLAIN_MAX_EXP) {
+        /* 1e-7, -2.5e+20, 3.4028235e+38 */
+        text[k++] = d[0];
+        if (n > 1)
+            text[k++] = '.';
+        snprintf(text + k, sizeof text - k, "%se%c%d", d + 1, e < 0 ? '-' : '+',
+                 e < 0 ? -e : e);
+        return fit(snprintf(out, size, "%s", text), size);
     }
-    return DR_EINVAL; /* not reached */
+    /* Plain: 0.00001, 0.33333334, 31.5, 100, 123456790 (the float is
+     * 123456792: places past the shortest digits are zeros). */
+    if (e < 0) {
+        text[k++] = '0';
+        text[k++] = '.';
+        for (int i = -1; i > e; i--)
+            text[k++] = '0';
+    }
+    for (int i = 0; i < n || i <= e; i++) {
+        if (i == e + 1 && e >= 0)
+            text[k++] = '.';
+        text[k++] = i < n ? d[i] : '0';
+    }
+    text[k] = '\0';
+    return fit(snprintf(out, size, "%s", text), size);
 }
 
 static int hex_digits(unsigned bits)

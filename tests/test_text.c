@@ -65,6 +65,70 @@ static void test_real_shortest(void **state)
     assert_string_equal(out, "-inf");
 }
 
+static void expect_real(float f, const char *want)
+{
+    char out[32];
+    assert_int_equal(dr_text_real(f, out, sizeof out), DR_OK);
+    assert_string_equal(out, want);
+}
+
+/* Numbers as people write them: plain notation for 1e-5 <= |x| < 1e16,
+ * an exponent (sign always, no leading zeros) outside; -0 keeps its sign. */
+static void test_real_golden(void **state)
+{
+    (void)state;
+    expect_real(100.0f, "100");
+    expect_real(10.0f, "10");
+    expect_real(110.0f, "110");
+    expect_real(1000.0f, "1000");
+    expect_real(1e-7f, "1e-7");
+    expect_real(123456789.0f, "123456790"); /* the float is 123456792 */
+    expect_real(-0.0f, "-0");
+    expect_real(0.0f, "0");
+    expect_real(FLT_MAX, "3.4028235e+38");
+    expect_real(-FLT_MAX, "-3.4028235e+38");
+    expect_real(31.5f, "31.5");
+    expect_real(-123.456f, "-123.456");
+    expect_real(1e-5f, "0.00001");           /* the lower bound: plain */
+    expect_real(9.99e-6f, "9.99e-6");        /* just under it */
+    expect_real(0.00012f, "0.00012");
+    expect_real(1e15f, "1000000000000000");  /* the float is 999999986991104 */
+    expect_real(1e16f, "1e+16");             /* the upper bound: exponent */
+    expect_real(-2.5e20f, "-2.5e+20");
+    expect_real(1.17549435e-38f, "1.1754944e-38");
+    expect_real(1.4e-45f, "1e-45");          /* the smallest subnormal */
+    char tiny[4];
+    assert_int_equal(dr_text_real(100000.0f, tiny, sizeof tiny), DR_ENOSPACE);
+}
+
+/* Whatever dr_text_real prints, dr_text_parse (drcli's parser) reads back
+ * to the same bits: a deterministic walk over binary32 bit patterns of
+ * every exponent, and both zeros. */
+static void test_real_parse_back(void **state)
+{
+    (void)state;
+    dr_ref_t ref = ref_of("float_in[3]");
+    uint32_t x = 0x12345678u;
+    for (unsigned i = 0; i < 200000u; i++) {
+        x = x * 1664525u + 1013904223u;
+        uint32_t bits = i < 2 ? (i == 0 ? 0u : 0x80000000u) : x;
+        float f;
+        memcpy(&f, &bits, sizeof f);
+        if (f != f || f > FLT_MAX || f < -FLT_MAX)
+            continue;
+        char text[32];
+        dr_value_t v;
+        assert_int_equal(dr_text_real(f, text, sizeof text), DR_OK);
+        assert_int_equal(dr_text_parse(ref, text, 0, &v), DR_OK);
+        float back = (float)v.f;
+        uint32_t got;
+        memcpy(&got, &back, sizeof got);
+        if (got != bits)
+            fail_msg("0x%08X printed as %s reads back as 0x%08X", (unsigned)bits, text,
+                     (unsigned)got);
+    }
+}
+
 static void test_parse(void **state)
 {
     (void)state;
@@ -135,6 +199,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_format),
         cmocka_unit_test(test_real_shortest),
+        cmocka_unit_test(test_real_golden),
+        cmocka_unit_test(test_real_parse_back),
         cmocka_unit_test(test_parse),
         cmocka_unit_test(test_parse_float_limits),
         cmocka_unit_test(test_parse_errors),

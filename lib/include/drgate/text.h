@@ -17,9 +17,14 @@
 extern "C" {
 #endif
 
-/* Shortest decimal text that reads back to the same binary32 value
- * ("31.5", "0.1", "-1e-07"); "nan", "inf", "-inf" for non-finite values.
- * Returns DR_OK or DR_ENOSPACE. */
+/* Shortest decimal text that reads back to the same binary32 value, the
+ * way people write numbers: plain notation for 1e-5 <= |f| < 1e16 ("100",
+ * "31.5", "0.1", "0.00001", "123456790"), an exponent outside it ("1e-7",
+ * "3.4028235e+38"), as JavaScript's Number.prototype.toString does with
+ * its own bounds; "-0" for negative zero; "nan", "inf", "-inf" for
+ * non-finite values. Returns DR_OK or DR_ENOSPACE. */
+#define DR_TEXT_PLAIN_MIN_EXP (-5) /* decimal exponents printed plain */
+#define DR_TEXT_PLAIN_MAX_EXP 15
 dr_status_t dr_text_real(float f, char *out, size_t size);
 
 #define DR_TEXT_UNIT 0x1u /* append " unit" where the field has one */
