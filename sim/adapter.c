@@ -132,6 +132,10 @@ void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns)
     id->state = IDENTITY_STATE_OPERATIONAL;
 
     drsim_robot_init(&s->robot, now_ns, cfg->seed, cfg->echo, &s->img);
+    if (cfg->still) { /* from the first update on: images without noise */
+        s->robot.still = true;
+        drsim_robot_update(&s->robot, now_ns, &s->img);
+    }
 }
 
 int drsim_asm_of_instance(const drsim_t *s, uint16_t inst)
@@ -524,6 +528,17 @@ static uint32_t new_cid(drsim_t *s)
     return cid;
 }
 
+/* The interval drsim produces at for an RPI: the RPI itself, or with
+ * --tick rounded up to a multiple of the tick, as adapters with a coarser
+ * timer do (e.g. 10 ms for a 5 ms request). */
+static uint32_t api_of(const drsim_t *s, uint32_t rpi_us)
+{
+    uint32_t tick = s->cfg.tick_us;
+    if (tick == 0 || rpi_us % tick == 0)
+        return rpi_us;
+    return (rpi_us / tick + 1u) * tick;
+}
+
 static drsim_conn_t *conn_open(req_ctx_t *ctx, const dr_fwd_open_t *fo,
                                const fo_plan_t *plan)
 {
@@ -549,9 +564,10 @@ static drsim_conn_t *conn_open(req_ctx_t *ctx, const dr_fwd_open_t *fo,
     c->listen_only = plan->listen_only;
     c->o2t_run_idle = plan->o2t_asm >= 0 || fo->o2t.size == 6;
     c->o2t_data_len = plan->o2t_asm >= 0 ? dr_asm_info((dr_asm_t)plan->o2t_asm)->size : 0;
-    /* Timers run in nanoseconds: the APIs are the RPIs, unrounded. */
-    c->o2t_api_us = fo->o2t_rpi_us;
-    c->t2o_api_us = fo->t2o_rpi_us;
+    /* Timers run in nanoseconds: the APIs are the RPIs, unrounded unless
+     * --tick asks for a coarser one. */
+    c->o2t_api_us = api_of(s, fo->o2t_rpi_us);
+    c->t2o_api_us = api_of(s, fo->t2o_rpi_us);
     c->timeout_ns = (uint64_t)c->o2t_api_us * 1000u * (4u << (fo->timeout_mult & 7u));
     c->opened_ns = ctx->now;
     c->next_produce_ns = ctx->now; /* first T->O right after the reply */
@@ -601,12 +617,16 @@ static void forward_open(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
         .conn_serial = c->conn_serial, .vendor = c->vendor,
         .orig_serial = c->orig_serial,
         .o2t_api_us = c->o2t_api_us, .t2o_api_us = c->t2o_api_us};
+    if (ctx->s->cfg.api_requested) { /* --api-report requested */
+        r.o2t_api_us = fo.o2t_rpi_us;
+        r.t2o_api_us = fo.t2o_rpi_us;
+    }
     dr_cip_rsp_write(w, rq->service, GS_OK, NULL, 0, NULL, 0);
     dr_fwd_open_reply_write(w, &r);
     ctx->o2t_sa = true;
     char ip[16];
     drsim_log(1, "connection open: O->T %u (0x%08X, %s) T->O %u (0x%08X) -> %s:%u,"
-              " RPI %u/%u us, timeout %llu ms",
+              " API %u/%u us, timeout %llu ms",
               (unsigned)c->o2t_point, (unsigned)c->o2t_cid,
               c->o2t_asm >= 0 ? dr_asm_info((dr_asm_t)c->o2t_asm)->name : "heartbeat",
               (unsigned)c->t2o_point, (unsigned)c->t2o_cid,
@@ -826,6 +846,15 @@ static uint32_t send_rr_data(drsim_t *s, const drsim_peer_t *peer, uint64_t now,
                             s->cfg.udp_port};
         dr_cpf_sockaddr_write(w, DR_CPF_SOCKADDR_O2T, sa);
     }
+    if (s->cfg.trailing_item && n > 0 &&
+        (rsp[0] == (DR_CIP_SVC_FORWARD_OPEN | DR_CIP_REPLY) ||
+         rsp[0] == (DR_CIP_SVC_LARGE_FORWARD_OPEN | DR_CIP_REPLY))) {
+        /* --trailing-item: like an adapter seen in the field, echo the
+         * request's T->O socket address after the items we declared
+         * (the originator's address, port 2222, if it sent none). */
+        dr_sockaddr_t echo = sa_item ? t2o_sa : (dr_sockaddr_t){peer->addr, DR_ENIP_UDP_PORT};
+        dr_cpf_sockaddr_write(w, DR_CPF_SOCKADDR_T2O, echo);
+    }
     return 0;
 }
 
@@ -984,11 +1013,18 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
         c->stopped = true;
         return;
     }
+    const uint8_t *data = s->img.buf[c->t2o_asm];
+    size_t size = dr_asm_info(c->t2o_asm)->size;
+    bool first = c->produced + c->produce_dropped == 0;
+    /* The encapsulation sequence number moves with every packet; the CIP
+     * sequence count with new data only under --seq-on-change. */
     c->t2o_encap_seq++;
-    c->t2o_cip_seq++;
+    if (!s->cfg.seq_on_change || first || memcmp(c->last_t2o, data, size) != 0)
+        c->t2o_cip_seq++;
+    if (s->cfg.seq_on_change)
+        memcpy(c->last_t2o, data, size);
     dr_io_frame_t f = {.cid = c->t2o_cid, .encap_seq = c->t2o_encap_seq,
-                       .cip_seq = c->t2o_cip_seq, .data = s->img.buf[c->t2o_asm],
-                       .data_len = dr_asm_info(c->t2o_asm)->size,
+                       .cip_seq = c->t2o_cip_seq, .data = data, .data_len = size,
                        .has_run_idle = false};
     uint8_t pkt[64 + DR_ASM_MAX_SIZE];
     size_t n;

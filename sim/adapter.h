@@ -49,6 +49,20 @@ typedef struct {
                                   like targets that only know 0x54 */
     uint64_t stop_producing_ns; /* stop T->O this long after an open; 0 never */
     unsigned drop_pct;         /* drop this share (0..100) of I/O packets */
+    /* Legal producer choices real adapters make (docs/interop.md,
+     * "Adapter behaviours we accept"): */
+    bool seq_on_change;        /* CIP sequence count moves only when the
+                                  produced data changed (the encapsulation
+                                  sequence number moves every packet) */
+    uint32_t tick_us;          /* produce at a coarser tick: the API is the
+                                  RPI rounded up to a multiple; 0: the RPI */
+    bool api_requested;        /* the Forward Open reply states the
+                                  requested RPIs, not the APIs produced at */
+    bool trailing_item;        /* Forward Open replies carry one CPF item
+                                  more than they declare (an echo of the
+                                  0x8001 item) */
+    bool still;                /* the robot stands still: no motion, no
+                                  noise, so its data stays the same */
     uint64_t seed;             /* noise, drops, serial number, IDs */
     uint32_t address;          /* our IPv4 (host order); 0: any */
     uint16_t tcp_port;         /* encapsulation port, for ListIdentity */
@@ -96,6 +110,7 @@ typedef struct {
     uint32_t t2o_encap_seq;
     uint16_t t2o_cip_seq;
     bool stopped;              /* --stop-producing-after has struck */
+    uint8_t last_t2o[DR_ASM_MAX_SIZE]; /* last data produced (seq_on_change) */
     /* counters */
     uint64_t produced, produce_dropped, consumed, applied, stale, rx_dropped;
 } drsim_conn_t;

@@ -71,6 +71,21 @@ static void usage(FILE *f)
 "      --no-echo             do not copy bit_in/int_in/float_in to\n"
 "                            bit_out/int_out/float_out\n"
 "      --seed N              seed for noise, drops, serial number, IDs (0)\n"
+"      --still               stand still once booted: no motion, no noise, so\n"
+"                            the data changes only with what is written\n"
+"\n"
+"Producer choices (legal ones that real adapters make):\n"
+"      --seq-on-change       advance the T->O CIP sequence count only when the\n"
+"                            produced data changed (the encapsulation sequence\n"
+"                            number still advances with every packet)\n"
+"      --tick MS             produce at a coarser tick: the API is the RPI\n"
+"                            rounded up to a multiple of MS (1..1000)\n"
+"      --api-report actual|requested\n"
+"                            the APIs the Forward Open reply states: those\n"
+"                            produced at (default) or the RPIs requested\n"
+"      --trailing-item       Forward Open replies (success and error) carry\n"
+"                            one CPF item more than their item count says\n"
+"                            (an echo of the request's 0x8001 item)\n"
 "\n"
 "Connection points (what a controller's EDS decides):\n"
 "      --config-instance N   accept only configuration instance N in a\n"
@@ -182,7 +197,8 @@ static int check_instances(const drsim_config_t *cfg)
 enum {
     OPT_NO_ECHO = 256, OPT_SEED, OPT_DROP, OPT_DELAY, OPT_STOP_PRODUCING,
     OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO,
-    OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY
+    OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
+    OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM
 };
 
 static const struct option long_options[] = {
@@ -202,6 +218,11 @@ static const struct option long_options[] = {
     {"refuse-forward-open", required_argument, NULL, OPT_REFUSE_FO},
     {"no-large-forward-open", no_argument, NULL, OPT_NO_LARGE_FO},
     {"drop-session-after", required_argument, NULL, OPT_DROP_SESSION},
+    {"still", no_argument, NULL, OPT_STILL},
+    {"seq-on-change", no_argument, NULL, OPT_SEQ_ON_CHANGE},
+    {"tick", required_argument, NULL, OPT_TICK},
+    {"api-report", required_argument, NULL, OPT_API_REPORT},
+    {"trailing-item", no_argument, NULL, OPT_TRAILING_ITEM},
     {"verbose", no_argument, NULL, 'v'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
@@ -294,6 +315,25 @@ static int parse_options(int argc, char **argv, options_t *o)
         case OPT_DROP_SESSION:
             if (parse_seconds(optarg, &o->drop_session_ns) != 0)
                 return bad("--drop-session-after", optarg);
+            break;
+        case OPT_STILL:
+            o->cfg.still = true;
+            break;
+        case OPT_SEQ_ON_CHANGE:
+            o->cfg.seq_on_change = true;
+            break;
+        case OPT_TICK:
+            if (parse_uint(optarg, 1, 1000, &n) != 0)
+                return bad("--tick", optarg);
+            o->cfg.tick_us = (uint32_t)n * 1000u;
+            break;
+        case OPT_API_REPORT:
+            if (strcmp(optarg, "actual") != 0 && strcmp(optarg, "requested") != 0)
+                return bad("--api-report (want actual or requested)", optarg);
+            o->cfg.api_requested = strcmp(optarg, "requested") == 0;
+            break;
+        case OPT_TRAILING_ITEM:
+            o->cfg.trailing_item = true;
             break;
         case 'v':
             drsim_verbose++;

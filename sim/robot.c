@@ -44,6 +44,8 @@ static uint64_t mix64(uint64_t x)
 /* Uniform noise in [-amp, amp]. */
 static double noise(const drsim_robot_t *r, unsigned channel, double amp)
 {
+    if (r->still)
+        return 0.0;
     uint64_t x = mix64(r->seed ^ mix64(r->step * 64u + channel));
     double u = (double)(x >> 11) / 9007199254740992.0; /* [0, 1) */
     return amp * (2.0 * u - 1.0);
@@ -163,19 +165,19 @@ static void update_io(drsim_robot_t *r, double t)
     uint16_t di = 0;
     if (state != DR_ROBOT_INITIALIZING)
         di |= 0x0001u;
-    if (((uint64_t)(t / 2.0)) % 2u)
+    if (!r->still && ((uint64_t)(t / 2.0)) % 2u)
         di |= 0x0002u;
     r->io.cb_di = di;
     /* AI0 is wired back from AO0; AI1 reads a slowly varying sensor. */
     r->io.ai[0] = r->io.ao[0] + (float)noise(r, 40, 0.002);
-    r->io.ai[1] = (float)(2.5 + 0.5 * sin(2.0 * PI * t / 20.0));
+    r->io.ai[1] = r->still ? 2.5f : (float)(2.5 + 0.5 * sin(2.0 * PI * t / 20.0));
     /* The gripper on tool DO1/DO2 reports back on tool DI1/DI2. */
     r->io.tool_di = (uint8_t)(r->io.tool_do & 0x03u);
 }
 
 static void update_joints(drsim_robot_t *r, double t, double dt, double q[6])
 {
-    bool moving = t >= DRSIM_T_OPERATING_S;
+    bool moving = !r->still && t >= DRSIM_T_OPERATING_S;
     double tau = moving ? t - DRSIM_T_OPERATING_S : 0.0;
     double qd[6], qdd[6];
     for (unsigned j = 0; j < 6; j++) {
@@ -198,7 +200,8 @@ static void update_joints(drsim_robot_t *r, double t, double dt, double q[6])
         double current = servo ? torque / j_kt[j] + 0.3 + noise(r, 10 + j, 0.02) : 0.0;
         /* First-order thermal model: heats with I^2, cools to ambient. */
         double target = T_AMBIENT + 4.0 + 6.0 * current * current;
-        r->temperature[j] += (float)((target - r->temperature[j]) * (dt / T_TAU_S));
+        if (!r->still) /* still: the motors hold their temperature */
+            r->temperature[j] += (float)((target - r->temperature[j]) * (dt / T_TAU_S));
         r->joints.position[j] = (float)q[j];
         r->joints.velocity[j] = (float)qd[j];
         r->joints.torque[j] = (float)torque;

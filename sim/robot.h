@@ -29,6 +29,7 @@ typedef struct {
     uint64_t last_ns;   /* time of the last update */
     bool updated;       /* an update has happened (last_ns valid) */
     bool echo;          /* GPR inputs echo to GPR outputs */
+    bool still;         /* stands still once booted: no motion, no noise */
     uint64_t seed;
     uint64_t step;      /* update counter, varies the noise */
     float temperature[6];
