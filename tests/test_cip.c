@@ -419,6 +419,64 @@ static void test_cpf_lying_lengths(void **state)
     assert_int_equal(dr_cpf_parse(huge, sizeof huge, &cpf), DR_EMALFORMED);
 }
 
+/* Issue 10: an adapter refused a Forward Open (0x01/0x0106, ownership
+ * conflict) in a SendRRData reply whose CPF declares 2 items but carries a
+ * third, an echo of our 0x8001 item. Reconstructed from the issue's
+ * description (the capture itself is not in the repository): replies are
+ * parsed leniently (dr_cpf_parse_reply), so the CIP status survives;
+ * requests stay strict (dr_cpf_parse, dr_rr_parse). */
+static const uint8_t fo_refusal_trailing[] = {
+    0x00, 0x00, 0x00, 0x00,             /* interface handle */
+    0x00, 0x00,                         /* timeout */
+    0x02, 0x00,                         /* item count: 2 */
+    0x00, 0x00, 0x00, 0x00,             /* null address item */
+    0xB2, 0x00, 0x10, 0x00,             /* unconnected data, 16 bytes: */
+    0xD4, 0x00, 0x01, 0x01, 0x06, 0x01, /*   Forward Open reply, 0x01, 1 word: 0x0106 */
+    0x34, 0x12, 0xFE, 0xFF,             /*   connection serial, originator vendor */
+    0x78, 0x56, 0x34, 0x12,             /*   originator serial */
+    0x00, 0x00,                         /*   remaining path size, reserved */
+    0x01, 0x80, 0x10, 0x00,             /* undeclared: 0x8001, 16 bytes */
+    0x00, 0x02, 0x08, 0xAE,             /*   AF_INET, port 2222 */
+    0xC0, 0xA8, 0x01, 0x0A,             /*   192.168.1.10 */
+    0, 0, 0, 0, 0, 0, 0, 0};
+
+static void test_cpf_reply_trailing_item(void **state)
+{
+    (void)state;
+    const uint8_t *b = fo_refusal_trailing;
+    size_t len = sizeof fo_refusal_trailing, extra = 99;
+    uint32_t iface;
+    uint16_t timeout;
+    dr_cpf_t cpf;
+    /* strict: what we used to do with it */
+    assert_int_equal(dr_rr_parse(b, len, &iface, &timeout, &cpf), DR_ELONG);
+    assert_int_equal(dr_cpf_parse(b + 6, len - 6, &cpf), DR_ELONG);
+    /* lenient: the two declared items, 20 bytes left out */
+    assert_int_equal(dr_cpf_parse_reply(b + 6, len - 6, &cpf, &extra), DR_OK);
+    assert_int_equal(cpf.count, 2);
+    assert_int_equal(extra, 20);
+    assert_null(dr_cpf_find(&cpf, DR_CPF_SOCKADDR_T2O));
+    const dr_cpf_item_t *it = dr_cpf_find(&cpf, DR_CPF_UNCONNECTED_DATA);
+    assert_non_null(it);
+    dr_cip_rsp_t rsp;
+    assert_int_equal(dr_cip_rsp_parse(it->data, it->length, &rsp), DR_OK);
+    assert_int_equal(rsp.service, 0xD4);
+    assert_int_equal(dr_cip_rsp_status(&rsp), DR_CIP(0x01, 0x0106));
+    /* nothing after the items: extra 0 */
+    assert_int_equal(dr_cpf_parse_reply(b + 6, len - 6 - 20, &cpf, &extra), DR_OK);
+    assert_int_equal(extra, 0);
+    /* every declared item is still length-checked */
+    for (size_t cut = 0; cut < len - 6 - 20; cut++)
+        assert_int_equal(dr_cpf_parse_reply(b + 6, cut, &cpf, &extra), DR_ESHORT);
+    uint8_t lying[sizeof fo_refusal_trailing];
+    memcpy(lying, b, len);
+    lying[14] = 0x30; /* the 0xB2 item claims 48 bytes: 36 are there */
+    assert_int_equal(dr_cpf_parse_reply(lying + 6, len - 6, &cpf, &extra), DR_ESHORT);
+    const uint8_t five[] = {0x05, 0x00, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+                            0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    assert_int_equal(dr_cpf_parse_reply(five, sizeof five, &cpf, &extra), DR_EMALFORMED);
+}
+
 static void test_cpf_sockaddr(void **state)
 {
     (void)state;
@@ -1518,6 +1576,7 @@ int main(void)
         cmocka_unit_test(test_list_services),
         cmocka_unit_test(test_cpf_items),
         cmocka_unit_test(test_cpf_lying_lengths),
+        cmocka_unit_test(test_cpf_reply_trailing_item),
         cmocka_unit_test(test_cpf_sockaddr),
         cmocka_unit_test(test_writer),
         cmocka_unit_test(test_epath_8bit),

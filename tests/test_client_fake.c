@@ -50,6 +50,7 @@ struct fake {
     bool next_no_b2;          /* one-shot: the next SendRRData reply has no 0xB2 item */
     cip_fn cip;
     size_t get_len;           /* Get_Attribute_Single data bytes */
+    bool trailing_item;       /* SendRRData replies carry an undeclared 0x8001 item */
     uint8_t fo_general;       /* Forward Open refused with this general status */
     uint16_t fo_ext;
     unsigned rr, fwd_open, fwd_close, unregister, list_identity, closes;
@@ -217,6 +218,9 @@ static void peer_frame(fake_t *f, const uint8_t *frame, size_t len)
         m = dr_cpf_item_begin(&w, DR_CPF_UNCONNECTED_DATA);
         dr_wr_bytes(&w, rsp, rsp_len);
         dr_cpf_item_end(&w, m);
+        if (f->trailing_item) /* like the adapter of issue 10: not counted */
+            dr_cpf_sockaddr_write(&w, DR_CPF_SOCKADDR_T2O,
+                                  (dr_sockaddr_t){0xC0A8010Au, DR_ENIP_UDP_PORT});
     }
     assert_false(w.overflow);
     queue_encap(f, cmd, f->session, status, ctx, b, w.len);
@@ -874,6 +878,26 @@ static dr_conn_config_t conn_config(conn_log_t *log)
     return cc;
 }
 
+/* A T->O packet with its own encapsulation sequence number and CIP
+ * sequence count, data bytes all `fill`. */
+static void push_t2o_seq(uint32_t cid, uint32_t encap_seq, uint16_t cip_seq, uint8_t fill,
+                         size_t len)
+{
+    uint8_t data[200];
+    memset(data, fill, sizeof data);
+    dr_io_frame_t fr;
+    memset(&fr, 0, sizeof fr);
+    fr.cid = cid;
+    fr.encap_seq = encap_seq;
+    fr.cip_seq = cip_seq;
+    fr.data = data;
+    fr.data_len = len;
+    size_t n;
+    assert_true(F.udp_in_n < MAX_UDP_IN);
+    assert_int_equal(dr_io_frame_write(F.udp_in[F.udp_in_n].buf, 600, &fr, &n), DR_OK);
+    F.udp_in[F.udp_in_n++].len = n;
+}
+
 static void push_t2o(uint32_t cid, uint16_t seq, size_t len)
 {
     uint8_t data[200];
@@ -1071,6 +1095,145 @@ static void test_class1_refused_and_batch(void **state)
     dr_client_free(c);
 }
 
+static void wait_established(dr_client_t *c, dr_conn_t *cn)
+{
+    for (int i = 0; i < 100 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++)
+        run_for(c, 5);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+}
+
+/* T->O sequence handling (issue 10): a producer that keeps its CIP
+ * sequence count while its data is unchanged stays alive by its
+ * encapsulation sequence number; stale packets never keep it alive; both
+ * numbers wrap; a count that goes back is a restart (new data, no gap). */
+static void test_class1_seq_repeat(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms, timeout 40 ms */
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    assert_int_equal(dr_client_start(c), DR_OK);
+    wait_established(c, cn);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+
+    /* 30 RPIs of unchanged data: one count, the encapsulation number
+     * moving; alive all along, one on_data, 29 repeats */
+    uint32_t e = 1;
+    for (int i = 0; i < 30; i++) {
+        F.now += 10000u;
+        push_t2o_seq(F.t2o_cid, e++, 7, 0x11, 96);
+        dr_client_process(c);
+        assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    }
+    assert_int_equal(st->timeouts, 0);
+    assert_int_equal(log.data, 1);
+    assert_int_equal(st->rx_packets, 30);
+    assert_int_equal(st->rx_repeats, 29);
+    assert_int_equal(st->rx_lost, 0);
+    assert_int_equal(st->last_rx_us, F.now);
+    /* a change of data arrives with the next packet */
+    F.now += 10000u;
+    push_t2o_seq(F.t2o_cid, e++, 8, 0x22, 96);
+    dr_client_process(c);
+    assert_int_equal(log.data, 2);
+    assert_int_equal(dr_conn_input(cn, NULL)[0], 0x22);
+    /* a repeat after it does not bring the old data back */
+    F.now += 10000u;
+    push_t2o_seq(F.t2o_cid, e++, 8, 0x22, 96);
+    dr_client_process(c);
+    assert_int_equal(log.data, 2);
+    /* CIP count skips 8 -> 11: new data, two lost */
+    push_t2o_seq(F.t2o_cid, e++, 11, 0x33, 96);
+    dr_client_process(c);
+    assert_int_equal(log.data, 3);
+    assert_int_equal(st->rx_lost, 2);
+    /* CIP count back to 2 with a newer packet: the producer restarted its
+     * count; new data, no gap */
+    push_t2o_seq(F.t2o_cid, e++, 2, 0x44, 96);
+    dr_client_process(c);
+    assert_int_equal(log.data, 4);
+    assert_int_equal(st->rx_lost, 2);
+    assert_int_equal(dr_conn_input(cn, NULL)[0], 0x44);
+
+    /* stale (older encapsulation number, even with a newer CIP count):
+     * dropped, no data, and no sign of life: 30 ms after the last packet
+     * taken a stale one comes, 15 ms later the 40 ms timeout strikes */
+    uint64_t taken = F.now;
+    F.now = taken + 30000u;
+    push_t2o_seq(F.t2o_cid, e - 3, 3, 0x55, 96);
+    push_t2o_seq(F.t2o_cid, e - 1, 3, 0x55, 96); /* a duplicate of the last */
+    dr_client_process(c);
+    assert_int_equal(st->rx_dropped_seq, 2);
+    assert_int_equal(log.data, 4);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    F.now = taken + 45000u;
+    dr_client_process(c);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_RECONNECTING);
+    assert_int_equal(st->timeouts, 1);
+
+    /* a new connection: the first packet is taken whatever its numbers;
+     * then both numbers wrap (0xFFFFFFFF -> 0, 0xFFFF -> 0) */
+    wait_established(c, cn);
+    unsigned data0 = log.data;
+    uint64_t rx0 = st->rx_packets, rep0 = st->rx_repeats, drop0 = st->rx_dropped_seq;
+    push_t2o_seq(F.t2o_cid, 0xFFFFFFFEu, 0xFFFF, 0x66, 96);
+    push_t2o_seq(F.t2o_cid, 0xFFFFFFFFu, 0xFFFF, 0x66, 96); /* repeat */
+    push_t2o_seq(F.t2o_cid, 0u, 0, 0x77, 96);               /* new, both wrapped */
+    push_t2o_seq(F.t2o_cid, 1u, 0, 0x77, 96);               /* repeat */
+    push_t2o_seq(F.t2o_cid, 0xFFFFFFFFu, 1, 0x88, 96);      /* stale across the wrap */
+    dr_client_process(c);
+    assert_int_equal(log.data, data0 + 2);
+    assert_int_equal(st->rx_packets, rx0 + 4);
+    assert_int_equal(st->rx_repeats, rep0 + 2);
+    assert_int_equal(st->rx_dropped_seq, drop0 + 1);
+    assert_int_equal(st->rx_lost, 2); /* 0xFFFF -> 0 is no gap */
+    assert_int_equal(dr_conn_input(cn, NULL)[0], 0x77);
+    /* and keeps the connection alive past its timeout */
+    e = 2;
+    for (int i = 0; i < 10; i++) {
+        F.now += 10000u;
+        push_t2o_seq(F.t2o_cid, e++, 0, 0x77, 96);
+        dr_client_process(c);
+    }
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(st->timeouts, 1);
+    dr_client_free(c);
+}
+
+/* A reply with an item after its declared ones (an adapter echoing our
+ * 0x8001 item): the refusal's CIP status still surfaces, and a success
+ * still opens the connection; the extra bytes are counted. */
+static void test_class1_trailing_item(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log);
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    F.trailing_item = true;
+    F.fo_general = 0x01;
+    F.fo_ext = 0x0106; /* ownership conflict */
+    assert_int_equal(dr_client_start(c), DR_OK);
+    run_for(c, 5);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_RECONNECTING);
+    assert_int_equal(log.why, DR_CIP(0x01, 0x0106));
+    assert_true(dr_client_stats(c)->replies_trailing >= 1);
+    F.fo_general = 0;
+    wait_established(c, cn);
+    assert_int_equal(dr_conn_stats(cn)->o2t_cid, F.o2t_cid);
+    /* explicit replies too */
+    uint64_t before = dr_client_stats(c)->replies_trailing;
+    uint8_t buf[36];
+    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_OK);
+    assert_int_equal(dr_client_stats(c)->replies_trailing, before + 1);
+    dr_client_free(c);
+}
+
 /* o2t_follow_us: an O->T packet due within the window goes out with the
  * arriving T->O packet (one wake-up for both), on the shared port the
  * gateway uses; arrivals outside the window move the O->T schedule after
@@ -1188,6 +1351,8 @@ int main(void)
         cmocka_unit_test_setup(test_class1_io, setup),
         cmocka_unit_test_setup(test_class1_refused_and_batch, setup),
         cmocka_unit_test_setup(test_class1_follow, setup),
+        cmocka_unit_test_setup(test_class1_seq_repeat, setup),
+        cmocka_unit_test_setup(test_class1_trailing_item, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
