@@ -94,6 +94,7 @@ static void test_forward_open_accepted(void **state)
     assert_int_not_equal(r.o2t_cid, 0);
     /* Our UDP address in a 0x8000 item, after the data item. */
     assert_int_equal(f.cpf.count, 3);
+    assert_int_equal(f.cpf_extra, 0);
     assert_int_equal(f.cpf.item[2].type, DR_CPF_SOCKADDR_O2T);
     dr_sockaddr_t sa;
     assert_int_equal(dr_cpf_sockaddr_parse(&f.cpf.item[2], &sa), DR_OK);
@@ -465,6 +466,161 @@ static void test_produce_grid(void **state)
     assert_int_equal(f.sent, 3);
 }
 
+/* The CIP sequence count of the packet drsim_run sends at `t`. */
+static uint16_t produced_at(fx_t *f, uint64_t t)
+{
+    unsigned before = f->sent;
+    drsim_run(&f->sim, t, fx_capture, f);
+    assert_int_equal(f->sent, before + 1);
+    dr_io_frame_t io;
+    assert_int_equal(dr_io_frame_parse(f->pkt, f->pkt_len, false, &io), DR_OK);
+    return io.cip_seq;
+}
+
+/* --seq-on-change: the CIP count moves with the data only, the
+ * encapsulation number with every packet; --still keeps the data still. */
+static void test_seq_on_change(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.seq_on_change = true;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint8_t path[16];
+    dr_fwd_open_t fo = fo_make(109, 105, 96 + 6, 96 + 2, 10000, path, sizeof path);
+    fo.timeout_mult = 7;
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f.rsp.data, f.rsp.data_len, &r), DR_OK);
+    uint16_t c0 = produced_at(&f, T0);
+    dr_io_frame_t io;
+    assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+    uint32_t e0 = io.encap_seq;
+    /* int_out does not change by itself: the count stays */
+    for (uint64_t k = 1; k <= 3; k++)
+        assert_int_equal(produced_at(&f, T0 + k * 10 * MS), c0);
+    assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+    assert_int_equal(io.encap_seq, e0 + 3);
+    /* a write echoed to int_out: the next packet has a new count */
+    uint8_t data[96] = {42}, pkt[160];
+    size_t n = o2t_packet(pkt, sizeof pkt, r.o2t_cid, 1, 1, true, data, 96);
+    dr_sockaddr_t from = {0x7F000001u, 2222};
+    drsim_io_receive(&f.sim, T0 + 35 * MS, &from, pkt, n);
+    assert_int_equal(produced_at(&f, T0 + 40 * MS), (uint16_t)(c0 + 1));
+    assert_int_equal(produced_at(&f, T0 + 50 * MS), (uint16_t)(c0 + 1));
+
+    /* io_state, robot OPERATING: it moves (noise, AI1) without --still,
+     * and stands still with it */
+    for (int still = 0; still <= 1; still++) {
+        cfg.still = still != 0;
+        fx_init(&f, &cfg);
+        fx_register(&f);
+        open_io(&f, 7);
+        (void)produced_at(&f, T0);
+        /* a packet goes before the model's step at the same instant: the
+         * one at 3.5 s still shows INITIALIZING, the next OPERATING */
+        (void)produced_at(&f, T0 + 3500 * MS);
+        uint16_t c = produced_at(&f, T0 + 3510 * MS);
+        unsigned changes = 0;
+        for (uint64_t k = 2; k <= 6; k++) {
+            uint16_t now = produced_at(&f, T0 + 3500 * MS + k * 10 * MS);
+            changes += now != c;
+            c = now;
+        }
+        assert_int_equal(changes, still ? 0 : 5);
+    }
+}
+
+/* --tick: the APIs are the RPIs rounded up to the tick, production and
+ * the O->T timeout follow them; --api-report requested states the RPIs. */
+static void test_tick_and_api_report(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.tick_us = 10000;
+    for (int requested = 0; requested <= 1; requested++) {
+        cfg.api_requested = requested != 0;
+        fx_init(&f, &cfg);
+        fx_register(&f);
+        uint8_t path[16];
+        dr_fwd_open_t fo = fo_make(107, 101, 18, 38, 5000, path, sizeof path);
+        assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+        dr_fwd_open_reply_t r;
+        assert_int_equal(dr_fwd_open_reply_parse(f.rsp.data, f.rsp.data_len, &r), DR_OK);
+        assert_int_equal(r.o2t_api_us, requested ? 5000 : 10000);
+        assert_int_equal(r.t2o_api_us, requested ? 5000 : 10000);
+        drsim_run(&f.sim, T0, fx_capture, &f);
+        assert_int_equal(f.sent, 1);
+        drsim_run(&f.sim, T0 + 5 * MS, fx_capture, &f); /* not at the RPI */
+        assert_int_equal(f.sent, 1);
+        drsim_run(&f.sim, T0 + 10 * MS, fx_capture, &f); /* at the tick */
+        assert_int_equal(f.sent, 2);
+        /* O->T timeout: 4 x 10 ms after the last packet, not 4 x 5 ms */
+        send_ctl(&f, r.o2t_cid, 1, 1, true, 0, T0 + 10 * MS);
+        drsim_run(&f.sim, T0 + 39 * MS, fx_capture, &f);
+        assert_int_equal(drsim_conn_count(&f.sim), 1);
+        drsim_run(&f.sim, T0 + 50 * MS, fx_capture, &f);
+        assert_int_equal(drsim_conn_count(&f.sim), 0);
+    }
+    /* an RPI that is a multiple of the tick is kept */
+    cfg.api_requested = false;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint8_t path[16];
+    dr_fwd_open_t fo = fo_make(107, 101, 18, 38, 20000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f.rsp.data, f.rsp.data_len, &r), DR_OK);
+    assert_int_equal(r.t2o_api_us, 20000);
+}
+
+/* --trailing-item: Forward Open replies, accepted or refused, carry an
+ * undeclared 0x8001 item (an echo of the request's, else the originator's
+ * address at 2222); other replies do not. */
+static void test_trailing_item(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.trailing_item = true;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint8_t path[16];
+    dr_fwd_open_t fo = fo_make(107, 101, 18, 38, 10000, path, sizeof path);
+    dr_sockaddr_t mine = {0x7F000001u, 40001};
+    assert_int_equal(fo_send(&f, &fo, &mine), DR_OK);
+    assert_int_equal(f.cpf.count, 3); /* null, data, 0x8000 */
+    assert_int_equal(f.cpf_extra, 4 + 16);
+    const uint8_t *tail = f.body + f.hdr.length - 20;
+    assert_int_equal(dr_get_le16(tail), DR_CPF_SOCKADDR_T2O);
+    dr_cpf_item_t it = {DR_CPF_SOCKADDR_T2O, 16, tail + 4};
+    dr_sockaddr_t sa;
+    assert_int_equal(dr_cpf_sockaddr_parse(&it, &sa), DR_OK);
+    assert_int_equal(sa.port, 40001);
+    /* a strict reader refuses it: the point of the option */
+    uint32_t iface;
+    uint16_t tmo;
+    dr_cpf_t cpf;
+    assert_int_equal(dr_rr_parse(f.body, f.hdr.length, &iface, &tmo, &cpf), DR_ELONG);
+    /* refused: the same extra item, without a 0x8001 in the request */
+    fo = fo_make(107, 101, 18, 38, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0106));
+    assert_int_equal(f.cpf.count, 2);
+    assert_int_equal(f.cpf_extra, 20);
+    it.data = f.body + f.hdr.length - 16;
+    assert_int_equal(dr_cpf_sockaddr_parse(&it, &sa), DR_OK);
+    assert_int_equal(sa.addr, 0x7F000001u);
+    assert_int_equal(sa.port, 2222);
+    /* explicit messaging is untouched */
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 101, 3, NULL, 0), DR_OK);
+    assert_int_equal(f.cpf_extra, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -477,6 +633,9 @@ int main(void)
         cmocka_unit_test(test_timeouts),
         cmocka_unit_test(test_drop_and_stop),
         cmocka_unit_test(test_produce_grid),
+        cmocka_unit_test(test_seq_on_change),
+        cmocka_unit_test(test_tick_and_api_report),
+        cmocka_unit_test(test_trailing_item),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
