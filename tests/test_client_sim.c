@@ -437,6 +437,158 @@ static void test_packet_loss_counted(void **state)
     assert_true(st->rx_packets > 30);
 }
 
+/* ---- adapter behaviours we accept (docs/interop.md) -------------------------- */
+
+static int setup_seq_on_change(void **state)
+{
+    static const char *const extra[] = {"--seq-on-change", "--still", NULL};
+    return start(state, extra);
+}
+
+/* A producer that keeps its CIP sequence count while the data stands still:
+ * the connection lives on the encapsulation sequence number (it used to
+ * time out after 32 RPIs here), and a change is one new sample. */
+static void test_seq_on_change_no_timeout(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_INT_IN, DR_ASM_INT_OUT, &log, false);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    dr_client_start(f->c);
+    run_for(f->c, 1500);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(log.timed_out, 0);
+    assert_int_equal(st->timeouts, 0);
+    assert_true(st->rx_repeats > 50);
+    /* every new count was handed over once, no repeat was */
+    assert_int_equal(log.data, st->rx_packets - st->rx_repeats);
+    unsigned samples = log.data;
+    uint8_t out[96] = {0};
+    dr_put_le32(out, 0x5EEDu);
+    assert_int_equal(dr_conn_set_output(cn, out, sizeof out), DR_OK);
+    size_t len = 0;
+    const uint8_t *in = NULL;
+    for (int i = 0; i < 400; i++) {
+        dr_client_run_once(f->c, 5);
+        in = dr_conn_input(cn, &len);
+        if (in != NULL && dr_get_le32(in) == 0x5EEDu)
+            break;
+    }
+    assert_non_null(in);
+    assert_int_equal(dr_get_le32(in), 0x5EEDu);
+    /* the change came as the next new sample, and stands still again */
+    assert_int_equal(log.data, samples + 1);
+    run_for(f->c, 300);
+    assert_int_equal(log.data, samples + 1);
+    assert_int_equal(st->timeouts, 0);
+    assert_int_equal(log.data, st->rx_packets - st->rx_repeats);
+}
+
+static int setup_tick_actual(void **state)
+{
+    static const char *const extra[] = {"--tick", "50", NULL};
+    return start(state, extra);
+}
+
+static int setup_tick_requested(void **state)
+{
+    static const char *const extra[] = {"--tick", "10", "--api-report", "requested", NULL};
+    return start(state, extra);
+}
+
+/* RPI 5 ms, timeout code 1 (x8). */
+static dr_conn_t *add_fast_conn(dr_client_t *c, conn_log_t *log)
+{
+    dr_conn_config_t cc;
+    memset(&cc, 0, sizeof cc);
+    cc.o2t_asm = DR_ASM_BIT_IN;
+    cc.t2o_asm = DR_ASM_BIT_OUT;
+    cc.rpi_us = 5000;
+    cc.timeout_mult = 1;
+    cc.on_data = on_data;
+    cc.on_state = on_state;
+    cc.user = log;
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    return cn;
+}
+
+/* An adapter that produces every 50 ms for a 5 ms request and says so:
+ * timeouts run from the API granted (8 x 50 ms), not from the RPI asked
+ * (8 x 5 ms = 40 ms, less than one period). */
+static void test_coarse_tick_reported(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_fast_conn(f->c, &log);
+    dr_client_start(f->c);
+    run_for(f->c, 1500);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(st->t2o_api_us, 50000);
+    assert_int_equal(st->o2t_api_us, 50000);
+    assert_int_equal(st->timeouts, 0);
+    assert_int_equal(log.timed_out, 0);
+    assert_true(st->rx_packets >= 5);
+}
+
+/* The same adapter rounding 5 ms to 10 ms without saying so: the reply's
+ * APIs are the RPIs, the timeout (8 x 5 ms) still covers a 10 ms tick. */
+static void test_coarse_tick_unreported(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_fast_conn(f->c, &log);
+    dr_client_start(f->c);
+    run_for(f->c, 1500);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(st->t2o_api_us, 5000);
+    assert_int_equal(st->timeouts, 0);
+    assert_int_equal(log.timed_out, 0);
+    assert_true(st->rx_packets >= 20);
+}
+
+static int setup_trailing(void **state)
+{
+    static const char *const extra[] = {"--trailing-item", NULL};
+    return start(state, extra);
+}
+
+static int setup_trailing_refused(void **state)
+{
+    static const char *const extra[] = {"--trailing-item", "--refuse-forward-open", "0x0106",
+                                        NULL};
+    return start(state, extra);
+}
+
+/* Forward Open replies with an undeclared item after their own: the open
+ * succeeds, and a refusal shows its real status (it used to be "malformed
+ * frame"). */
+static void test_trailing_item_accepted(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_IO_CONTROL, DR_ASM_IO_STATE, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 500);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_true(log.data > 5);
+    assert_true(dr_client_stats(f->c)->replies_trailing >= 1);
+}
+
+static void test_trailing_item_refusal(void **state)
+{
+    fixture_t *f = *state;
+    conn_log_t log = {0};
+    dr_conn_t *cn = add_conn(f->c, DR_ASM_IO_CONTROL, DR_ASM_IO_STATE, &log, false);
+    dr_client_start(f->c);
+    run_for(f->c, 300);
+    assert_int_not_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(log.last_reason, DR_CIP(0x01, 0x0106));
+    assert_true(dr_client_stats(f->c)->replies_trailing >= 1);
+}
+
 static void on_found(const dr_identity_t *id, dr_sockaddr_t from, void *user)
 {
     dr_identity_t *out = user;
@@ -539,6 +691,14 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_packet_loss_counted, setup_drop_packets, teardown),
         cmocka_unit_test_setup_teardown(test_two_robots_share_udp_port, setup, teardown),
         cmocka_unit_test_setup_teardown(test_discover_udp, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_seq_on_change_no_timeout, setup_seq_on_change,
+                                        teardown),
+        cmocka_unit_test_setup_teardown(test_coarse_tick_reported, setup_tick_actual, teardown),
+        cmocka_unit_test_setup_teardown(test_coarse_tick_unreported, setup_tick_requested,
+                                        teardown),
+        cmocka_unit_test_setup_teardown(test_trailing_item_accepted, setup_trailing, teardown),
+        cmocka_unit_test_setup_teardown(test_trailing_item_refusal, setup_trailing_refused,
+                                        teardown),
     };
     return cmocka_run_group_tests_name("client_sim", tests, NULL, NULL);
 }
