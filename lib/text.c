@@ -74,7 +74,10 @@ dr_status_t dr_text_real(float f, char *out, size_t size)
     for (int i = 0; i < n || i <= e; i++) {
         if (i == e + 1 && e >= 0)
             text[k++] = '.';
-        text[k++] = i < n ? d[i] : '0';
+        if (i < n)
+            text[k++] = d[i];
+        else
+            text[k++] = '0';
     }
     text[k] = '\0';
     return fit(snprintf(out, size, "%s", text), size);
