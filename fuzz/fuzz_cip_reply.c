@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * What the client (originator) reads from the robot: Message Router replies
- * (dr_cip_rsp_parse, dr_cip_rsp_status), the Forward Open reply, the
+ * What the client (originator) reads from the robot: the CPF of a reply
+ * (dr_cpf_parse_reply), Message Router replies (dr_cip_rsp_parse, dr_cip_rsp_status), the Forward Open reply, the
  * Identity object's Get_Attributes_All data and the ListIdentity body. Each
  * parser gets the whole input, and the reply-data parsers also get the data
  * of an accepted MR reply. Re-encoding must give the input back, except for
@@ -138,8 +138,33 @@ static void check_list_identity(const uint8_t *buf, size_t len)
     }
 }
 
+/* The lenient CPF parse of replies: the declared items are the strict
+ * parse of the bytes before the extra ones, and the strict parse of the
+ * whole input succeeds exactly when nothing is extra. */
+static void check_cpf_reply(const uint8_t *buf, size_t len)
+{
+    dr_cpf_t cpf, strict;
+    size_t extra = 0;
+    dr_status_t st = dr_cpf_parse_reply(buf, len, &cpf, &extra);
+    dr_status_t whole = dr_cpf_parse(buf, len, &strict);
+    if (st != DR_OK) {
+        FUZZ_CHECK(whole == st);
+        return;
+    }
+    FUZZ_CHECK(extra <= len);
+    FUZZ_CHECK((whole == DR_OK) == (extra == 0));
+    FUZZ_CHECK(dr_cpf_parse(buf, len - extra, &strict) == DR_OK);
+    FUZZ_CHECK(strict.count == cpf.count);
+    for (unsigned i = 0; i < cpf.count; i++) {
+        FUZZ_CHECK(cpf.item[i].type == strict.item[i].type);
+        FUZZ_CHECK(cpf.item[i].length == strict.item[i].length);
+        FUZZ_CHECK(fuzz_within(cpf.item[i].data, cpf.item[i].length, buf, len - extra));
+    }
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
+    check_cpf_reply(data, size);
     dr_cip_rsp_t rsp;
     if (dr_cip_rsp_parse(data, size, &rsp) == DR_OK) {
         check_rsp(data, size, &rsp);
