@@ -1054,8 +1054,7 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
      * that started counting again: new data, no gap. */
     if (cn->have_t2o_seq && f.cip_seq == cn->t2o_seq16) {
         cn->stats.rx_repeats++;
-        if (cn->used)
-            follow_t2o(cn, t);
+        follow_t2o(cn, t); /* it still marks the producer's period */
         return;
     }
     if (cn->have_t2o_seq && dr_seq16_newer(f.cip_seq, cn->t2o_seq16))
