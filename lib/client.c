@@ -1050,8 +1050,9 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
     cn->rx_deadline_us = t + cn->timeout_us;
     /* The 16-bit CIP sequence count says whether the data is new: a
      * producer may keep it while its data is unchanged, and only the
-     * encapsulation sequence number moves (seen on a real adapter). A count that went back with a newer packet is a producer
-     * that started counting again: new data, no gap. */
+     * encapsulation sequence number moves (seen on a real adapter). A
+     * count that went back with a newer packet is a producer that started
+     * counting again: new data, no gap. */
     if (cn->have_t2o_seq && f.cip_seq == cn->t2o_seq16) {
         cn->stats.rx_repeats++;
         follow_t2o(cn, t); /* it still marks the producer's period */
