@@ -49,7 +49,7 @@ typedef struct {
                                   like targets that only know 0x54 */
     uint64_t stop_producing_ns; /* stop T->O this long after an open; 0 never */
     unsigned drop_pct;         /* drop this share (0..100) of I/O packets */
-    /* Legal producer choices real adapters make (docs/interop.md,
+    /* What real adapters do, legal or harmless (docs/interop.md,
      * "Adapter behaviours we accept"): */
     bool seq_on_change;        /* CIP sequence count moves only when the
                                   produced data changed (the encapsulation

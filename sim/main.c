@@ -74,7 +74,7 @@ static void usage(FILE *f)
 "      --still               stand still once booted: no motion, no noise, so\n"
 "                            the data changes only with what is written\n"
 "\n"
-"Producer choices (legal ones that real adapters make):\n"
+"Adapter behaviours (what real adapters do, see docs/interop.md):\n"
 "      --seq-on-change       advance the T->O CIP sequence count only when the\n"
 "                            produced data changed (the encapsulation sequence\n"
 "                            number still advances with every packet)\n"
