@@ -84,11 +84,16 @@ def test_trailing_item_open(regmap):
 
 def test_trailing_item_refusal_logged(regmap):
     """The same adapter refusing with 0x01/0x0106 (ownership conflict): the
-    log names the refusal, not "malformed frame"."""
+    log and the status block (last_error, last_cip_general) name the
+    refusal, not "malformed frame"."""
     with running("adapters-trailing-refused",
                  sim_args=("--trailing-item", "--refuse-forward-open", "0x0106"),
                  start=False) as g:
         g.start(wait_link=False)
-        g.log_wait("ownership conflict", 20)
+        g.log_wait("CIP 0x01/0x0106 ownership conflict", 20)
+        last_error = regmap.addr("IR", "status.last_error")
+        last_general = regmap.addr("IR", "status.last_cip_general")
+        wait_for(lambda: g.status()[last_error] == 0x0106 and g.status()[last_general] == 0x01,
+                 10 * SCALE, "0x01/0x0106 in the status block")
         assert "malformed" not in g.log()
         assert g.status()[1] != 2
