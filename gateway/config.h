@@ -23,7 +23,11 @@
 
 #include "drgate/codec.h"
 
+/* Robots per daemon. The robots-per-core benchmark (mk/bench_scale.mk)
+ * builds a daemon with -DGW_MAX_ROBOTS=32 to measure past this limit. */
+#ifndef GW_MAX_ROBOTS
 #define GW_MAX_ROBOTS 8
+#endif
 #define GW_MAX_GPIO 64
 #define GW_MAX_ALLOW 16
 #define GW_NAME_MAX 32
