@@ -299,19 +299,22 @@ class Bench:
         ini, port = self.write_ini(n, rpi, name)
         gw = Proc(name, [self.gw_bin, "-c", ini], self.tmp)
         pt = {"n": n, "rpi": rpi, "up": False}
+        poller = None
         try:
             pt["up"] = self.wait_up(gw, port, n, a.up_timeout)
             if not pt["up"]:
                 pt["why"] = "daemon exited" if not gw.alive() else "links not all up"
-                log(f"N={n} RPI {rpi} ms: {pt['why']} within {a.up_timeout:g} s")
+                log(f"N={n} RPI {rpi} ms: {pt['why']} within {a.up_timeout:g} s; "
+                    f"the daemon's log ends:\n{gw.log()[-1500:]}")
                 return pt
             poller = Poller(port, list(range(1, n + 1)))
             poller.start()
             time.sleep(a.settle)
             self.measure(pt, gw, poller)
-            poller.stop_ev.set()
-            poller.join(5)
         finally:
+            if poller:
+                poller.stop_ev.set()
+                poller.join(5)
             gw.stop()
         self.report_point(pt)
         return pt
@@ -390,6 +393,7 @@ class Bench:
             f"drsims {pt['sim_pct']:.1f} %, poller {pt['poll_pct']:.1f} %, "
             f"others {pt['others_pct']:.0f} %, machine idle {pt['idle_pct']:.0f} %, "
             f"T->O {pt['rx_per_s']:.0f}/s of {pt['expected_per_s']:.0f}, "
+            f"Modbus {pt['mb_per_s']:.0f} req/s, "
             f"timeouts {pt['timeouts']}{tag}")
 
     def run(self):
