@@ -47,15 +47,16 @@ import datetime
 import os
 import platform
 import shutil
-import signal
 import socket
 import statistics
 import struct
-import subprocess
 import sys
 import tempfile
 import threading
 import time
+
+# The child-process and free-port helpers of the gateway bench, beside this file.
+from gw_bench import Proc, free_port
 
 TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOC = os.path.join(TOP, "docs", "performance.md")
@@ -80,52 +81,6 @@ GOAL_N, GOAL_RPI, GOAL_CPU_PCT = 32, 10, 25.0
 
 def log(msg):
     print(f"bench-scale: {msg}", flush=True)
-
-
-def free_port(addr, kinds):
-    """A port free for every socket type in kinds on addr."""
-    for _ in range(200):
-        socks = []
-        try:
-            for k in kinds:
-                s = socket.socket(socket.AF_INET, k)
-                socks.append(s)
-                s.bind((addr, socks[0].getsockname()[1] if len(socks) > 1 else 0))
-            return socks[0].getsockname()[1]
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
-    raise RuntimeError(f"no free port on {addr}")
-
-
-class Proc:
-    """A child process with its output in a log file."""
-
-    def __init__(self, name, argv, tmp):
-        self.name = name
-        self.logpath = os.path.join(tmp, name + ".log")
-        self.logf = open(self.logpath, "w")
-        self.p = subprocess.Popen(argv, stdout=self.logf, stderr=subprocess.STDOUT, cwd=TOP)
-        self.pid = self.p.pid
-
-    def log(self):
-        with open(self.logpath) as f:
-            return f.read()
-
-    def alive(self):
-        return self.p.poll() is None
-
-    def stop(self):
-        if self.p.poll() is None:
-            self.p.send_signal(signal.SIGTERM)
-            try:
-                self.p.wait(5)
-            except subprocess.TimeoutExpired:
-                self.p.kill()
-                self.p.wait()
-        self.logf.close()
 
 
 # ---- CPU accounting -----------------------------------------------------------
