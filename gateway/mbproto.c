@@ -4,7 +4,6 @@
 
 #include <stdio.h>
 #include <string.h>
-#include <sys/socket.h>
 
 #define FC_READ_WRITE 0x17
 #define FC_MEI 0x2B
@@ -251,16 +250,46 @@ static int decide_device_id(const gw_unit_t *u, const gw_mb_env_t *env, const ui
     return 0;
 }
 
-int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
+/* The reply PDU of an accepted request that did not build its own
+ * (FC 23 and 43 do): a read's data, a write's echo. The same bytes
+ * libmodbus's modbus_reply sent for these codes (fuzz_modbus.c compares
+ * them with it). */
+static void reply_data(const uint8_t *pdu, gw_mb_result_t *r)
+{
+    uint8_t *p = r->pdu;
+    p[0] = r->fc;
+    if (r->fc == 0x05 || r->fc == 0x06) {
+        memcpy(p, pdu, 5); /* an echo of the request */
+        r->pdu_len = 5;
+    } else if (r->write) { /* 0x0F, 0x10: address and count */
+        p[1] = (uint8_t)(r->addr >> 8);
+        p[2] = (uint8_t)r->addr;
+        p[3] = (uint8_t)(r->count >> 8);
+        p[4] = (uint8_t)r->count;
+        r->pdu_len = 5;
+    } else if (r->area == GW_COILS || r->area == GW_DISCRETE) {
+        size_t bytes = (r->count + 7u) / 8u;
+        p[1] = (uint8_t)bytes;
+        memset(p + 2, 0, bytes);
+        for (uint16_t i = 0; i < r->count; i++)
+            p[2 + i / 8] = (uint8_t)(p[2 + i / 8] | (r->values[i] & 1u) << (i % 8));
+        r->pdu_len = 2u + bytes;
+    } else {
+        p[1] = (uint8_t)(2u * r->count);
+        for (uint16_t i = 0; i < r->count; i++) {
+            p[2 + 2 * i] = (uint8_t)(r->values[i] >> 8);
+            p[3 + 2 * i] = (uint8_t)r->values[i];
+        }
+        r->pdu_len = 2u + 2u * r->count;
+    }
+}
+
+/* Check and apply; 0 or the exception code. */
+static int decide(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_mb_env_t *env,
                   gw_mb_result_t *r)
 {
-    size_t total;
-    if (gw_mbap_frame(adu, len, &total) != GW_MBAP_FRAME || total != len)
-        return -1;
-    const uint8_t *pdu = adu + GW_MBAP_LEN;
-    size_t pdu_len = len - GW_MBAP_LEN;
     fc_info_t fi;
-    r->unit_id = adu[6];
+    r->unit_id = unit_id;
     r->fc = pdu[0];
     r->write = false;
     r->area = GW_COILS;
@@ -270,7 +299,7 @@ int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
     r->raddr = r->rcount = 0;
     r->pdu_len = 0;
 
-    gw_unit_t *u = env->unit_for(env->units, r->unit_id);
+    gw_unit_t *u = env->unit_for(env->units, unit_id);
     if (u == NULL)
         return 0x0A; /* gateway path unavailable: no robot with this unit ID */
     if (r->fc == FC_READ_WRITE)
@@ -297,51 +326,40 @@ int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
     return ex != 0 ? ex : apply_write(u, env, r);
 }
 
-/* A reply built here: the request's MBAP header with the new length, on
- * the context's socket, all of it or an error (as libmodbus's own send). */
-static int send_pdu(modbus_t *ctx, const uint8_t *adu, const uint8_t *pdu, size_t pdu_len)
+int gw_mb_handle(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_mb_env_t *env,
+                 gw_mb_result_t *r)
 {
-    uint8_t out[GW_ADU_MAX];
-    if (pdu_len > sizeof out - GW_MBAP_LEN)
+    if (pdu_len < 1 || pdu_len > GW_PDU_MAX)
         return -1;
-    memcpy(out, adu, 4); /* transaction and protocol identifiers */
-    out[4] = (uint8_t)((pdu_len + 1u) >> 8);
-    out[5] = (uint8_t)(pdu_len + 1u);
-    out[6] = adu[6];
-    memcpy(out + GW_MBAP_LEN, pdu, pdu_len);
-    size_t n = GW_MBAP_LEN + pdu_len;
-    ssize_t sent = send(modbus_get_socket(ctx), out, n, MSG_NOSIGNAL);
-    return sent == (ssize_t)n ? (int)n : -1;
+    int ex = decide(unit_id, pdu, pdu_len, env, r);
+    if (ex != 0) {
+        /* A request's function code is 1..127: one with the high bit set
+         * is answered with the code itself, which has the exception bit
+         * ((code + 0x80) & 0xFF would not). */
+        r->pdu[0] = (uint8_t)(pdu[0] | 0x80u);
+        r->pdu[1] = (uint8_t)ex;
+        r->pdu_len = 2;
+    } else if (r->pdu_len == 0) {
+        reply_data(pdu, r);
+    }
+    return ex;
 }
 
-int gw_mbs_reply(modbus_t *ctx, modbus_mapping_t *map, const uint8_t *adu,
-                 size_t len, int ex, const gw_mb_result_t *r)
+int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
+                  gw_mb_result_t *r)
 {
-    if (ex != 0 && (adu[GW_MBAP_LEN] & 0x80u) != 0) {
-        /* A request's function code is 1..127: libmodbus would answer one
-         * with the high bit set with (code + 0x80) & 0xFF, which has no
-         * exception bit. Answer with the code itself, which has. */
-        uint8_t copy[GW_ADU_MAX];
-        if (len > sizeof copy)
-            return -1;
-        memcpy(copy, adu, len);
-        copy[GW_MBAP_LEN] &= 0x7Fu;
-        return modbus_reply_exception(ctx, copy, (unsigned)ex);
-    }
-    if (ex != 0)
-        return modbus_reply_exception(ctx, adu, (unsigned)ex);
-    if (r->pdu_len > 0)
-        return send_pdu(ctx, adu, r->pdu, r->pdu_len);
-    if (!r->write) {
-        for (uint16_t i = 0; i < r->count; i++) {
-            unsigned a = (unsigned)r->addr + i;
-            switch (r->area) {
-            case GW_COILS: map->tab_bits[a] = (uint8_t)r->values[i]; break;
-            case GW_DISCRETE: map->tab_input_bits[a] = (uint8_t)r->values[i]; break;
-            case GW_HOLDING: map->tab_registers[a] = r->values[i]; break;
-            default: map->tab_input_registers[a] = r->values[i]; break;
-            }
-        }
-    }
-    return modbus_reply(ctx, adu, (int)len, map);
+    size_t total;
+    if (gw_mbap_frame(adu, len, &total) != GW_MBAP_FRAME || total != len)
+        return -1;
+    return gw_mb_handle(adu[6], adu + GW_MBAP_LEN, len - GW_MBAP_LEN, env, r);
+}
+
+size_t gw_mbap_reply(const uint8_t *adu, const gw_mb_result_t *r, uint8_t *out)
+{
+    memcpy(out, adu, 4); /* transaction and protocol identifiers */
+    out[4] = (uint8_t)((r->pdu_len + 1u) >> 8);
+    out[5] = (uint8_t)(r->pdu_len + 1u);
+    out[6] = adu[6];
+    memcpy(out + GW_MBAP_LEN, r->pdu, r->pdu_len);
+    return GW_MBAP_LEN + r->pdu_len;
 }

@@ -1,9 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Modbus TCP requests without sockets: MBAP framing, the checks of a
- * request, and their application to a unit's images through the register
- * map (regmap.h). mbserver.c hands it what each client sends and answers
- * through libmodbus; fuzz/fuzz_modbus.c hands it anything.
+ * Modbus requests without sockets or serial ports: one handler on bare
+ * PDUs (function code and data in, reply PDU out) that checks a request
+ * and applies it to a unit's images through the register map (regmap.h),
+ * and the MBAP framing of Modbus TCP. The framers (mbserver.c for TCP,
+ * mbrtu.c for RTU) cut requests out of their byte streams, hand the PDU
+ * here and send back what it answers: a request is parsed once, here.
+ * fuzz/fuzz_modbus.c hands it anything.
  *
  * Order of the checks, each answered with the first exception that
  * applies: no unit with the unit ID (0x0A), a function code other than
@@ -20,7 +23,7 @@
 #ifndef DRGATE_GW_MBPROTO_H
 #define DRGATE_GW_MBPROTO_H
 
-#include <modbus.h>
+#include <modbus.h> /* MODBUS_MAX_* limits only */
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -29,6 +32,7 @@
 
 #define GW_MBAP_LEN 7u  /* transaction ID, protocol ID, length, unit ID */
 #define GW_ADU_MAX 260u /* MBAP + the largest PDU (253 bytes) */
+#define GW_PDU_MAX 253u /* function code + data */
 
 typedef enum {
     GW_MBAP_MORE = 0, /* not a whole ADU yet: wait for more bytes */
@@ -67,26 +71,28 @@ typedef struct {
     /* FC 23: its read part (values: its write part), read after the write. */
     uint16_t raddr, rcount;
     uint16_t rvalues[MODBUS_MAX_WR_READ_REGISTERS];
-    /* FC 23 and 43 accepted: the reply PDU, built here (libmodbus has no
-     * FC 43, and its FC 23 answers with the values written, not what the
-     * registers read back as). */
-    uint8_t pdu[GW_ADU_MAX - GW_MBAP_LEN];
+    /* The reply PDU: the data, an echo, or function code | 0x80 and the
+     * exception code. */
+    uint8_t pdu[GW_PDU_MAX];
     size_t pdu_len;
 } gw_mb_result_t;
 
-/* Check one whole ADU (adu[0..len), as gw_mbap_frame found it) and apply
- * it: read into r->values, or write to the unit. Returns 0 (answer with
- * the data) or the Modbus exception code to answer with; -1 if adu is not
- * a frame gw_mbap_frame accepts (nothing is looked at). */
+/* One request PDU (pdu[0..pdu_len): function code and data) for unit
+ * `unit_id`: checked and applied (read into r->values, or written to the
+ * unit), and answered in r->pdu (never empty). Returns 0 (the reply
+ * carries the data) or the Modbus exception code the reply carries; -1 if
+ * pdu_len is 0 or over GW_PDU_MAX (nothing is looked at). */
+int gw_mb_handle(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_mb_env_t *env,
+                 gw_mb_result_t *r);
+
+/* Modbus TCP: gw_mb_handle on one whole ADU (adu[0..len), as
+ * gw_mbap_frame found it). -1 if adu is not a frame gw_mbap_frame
+ * accepts. */
 int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
                   gw_mb_result_t *r);
 
-/* Answer the request through libmodbus on the context's socket: exception
- * `ex` if not 0 (function code | 0x80, also for a request whose code has
- * the high bit already), else the data (the mapping `map`, GW_AREA_SIZE
- * entries per area, is scratch). Returns what libmodbus returns (< 0: send
- * failed). */
-int gw_mbs_reply(modbus_t *ctx, modbus_mapping_t *map, const uint8_t *adu,
-                 size_t len, int ex, const gw_mb_result_t *r);
+/* The reply ADU of request `adu` (its MBAP header with the new length,
+ * then r's reply PDU) into out[GW_ADU_MAX]; returns its length. */
+size_t gw_mbap_reply(const uint8_t *adu, const gw_mb_result_t *r, uint8_t *out);
 
 #endif /* DRGATE_GW_MBPROTO_H */

@@ -3,7 +3,6 @@
 #define _GNU_SOURCE /* accept4, TCP_KEEPIDLE */
 #include <arpa/inet.h>
 #include <errno.h>
-#include <modbus.h>
 #include <stdio.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -40,8 +39,6 @@ struct gw_mbs {
     int epfd;
     gw_ev_t listen_ev;
     int listen_fd;
-    modbus_t *ctx;          /* used only to build replies */
-    modbus_mapping_t *map;  /* scratch: filled for each request */
     gw_mb_result_t result;  /* of the request being answered */
     client_t clients[MAX_CLIENTS_HARD];
     unsigned nclients;
@@ -243,8 +240,10 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
         s->hooks.on_write(s->hooks.user, s->result.unit_id, s->result.dirty);
     if (ex != 0)
         s->exceptions++;
-    modbus_set_socket(s->ctx, cl->fd);
-    return gw_mbs_reply(s->ctx, s->map, req, len, ex, &s->result) >= 0;
+    /* All of it or the client is dropped, as libmodbus's send did. */
+    uint8_t out[GW_ADU_MAX];
+    size_t n = gw_mbap_reply(req, &s->result, out);
+    return send(cl->fd, out, n, MSG_NOSIGNAL) == (ssize_t)n;
 }
 
 /* Take complete frames out of the client's buffer; *frames counts them. */
@@ -353,13 +352,8 @@ gw_mbs_t *gw_mbs_new(const gw_modbus_config_t *cfg, int epfd,
     s->hooks = *hooks;
     s->epfd = epfd;
     s->listen_ev.fd = -1;
-    /* The context only formats replies; its address is never used. */
-    s->ctx = modbus_new_tcp("127.0.0.1", 502);
-    s->map = modbus_mapping_new(GW_AREA_SIZE, GW_AREA_SIZE, GW_AREA_SIZE, GW_AREA_SIZE);
     s->listen_fd = open_listener(cfg, err, errlen);
-    if (s->ctx == NULL || s->map == NULL || s->listen_fd < 0) {
-        if (s->ctx == NULL || s->map == NULL)
-            snprintf(err, errlen, "libmodbus: out of memory");
+    if (s->listen_fd < 0) {
         gw_mbs_free(s);
         return NULL;
     }
@@ -385,10 +379,6 @@ void gw_mbs_free(gw_mbs_t *s)
     gw_loop_unwatch(s->epfd, &s->listen_ev);
     if (s->listen_fd >= 0)
         close(s->listen_fd);
-    if (s->map != NULL)
-        modbus_mapping_free(s->map);
-    if (s->ctx != NULL)
-        modbus_free(s->ctx);
     free(s);
 }
 

@@ -3,9 +3,9 @@
  * The Modbus TCP side of the gateway: listener, clients, framing, checks.
  *
  * Frames are reassembled without blocking (a slow or silent client never
- * stalls the others); each complete request is checked against the
- * register map and access rules, then answered through libmodbus
- * (modbus_reply / modbus_reply_exception).
+ * stalls the others); each complete request's PDU goes to the one
+ * request handler (mbproto.h: gw_mb_handle), and its reply PDU goes back
+ * under the request's MBAP header.
  */
 #ifndef DRGATE_GW_MBSERVER_H
 #define DRGATE_GW_MBSERVER_H
