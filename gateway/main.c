@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * drgatewayd: keeps the robots' assemblies live over EtherNet/IP and serves
- * them as Modbus TCP registers and GPIO lines. One thread, one epoll loop.
+ * them to its northbound sides (north.h: Modbus TCP, Modbus RTU, GPIO
+ * lines). One thread, one epoll loop.
  */
 #define _GNU_SOURCE /* signalfd */
 #include <errno.h>
@@ -16,11 +17,10 @@
 #include <unistd.h>
 
 #include "config.h"
-#include "gpiomap.h"
 #include "link.h"
 #include "log.h"
 #include "loop.h"
-#include "mbserver.h"
+#include "north.h"
 #include "regmap.h"
 
 #ifndef DRGATE_VERSION
@@ -38,17 +38,13 @@ typedef struct {
     gw_unit_t units[GW_MAX_ROBOTS];
     gw_link_t *links[GW_MAX_ROBOTS];
     gw_link_ports_t *ports; /* the links' shared UDP ports */
-    gw_mbs_t *mbs;
-    gw_gpiomap_t *gpio;
+    gw_north_env_t env;     /* what the northbound sides see of the daemon */
+    void *side[GW_NORTH_SIDES]; /* by gw_north_sides[]; NULL: not running */
+    bool sides_quiet; /* reload: old links close unheard by the new sides */
     bool stop, reload;
     uint64_t start_us, next_tick_us, next_beat_us;
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
     uint64_t last_notify_us;
-    /* single writer */
-    bool writer_seen;
-    unsigned writer_claims; /* gw_mbs_writer_claims() when last looked */
-    uint16_t last_watchdog[GW_MAX_ROBOTS];
-    uint64_t watchdog_change_us;
     uint16_t generation;
     int exit_status; /* 0 after a signal, 1 after a failure */
 } gw_t;
@@ -57,133 +53,46 @@ static gw_t G; /* the daemon's state: large, one per process */
 
 /* ---- hooks -------------------------------------------------------------------- */
 
-static gw_unit_t *unit_for(void *user, uint8_t unit_id)
-{
-    gw_t *g = user;
-    for (unsigned i = 0; i < g->cfg.robot_count; i++)
-        if (g->cfg.robot[i].unit_id == unit_id)
-            return &g->units[i];
-    return NULL;
-}
-
-static unsigned robot_of_unit(const gw_t *g, uint8_t unit_id)
-{
-    for (unsigned i = 0; i < g->cfg.robot_count; i++)
-        if (g->cfg.robot[i].unit_id == unit_id)
-            return i;
-    return 0;
-}
-
-/* A writer seen only between two ticks (it wrote and left within one
- * loop iteration) must still start the watchdog: only the owner's writes
- * get here in single-writer mode. */
-static void writer_wrote(gw_t *g)
-{
-    if (g->cfg.modbus.single_writer && !g->writer_seen) {
-        g->writer_seen = true;
-        g->watchdog_change_us = gw_now_us();
-    }
-}
-
-static void on_modbus_write(void *user, uint8_t unit_id, unsigned dirty)
-{
-    gw_t *g = user;
-    unsigned r = robot_of_unit(g, unit_id);
-    writer_wrote(g);
-    gw_link_outputs_changed(g->links[r], dirty);
-}
-
-static void on_gpio_input(void *user, unsigned robot, unsigned dirty)
+/* A northbound side wrote O->T images of a robot. */
+static void outputs_changed(void *user, unsigned robot, unsigned dirty)
 {
     gw_t *g = user;
     if (robot < g->cfg.robot_count && g->links[robot] != NULL)
         gw_link_outputs_changed(g->links[robot], dirty);
 }
 
+static bool robot_link_up(void *user, unsigned robot)
+{
+    const gw_t *g = user;
+    return robot < g->cfg.robot_count && gw_link_up(g->links[robot]);
+}
+
+static void fault(void *user, unsigned robot, bool latched)
+{
+    gw_t *g = user;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (g->side[i] != NULL)
+            gw_north_sides[i]->on_fault(g->side[i], robot, latched);
+}
+
 static void on_link(void *user, unsigned robot, bool up, dr_status_t why)
 {
     gw_t *g = user;
     (void)why;
-    gw_gpiomap_link(g->gpio, robot, up);
-    if (!up && g->cfg.modbus.on_link_loss == GW_LOSS_ZERO)
-        for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-            if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
-                memset(g->units[robot].img[a], 0, DR_ASM_MAX_SIZE);
+    for (unsigned i = 0; i < GW_NORTH_SIDES && !g->sides_quiet; i++)
+        if (g->side[i] != NULL)
+            gw_north_sides[i]->on_link(g->side[i], robot, up);
 }
 
 static void on_data(void *user, unsigned robot, dr_asm_t a)
 {
     gw_t *g = user;
-    gw_gpiomap_data(g->gpio, robot, a);
+    for (unsigned i = 0; i < GW_NORTH_SIDES && !g->sides_quiet; i++)
+        if (g->side[i] != NULL)
+            gw_north_sides[i]->on_data(g->side[i], robot, a);
 }
 
 static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
-
-/* ---- single writer ----------------------------------------------------------- */
-
-/* EK9000-like write lock: the owner must keep changing the watchdog
- * register; when it stops, outputs go to their fallback and a fault
- * latches until a client writes the reset register. */
-static void writer_watchdog(gw_t *g, uint64_t now)
-{
-    /* A reset counts in any mode: a fault latched before a reload turned
-     * single-writer mode off must not hold the GPIO outputs for ever. */
-    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        gw_unit_t *u = &g->units[r];
-        /* The write that reset the latch cleared write_fault at once
-         * (mbproto.c: writes pipelined behind it are taken) and logged it. */
-        if (u->fault_reset) {
-            u->fault_reset = false;
-            gw_gpiomap_fault(g->gpio, r, false); /* outputs follow again */
-        }
-        /* Out of single-writer mode the register is just a register: a
-         * value written then is no owner's sign of life later. */
-        if (!g->cfg.modbus.single_writer)
-            g->last_watchdog[r] = u->watchdog;
-    }
-    if (!g->cfg.modbus.single_writer) {
-        g->writer_seen = false; /* a reload into the mode starts afresh */
-        return;
-    }
-    /* A new owner (the first, or one that took over from an owner that
-     * left while its watchdog still ran): its watchdog starts now. */
-    unsigned claims = gw_mbs_writer_claims(g->mbs);
-    if (claims != g->writer_claims) {
-        g->writer_claims = claims;
-        g->watchdog_change_us = now;
-    }
-    g->writer_seen = g->writer_seen || gw_mbs_writer_present(g->mbs);
-    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        gw_unit_t *u = &g->units[r];
-        if (u->watchdog != g->last_watchdog[r]) {
-            g->last_watchdog[r] = u->watchdog;
-            writer_wrote(g); /* only the owner can have written it */
-            g->watchdog_change_us = now;
-        }
-    }
-    uint64_t limit = (uint64_t)g->cfg.modbus.writer_watchdog_ms * 1000u;
-    if (!g->writer_seen || now - g->watchdog_change_us < limit)
-        return;
-    g->writer_seen = false;
-    gw_mbs_release_writer(g->mbs);
-    gw_log(GW_LOG_WARNING, "modbus: single writer's watchdog expired: outputs to fallback");
-    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        gw_unit_t *u = &g->units[r];
-        u->status.write_fault = true;
-        if (!g->cfg.robot[r].fallback_hold) {
-            unsigned dirty = 0;
-            for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-                if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T) {
-                    memset(u->img[a], 0, DR_ASM_MAX_SIZE);
-                    dirty |= 1u << a;
-                }
-            gw_link_outputs_changed(g->links[r], dirty);
-        }
-        /* GPIO outputs safe until the fault is reset (not until the link
-         * happens to reconnect). */
-        gw_gpiomap_fault(g->gpio, r, true);
-    }
-}
 
 /* ---- status block and timers ------------------------------------------------- */
 
@@ -191,9 +100,8 @@ static void tick(gw_t *g, uint64_t now, bool busy)
 {
     for (unsigned r = 0; r < g->cfg.robot_count; r++)
         gw_link_tick(g->links[r], now, busy);
-    gw_mbs_tick(g->mbs, now);
-    gw_gpiomap_tick(g->gpio, now);
-    writer_watchdog(g, now);
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        gw_north_sides[i]->tick(g->side[i], now);
     if (now < g->next_tick_us)
         return;
     g->next_tick_us = now + TICK_US;
@@ -202,10 +110,10 @@ static void tick(gw_t *g, uint64_t now, bool busy)
         g->next_beat_us = now + 1000000u;
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_status_t *st = &g->units[r].status;
-        st->clients = (uint16_t)gw_mbs_client_count(g->mbs);
-        st->exceptions = gw_mbs_exceptions(g->mbs);
+        st->exceptions = 0; /* every side adds its own */
+        for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+            gw_north_sides[i]->status(g->side[i], r, st);
         st->uptime_s = (uint32_t)((now - g->start_us) / 1000000u);
-        st->writer_present = gw_mbs_writer_present(g->mbs);
         st->config_generation = g->generation;
         if (beat)
             st->heartbeat++;
@@ -220,11 +128,12 @@ static uint64_t next_deadline(const gw_t *g)
         if (x < d)
             d = x;
     }
-    uint64_t x = gw_mbs_next_deadline(g->mbs);
-    if (x < d)
-        d = x;
-    x = gw_gpiomap_next_deadline(g->gpio);
-    return x < d ? x : d;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        uint64_t x = gw_north_sides[i]->deadline(g->side[i]);
+        if (x < d)
+            d = x;
+    }
+    return d;
 }
 
 /* Tell systemd we are alive, but only while the loop keeps its timing. */
@@ -335,70 +244,54 @@ static void reload(gw_t *g)
             return;
         }
     }
-    /* GPIO next: lines that cannot be had refuse the whole reload. The
-     * unchanged lines keep their requests; the map carries the robots'
-     * states by name (they are set again below). */
-    gw_gpiomap_hooks_t gh = {on_gpio_input, g};
-    gw_gpiomap_t *gpio = NULL;
-    switch (gw_gpiomap_reload(g->gpio, &next, g->units, g->epfd, &gh, &gpio, err, sizeof err)) {
-    case GW_GPIOMAP_OK:
-        /* Installed once the old links are gone: closing one reports it
-         * down under its old index. */
-        g->gpio = NULL;
-        break;
-    case GW_GPIOMAP_REFUSED:
-        gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
+    /* The northbound sides next, in list order: one that refuses refuses
+     * the whole reload, and those asked before it drop what they made. */
+    void *out[GW_NORTH_SIDES] = {NULL};
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        gw_north_reload_t st =
+            gw_north_sides[i]->prepare(g->side[i], &next, &g->env, &out[i], err, sizeof err);
+        if (st == GW_NORTH_OK)
+            continue;
+        if (st == GW_NORTH_REFUSED)
+            gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
+        else
+            gw_log(GW_LOG_ERROR, "reload: %s: stopping", err);
+        for (unsigned k = 0; k < i; k++)
+            gw_north_sides[k]->abort(g->side[k], out[k]);
+        g->sides_quiet = true;
         for (unsigned n = 0; n < next.robot_count; n++)
             if (fresh[n])
                 gw_link_free(links[n], "reload refused");
-        return;
-    case GW_GPIOMAP_BROKEN:
-    default:
-        gw_log(GW_LOG_ERROR, "reload: %s: stopping", err);
-        g->gpio = NULL;
-        for (unsigned n = 0; n < next.robot_count; n++)
-            if (fresh[n])
-                gw_link_free(links[n], "reload refused");
-        fail_stop(g);
+        g->sides_quiet = false;
+        if (st == GW_NORTH_BROKEN)
+            fail_stop(g);
         return;
     }
+    /* Closing an old link reports it down under its old index: the sides
+     * (set up for the new robots) must not hear it. */
+    g->sides_quiet = true;
     for (unsigned o = 0; o < g->cfg.robot_count; o++)
         if (!kept[o]) {
             gw_log(GW_LOG_INFO, "reload: robot %s changed or removed: closing its link",
                    g->cfg.robot[o].name);
             gw_link_free(g->links[o], "configuration reloaded: robot changed or removed");
         }
-    g->gpio = gpio;
-    bool restart_modbus = !gw_mbs_reconfigure(g->mbs, &next.modbus);
+    g->sides_quiet = false;
     g->cfg = next;
     memcpy(g->units, units, sizeof units);
     memset(g->links, 0, sizeof g->links);
-    /* Robots may have moved to other positions: the watchdog registers
-     * are compared from their current values on, not from the old order. */
-    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
-        g->last_watchdog[r] = g->units[r].watchdog;
     g->generation++;
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         init_unit(g, r);
         g->links[r] = links[r];
         gw_link_set_unit(links[r], r, &g->units[r]);
     }
-    if (restart_modbus) {
-        gw_mbs_free(g->mbs);
-        gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g, DRGATE_VERSION};
-        g->mbs = gw_mbs_new(&g->cfg.modbus, g->epfd, &mh, err, sizeof err);
-        if (g->mbs == NULL) {
-            gw_log(GW_LOG_ERROR, "reload: %s", err);
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        g->side[i] = gw_north_sides[i]->commit(g->side[i], out[i], &g->env);
+        if (g->side[i] == NULL) {
             fail_stop(g);
             return;
         }
-    }
-    /* The link first: a robot whose link was replaced (same name, state
-     * carried over) goes down before anything looks at its fresh, zeroed
-     * image. For the others nothing changes and nothing is written. */
-    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        gw_gpiomap_link(g->gpio, r, gw_link_up(g->links[r]));
-        gw_gpiomap_fault(g->gpio, r, g->units[r].status.write_fault);
     }
     gw_log(GW_LOG_INFO, "configuration %s reloaded (generation %u)", g->cfg.path, g->generation);
     sd_notify(0, "READY=1");
@@ -420,14 +313,43 @@ static int setup_signals(gw_t *g)
     return g->sigfd >= 0 && gw_loop_watch(g->epfd, &g->sig_ev, g->sigfd, EPOLLIN) ? 0 : -1;
 }
 
+static void free_sides(gw_t *g)
+{
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        if (g->side[i] != NULL)
+            gw_north_sides[i]->free(g->side[i]);
+        g->side[i] = NULL;
+    }
+}
+
+/* Every side from the configuration, in list order; false (logged) if
+ * one cannot start: those started are freed. */
+static bool start_sides(gw_t *g)
+{
+    char err[512];
+    g->env = (gw_north_env_t){g->epfd, &g->cfg, g->units, outputs_changed, robot_link_up,
+                              fault, g, DRGATE_VERSION};
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
+        if (g->side[i] == NULL) {
+            gw_log(GW_LOG_ERROR, "%s", err);
+            free_sides(g);
+            return false;
+        }
+    }
+    return true;
+}
+
 static void shutdown_all(gw_t *g)
 {
     sd_notify(0, "STOPPING=1");
-    gw_gpiomap_safe_all(g->gpio); /* first: the cell is safe whatever follows */
+    /* first: the cell is safe whatever follows */
+    for (unsigned i = GW_NORTH_SIDES; i-- > 0;)
+        if (g->side[i] != NULL)
+            gw_north_sides[i]->safe(g->side[i]);
     for (unsigned r = 0; r < g->cfg.robot_count; r++)
         gw_link_free(g->links[r], "gateway stopping"); /* Forward Close, UnRegisterSession */
-    gw_mbs_free(g->mbs);
-    gw_gpiomap_free(g->gpio);
+    free_sides(g);
     gw_log(GW_LOG_INFO, "stopped");
 }
 
@@ -447,7 +369,6 @@ static int close_loop(gw_t *g, int status)
 
 static int run(gw_t *g)
 {
-    char err[512];
     g->sigfd = -1;
     g->epfd = epoll_create1(EPOLL_CLOEXEC);
     if (g->epfd < 0 || setup_signals(g) != 0) {
@@ -461,19 +382,8 @@ static int run(gw_t *g)
         return close_loop(g, 1);
     }
     gw_regmap_init();
-    gw_mbs_hooks_t mh = {unit_for, on_modbus_write, g, DRGATE_VERSION};
-    gw_gpiomap_hooks_t gh = {on_gpio_input, g};
-    g->mbs = gw_mbs_new(&g->cfg.modbus, g->epfd, &mh, err, sizeof err);
-    if (g->mbs == NULL) {
-        gw_log(GW_LOG_ERROR, "%s", err);
+    if (!start_sides(g))
         return close_loop(g, 1);
-    }
-    g->gpio = gw_gpiomap_new(&g->cfg, g->units, g->epfd, &gh, err, sizeof err);
-    if (g->gpio == NULL) {
-        gw_log(GW_LOG_ERROR, "%s", err);
-        gw_mbs_free(g->mbs);
-        return close_loop(g, 1);
-    }
     if (!start_links(g)) {
         shutdown_all(g);
         return close_loop(g, 1);
@@ -483,7 +393,7 @@ static int run(gw_t *g)
         g->watchdog_us = wd;
     sd_notify(0, "READY=1");
     gw_log(GW_LOG_INFO, "drgatewayd %s running: %u robot(s), %u GPIO line(s)", DRGATE_VERSION,
-           g->cfg.robot_count, gw_gpiomap_count(g->gpio));
+           g->cfg.robot_count, g->cfg.gpio_count);
 
     struct epoll_event evs[32];
     while (!g->stop) {

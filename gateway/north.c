@@ -1,0 +1,8 @@
+/* SPDX-License-Identifier: MIT */
+/* The northbound sides the daemon runs: see north.h. */
+#include "north.h"
+
+const gw_north_ops_t *const gw_north_sides[GW_NORTH_SIDES] = {
+    &gw_north_modbus_tcp,
+    &gw_north_gpio, /* last: its reload cannot be undone */
+};
