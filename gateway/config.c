@@ -123,6 +123,34 @@ static const key_desc_t robot_keys[RK_COUNT] = {
 #define INSTANCE_PREFIX "instance."
 #define OPEN_PREFIX "open."
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
+
+enum {
+    UK_DEVICE,
+    UK_BAUD,
+    UK_PARITY,
+    UK_DATA_BITS,
+    UK_STOP_BITS,
+    UK_RS485,
+    UK_RTS_ON_SEND,
+    UK_RTS_BEFORE_MS,
+    UK_RTS_AFTER_MS,
+    UK_READ_ONLY,
+    UK_ROBOTS,
+    UK_COUNT
+};
+static const key_desc_t rtu_keys[UK_COUNT] = {
+    [UK_DEVICE] = { "device", "a serial port such as /dev/ttyS0" },
+    [UK_BAUD] = { "baud", "1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400" },
+    [UK_PARITY] = { "parity", "none, even, odd" },
+    [UK_DATA_BITS] = { "data_bits", "8" },
+    [UK_STOP_BITS] = { "stop_bits", "1, 2" },
+    [UK_RS485] = { "rs485", "yes, no" },
+    [UK_RTS_ON_SEND] = { "rts_on_send", "high, low" },
+    [UK_RTS_BEFORE_MS] = { "rts_delay_before_ms", "0..100" },
+    [UK_RTS_AFTER_MS] = { "rts_delay_after_ms", "0..100" },
+    [UK_READ_ONLY] = { "read_only", "yes, no" },
+    [UK_ROBOTS] = { "robots", "robot names, each optionally NAME:ADDRESS (1..247)" },
+};
 /* The kernel keeps line names to GPIO_MAX_NAME_SIZE - 1 characters: a
  * longer name can never match. */
 #define GPIO_LINE_NAME_MAX 31
@@ -163,9 +191,11 @@ static const char *const dir_names[] = { "output", "input" };
 static const char *const bias_names[] = { "as-is", "disable", "pull-up",
                                           "pull-down" };
 static const char *const safe_names[] = { "0", "1" };
+static const char *const parity_names[] = { "none", "even", "odd" };
+static const char *const rts_names[] = { "high", "low" };
 #define COUNT(a) (sizeof(a) / sizeof((a)[0]))
 
-#define SECTIONS_ALLOWED "[daemon], [modbus], [robot NAME], [gpio NAME]"
+#define SECTIONS_ALLOWED "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME]"
 
 /* ---- parse state -------------------------------------------------------- */
 
@@ -174,7 +204,8 @@ typedef enum {
     SEC_DAEMON,
     SEC_MODBUS,
     SEC_ROBOT,
-    SEC_GPIO
+    SEC_GPIO,
+    SEC_RTU
 } sec_kind_t;
 
 /* Where each key was set (0: not set), for "repeated" and for messages
@@ -188,6 +219,13 @@ typedef struct {
 typedef struct {
     unsigned key[GK_COUNT];
 } gpio_lines_t;
+
+typedef struct {
+    unsigned key[UK_COUNT];
+    /* robots = ...: the names as written, resolved once all robots are read */
+    char robot[GW_MAX_ROBOTS][GW_NAME_MAX];
+    bool addr_given[GW_MAX_ROBOTS];
+} rtu_lines_t;
 
 typedef struct {
     FILE *fp;
@@ -207,6 +245,7 @@ typedef struct {
     unsigned allow_line[GW_MAX_ALLOW];
     robot_lines_t robot[GW_MAX_ROBOTS];
     gpio_lines_t gpio[GW_MAX_GPIO];
+    rtu_lines_t rtu[GW_MAX_RTU];
 
     unsigned bad_header_line; /* a '[' line libinih will reject */
     unsigned err_line;        /* 0: no error yet; the first one wins */
@@ -1043,6 +1082,151 @@ static void gpio_key(ctx_t *c, const char *name, const char *v)
     }
 }
 
+/* ---- [modbus_rtu NAME] ---------------------------------------------------- */
+
+static const unsigned rtu_bauds[] = { 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400 };
+
+/* robots = arm1:5, arm2 (commas or blanks between): names are checked
+ * against the robot sections once the whole file is read. */
+static void rtu_robots(ctx_t *c, gw_rtu_config_t *u, const char *v)
+{
+    rtu_lines_t *ul = &c->rtu[c->idx];
+    const char *p = v;
+    u->slave_count = 0;
+    while (*p != '\0' && c->err_line == 0) {
+        while (*p == ',' || is_space(*p))
+            p++;
+        if (*p == '\0')
+            break;
+        size_t n = strcspn(p, ", \t:");
+        if (u->slave_count >= GW_MAX_ROBOTS) {
+            fail(c, c->lineno, "robots: more than %d robots", GW_MAX_ROBOTS);
+            return;
+        }
+        unsigned i = u->slave_count++;
+        snprintf(ul->robot[i], sizeof ul->robot[i], "%.*s", (int)n, p);
+        if (n >= GW_NAME_MAX || !valid_name(ul->robot[i])) {
+            fail(c, c->lineno, "robots: '%.*s' is not a robot name (allowed: %s)", (int)n, p,
+                 rtu_keys[UK_ROBOTS].allowed);
+            return;
+        }
+        p += n;
+        ul->addr_given[i] = *p == ':';
+        if (*p == ':') {
+            char *end;
+            errno = 0;
+            unsigned long a = strtoul(p + 1, &end, 10);
+            if (end == p + 1 || !is_digit(p[1]) || errno != 0 || a < 1 || a > 247 ||
+                (*end != '\0' && *end != ',' && !is_space(*end))) {
+                fail(c, c->lineno, "robots: slave address of '%s' invalid (allowed: 1..247)",
+                     ul->robot[i]);
+                return;
+            }
+            u->slave_addr[i] = (uint8_t)a;
+            p = end;
+        }
+    }
+    if (u->slave_count == 0)
+        fail(c, c->lineno, "robots has no value (allowed: %s)", rtu_keys[UK_ROBOTS].allowed);
+}
+
+static void rtu_key(ctx_t *c, const char *name, const char *v)
+{
+    gw_rtu_config_t *u = &c->cfg.rtu[c->idx];
+    int k = begin_key(c, rtu_keys, UK_COUNT, c->rtu[c->idx].key, name, v, false);
+    unsigned long n;
+    unsigned e;
+    switch (k) {
+    case UK_DEVICE:
+        if (has_space_or_control(v))
+            fail(c, c->lineno, "device '%s' invalid (allowed: %s)", v, rtu_keys[k].allowed);
+        else
+            copy_value(c, name, v, u->device, sizeof u->device);
+        break;
+    case UK_BAUD: {
+        bool ok = get_uint(c, name, v, 1200, 230400, &n);
+        bool known = false;
+        for (size_t i = 0; ok && i < COUNT(rtu_bauds); i++)
+            known = known || rtu_bauds[i] == n;
+        if (ok && !known)
+            fail(c, c->lineno, "baud %lu not a standard rate (allowed: %s)", n,
+                 rtu_keys[k].allowed);
+        else if (ok)
+            u->baud = (unsigned)n;
+        break;
+    }
+    case UK_PARITY:
+        if (get_enum(c, name, v, parity_names, COUNT(parity_names), &e))
+            u->parity = (gw_parity_t)e;
+        break;
+    case UK_DATA_BITS:
+        if (get_uint(c, name, v, 8, 8, &n))
+            u->data_bits = (unsigned)n;
+        break;
+    case UK_STOP_BITS:
+        if (get_uint(c, name, v, 1, 2, &n))
+            u->stop_bits = (unsigned)n;
+        break;
+    case UK_RS485: get_bool(c, name, v, &u->rs485); break;
+    case UK_RTS_ON_SEND:
+        if (get_enum(c, name, v, rts_names, COUNT(rts_names), &e))
+            u->rts_on_send_low = e == 1;
+        break;
+    case UK_RTS_BEFORE_MS:
+    case UK_RTS_AFTER_MS:
+        if (get_uint(c, name, v, 0, 100, &n))
+            *(k == UK_RTS_BEFORE_MS ? &u->rts_before_ms : &u->rts_after_ms) = (unsigned)n;
+        break;
+    case UK_READ_ONLY: get_bool(c, name, v, &u->read_only); break;
+    case UK_ROBOTS: rtu_robots(c, u, v); break;
+    default: /* -1: already reported */ break;
+    }
+}
+
+static void rtu_defaults(gw_rtu_config_t *u)
+{
+    memset(u, 0, sizeof *u);
+    u->baud = 19200;
+    u->parity = GW_PARITY_EVEN;
+    u->data_bits = 8;
+    u->stop_bits = 1;
+}
+
+static void begin_rtu(ctx_t *c, const char *name, bool named)
+{
+    gw_config_t *g = &c->cfg;
+    if (!named) {
+        fail(c, c->lineno,
+             "section [modbus_rtu] needs a name (allowed: [modbus_rtu NAME] or "
+             "[modbus_rtu.NAME])");
+        return;
+    }
+    if (!valid_name(name)) {
+        fail(c, c->lineno,
+             "modbus_rtu name '%s' invalid (allowed: letters, digits, '_' and '-', at "
+             "most %d characters)",
+             name, GW_NAME_MAX - 1);
+        return;
+    }
+    for (unsigned i = 0; i < g->rtu_count; i++) {
+        if (strcmp(g->rtu[i].name, name) == 0) {
+            fail(c, c->lineno, "modbus_rtu '%s' defined twice (first at line %u)", name,
+                 g->rtu[i].line);
+            return;
+        }
+    }
+    if (g->rtu_count >= GW_MAX_RTU) {
+        fail(c, c->lineno, "too many modbus_rtu sections (at most %d)", GW_MAX_RTU);
+        return;
+    }
+    c->idx = g->rtu_count++;
+    gw_rtu_config_t *u = &g->rtu[c->idx];
+    rtu_defaults(u);
+    memcpy(u->name, name, strlen(name) + 1);
+    u->line = c->lineno;
+    c->sec = SEC_RTU;
+}
+
 /* ---- sections ----------------------------------------------------------- */
 
 static void robot_defaults(gw_robot_config_t *r)
@@ -1086,7 +1270,7 @@ static void gpio_defaults(gw_gpio_config_t *g)
 
 static void unknown_section(ctx_t *c, const char *kw, const char *rest)
 {
-    static const char *const kws[] = { "daemon", "modbus", "robot", "gpio" };
+    static const char *const kws[] = { "daemon", "modbus", "robot", "gpio", "modbus_rtu" };
     const char *best = NULL;
     unsigned best_d = ~0u;
     for (size_t i = 0; i < COUNT(kws); i++) {
@@ -1221,6 +1405,8 @@ static void begin_section(ctx_t *c, const char *raw)
         begin_robot(c, named ? name : "robot");
     } else if (strcmp(kw, "gpio") == 0) {
         begin_gpio(c, name, named);
+    } else if (strcmp(kw, "modbus_rtu") == 0) {
+        begin_rtu(c, name, named);
     } else {
         unknown_section(c, kw, rest);
     }
@@ -1337,6 +1523,7 @@ static int on_key(void *user, const char *section, const char *name,
     case SEC_MODBUS: modbus_key(c, name, value); break;
     case SEC_ROBOT: robot_key(c, name, value); break;
     case SEC_GPIO: gpio_key(c, name, value); break;
+    case SEC_RTU: rtu_key(c, name, value); break;
     case SEC_NONE:
         fail(c, c->lineno,
              "key '%s' outside any section (allowed sections: " SECTIONS_ALLOWED
@@ -1482,6 +1669,64 @@ static void check_robots(ctx_t *c)
                 return;
             }
         }
+    }
+}
+
+/* Every [modbus_rtu]: a device, one not used by another line, robots
+ * that exist (all of them if not said), each slave address once. */
+static void check_rtu(ctx_t *c)
+{
+    gw_config_t *g = &c->cfg;
+    for (unsigned i = 0; i < g->rtu_count && c->err_line == 0; i++) {
+        gw_rtu_config_t *u = &g->rtu[i];
+        const rtu_lines_t *ul = &c->rtu[i];
+        if (u->device[0] == '\0') {
+            fail(c, u->line, "modbus_rtu '%s' has no device (allowed: %s)", u->name,
+                 rtu_keys[UK_DEVICE].allowed);
+            return;
+        }
+        for (unsigned j = 0; j < i; j++)
+            if (strcmp(g->rtu[j].device, u->device) == 0) {
+                fail(c, line_or(ul->key[UK_DEVICE], u->line),
+                     "modbus_rtu '%s': device %s is already modbus_rtu '%s' (line %u)",
+                     u->name, u->device, g->rtu[j].name, g->rtu[j].line);
+                return;
+            }
+        if (ul->key[UK_ROBOTS] == 0) {
+            u->slave_count = g->robot_count;
+            for (unsigned r = 0; r < g->robot_count; r++) {
+                u->slave_robot[r] = r;
+                u->slave_addr[r] = g->robot[r].unit_id;
+            }
+        } else {
+            for (unsigned s = 0; s < u->slave_count; s++) {
+                unsigned r = 0;
+                while (r < g->robot_count && strcmp(g->robot[r].name, ul->robot[s]) != 0)
+                    r++;
+                if (r == g->robot_count) {
+                    fail(c, ul->key[UK_ROBOTS],
+                         "modbus_rtu '%s': no robot '%s' (allowed: the NAME of a "
+                         "[robot NAME] section)",
+                         u->name, ul->robot[s]);
+                    return;
+                }
+                u->slave_robot[s] = r;
+                if (!ul->addr_given[s])
+                    u->slave_addr[s] = g->robot[r].unit_id;
+            }
+        }
+        for (unsigned s = 0; s < u->slave_count; s++)
+            for (unsigned t = 0; t < s; t++)
+                if (u->slave_robot[s] == u->slave_robot[t] ||
+                    u->slave_addr[s] == u->slave_addr[t]) {
+                    fail(c, line_or(ul->key[UK_ROBOTS], u->line),
+                         u->slave_robot[s] == u->slave_robot[t]
+                             ? "modbus_rtu '%s': robot '%s' listed twice"
+                             : "modbus_rtu '%s': robot '%s' has the slave address of "
+                               "another robot on the line (each needs its own, 1..247)",
+                         u->name, g->robot[u->slave_robot[s]].name);
+                    return;
+                }
     }
 }
 
@@ -1636,6 +1881,8 @@ void gw_config_defaults(gw_config_t *cfg)
         robot_defaults(&cfg->robot[i]);
     for (unsigned i = 0; i < GW_MAX_GPIO; i++)
         gpio_defaults(&cfg->gpio[i]);
+    for (unsigned i = 0; i < GW_MAX_RTU; i++)
+        rtu_defaults(&cfg->rtu[i]);
     memcpy(cfg->log_level, "info", sizeof "info");
 }
 
@@ -1707,6 +1954,8 @@ bool gw_config_load(const char *path, gw_config_t *out, char *err,
             check_robots(c);
         if (c->err_line == 0)
             check_gpio(c);
+        if (c->err_line == 0)
+            check_rtu(c);
         if (c->err_line != 0) {
             if (err != NULL && errlen > 0)
                 snprintf(err, errlen, "%s:%u: %s", path, c->err_line, c->err);

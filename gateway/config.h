@@ -6,6 +6,7 @@
  *   [modbus]            listen address/port, clients, word order, allowlist
  *   [robot NAME]        one section per robot, each with its own unit ID
  *   [gpio NAME]         one section per GPIO line
+ *   [modbus_rtu NAME]   one section per serial line (Modbus RTU slave)
  *
  * "[robot NAME]" and "[robot.NAME]" are the same section ("[robot]" alone
  * names the robot "robot"); likewise "[gpio NAME]" and "[gpio.NAME]".
@@ -31,6 +32,7 @@
 #define GW_MAX_GPIO 64
 #define GW_MAX_ALLOW 16
 #define GW_NAME_MAX 32
+#define GW_MAX_RTU 4
 
 typedef enum { GW_WORD_ABCD = 0, GW_WORD_CDAB, GW_WORD_BADC, GW_WORD_DCBA } gw_word_order_t;
 typedef enum { GW_LOSS_HOLD = 0, GW_LOSS_ZERO, GW_LOSS_EXCEPTION } gw_link_loss_t;
@@ -126,6 +128,27 @@ typedef struct {
     unsigned line;
 } gw_gpio_config_t;
 
+typedef enum { GW_PARITY_NONE = 0, GW_PARITY_EVEN, GW_PARITY_ODD } gw_parity_t;
+
+/* One serial line on which the gateway is a Modbus RTU slave, answering
+ * for some robots, each at its own slave address. */
+typedef struct {
+    char name[GW_NAME_MAX];
+    char device[128];         /* required: /dev/ttyS0, /dev/ttyUSB0, ... */
+    unsigned baud;            /* default 19200 */
+    gw_parity_t parity;       /* default even (the Modbus default) */
+    unsigned data_bits;       /* 8: RTU bytes are 8 bits */
+    unsigned stop_bits;       /* default 1 */
+    bool rs485;               /* ask the driver for RS-485 mode (TIOCSRS485) */
+    bool rts_on_send_low;     /* RS-485: RTS low while sending (default high) */
+    unsigned rts_before_ms, rts_after_ms; /* RS-485 RTS delays, default 0 */
+    bool read_only;           /* refuse writes with 0x01 (default no) */
+    unsigned slave_count;     /* robots on the line (default: all) */
+    unsigned slave_robot[GW_MAX_ROBOTS]; /* robot index */
+    uint8_t slave_addr[GW_MAX_ROBOTS];   /* 1..247, default the unit_id */
+    unsigned line;
+} gw_rtu_config_t;
+
 typedef struct {
     char path[256];
     gw_modbus_config_t modbus;
@@ -133,6 +156,8 @@ typedef struct {
     gw_robot_config_t robot[GW_MAX_ROBOTS];
     unsigned gpio_count;
     gw_gpio_config_t gpio[GW_MAX_GPIO];
+    unsigned rtu_count;
+    gw_rtu_config_t rtu[GW_MAX_RTU];
     char log_level[16];       /* [daemon] log_level: error|warning|info|debug */
 } gw_config_t;
 

@@ -363,3 +363,89 @@ size_t gw_mbap_reply(const uint8_t *adu, const gw_mb_result_t *r, uint8_t *out)
     memcpy(out + GW_MBAP_LEN, r->pdu, r->pdu_len);
     return GW_MBAP_LEN + r->pdu_len;
 }
+
+/* ---- Modbus RTU framing ---------------------------------------------------- */
+
+uint16_t gw_rtu_crc(const uint8_t *p, size_t n)
+{
+    uint16_t crc = 0xFFFF;
+    for (size_t i = 0; i < n; i++) {
+        crc ^= p[i];
+        for (unsigned b = 0; b < 8; b++)
+            crc = (crc & 1u) ? (uint16_t)(crc >> 1 ^ 0xA001u) : (uint16_t)(crc >> 1);
+    }
+    return crc;
+}
+
+bool gw_rtu_crc_ok(const uint8_t *frame, size_t n)
+{
+    if (n < GW_RTU_MIN)
+        return false;
+    uint16_t crc = gw_rtu_crc(frame, n - 2);
+    /* the CRC goes low byte first, unlike everything else in Modbus */
+    return frame[n - 2] == (uint8_t)crc && frame[n - 1] == (uint8_t)(crc >> 8);
+}
+
+size_t gw_rtu_request_len(const uint8_t *buf, size_t len)
+{
+    if (len < 2)
+        return 0;
+    switch (buf[1]) {
+    case 0x01: case 0x02: case 0x03: case 0x04: case 0x05: case 0x06:
+        return 8; /* address, code, two 16-bit fields, CRC */
+    case 0x0F: case 0x10:
+        return len < 7 ? 0 : 9u + buf[6];
+    case FC_READ_WRITE:
+        return len < 11 ? 0 : 13u + buf[10];
+    case FC_MEI:
+        return 7; /* MEI type, read code, object id */
+    default:
+        return 0; /* unknown: the silence after it ends it */
+    }
+}
+
+void gw_rtu_rx_add(gw_rtu_rx_t *rx, const uint8_t *p, size_t n)
+{
+    if (rx->len + n > sizeof rx->buf) {
+        rx->overflow = true; /* not a frame: dropped at the silence */
+        return;
+    }
+    memcpy(rx->buf + rx->len, p, n);
+    rx->len += n;
+}
+
+gw_rtu_ev_t gw_rtu_rx_next(gw_rtu_rx_t *rx, bool silence, uint8_t *frame, size_t *n)
+{
+    if (rx->len == 0 && !rx->overflow)
+        return GW_RTU_NONE;
+    size_t want = rx->overflow ? 0 : gw_rtu_request_len(rx->buf, rx->len);
+    /* A request whose length its code tells, with a good CRC: taken at
+     * once (no waiting for the silence after it; the master waits for
+     * our reply anyway). Anything else ends at the silence. */
+    if (want != 0 && want <= rx->len && want <= GW_RTU_MAX && gw_rtu_crc_ok(rx->buf, want))
+        *n = want;
+    else if (silence)
+        *n = rx->len;
+    else
+        return GW_RTU_NONE;
+    bool bad = rx->overflow || !gw_rtu_crc_ok(rx->buf, *n);
+    if (!bad)
+        memcpy(frame, rx->buf, *n);
+    memmove(rx->buf, rx->buf + *n, rx->len - *n);
+    rx->len -= *n;
+    if (bad) {
+        rx->len = 0; /* the whole garbled frame */
+        rx->overflow = false;
+    }
+    return bad ? GW_RTU_BAD : GW_RTU_FRAME;
+}
+
+size_t gw_rtu_reply(uint8_t addr, const gw_mb_result_t *r, uint8_t *out)
+{
+    out[0] = addr;
+    memcpy(out + 1, r->pdu, r->pdu_len);
+    uint16_t crc = gw_rtu_crc(out, 1u + r->pdu_len);
+    out[1 + r->pdu_len] = (uint8_t)crc;
+    out[2 + r->pdu_len] = (uint8_t)(crc >> 8);
+    return 3u + r->pdu_len;
+}

@@ -95,4 +95,41 @@ int gw_mbs_decide(const uint8_t *adu, size_t len, const gw_mb_env_t *env,
  * then r's reply PDU) into out[GW_ADU_MAX]; returns its length. */
 size_t gw_mbap_reply(const uint8_t *adu, const gw_mb_result_t *r, uint8_t *out);
 
+/* ---- Modbus RTU framing (no I/O: mbrtu.c reads and writes the port) ---- */
+
+#define GW_RTU_MIN 4u   /* address, function code, CRC */
+#define GW_RTU_MAX 256u /* address + the largest PDU + CRC */
+
+/* CRC-16/MODBUS of p[0..n) (sent low byte first). */
+uint16_t gw_rtu_crc(const uint8_t *p, size_t n);
+/* frame[0..n) is at least GW_RTU_MIN bytes and ends with its CRC. */
+bool gw_rtu_crc_ok(const uint8_t *frame, size_t n);
+/* The length of the request that starts buf[0..len), if its function
+ * code tells it and enough of it is there; 0: not known (yet). */
+size_t gw_rtu_request_len(const uint8_t *buf, size_t len);
+
+/* Bytes received on a line, cut into frames. */
+typedef struct {
+    uint8_t buf[GW_RTU_MAX];
+    size_t len;
+    bool overflow; /* more than a frame's worth: garbage until the silence */
+} gw_rtu_rx_t;
+
+typedef enum {
+    GW_RTU_NONE = 0, /* nothing whole yet */
+    GW_RTU_FRAME,    /* frame[0..*n): one request with a good CRC */
+    GW_RTU_BAD       /* *n bytes dropped: a bad CRC, short or too long */
+} gw_rtu_ev_t;
+
+void gw_rtu_rx_add(gw_rtu_rx_t *rx, const uint8_t *p, size_t n);
+/* The next frame in rx into frame[GW_RTU_MAX]. A request whose function
+ * code gives its length and whose CRC checks is whole at once; anything
+ * else is whole only once the line has been silent for t3.5 (`silence`:
+ * the caller's clock says so). Call again until GW_RTU_NONE. */
+gw_rtu_ev_t gw_rtu_rx_next(gw_rtu_rx_t *rx, bool silence, uint8_t *frame, size_t *n);
+
+/* The reply frame (address, r's reply PDU, CRC) into out[GW_RTU_MAX];
+ * returns its length. */
+size_t gw_rtu_reply(uint8_t addr, const gw_mb_result_t *r, uint8_t *out);
+
 #endif /* DRGATE_GW_MBPROTO_H */

@@ -79,10 +79,10 @@ typedef struct {
     void (*free)(void *self);
 } gw_north_ops_t;
 
-extern const gw_north_ops_t gw_north_modbus_tcp, gw_north_gpio;
+extern const gw_north_ops_t gw_north_modbus_tcp, gw_north_modbus_rtu, gw_north_gpio;
 
 /* The sides the daemon runs, in this order (GPIO last, see above). */
 extern const gw_north_ops_t *const gw_north_sides[];
-#define GW_NORTH_SIDES 2u
+#define GW_NORTH_SIDES 3u
 
 #endif /* DRGATE_GW_NORTH_H */

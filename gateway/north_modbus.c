@@ -2,7 +2,9 @@
 /*
  * The Modbus sides of the gateway as northbound sides (north.h): Modbus
  * TCP (mbserver.c) with the [modbus] rules that are not per request (the
- * stale policy on link loss, the single writer's watchdog).
+ * stale policy on link loss, the single writer's watchdog), and the
+ * Modbus RTU lines (mbrtu.c). Both answer through the one request
+ * handler (mbproto.c) from the same units.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,6 +12,7 @@
 
 #include "log.h"
 #include "loop.h"
+#include "mbrtu.h"
 #include "mbserver.h"
 #include "north.h"
 
@@ -258,4 +261,181 @@ static void tcp_free(void *self)
 const gw_north_ops_t gw_north_modbus_tcp = {
     "modbus",     tcp_create, tcp_prepare, tcp_abort,    tcp_commit, tcp_tick, tcp_deadline,
     tcp_on_data,  tcp_on_link, tcp_on_fault, tcp_status, tcp_safe,  tcp_free,
+};
+
+/* ---- Modbus RTU ---------------------------------------------------------------- */
+
+/* The lines, and during a reload the ones that will take over (a line
+ * keeps its hooks, which point at ctx: the side is reloaded in place). */
+typedef struct {
+    mb_ctx_t ctx;
+    unsigned count, pending_count;
+    gw_rtu_config_t cfg[GW_MAX_RTU], pending_cfg[GW_MAX_RTU];
+    gw_rtu_t *line[GW_MAX_RTU], *pending[GW_MAX_RTU];
+    bool handed[GW_MAX_RTU]; /* line[i] is in pending[] too */
+} rtu_t;
+
+static void rtu_free(void *self)
+{
+    rtu_t *t = self;
+    if (t == NULL)
+        return;
+    for (unsigned i = 0; i < t->count; i++)
+        gw_rtu_free(t->line[i]);
+    free(t);
+}
+
+static gw_rtu_t *rtu_open(rtu_t *t, const gw_rtu_config_t *cfg, const gw_robot_config_t *robots,
+                          char *err, size_t errlen)
+{
+    gw_mbs_hooks_t h = {unit_for, on_write, &t->ctx, t->ctx.env->version};
+    return gw_rtu_new(cfg, robots, t->ctx.env->epfd, &h, err, errlen);
+}
+
+static void *rtu_create(const gw_north_env_t *env, char *err, size_t errlen)
+{
+    rtu_t *t = calloc(1, sizeof *t);
+    if (t == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    t->ctx = (mb_ctx_t){env, NULL, NULL};
+    for (unsigned i = 0; i < env->cfg->rtu_count; i++) {
+        t->cfg[i] = env->cfg->rtu[i];
+        t->line[i] = rtu_open(t, &t->cfg[i], env->cfg->robot, err, errlen);
+        if (t->line[i] == NULL) {
+            rtu_free(t);
+            return NULL;
+        }
+        t->count++;
+    }
+    return t;
+}
+
+/* The same line, set up the same way, for the same robots at the same
+ * addresses (by unit ID: a robot whose unit ID changed is another). */
+static bool same_line(const gw_rtu_config_t *a, const gw_robot_config_t *ra,
+                      const gw_rtu_config_t *b, const gw_robot_config_t *rb)
+{
+    if (strcmp(a->name, b->name) != 0 || strcmp(a->device, b->device) != 0 ||
+        a->baud != b->baud || a->parity != b->parity || a->data_bits != b->data_bits ||
+        a->stop_bits != b->stop_bits || a->rs485 != b->rs485 ||
+        a->rts_on_send_low != b->rts_on_send_low || a->rts_before_ms != b->rts_before_ms ||
+        a->rts_after_ms != b->rts_after_ms || a->read_only != b->read_only ||
+        a->slave_count != b->slave_count)
+        return false;
+    for (unsigned s = 0; s < a->slave_count; s++)
+        if (a->slave_addr[s] != b->slave_addr[s] ||
+            ra[a->slave_robot[s]].unit_id != rb[b->slave_robot[s]].unit_id)
+            return false;
+    return true;
+}
+
+static void rtu_abort(void *self, void *out)
+{
+    rtu_t *t = self;
+    (void)out;
+    for (unsigned i = 0; i < t->pending_count; i++) {
+        bool carried = false;
+        for (unsigned o = 0; o < t->count; o++)
+            carried = carried || (t->handed[o] && t->line[o] == t->pending[i]);
+        if (!carried)
+            gw_rtu_free(t->pending[i]);
+    }
+    memset(t->handed, 0, sizeof t->handed);
+    t->pending_count = 0;
+}
+
+/* Unchanged lines carry over (their port stays open); new and changed
+ * ones are opened now, while the old ones still serve. */
+static gw_north_reload_t rtu_prepare(void *self, const gw_config_t *next,
+                                     const gw_north_env_t *env, void **out, char *err,
+                                     size_t errlen)
+{
+    rtu_t *t = self;
+    t->pending_count = 0;
+    memset(t->handed, 0, sizeof t->handed);
+    for (unsigned i = 0; i < next->rtu_count; i++) {
+        t->pending_cfg[i] = next->rtu[i];
+        t->pending[i] = NULL;
+        for (unsigned o = 0; o < t->count && t->pending[i] == NULL; o++)
+            if (!t->handed[o] && same_line(&t->cfg[o], env->cfg->robot, &next->rtu[i], next->robot)) {
+                t->pending[i] = t->line[o];
+                t->handed[o] = true;
+            }
+        if (t->pending[i] == NULL)
+            t->pending[i] = rtu_open(t, &t->pending_cfg[i], next->robot, err, errlen);
+        if (t->pending[i] == NULL) {
+            rtu_abort(t, NULL);
+            return GW_NORTH_REFUSED;
+        }
+        t->pending_count = i + 1;
+    }
+    *out = t;
+    return GW_NORTH_OK;
+}
+
+static void *rtu_commit(void *self, void *out, const gw_north_env_t *env)
+{
+    rtu_t *t = self;
+    (void)out, (void)env;
+    for (unsigned o = 0; o < t->count; o++)
+        if (!t->handed[o]) {
+            gw_log(GW_LOG_INFO, "reload: modbus_rtu %s changed or removed: closing %s",
+                   t->cfg[o].name, t->cfg[o].device);
+            gw_rtu_free(t->line[o]);
+        }
+    memcpy(t->line, t->pending, sizeof t->line);
+    memcpy(t->cfg, t->pending_cfg, sizeof t->cfg);
+    t->count = t->pending_count;
+    t->pending_count = 0;
+    memset(t->handed, 0, sizeof t->handed);
+    return t;
+}
+
+static void rtu_tick(void *self, uint64_t now)
+{
+    rtu_t *t = self;
+    for (unsigned i = 0; i < t->count; i++)
+        gw_rtu_tick(t->line[i], now);
+}
+
+static uint64_t rtu_deadline(const void *self)
+{
+    const rtu_t *t = self;
+    uint64_t d = UINT64_MAX;
+    for (unsigned i = 0; i < t->count; i++) {
+        uint64_t x = gw_rtu_next_deadline(t->line[i]);
+        if (x < d)
+            d = x;
+    }
+    return d;
+}
+
+static void rtu_on_link(void *self, unsigned robot, bool up)
+{
+    (void)self, (void)robot, (void)up; /* the stale policy is applied once, by TCP's side */
+}
+
+/* Status IR 40 and 41: the CRC errors and the frames for other
+ * slaves of the lines this robot is on (16 bits, wrapping). */
+static void rtu_status(const void *self, unsigned robot, gw_status_t *st)
+{
+    const rtu_t *t = self;
+    uint8_t unit_id = t->ctx.env->cfg->robot[robot].unit_id;
+    st->rtu_crc_errors = 0;
+    st->rtu_other = 0;
+    for (unsigned i = 0; i < t->count; i++) {
+        const gw_rtu_counters_t *n = gw_rtu_counters(t->line[i]);
+        st->exceptions += n->exceptions;
+        if (!gw_rtu_serves(t->line[i], unit_id))
+            continue;
+        st->rtu_crc_errors = (uint16_t)(st->rtu_crc_errors + n->crc_errors);
+        st->rtu_other = (uint16_t)(st->rtu_other + n->other);
+    }
+}
+
+const gw_north_ops_t gw_north_modbus_rtu = {
+    "modbus_rtu", rtu_create,   rtu_prepare,  rtu_abort,  rtu_commit, rtu_tick, rtu_deadline,
+    tcp_on_data,  rtu_on_link,  tcp_on_fault, rtu_status, tcp_safe, rtu_free,
 };

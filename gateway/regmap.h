@@ -54,6 +54,8 @@ typedef struct {
     bool write_fault;         /* single writer's watchdog expired (latched) */
     bool writer_present;
     uint16_t config_generation;
+    uint16_t rtu_crc_errors;  /* Modbus RTU lines of this robot: frames dropped */
+    uint16_t rtu_other;       /* ... and frames for other slave addresses */
 } gw_status_t;
 
 /* One robot as Modbus sees it. */
