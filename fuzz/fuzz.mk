@@ -7,10 +7,10 @@
 #                      the committed seeds (no clang needed)
 #   make fuzz-corpus   regenerate fuzz/corpus/ from the library's builders
 
-FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus config \
+FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
                       sim_request cli
 FUZZ_SECONDS       ?= 60
-# make check runs every harness this long: 9 x 7 s keeps check-fuzz,
+# make check runs every harness this long: 10 x 7 s keeps check-fuzz,
 # builds included, well under two minutes.
 FUZZ_CHECK_SECONDS ?= 7
 FUZZ_CC            ?= clang
@@ -33,6 +33,10 @@ FUZZ_SRC_modbus      := gateway/mbproto.c gateway/regmap.c
 FUZZ_HDR_modbus      := gateway/mbproto.h gateway/regmap.h gateway/config.h
 FUZZ_CFLAGS_modbus    = $(MODBUS_CFLAGS)
 FUZZ_LIBS_modbus      = $(MODBUS_LIBS)
+FUZZ_SRC_rtu         := gateway/mbproto.c gateway/regmap.c
+FUZZ_HDR_rtu         := gateway/mbproto.h gateway/regmap.h gateway/config.h
+FUZZ_CFLAGS_rtu       = $(MODBUS_CFLAGS)
+FUZZ_LIBS_rtu         = $(MODBUS_LIBS)
 FUZZ_SRC_config      := gateway/config.c
 FUZZ_HDR_config      := gateway/config.h
 FUZZ_CFLAGS_config    = $(INIH_CFLAGS)

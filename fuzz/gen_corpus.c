@@ -497,6 +497,77 @@ static void mb_write_coils(buf_t *b, uint8_t unit, uint16_t addr, const uint8_t 
     mb_adu(b, unit, pdu, k);
 }
 
+/* ---- fuzz_rtu: [flags] then chunks [c] bytes, c bit 7 = silence after ---- */
+
+static uint16_t rtu_crc(const uint8_t *p, size_t n)
+{
+    uint16_t crc = 0xFFFF;
+    for (size_t i = 0; i < n; i++) {
+        crc ^= p[i];
+        for (unsigned k = 0; k < 8; k++)
+            crc = (crc & 1u) ? (uint16_t)(crc >> 1 ^ 0xA001u) : (uint16_t)(crc >> 1);
+    }
+    return crc;
+}
+
+/* One chunk: address, PDU, CRC (bad: flipped), then silence or not. */
+static void rtu_chunk(buf_t *b, uint8_t addr, const uint8_t *pdu, size_t n, int bad, int silence)
+{
+    uint8_t f[64];
+    f[0] = addr;
+    memcpy(f + 1, pdu, n);
+    uint16_t crc = rtu_crc(f, n + 1);
+    f[n + 1] = (uint8_t)(crc ^ (bad ? 0xFFu : 0u));
+    f[n + 2] = (uint8_t)(crc >> 8);
+    b_u8(b, (uint8_t)((n + 3) | (silence ? 0x80u : 0u)));
+    b_bytes(b, f, n + 3);
+}
+
+static void gen_rtu(void)
+{
+    static const uint8_t rd[] = {0x04, 0x00, 0x20, 0x00, 0x08};
+    static const uint8_t wr[] = {0x10, 0x00, 0xC8, 0x00, 0x02, 0x04, 0x12, 0x34, 0x56, 0x78};
+    static const uint8_t coil[] = {0x05, 0x00, 0xC8, 0xFF, 0x00};
+    static const uint8_t devid[] = {0x2B, 0x0E, 0x01, 0x00};
+    static const uint8_t rw[] = {0x17, 0x00, 0xC8, 0x00, 0x02, 0x00, 0xC9, 0x00, 0x01, 0x02, 0xAB, 0xCD};
+    static const uint8_t odd[] = {0x08, 0x00, 0x00, 0x12, 0x34};
+    buf_t b;
+
+    b.n = 0;
+    b_u8(&b, 0x01);
+    rtu_chunk(&b, 1, rd, sizeof rd, 0, 1);
+    rtu_chunk(&b, 2, wr, sizeof wr, 0, 0);
+    rtu_chunk(&b, 1, coil, sizeof coil, 0, 1);
+    rtu_chunk(&b, 2, devid, sizeof devid, 0, 1);
+    rtu_chunk(&b, 1, rw, sizeof rw, 0, 1);
+    put("rtu", "requests", b.b, b.n);
+
+    b.n = 0;
+    b_u8(&b, 0x00);
+    rtu_chunk(&b, 1, rd, sizeof rd, 1, 1);   /* bad CRC */
+    rtu_chunk(&b, 9, rd, sizeof rd, 0, 1);   /* another slave */
+    rtu_chunk(&b, 0, wr, sizeof wr, 0, 1);   /* broadcast */
+    rtu_chunk(&b, 1, odd, sizeof odd, 0, 1); /* unknown length: at the silence */
+    put("rtu", "dropped", b.b, b.n);
+
+    /* a request split over two reads, then two back to back in one */
+    b.n = 0;
+    b_u8(&b, 0x05);
+    {
+        buf_t f;
+        f.n = 0;
+        rtu_chunk(&f, 1, rd, sizeof rd, 0, 0);
+        b_u8(&b, 3);
+        b_bytes(&b, f.b + 1, 3);
+        b_u8(&b, (uint8_t)((f.n - 4) | 0x80u));
+        b_bytes(&b, f.b + 4, f.n - 4);
+        b_u8(&b, (uint8_t)(2 * (f.n - 1)));
+        b_bytes(&b, f.b + 1, f.n - 1);
+        b_bytes(&b, f.b + 1, f.n - 1);
+    }
+    put("rtu", "split_and_joined", b.b, b.n);
+}
+
 static void gen_modbus(void)
 {
     /* Addresses: docs/register-map.md. O->T holding registers: io_control
@@ -964,6 +1035,7 @@ int main(int argc, char **argv)
     gen_io_frame();
     gen_path();
     gen_modbus();
+    gen_rtu();
     gen_config();
     gen_sim_request();
     gen_cli();

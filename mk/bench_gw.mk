@@ -46,3 +46,10 @@ bench-gw: $$(GW_BIN) $(SIM_BIN) $(GW_BENCH_BIN)
 	    echo "bench-gw: $(GW_BENCH_PY) missing (make deps installs pymodbus into .venv)" >&2; \
 	    exit 1; fi
 	$(GW_BENCH_PY) bench/gw_bench.py --build $(B) $(GW_BENCH_ARGS)
+
+# Modbus RTU (issue 13): requests per second at 115200 8N1 over a socat
+# pty pair against the line's theoretical limit (bench/gw_rtu_bench.py).
+BENCH_STEPS += bench-gw-rtu
+.PHONY: bench-gw-rtu
+bench-gw-rtu: $$(GW_BIN) $(SIM_BIN)
+	$(GW_BENCH_PY) bench/gw_rtu_bench.py

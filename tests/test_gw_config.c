@@ -345,6 +345,35 @@ static void test_example_values(void **state)
     assert_true(load_file("gateway/examples/explicit-polling.ini", &c, err,
                           sizeof err));
     assert_int_equal(c.robot[0].mode, GW_MODE_EXPLICIT);
+    assert_true(load_file("gateway/examples/rs485-cell.ini", &c, err, sizeof err));
+    assert_int_equal(c.rtu_count, 1);
+    assert_true(c.rtu[0].rs485);
+    assert_int_equal(c.rtu[0].parity, GW_PARITY_EVEN);
+    assert_int_equal(c.rtu[0].slave_count, 2);
+    assert_int_equal(c.rtu[0].slave_addr[0], 10); /* weld:10 */
+    assert_int_equal(c.rtu[0].slave_addr[1], 2);  /* handling: its unit_id */
+}
+
+/* [modbus_rtu]: defaults (19200 8E1, every robot at its unit_id). */
+static void test_rtu_defaults(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nunit_id = 7\n"
+                          "[robot b]\nhost = 10.0.0.2\nunit_id = 9\n"
+                          "[modbus_rtu.l]\ndevice = /dev/ttyUSB0\n",
+                          &c, err, sizeof err));
+    assert_int_equal(c.rtu_count, 1);
+    assert_string_equal(c.rtu[0].device, "/dev/ttyUSB0");
+    assert_int_equal(c.rtu[0].baud, 19200);
+    assert_int_equal(c.rtu[0].parity, GW_PARITY_EVEN);
+    assert_int_equal(c.rtu[0].stop_bits, 1);
+    assert_false(c.rtu[0].rs485);
+    assert_int_equal(c.rtu[0].slave_count, 2);
+    assert_int_equal(c.rtu[0].slave_robot[1], 1);
+    assert_int_equal(c.rtu[0].slave_addr[0], 7);
+    assert_int_equal(c.rtu[0].slave_addr[1], 9);
 }
 
 /* ---- errors ---------------------------------------------------------------- */
@@ -374,7 +403,31 @@ typedef struct {
     "(a GPIO line follows or drives one bit, e.g. io_state.cb_do[1] or " \
     "bit_in[0])"
 
+#define RTU_HEAD "[modbus_rtu l]\ndevice = /dev/ttyS1\n" /* then lines 5.. */
+
 static const err_case_t err_cases[] = {
+    /* [modbus_rtu NAME] */
+    { ROBOT "[modbus_rtu]\ndevice = /dev/ttyS1\n",
+      "3: section [modbus_rtu] needs a name (allowed: [modbus_rtu NAME] or "
+      "[modbus_rtu.NAME])" },
+    { ROBOT "[modbus_rtu l]\nbaud = 9600\n",
+      "3: modbus_rtu 'l' has no device (allowed: a serial port such as /dev/ttyS0)" },
+    { ROBOT RTU_HEAD "baud = 14400\n",
+      "5: baud 14400 not a standard rate (allowed: 1200, 2400, 4800, 9600, 19200, "
+      "38400, 57600, 115200, 230400)" },
+    { ROBOT RTU_HEAD "parity = mark\n",
+      "5: parity 'mark' invalid (allowed: none, even, odd)" },
+    { ROBOT RTU_HEAD "data_bits = 7\n",
+      "5: data_bits 7 out of range (allowed: 8..8)" },
+    { ROBOT RTU_HEAD "robots = b\n",
+      "5: modbus_rtu 'l': no robot 'b' (allowed: the NAME of a [robot NAME] section)" },
+    { ROBOT RTU_HEAD "robots = a:248\n",
+      "5: robots: slave address of 'a' invalid (allowed: 1..247)" },
+    { ROBOT "[robot b]\nhost = 10.0.0.2\nunit_id = 5\n" RTU_HEAD "robots = a:5, b\n",
+      "8: modbus_rtu 'l': robot 'b' has the slave address of another robot on the "
+      "line (each needs its own, 1..247)" },
+    { ROBOT RTU_HEAD "[modbus_rtu m]\ndevice = /dev/ttyS1\n",
+      "6: modbus_rtu 'm': device /dev/ttyS1 is already modbus_rtu 'l' (line 3)" },
     /* unknown keys, with and without a suggestion */
     { ROBOT "[modbus]\nwordorder = abcd\n",
       "4: unknown key 'wordorder' in [modbus] (did you mean 'word_order'? "
@@ -1032,6 +1085,7 @@ int main(void)
         cmocka_unit_test(test_gpio_robot_defaults_to_the_only_one),
         cmocka_unit_test(test_text_variants),
         cmocka_unit_test(test_examples_load),
+        cmocka_unit_test(test_rtu_defaults),
         cmocka_unit_test(test_example_values),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_long_line),
