@@ -417,21 +417,21 @@ static void rtu_on_link(void *self, unsigned robot, bool up)
     (void)self, (void)robot, (void)up; /* the stale policy is applied once, by TCP's side */
 }
 
-/* Status IR 40 and 41: the CRC errors and the frames for other
- * slaves of the lines this robot is on (16 bits, wrapping). */
+/* Status IR 31: the frames dropped and the frames for other slaves of
+ * the lines this robot is on. */
 static void rtu_status(const void *self, unsigned robot, gw_status_t *st)
 {
     const rtu_t *t = self;
     uint8_t unit_id = t->ctx.env->cfg->robot[robot].unit_id;
-    st->rtu_crc_errors = 0;
+    st->rtu_dropped = 0;
     st->rtu_other = 0;
     for (unsigned i = 0; i < t->count; i++) {
         const gw_rtu_counters_t *n = gw_rtu_counters(t->line[i]);
         st->exceptions += n->exceptions;
         if (!gw_rtu_serves(t->line[i], unit_id))
             continue;
-        st->rtu_crc_errors = (uint16_t)(st->rtu_crc_errors + n->crc_errors);
-        st->rtu_other = (uint16_t)(st->rtu_other + n->other);
+        st->rtu_dropped += n->crc_errors;
+        st->rtu_other += n->other;
     }
 }
 

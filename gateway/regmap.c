@@ -44,10 +44,6 @@ static const uint16_t bit_base[DR_ASM_COUNT] = {100, 0, 0, 400, 0, 0,
 
 #define STATUS_REGS 32u
 #define TEST_BASE 32u
-/* Modbus RTU counters: status registers (elem 32, 33) after the test
- * registers, the status block itself being full. */
-#define RTU_BASE 40u
-#define RTU_REGS 2u
 #define TEST_REGS 8u
 #define STATUS_BITS 4u
 #define CONTROL_REGS 2u
@@ -111,9 +107,6 @@ void gw_regmap_init(void)
         put(GW_INPUT, &addr, SL_STATUS, 0, 0, (int16_t)i);
     for (unsigned i = 0; i < TEST_REGS; i++)
         put(GW_INPUT, &addr, SL_TEST, 0, 0, (int16_t)i);
-    addr = RTU_BASE;
-    for (unsigned i = 0; i < RTU_REGS; i++)
-        put(GW_INPUT, &addr, SL_STATUS, 0, 0, (int16_t)(STATUS_REGS + i));
     addr = 0;
     for (unsigned i = 0; i < STATUS_BITS; i++)
         put(GW_DISCRETE, &addr, SL_STATUS, 0, 0, (int16_t)i);
@@ -232,8 +225,7 @@ static uint16_t status_reg(const gw_unit_t *u, unsigned i)
     case 28: return (uint16_t)u->order;
     case 29: return st->config_generation;
     case 30: return st->last_cip_general;
-    case STATUS_REGS: return st->rtu_crc_errors;
-    case STATUS_REGS + 1: return st->rtu_other;
+    case 31: return (uint16_t)((st->rtu_dropped & 0xFFu) << 8 | (st->rtu_other & 0xFFu));
     default:
         if (i >= 16 && i < 16 + GW_MAX_CONN_STATUS)
             return st->conn_state[i - 16];
@@ -484,7 +476,7 @@ static const char *const area_name[GW_AREAS] = {"coil", "discrete input",
 static const char *const area_short[GW_AREAS] = {"CO", "DI", "HR", "IR"};
 static const unsigned area_prefix[GW_AREAS] = {0, 1, 4, 3};
 
-static const char *const status_names[STATUS_REGS + RTU_REGS] = {
+static const char *const status_names[STATUS_REGS] = {
     "status.layout_version", "status.link_state (0 down, 1 connecting, 2 up)",
     "status.data_fresh", "status.data_age_ms", "status.heartbeat", "status.rpi_ms",
     "status.rx_packets (high word)", "status.rx_packets (low word)",
@@ -496,8 +488,8 @@ static const char *const status_names[STATUS_REGS + RTU_REGS] = {
     "status.conn_state[5]", "status.conn_state[6]", "status.conn_state[7]",
     "status.conn_state[8]", "status.conn_state[9]", "status.write_fault",
     "status.writer_present", "status.word_order (0 abcd, 1 cdab, 2 badc, 3 dcba)",
-    "status.config_generation", "status.last_cip_general", "status.reserved31",
-    "status.rtu_crc_errors", "status.rtu_other_address",
+    "status.config_generation", "status.last_cip_general",
+    "status.rtu_frames (high byte: dropped, low byte: for other slaves)",
 };
 static const char *const status_bit_names[STATUS_BITS] = {
     "status.link_up", "status.data_fresh", "status.write_fault", "status.writer_present"};

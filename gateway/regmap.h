@@ -54,8 +54,10 @@ typedef struct {
     bool write_fault;         /* single writer's watchdog expired (latched) */
     bool writer_present;
     uint16_t config_generation;
-    uint16_t rtu_crc_errors;  /* Modbus RTU lines of this robot: frames dropped */
-    uint16_t rtu_other;       /* ... and frames for other slave addresses */
+    /* Modbus RTU lines of this robot: frames dropped (bad CRC, short,
+     * long) and frames for other slave addresses; IR 31 shows the low
+     * byte of each (the status block has no other free register). */
+    uint32_t rtu_dropped, rtu_other;
 } gw_status_t;
 
 /* One robot as Modbus sees it. */

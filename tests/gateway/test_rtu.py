@@ -145,6 +145,8 @@ def pymodbus_rtu(path):
 
 
 def test_reads_of_both_robots(gw):
+    # t3.5 at 9600 baud, 11 bits a character: 3.5 x 11 / 9600 s
+    assert "(9600 8N2, 2 robot(s), t3.5 4010 us)" in gw.log()
     m = gw.raw_rtu
     for slave in (R0, R1):
         assert m.read(4, 32, 8, slave)[:3] == [0x1234, 0x1234, 0x5678]
@@ -201,9 +203,10 @@ def test_exceptions_as_on_tcp(gw):
 
 
 def counters(g, unit=1):
-    """IR 40, 41: frames dropped, frames for other slaves (TCP)."""
-    with g.raw() as m:
-        return tuple(m.read(4, 40, 2, unit=unit))
+    """IR 31 (over TCP): frames dropped (high byte), frames for other
+    slaves (low byte), each wrapping at 256."""
+    ir31 = g.status(unit)[31]
+    return ir31 >> 8, ir31 & 0xFF
 
 
 def test_bad_crc_dropped_silently_and_counted(gw):
@@ -213,7 +216,7 @@ def test_bad_crc_dropped_silently_and_counted(gw):
     m.drain()
     m.send(frame + bytes([crc16(frame)[0] ^ 0xFF, crc16(frame)[1]]))
     assert m.recv(0.5) == b""
-    wait_for(lambda: counters(gw)[0] == (crc0 + 1) & 0xFFFF, 5, "IR 40 + 1")
+    wait_for(lambda: counters(gw)[0] == (crc0 + 1) & 0xFF, 5, "IR 31 high byte + 1")
     assert m.read(4, 32, 1, R0) == [0x1234]  # the line still works
 
 
@@ -224,7 +227,7 @@ def test_other_slave_ignored_and_counted(gw):
     frame = bytes([9, 4, 0, 32, 0, 1])
     m.send(frame + crc16(frame))
     assert m.recv(0.5) == b""
-    wait_for(lambda: counters(gw)[1] == (other0 + 1) & 0xFFFF, 5, "IR 41 + 1")
+    wait_for(lambda: counters(gw)[1] == (other0 + 1) & 0xFF, 5, "IR 31 low byte + 1")
     # robot r1 counts the same line
     assert counters(gw, 2)[1] == counters(gw)[1]
 
@@ -254,7 +257,7 @@ def test_t35_gap_splits_a_frame(gw):
     time.sleep(0.4)  # 100 x t3.5 at 9600 baud
     m.send(frame[3:])
     assert m.recv(0.5) == b"", "a frame split by a silence was answered"
-    wait_for(lambda: (counters(gw)[0] - crc0) & 0xFFFF == 2, 5, "two broken frames")
+    wait_for(lambda: (counters(gw)[0] - crc0) & 0xFF == 2, 5, "two broken frames")
     # written at once: one frame
     m.send(frame)
     rsp = m.recv(5)
@@ -325,6 +328,7 @@ def test_rs485_refusal_reported():
         try:
             g.start()
             g.log_wait("refuses RS-485 mode (TIOCSRS485")
+            assert "t3.5 1750 us" in g.log()  # fixed above 19200 baud
             m = RawRtu(master)
             assert m.read(4, 32, 1, 1) == [0x1234]
             m.close()
@@ -344,3 +348,38 @@ def test_missing_port_is_a_startup_error():
         assert "modbus_rtu l: cannot open /dev/nonexistent-tty" in g.log()
     finally:
         sim.kill()
+
+
+def test_reload_moves_a_slave_address_and_keeps_unchanged_lines():
+    """SIGHUP: line l2 changes (r0 from 1 to 7) and is opened again; line
+    l1 is unchanged and keeps its port (no 'closing' for it)."""
+    sim = Drsim("rtu-reload").start()
+    with pty_pair("rtu-reload-1") as (dev1, m1), pty_pair("rtu-reload-2") as (dev2, m2):
+        # 8N2: a pty refuses a second tcsetattr with even parity (EINVAL),
+        # and a changed line is opened again before the old one closes
+        line1 = "\n[modbus_rtu l1]\ndevice = %s\nbaud = %d\n" % (dev1, BAUD)
+        line2 = "\n[modbus_rtu l2]\ndevice = %s\nbaud = %d\nparity = none\nstop_bits = 2\n" \
+                "robots = r0%s\n"
+        g = Gateway("rtu-reload", sim, extra=line1 + line2 % (dev2, BAUD, ""))
+        try:
+            g.start()
+            a, b = RawRtu(m1), RawRtu(m2)
+            assert b.read(4, 32, 1, 1) == [0x1234]
+            g.extra = line1 + line2 % (dev2, BAUD, ":7")
+            g.write_config(g.config_text())
+            mark = len(g.log())
+            g.signal(__import__("signal").SIGHUP)
+            g.log_wait("reloaded (generation 1)", start=mark)
+            assert "closing %s" % dev2 in g.log()[mark:]
+            assert "closing %s" % dev1 not in g.log()[mark:]
+            assert b.read(4, 32, 1, 7) == [0x1234]
+            b.drain()
+            frame = bytes([1, 4, 0, 32, 0, 1])
+            b.send(frame + crc16(frame))
+            assert b.recv(0.5) == b""  # 1 is no longer on l2
+            assert a.read(4, 32, 1, 1) == [0x1234]  # l1 as before
+            a.close()
+            b.close()
+        finally:
+            g.kill()
+            sim.kill()
