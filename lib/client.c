@@ -7,20 +7,25 @@
  * The session (TCP) and each Class 1 connection have their own state;
  * explicit requests are matched to replies by the 8-byte sender context.
  */
-#include <stdlib.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "drgate/client.h"
 
-#define MAX_REQS 8
-#define TX_BUF 2048
-#define UDP_BUF 600
-#define RX_BATCH 8 /* datagrams per receive call */
+/* The bounds, all from drgate/config.h. */
+#define MAX_REQS DR_CLIENT_MAX_REQS
+#define TX_BUF DR_CLIENT_TX_BUF
+#define UDP_BUF DR_CLIENT_UDP_BUF
+#define RX_BATCH DR_CLIENT_RX_BATCH /* datagrams per receive call */
 #define FO_TIMEOUT_MULT_DEFAULT 2 /* x16 */
 #define FIRST_PACKET_GRACE_US 2000000u /* first T->O may lag the open */
 #define CLOSE_WAIT_US 500000u
 
 typedef enum { S_IDLE, S_CONNECTING, S_REGISTERING, S_READY, S_BACKOFF } sess_t;
+
+/* A close in progress (dr_client_close_start): Forward Closes answered,
+ * then UnRegisterSession sent, then the peer's close awaited. */
+typedef enum { CL_NONE, CL_FWD, CL_UNREG, CL_DRAIN } close_t;
 
 typedef enum { R_USER, R_ASYNC, R_FWD_OPEN, R_FWD_CLOSE, R_LIST_IDENTITY } req_kind_t;
 
@@ -41,7 +46,7 @@ typedef struct {
 /* The Class 1 UDP socket. Every client has one of its own, unless the
  * application shares one between clients (several robots, one port 2222):
  * datagrams are then handed to the client whose connection ID they carry. */
-#define UDP_PORT_MAX_CLIENTS 16
+#define UDP_PORT_MAX_CLIENTS DR_UDP_PORT_MAX_CLIENTS
 struct dr_udp_port {
     dr_transport_t tp;
     int h;
@@ -79,13 +84,15 @@ struct dr_conn {
 
 struct dr_client {
     dr_client_config_t cfg;
-    char host[256];
+    char host[DR_CLIENT_HOST_MAX];
     dr_transport_t tp;
     int tcp, timer;
     dr_udp_port_t own_udp;  /* used unless the config shares one */
     dr_udp_port_t *udp;     /* the port this client sends and receives on */
     sess_t state;
     bool started; /* reconnect by itself */
+    close_t closing;
+    uint64_t close_deadline;
     uint32_t session;
     dr_status_t sess_error;
     dr_sockaddr_t peer;
@@ -152,13 +159,57 @@ const char *dr_conn_state_name(dr_conn_state_t s)
 
 static void close_handle(dr_client_t *c, int *h);
 
-dr_client_t *dr_client_new(const dr_client_config_t *cfg)
+/* Storage handed to dr_client_init / dr_udp_port_init must hold the
+ * structure and be aligned like the public storage unions (C99 has no
+ * _Static_assert: a negative array size stops the build instead). */
+typedef char client_fits_storage[sizeof(struct dr_client) <= DR_CLIENT_STORAGE_SIZE ? 1 : -1];
+typedef char port_fits_storage[sizeof(struct dr_udp_port) <= DR_UDP_PORT_STORAGE_SIZE ? 1 : -1];
+struct client_align { char c; dr_client_storage_t s; };
+struct port_align { char c; dr_udp_port_storage_t s; };
+
+static bool storage_ok(const void *storage, size_t size, size_t need, size_t align)
 {
-    if (cfg == NULL || cfg->host == NULL || strlen(cfg->host) >= 256)
-        return NULL;
-    dr_client_t *c = calloc(1, sizeof *c);
-    if (c == NULL)
-        return NULL;
+    return storage != NULL && size >= need && (uintptr_t)storage % align == 0;
+}
+
+size_t dr_client_size(void)
+{
+    return sizeof(struct dr_client);
+}
+
+size_t dr_udp_port_size(void)
+{
+    return sizeof(struct dr_udp_port);
+}
+
+/* The calls every transport must have; the others may be NULL. */
+static bool transport_ok(dr_transport_t tp)
+{
+    const dr_transport_ops_t *o = tp.ops;
+    return o != NULL && o->resolve != NULL && o->tcp_connect != NULL &&
+           o->tcp_finish != NULL && o->tcp_send != NULL && o->tcp_recv != NULL &&
+           o->udp_open != NULL && o->udp_send != NULL && o->udp_recv != NULL &&
+           o->close != NULL && o->now_us != NULL &&
+           (o->timer_open == NULL) == (o->timer_arm == NULL);
+}
+
+static dr_client_t *init_fail(dr_status_t *err, dr_status_t st)
+{
+    if (err != NULL)
+        *err = st;
+    return NULL;
+}
+
+dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t *cfg,
+                            dr_status_t *err)
+{
+    if (cfg == NULL || cfg->host == NULL || strlen(cfg->host) >= DR_CLIENT_HOST_MAX ||
+        !transport_ok(cfg->transport) ||
+        !storage_ok(storage, size, sizeof(struct dr_client),
+                    offsetof(struct client_align, s)))
+        return init_fail(err, DR_EINVAL);
+    dr_client_t *c = storage;
+    memset(c, 0, sizeof *c);
     c->cfg = *cfg;
     memcpy(c->host, cfg->host, strlen(cfg->host) + 1);
     c->cfg.host = c->host;
@@ -173,10 +224,7 @@ dr_client_t *dr_client_new(const dr_client_config_t *cfg)
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (c->cfg.instance[a] == 0)
             c->cfg.instance[a] = DR_ASM_DEFAULT_INSTANCE(a);
-    if (c->cfg.transport.ops == NULL)
-        c->tp = dr_transport_posix();
-    else
-        c->tp = c->cfg.transport;
+    c->tp = c->cfg.transport;
     c->tcp = c->timer = -1;
     c->own_udp.h = -1;
     c->own_udp.tp = c->tp;
@@ -193,25 +241,24 @@ dr_client_t *dr_client_new(const dr_client_config_t *cfg)
     c->next_t2o_cid = ((uint32_t)(t << 8) | 0x01000000u) + (++salt << 20);
     c->backoff_ms = c->cfg.backoff_min_ms;
     c->step = "";
+    dr_status_t st;
     if (cfg->local_addr != NULL &&
-        c->tp.ops->resolve(c->tp.ctx, cfg->local_addr, &c->local_udp_addr) != DR_OK) {
-        free(c);
-        return NULL;
-    }
-    if (c->tp.ops->timer_open(c->tp.ctx, &c->timer) != DR_OK) {
-        free(c);
-        return NULL;
-    }
+        (st = c->tp.ops->resolve(c->tp.ctx, cfg->local_addr, &c->local_udp_addr)) != DR_OK)
+        return init_fail(err, st);
+    if (c->tp.ops->timer_open != NULL &&
+        (st = c->tp.ops->timer_open(c->tp.ctx, &c->timer)) != DR_OK)
+        return init_fail(err, st);
     if (cfg->shared_udp != NULL) {
         dr_udp_port_t *p = cfg->shared_udp;
         if (p->nclients == UDP_PORT_MAX_CLIENTS) {
             close_handle(c, &c->timer);
-            free(c);
-            return NULL;
+            return init_fail(err, DR_EFULL);
         }
         p->clients[p->nclients++] = c;
         c->udp = p;
     }
+    if (err != NULL)
+        *err = DR_OK;
     return c;
 }
 
@@ -225,7 +272,7 @@ static void close_handle(dr_client_t *c, int *h)
     *h = -1;
 }
 
-void dr_client_free(dr_client_t *c)
+void dr_client_deinit(dr_client_t *c)
 {
     if (c == NULL)
         return;
@@ -237,7 +284,6 @@ void dr_client_free(dr_client_t *c)
             if (p->clients[i] == c)
                 p->clients[i] = p->clients[--p->nclients];
     }
-    free(c);
 }
 
 uint16_t dr_client_instance(const dr_client_t *c, dr_asm_t a)
@@ -490,8 +536,12 @@ static void send_register(dr_client_t *c)
         session_fail(c, st);
 }
 
+static void close_finish(dr_client_t *c);
+
 dr_status_t dr_client_start(dr_client_t *c)
 {
+    if (c->closing != CL_NONE)
+        close_finish(c); /* started again before the close ended */
     c->started = true;
     for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
         if (c->conns[i].used && c->conns[i].state == DR_CONN_CLOSED) {
@@ -1094,28 +1144,27 @@ static void read_udp(dr_udp_port_t *p, uint64_t t)
         }
         return;
     }
-    uint8_t buf[UDP_BUF];
     for (unsigned n = 0; p->h >= 0 && n < 1000; n++) {
         size_t got;
         dr_sockaddr_t from;
-        dr_status_t st = p->tp.ops->udp_recv(p->tp.ctx, p->h, buf, sizeof buf, &got, &from);
+        dr_status_t st = p->tp.ops->udp_recv(p->tp.ctx, p->h, p->rx[0], UDP_BUF, &got, &from);
         if (st == DR_EAGAIN)
             return;
         if (st == DR_OK)
-            on_datagram(p, buf, got, t);
+            on_datagram(p, p->rx[0], got, t);
     }
 }
 
-dr_udp_port_t *dr_udp_port_new(const char *local_addr, uint16_t port,
-                               dr_transport_t tp, dr_status_t *err)
+dr_udp_port_t *dr_udp_port_init(void *storage, size_t size, const char *local_addr,
+                                uint16_t port, dr_transport_t tp, dr_status_t *err)
 {
     dr_status_t st = DR_EINVAL;
-    dr_udp_port_t *p = calloc(1, sizeof *p);
-    if (p == NULL) {
-        st = DR_EFULL;
+    dr_udp_port_t *p = storage;
+    if (!transport_ok(tp) ||
+        !storage_ok(storage, size, sizeof *p, offsetof(struct port_align, s)))
         goto fail;
-    }
-    p->tp = tp.ops != NULL ? tp : dr_transport_posix();
+    memset(p, 0, sizeof *p);
+    p->tp = tp;
     p->h = -1;
     p->shared = true;
     p->local.port = port != 0 ? port : DR_ENIP_UDP_PORT;
@@ -1124,26 +1173,32 @@ dr_udp_port_t *dr_udp_port_new(const char *local_addr, uint16_t port,
         goto fail;
     if ((st = p->tp.ops->udp_open(p->tp.ctx, p->local, &p->h)) != DR_OK)
         goto fail;
+    if (err != NULL)
+        *err = DR_OK;
     return p;
 fail:
-    free(p);
     if (err != NULL)
         *err = st;
     return NULL;
 }
 
-void dr_udp_port_free(dr_udp_port_t *p)
+void dr_udp_port_deinit(dr_udp_port_t *p)
 {
-    if (p == NULL)
-        return;
-    if (p->h >= 0)
+    if (p != NULL && p->h >= 0)
         p->tp.ops->close(p->tp.ctx, p->h);
-    free(p);
+    if (p != NULL)
+        p->h = -1;
+}
+
+/* The descriptor of a handle, -1 when the transport has none. */
+static int fd_of(dr_transport_t tp, int h)
+{
+    return h >= 0 && tp.ops->fd != NULL ? tp.ops->fd(tp.ctx, h) : -1;
 }
 
 int dr_udp_port_fd(const dr_udp_port_t *p)
 {
-    return p->tp.ops->fd(p->tp.ctx, p->h);
+    return fd_of(p->tp, p->h);
 }
 
 /* Re-arm only when the deadline moved; with none left, disarm, so an
@@ -1151,7 +1206,7 @@ int dr_udp_port_fd(const dr_udp_port_t *p)
 static void rearm(dr_client_t *c)
 {
     uint64_t d = dr_client_next_deadline(c);
-    if (c->timer_polled && d != c->armed) {
+    if (c->timer_polled && c->timer >= 0 && d != c->armed) {
         c->tp.ops->timer_arm(c->tp.ctx, c->timer, d);
         c->armed = d;
     }
@@ -1198,7 +1253,7 @@ static void session_timers(dr_client_t *c, uint64_t t)
 
 uint64_t dr_client_next_deadline(const dr_client_t *c)
 {
-    uint64_t d = UINT64_MAX;
+    uint64_t d = c->closing != CL_NONE ? c->close_deadline : UINT64_MAX;
     if (c->state == S_CONNECTING || c->state == S_REGISTERING)
         d = c->sess_deadline;
     else if (c->state == S_BACKOFF && c->started)
@@ -1216,6 +1271,8 @@ uint64_t dr_client_next_deadline(const dr_client_t *c)
     return d;
 }
 
+static void close_step(dr_client_t *c, uint64_t t);
+
 static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
 {
     uint64_t t = now_us(c);
@@ -1231,6 +1288,8 @@ static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
         if (c->conns[i].used)
             conn_timers(&c->conns[i], t);
     flush_io(c);
+    if (c->closing != CL_NONE)
+        close_step(c, t);
     rearm(c);
 }
 
@@ -1243,10 +1302,9 @@ dr_status_t dr_client_process(dr_client_t *c)
 dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n)
 {
     bool tcp = c->tcp >= 0 && c->tx_len > 0, udp = false;
-    int tcp_fd = c->tcp >= 0 ? c->tp.ops->fd(c->tp.ctx, c->tcp) : -1;
-    int udp_fd = c->udp->h >= 0 ? c->tp.ops->fd(c->tp.ctx, c->udp->h) : -1;
+    int tcp_fd = fd_of(c->tp, c->tcp), udp_fd = fd_of(c->tp, c->udp->h);
     for (int i = 0; i < n; i++) {
-        if (fds[i].revents == 0)
+        if (fds[i].revents == 0 || fds[i].fd < 0)
             continue;
         if (fds[i].fd == tcp_fd)
             tcp = true;
@@ -1261,9 +1319,10 @@ int dr_client_pollfds(dr_client_t *c, dr_pollfd_t *fds, int max)
 {
     /* From now on the timer fd is in someone's poll set and must be armed;
      * the *_sync calls alone wait with a deadline and do not need it. */
-    if (!c->timer_polled) {
+    if (c->tp.ops->fd == NULL)
+        return 0; /* the application drives us by dr_client_next_deadline */
+    if (!c->timer_polled && c->timer >= 0) {
         c->timer_polled = true;
-        c->armed = 0; /* force arming at the next process */
         c->tp.ops->timer_arm(c->tp.ctx, c->timer, dr_client_next_deadline(c));
         c->armed = dr_client_next_deadline(c);
     }
@@ -1291,6 +1350,13 @@ int dr_client_pollfds(dr_client_t *c, dr_pollfd_t *fds, int max)
     return n;
 }
 
+/* The blocking calls need the transport's wait: without it, they would
+ * spin on the clock. */
+static bool can_wait(const dr_client_t *c)
+{
+    return c->tp.ops->wait != NULL;
+}
+
 /* Wait for any of our handles, at most until `deadline`, then process. */
 static void wait_and_process(dr_client_t *c, uint64_t deadline)
 {
@@ -1314,6 +1380,8 @@ static void wait_and_process(dr_client_t *c, uint64_t deadline)
 
 dr_status_t dr_client_run_once(dr_client_t *c, int timeout_ms)
 {
+    if (!can_wait(c))
+        return DR_EINVAL;
     wait_and_process(c, now_us(c) + (uint64_t)(timeout_ms < 0 ? 0 : timeout_ms) * 1000u);
     return DR_OK;
 }
@@ -1324,6 +1392,8 @@ dr_status_t dr_client_connect_sync(dr_client_t *c)
 {
     if (c->state == S_READY)
         return DR_OK;
+    if (!can_wait(c) || c->closing != CL_NONE)
+        return c->closing != CL_NONE ? DR_ESESSION : DR_EINVAL;
     dr_status_t st = begin_session(c);
     if (st != DR_OK)
         return st;
@@ -1357,8 +1427,10 @@ static dr_status_t start_call(dr_client_t *c, req_kind_t kind, uint8_t service,
                               const uint8_t *path, size_t path_len,
                               const uint8_t *data, size_t data_len, req_t **out)
 {
-    if (c->state != S_READY)
+    if (c->state != S_READY || c->closing != CL_NONE)
         return DR_ESESSION;
+    if (kind == R_USER && !can_wait(c))
+        return DR_EINVAL;
     uint8_t msg[DR_ENCAP_MAX_LEN];
     dr_wr_t w;
     dr_wr_init(&w, msg, sizeof msg);
@@ -1494,8 +1566,10 @@ dr_status_t dr_client_identity_sync(dr_client_t *c, dr_identity_t *id)
 
 dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id)
 {
-    if (c->tcp < 0 || c->state == S_CONNECTING)
+    if (c->tcp < 0 || c->state == S_CONNECTING || c->closing != CL_NONE)
         return DR_ESESSION;
+    if (!can_wait(c))
+        return DR_EINVAL;
     req_t *r = req_alloc(c, R_LIST_IDENTITY);
     if (r == NULL)
         return DR_EFULL;
@@ -1525,8 +1599,52 @@ static bool fwd_close_pending(const dr_client_t *c)
     return false;
 }
 
-void dr_client_close(dr_client_t *c)
+/* The end of a close: whatever is still open goes, at once. */
+static void close_finish(dr_client_t *c)
 {
+    complete_all(c, DR_ECLOSED);
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        c->reqs[i].active = false;
+    close_handle(c, &c->tcp);
+    if (!c->udp->shared)
+        close_handle(c, &c->udp->h);
+    c->state = S_IDLE;
+    c->closing = CL_NONE;
+    c->tx_len = c->rx_len = 0;
+}
+
+/* One step of a close, from the loop: every phase ends when its work is
+ * done or at its deadline, so a silent peer cannot hold the close. */
+static void close_step(dr_client_t *c, uint64_t t)
+{
+    if (c->closing == CL_FWD) {
+        if (c->tcp >= 0 && fwd_close_pending(c) && t < c->close_deadline)
+            return;
+        if (c->state != S_READY) {
+            close_finish(c);
+            return;
+        }
+        /* UnRegisterSession, then let the peer close the connection. */
+        (void)send_encap(c, DR_ENCAP_UNREGISTER_SESSION, 0, NULL, 0);
+        uint64_t wait = (uint64_t)c->cfg.timeout_ms * 1000u;
+        c->close_deadline = t + (wait < CLOSE_WAIT_US ? wait : CLOSE_WAIT_US);
+        c->closing = CL_UNREG;
+    }
+    if (c->closing == CL_UNREG) {
+        if (c->tcp >= 0 && c->tx_len > 0 && t < c->close_deadline)
+            return;
+        c->state = S_IDLE; /* a close by the peer is now expected */
+        c->closing = CL_DRAIN;
+    }
+    /* CL_DRAIN: the peer's close (read_tcp sees it) or the deadline. */
+    if (c->tcp < 0 || t >= c->close_deadline)
+        close_finish(c);
+}
+
+void dr_client_close_start(dr_client_t *c)
+{
+    if (c->closing != CL_NONE)
+        return;
     c->started = false;
     for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++) {
         dr_conn_t *cn = &c->conns[i];
@@ -1536,34 +1654,21 @@ void dr_client_close(dr_client_t *c)
             send_forward_close(cn);
         conn_set_state(cn, DR_CONN_CLOSED, DR_OK); /* dr_client_start reopens */
     }
-    uint64_t deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
-    while (c->tcp >= 0 && fwd_close_pending(c) && now_us(c) < deadline)
-        wait_and_process(c, deadline);
-    if (c->state == S_READY) {
-        /* UnRegisterSession, then let the peer close the connection. */
-        (void)send_encap(c, DR_ENCAP_UNREGISTER_SESSION, 0, NULL, 0);
-        uint64_t wait = (uint64_t)c->cfg.timeout_ms * 1000u;
-        deadline = now_us(c) + (wait < CLOSE_WAIT_US ? wait : CLOSE_WAIT_US);
-        while (c->tcp >= 0 && c->tx_len > 0 && now_us(c) < deadline)
-            wait_and_process(c, deadline);
-        c->state = S_IDLE; /* a close by the peer is now expected */
-        while (c->tcp >= 0 && now_us(c) < deadline) {
-            int h = c->tcp;
-            bool out = false;
-            c->tp.ops->wait(c->tp.ctx, &h, &out, 1, deadline);
-            uint8_t tmp[64];
-            size_t got;
-            dr_status_t st = c->tp.ops->tcp_recv(c->tp.ctx, c->tcp, tmp, sizeof tmp, &got);
-            if (st != DR_OK && st != DR_EAGAIN)
-                break;
-        }
-    }
-    complete_all(c, DR_ECLOSED);
-    for (unsigned i = 0; i < MAX_REQS; i++)
-        c->reqs[i].active = false;
-    close_handle(c, &c->tcp);
-    if (!c->udp->shared)
-        close_handle(c, &c->udp->h);
-    c->state = S_IDLE;
-    c->tx_len = c->rx_len = 0;
+    c->closing = CL_FWD;
+    c->close_deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
+    close_step(c, now_us(c));
+}
+
+bool dr_client_closed(const dr_client_t *c)
+{
+    return c->closing == CL_NONE && c->tcp < 0 && !c->started;
+}
+
+void dr_client_close(dr_client_t *c)
+{
+    dr_client_close_start(c);
+    while (c->closing != CL_NONE && can_wait(c))
+        wait_and_process(c, c->close_deadline);
+    if (c->closing != CL_NONE)
+        close_finish(c); /* no wait in the transport: what is sent is sent */
 }

@@ -14,10 +14,9 @@ dr_status_t dr_discover(const char *target, uint16_t port, uint32_t timeout_ms,
                         dr_transport_t tp, dr_discover_cb found, void *user,
                         unsigned *count)
 {
-    if (target == NULL || found == NULL)
+    /* It blocks, so it needs the transport's wait. */
+    if (target == NULL || found == NULL || tp.ops == NULL || tp.ops->wait == NULL)
         return DR_EINVAL;
-    if (tp.ops == NULL)
-        tp = dr_transport_posix();
     if (count != NULL)
         *count = 0;
     dr_sockaddr_t to = {0, port != 0 ? port : DR_ENIP_TCP_PORT};

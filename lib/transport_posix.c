@@ -126,27 +126,6 @@ static dr_status_t px_tcp_recv(void *ctx, int h, uint8_t *buf, size_t cap,
     return DR_OK;
 }
 
-static dr_status_t px_tcp_addrs(void *ctx, int h, dr_sockaddr_t *local,
-                                dr_sockaddr_t *peer)
-{
-    (void)ctx;
-    struct sockaddr_in sin;
-    socklen_t len = sizeof sin;
-    memset(&sin, 0, sizeof sin); /* see px_udp_recv */
-    if (local != NULL) {
-        if (getsockname(h, (struct sockaddr *)&sin, &len) < 0)
-            return DR_EIO;
-        *local = from_sin(&sin);
-    }
-    len = sizeof sin;
-    if (peer != NULL) {
-        if (getpeername(h, (struct sockaddr *)&sin, &len) < 0)
-            return DR_EIO;
-        *peer = from_sin(&sin);
-    }
-    return DR_OK;
-}
-
 static dr_status_t px_udp_open(void *ctx, dr_sockaddr_t local, int *h)
 {
     (void)ctx;
@@ -324,9 +303,9 @@ static dr_status_t px_udp_recv_batch(void *ctx, int h, dr_udp_msg_t *m,
 
 static const dr_transport_ops_t posix_ops = {
     px_resolve,  px_tcp_connect, px_tcp_finish, px_tcp_send,
-    px_tcp_recv, px_tcp_addrs,   px_udp_open,   px_udp_send,
-    px_udp_recv, px_timer_open,  px_timer_arm,  px_close,
-    px_now_us,   px_fd,          px_wait,
+    px_tcp_recv, px_udp_open,    px_udp_send,   px_udp_recv,
+    px_timer_open, px_timer_arm, px_close,      px_now_us,
+    px_fd,       px_wait,
     px_udp_send_batch, px_udp_recv_batch,
 };
 

@@ -297,16 +297,6 @@ static dr_status_t f_tcp_recv(void *ctx, int h, uint8_t *buf, size_t cap, size_t
     return DR_OK;
 }
 
-static dr_status_t f_tcp_addrs(void *ctx, int h, dr_sockaddr_t *local, dr_sockaddr_t *peer)
-{
-    (void)ctx, (void)h;
-    if (local != NULL)
-        *local = (dr_sockaddr_t){0x7F000001u, 40000};
-    if (peer != NULL)
-        *peer = (dr_sockaddr_t){PEER_ADDR, DR_ENIP_TCP_PORT};
-    return DR_OK;
-}
-
 static dr_status_t f_udp_open(void *ctx, dr_sockaddr_t local, int *h)
 {
     fake_t *f = ctx;
@@ -430,12 +420,12 @@ static dr_status_t f_wait(void *ctx, const int *h, const bool *want_out, int n,
 }
 
 static const dr_transport_ops_t fake_ops = {
-    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv, f_tcp_addrs,
+    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
     f_now,      f_fd,          f_wait,       NULL,         NULL};
 
 static const dr_transport_ops_t fake_batch_ops = {
-    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv, f_tcp_addrs,
+    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
     f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch};
 
@@ -1333,6 +1323,186 @@ static void test_class1_follow(void **state)
     dr_udp_port_free(p);
 }
 
+/* ---- firmware: static storage, no descriptors, non-blocking close ------------------ */
+
+/* dr_client_init / dr_udp_port_init in caller storage: the storage and the
+ * transport are checked, the client lives in the storage given. */
+static void test_init_static(void **state)
+{
+    (void)state;
+    static dr_client_storage_t st;
+    static dr_udp_port_storage_t pst;
+    dr_status_t err = DR_OK;
+    dr_client_config_t cfg = config(&fake_ops);
+    assert_true(dr_client_size() <= sizeof st);
+    assert_true(dr_udp_port_size() <= sizeof pst);
+    assert_null(dr_client_init(&st, dr_client_size() - 1, &cfg, &err));
+    assert_int_equal(err, DR_EINVAL);
+    assert_null(dr_client_init(st.bytes + 1, sizeof st - 1, &cfg, &err)); /* misaligned */
+    assert_int_equal(err, DR_EINVAL);
+    assert_null(dr_client_init(NULL, sizeof st, &cfg, &err));
+    cfg.transport.ops = NULL; /* only dr_client_new defaults to POSIX */
+    assert_null(dr_client_init(&st, sizeof st, &cfg, &err));
+    assert_int_equal(err, DR_EINVAL);
+    dr_transport_ops_t ops = fake_ops;
+    ops.tcp_send = NULL; /* a required call missing */
+    cfg.transport.ops = &ops;
+    assert_null(dr_client_init(&st, sizeof st, &cfg, &err));
+    ops = fake_ops;
+    ops.timer_arm = NULL; /* a timer that cannot be armed */
+    assert_null(dr_client_init(&st, sizeof st, &cfg, &err));
+    assert_int_equal(err, DR_EINVAL);
+    cfg.transport.ops = &fake_ops;
+    F.timer_st = DR_EIO;
+    assert_null(dr_client_init(&st, sizeof st, &cfg, &err));
+    assert_int_equal(err, DR_EIO);
+    F.timer_st = DR_OK;
+    dr_client_t *c = dr_client_init(&st, sizeof st, &cfg, &err);
+    assert_ptr_equal(c, (void *)&st);
+    assert_int_equal(err, DR_OK);
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    dr_client_deinit(c);
+    assert_int_equal(F.unregister, 1);
+
+    dr_transport_t tp = {NULL, NULL};
+    assert_null(dr_udp_port_init(&pst, sizeof pst, NULL, 0, tp, &err));
+    assert_int_equal(err, DR_EINVAL);
+    tp.ops = &fake_ops;
+    tp.ctx = &F;
+    assert_null(dr_udp_port_init(&pst, dr_udp_port_size() - 1, NULL, 0, tp, &err));
+    assert_int_equal(err, DR_EINVAL);
+    dr_udp_port_t *p = dr_udp_port_init(&pst, sizeof pst, NULL, 0, tp, &err);
+    assert_ptr_equal(p, (void *)&pst);
+    cfg.shared_udp = p;
+    c = dr_client_init(&st, sizeof st, &cfg, &err);
+    assert_non_null(c);
+    dr_client_deinit(c);
+    dr_udp_port_deinit(p);
+}
+
+/* The fake's transport as firmware may have it: no fd, no wait, no timer. */
+static const dr_transport_ops_t fake_bare_ops = {
+    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
+    f_udp_open, f_udp_send,    f_udp_recv,   NULL,         NULL,       f_close,
+    f_now,      NULL,          NULL,         NULL,         NULL};
+
+typedef struct {
+    unsigned calls;
+    dr_status_t st;
+    size_t len;
+} call_log_t;
+
+static void on_call(dr_client_t *c, dr_status_t st, const uint8_t *data, size_t len,
+                    void *user)
+{
+    call_log_t *l = user;
+    (void)c, (void)data;
+    l->calls++;
+    l->st = st;
+    l->len = len;
+}
+
+/* The application's loop: the clock jumps to the client's next deadline
+ * (at most 1 ms on: sockets may have data sooner), then process. */
+static void drive(dr_client_t *c, unsigned ms)
+{
+    uint64_t end = F.now + (uint64_t)ms * 1000u;
+    while (F.now < end) {
+        uint64_t d = dr_client_next_deadline(c);
+        F.now = d > F.now && d < F.now + 1000u ? d : F.now + 1000u;
+        assert_int_equal(dr_client_process(c), DR_OK);
+    }
+}
+
+/* Driven by dr_client_next_deadline + dr_client_process only: the blocking
+ * calls refuse, the async ones, Class 1 and the close work. */
+static void test_no_descriptors(void **state)
+{
+    (void)state;
+    static dr_client_storage_t st;
+    conn_log_t log;
+    call_log_t call;
+    memset(&log, 0, sizeof log);
+    memset(&call, 0, sizeof call);
+    dr_client_config_t cfg = config(&fake_bare_ops);
+    dr_client_t *c = dr_client_init(&st, sizeof st, &cfg, NULL);
+    assert_non_null(c);
+    dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
+    assert_int_equal(dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS), 0);
+    assert_int_equal(dr_client_connect_sync(c), DR_EINVAL);
+    assert_int_equal(dr_client_run_once(c, 1), DR_EINVAL);
+    dr_transport_t tp = {&fake_bare_ops, &F};
+    assert_int_equal(dr_discover("robot", 0, 10, tp, NULL, NULL, NULL), DR_EINVAL);
+    dr_conn_config_t cc = conn_config(&log);
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_int_equal(dr_client_start(c), DR_OK);
+    drive(c, 5);
+    assert_true(dr_client_ready(c));
+    uint8_t buf[64];
+    assert_int_equal(dr_client_get_attr_sync(c, 4, 101, 3, buf, sizeof buf, NULL), DR_EINVAL);
+    uint8_t path[12];
+    dr_wr_t w;
+    dr_wr_init(&w, path, sizeof path);
+    dr_epath_write(&w, DR_CIP_CLASS_ASSEMBLY, 101, DR_CIP_ASM_ATTR_DATA);
+    assert_int_equal(dr_client_call_async(c, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, path, w.len,
+                                          NULL, 0, on_call, &call), DR_OK);
+    drive(c, 2);
+    assert_int_equal(call.calls, 1);
+    assert_int_equal(call.st, DR_OK);
+    assert_int_equal(call.len, 36);
+    /* Class 1: open, data in, O->T out on the deadlines */
+    drive(c, 5);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    unsigned sent = F.udp_sent;
+    push_t2o(F.t2o_cid, 1, 96);
+    drive(c, 30);
+    assert_int_equal(log.data, 1);
+    assert_true(F.udp_sent >= sent + 2);
+    assert_int_equal(dr_conn_stats(cn)->timeouts, 0);
+    /* the close goes through the loop, phase by phase */
+    dr_client_close_start(c);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_CLOSED);
+    assert_int_equal(F.fwd_close, 1);
+    assert_false(dr_client_closed(c));
+    assert_int_equal(dr_client_call_async(c, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, path, w.len,
+                                          NULL, 0, on_call, &call), DR_ESESSION);
+    drive(c, 1); /* the Forward Close reply: UnRegisterSession goes */
+    assert_int_equal(F.unregister, 1);
+    drive(c, 2); /* the peer closes */
+    assert_true(dr_client_closed(c));
+    dr_client_deinit(c);
+    assert_int_equal(F.unregister, 1);
+}
+
+/* A peer that never answers the Forward Close: the close still ends, at
+ * the request timeout and then the 500 ms bound for the peer's close, and
+ * its deadline is the client's next deadline meanwhile. */
+static void test_close_start_silent_peer(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_config_t cfg = config(&fake_bare_ops);
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    dr_conn_config_t cc = conn_config(&log);
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_int_equal(dr_client_start(c), DR_OK);
+    drive(c, 10);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    F.cip = cip_silent;
+    uint64_t t0 = F.now;
+    dr_client_close_start(c);
+    assert_true(dr_client_next_deadline(c) <= t0 + 100000u);
+    drive(c, 90);
+    assert_false(dr_client_closed(c));
+    assert_int_equal(F.unregister, 0);
+    drive(c, 20); /* the 100 ms request timeout passed: UnRegisterSession */
+    assert_int_equal(F.unregister, 1);
+    assert_true(dr_client_closed(c)); /* and the fake peer closed at once */
+    dr_client_free(c);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1353,6 +1523,9 @@ int main(void)
         cmocka_unit_test_setup(test_class1_follow, setup),
         cmocka_unit_test_setup(test_class1_seq_repeat, setup),
         cmocka_unit_test_setup(test_class1_trailing_item, setup),
+        cmocka_unit_test_setup(test_init_static, setup),
+        cmocka_unit_test_setup(test_no_descriptors, setup),
+        cmocka_unit_test_setup(test_close_start_silent_peer, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -601,8 +601,11 @@ static void test_discover_udp(void **state)
     fixture_t *f = *state;
     dr_identity_t id, tcp_id;
     unsigned n = 0;
-    dr_transport_t tp = {NULL, NULL};
+    dr_transport_t tp = dr_transport_posix(), none = {NULL, NULL};
     memset(&id, 0, sizeof id);
+    /* it blocks: a transport (with wait) is required */
+    assert_int_equal(dr_discover(f->sim.address, f->sim.tcp_port, 1000, none, on_found, &id, &n),
+                     DR_EINVAL);
     assert_int_equal(dr_discover(f->sim.address, f->sim.tcp_port, 1000, tp, on_found, &id, &n), DR_OK);
     assert_int_equal(n, 1);
     assert_int_equal(id.sockaddr.addr, 0x7F000002u);

@@ -18,6 +18,7 @@
 #include <stdint.h>
 
 #include "drgate/status.h"
+#include "drgate/transport.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -131,11 +132,8 @@ dr_status_t dr_cpf_parse_reply(const uint8_t *buf, size_t len, dr_cpf_t *cpf,
 /* First item of `type`, NULL if none. */
 const dr_cpf_item_t *dr_cpf_find(const dr_cpf_t *cpf, uint16_t type);
 
-/* Socket address item (0x8000/0x8001): big-endian family, port, address. */
-typedef struct {
-    uint32_t addr; /* IPv4, host order */
-    uint16_t port;
-} dr_sockaddr_t;
+/* Socket address item (0x8000/0x8001): big-endian family, port, address.
+ * dr_sockaddr_t itself is in transport.h. */
 
 dr_status_t dr_cpf_sockaddr_parse(const dr_cpf_item_t *item, dr_sockaddr_t *out);
 

@@ -12,9 +12,30 @@
  * fires at the next deadline, so RPIs hold without a fine poll timeout),
  * then call dr_client_process(). Nothing blocks. The explicit-messaging
  * calls named *_sync run that same loop internally until their reply or
- * their timeout, so Class 1 traffic keeps flowing meanwhile.
+ * their timeout, so Class 1 traffic keeps flowing meanwhile; they need the
+ * transport's wait (DR_EINVAL without it).
  *
- * Memory: dr_client_new() allocates once; nothing allocates afterwards.
+ * Without descriptors (firmware: a transport with no fd, wait or timer),
+ * the application's own loop or RTOS task calls dr_client_process() when
+ * its sockets may have data and no later than dr_client_next_deadline(),
+ * and uses dr_client_call_async() and dr_client_close_start().
+ * docs/firmware.md has an lwIP example.
+ *
+ * Memory: dr_client_init() works in storage the caller provides
+ * (dr_client_storage_t, or DR_CLIENT_STORAGE_SIZE bytes with its
+ * alignment), and nothing allocates afterwards; the bounds are the
+ * compile-time options in drgate/config.h. dr_client_new() is the Linux
+ * convenience that takes the storage from malloc and defaults to the POSIX
+ * transport; it lives with that transport (lib/client_posix.c), which
+ * firmware does not link.
+ *
+ * Threads: a client, its connections and a dr_udp_port_t shared by several
+ * clients belong to one thread (or RTOS task): every call on them, and
+ * every callback they make, happens in that thread. Different clients in
+ * different threads are fine (they share nothing but the transport, which
+ * must then be thread-safe, as sockets are). No call is reentrant from a
+ * callback except where said (dr_conn_remove, dr_conn_set_output and
+ * dr_conn_set_run may be called from the connection callbacks).
  */
 #ifndef DRGATE_CLIENT_H
 #define DRGATE_CLIENT_H
@@ -25,6 +46,7 @@
 
 #include "drgate/cip.h"
 #include "drgate/codec.h"
+#include "drgate/config.h"
 #include "drgate/status.h"
 #include "drgate/transport.h"
 
@@ -32,13 +54,15 @@
 extern "C" {
 #endif
 
-#define DR_CLIENT_MAX_CONNS 16
 #define DR_CLIENT_MAX_FDS 3 /* TCP, UDP, timer */
 
 typedef struct dr_client dr_client_t;
 typedef struct dr_conn dr_conn_t;
 typedef struct dr_udp_port dr_udp_port_t;
 
+/* The configuration is copied by dr_client_init: `host` into the client
+ * (at most DR_CLIENT_HOST_MAX - 1 characters), `local_addr` is resolved
+ * there and not kept; neither needs to outlive the call. */
 typedef struct {
     const char *host;         /* robot address or name */
     uint16_t tcp_port;        /* 0: 44818 */
@@ -53,28 +77,90 @@ typedef struct {
     bool route;               /* wrap requests in Unconnected Send */
     uint32_t backoff_min_ms;  /* reconnect backoff: 0: 100 ms */
     uint32_t backoff_max_ms;  /* 0: 5000 ms */
-    dr_transport_t transport; /* ops NULL: dr_transport_posix() */
+    dr_transport_t transport; /* required by dr_client_init; dr_client_new
+                                 takes ops NULL as dr_transport_posix() */
     dr_udp_port_t *shared_udp; /* NULL: the client opens its own UDP socket
                                   at local_addr:local_udp_port */
 } dr_client_config_t;
 
 /* ---- a Class 1 UDP port shared by several clients --------------------- */
 
+/* Storage for dr_client_init / dr_udp_port_init, as upper bounds computed
+ * from drgate/config.h (the library checks at build time that its
+ * structures fit; dr_client_size() / dr_udp_port_size() give the exact
+ * figure). The unions carry the strictest alignment the structures need
+ * (C99 has no max_align_t): declare one of these, statically or on the
+ * heap, or align raw storage like them. */
+#define DR_UDP_PORT_STORAGE_SIZE                                              \
+    (DR_CLIENT_RX_BATCH * DR_CLIENT_UDP_BUF +                                 \
+     (DR_UDP_PORT_MAX_CLIENTS + 8) * sizeof(void *) + 64)
+#define DR_CLIENT_STORAGE_SIZE                                                \
+    (DR_CLIENT_HOST_MAX + DR_ENCAP_MAX_LEN + DR_CLIENT_TX_BUF +               \
+     DR_UDP_PORT_STORAGE_SIZE + DR_CLIENT_MAX_REQS * (64 + 4 * sizeof(void *)) + \
+     DR_CLIENT_MAX_CONNS * (2 * DR_ASM_MAX_SIZE + DR_CLIENT_UDP_BUF + 208 +   \
+                            8 * sizeof(void *)) +                             \
+     256 + 16 * sizeof(void *))
+
+typedef union {
+    unsigned char bytes[DR_CLIENT_STORAGE_SIZE];
+    uint64_t align_u64;
+    void *align_ptr;
+    void (*align_fn)(void);
+    double align_double;
+    long double align_ldouble;
+} dr_client_storage_t;
+
+typedef union {
+    unsigned char bytes[DR_UDP_PORT_STORAGE_SIZE];
+    uint64_t align_u64;
+    void *align_ptr;
+    void (*align_fn)(void);
+    double align_double;
+    long double align_ldouble;
+} dr_udp_port_storage_t;
+
+/* The exact sizes of the structures in this build of the library. */
+size_t dr_client_size(void);
+size_t dr_udp_port_size(void);
+
+/* ---- a Class 1 UDP port shared by several clients --------------------- */
+
 /* One process talking to several robots needs one UDP port 2222 for all of
  * them: open it here and pass it in each client's config. The application
- * polls dr_udp_port_fd() and calls dr_udp_port_process(), which hands each
- * datagram to the client whose connection it belongs to. Free the clients
- * first. NULL on error (*err: DR_ENOTFOUND, DR_EIO, ...). */
+ * polls dr_udp_port_fd() (-1 if the transport has no fd) and calls
+ * dr_udp_port_process(), which hands each datagram to the client whose
+ * connection it belongs to. Deinit the clients first.
+ * dr_udp_port_init works in `size` bytes at `storage` (aligned like
+ * dr_udp_port_storage_t) and needs a transport; NULL on error (*err:
+ * DR_EINVAL for storage or transport, DR_ENOTFOUND, DR_EIO, ...).
+ * dr_udp_port_new (POSIX only) allocates; transport ops NULL: POSIX. */
+dr_udp_port_t *dr_udp_port_init(void *storage, size_t size, const char *local_addr,
+                                uint16_t port, dr_transport_t transport,
+                                dr_status_t *err);
+void dr_udp_port_deinit(dr_udp_port_t *p);
 dr_udp_port_t *dr_udp_port_new(const char *local_addr, uint16_t port,
                                dr_transport_t transport, dr_status_t *err);
 void dr_udp_port_free(dr_udp_port_t *p);
 int dr_udp_port_fd(const dr_udp_port_t *p);
 dr_status_t dr_udp_port_process(dr_udp_port_t *p);
 
-/* Creates a client; nothing is sent yet. NULL on bad config or no memory
- * (the one allocation). */
+/* Sets up a client in `size` bytes at `storage` (a dr_client_storage_t, or
+ * at least dr_client_size() bytes aligned like it), which must stay in
+ * place until dr_client_deinit. Nothing is sent yet. NULL with *err:
+ * DR_EINVAL (no host, host too long, a transport without its required
+ * calls, storage too small or misaligned), the transport's error for
+ * local_addr or its timer, DR_EFULL (the shared UDP port is full). */
+dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t *cfg,
+                            dr_status_t *err);
+/* Closes everything (dr_client_close) and lets go of the storage and the
+ * shared UDP port. NULL is fine. */
+void dr_client_deinit(dr_client_t *c);
+
+/* Linux convenience (lib/client_posix.c, not in firmware builds): the
+ * storage from malloc, and transport ops NULL meaning dr_transport_posix().
+ * NULL on bad config or no memory. dr_client_free deinits and frees; NULL
+ * is fine. */
 dr_client_t *dr_client_new(const dr_client_config_t *cfg);
-/* Closes everything (dr_client_close) and frees. NULL is fine. */
 void dr_client_free(dr_client_t *c);
 
 /* ---- session and explicit messaging -------------------------------- */
@@ -87,8 +173,20 @@ dr_status_t dr_client_connect_sync(dr_client_t *c);
  * connects, registers, opens its connections and reconnects by itself. */
 dr_status_t dr_client_start(dr_client_t *c);
 
-/* Forward Close every connection, UnRegisterSession, wait (bounded) for
- * the peer to close, close the sockets. The client can be started again. */
+/* Close without blocking: Forward Close every open connection (their
+ * state callbacks report DR_CONN_CLOSED now), and stop reconnecting. The
+ * loop (dr_client_process, by dr_client_next_deadline) then waits for the
+ * Forward Close replies (at most the request timeout), sends
+ * UnRegisterSession, waits for the peer to close (at most 500 ms) and
+ * closes the sockets; dr_client_closed() then turns true. New requests are
+ * refused meanwhile (DR_ESESSION). The client can be started again. */
+void dr_client_close_start(dr_client_t *c);
+/* No session, no close under way and not started: all is closed. */
+bool dr_client_closed(const dr_client_t *c);
+
+/* dr_client_close_start, then the loop until dr_client_closed (bounded as
+ * said there). Without the transport's wait, what could be sent at once
+ * was sent and the sockets close now. */
 void dr_client_close(dr_client_t *c);
 
 /* Change the explicit request timeout (e.g. shorter for a quick shutdown). */
@@ -168,6 +266,8 @@ typedef enum {
 
 const char *dr_conn_state_name(dr_conn_state_t s);
 
+/* New T->O data: `data` (the assembly's size) is the connection's input
+ * buffer, valid until the callback returns; copy what you keep. */
 typedef void (*dr_conn_data_cb)(dr_conn_t *conn, const uint8_t *data,
                                 size_t len, void *user);
 /* State changes with the reason (DR_OK for a normal transition, else the
@@ -236,7 +336,10 @@ typedef struct {
 dr_conn_state_t dr_conn_state(const dr_conn_t *conn);
 const dr_conn_stats_t *dr_conn_stats(const dr_conn_t *conn);
 void *dr_conn_user(const dr_conn_t *conn);
-/* Last T->O data (the assembly's size), NULL before the first packet. */
+/* Last T->O data (the assembly's size), NULL before the first packet.
+ * The buffer belongs to the connection: it changes when the next packet
+ * arrives (in dr_client_process / dr_udp_port_process) and goes with
+ * dr_conn_remove or dr_client_deinit. */
 const uint8_t *dr_conn_input(const dr_conn_t *conn, size_t *len);
 
 /* ---- discovery ----------------------------------------------------------- */
@@ -248,7 +351,8 @@ typedef void (*dr_discover_cb)(const dr_identity_t *id, dr_sockaddr_t from,
  * as 192.168.1.255 to find every device on that subnet) at `port` (0:
  * 44818). Calls `found` for every valid answer until timeout_ms has passed
  * (for a unicast target, after the first answer). Returns DR_OK if anything
- * answered, DR_ETIMEDOUT if nothing did, or a network error. */
+ * answered, DR_ETIMEDOUT if nothing did, or a network error. Blocking:
+ * the transport must have wait (else DR_EINVAL). */
 dr_status_t dr_discover(const char *target, uint16_t port, uint32_t timeout_ms,
                         dr_transport_t transport, dr_discover_cb found, void *user,
                         unsigned *count);
@@ -265,10 +369,12 @@ typedef struct {
 #define DR_POLL_OUT 0x4
 
 /* The descriptors to watch now (at most DR_CLIENT_MAX_FDS). They change
- * when sockets are opened or closed: ask again after each process call. */
+ * when sockets are opened or closed: ask again after each process call.
+ * None if the transport has no fd. */
 int dr_client_pollfds(dr_client_t *c, dr_pollfd_t *fds, int max);
 
-/* Monotonic microseconds of the next timer (UINT64_MAX if none). */
+/* Monotonic microseconds (the transport's now_us) of the next timer
+ * (UINT64_MAX if none): call dr_client_process() by then. */
 uint64_t dr_client_next_deadline(const dr_client_t *c);
 
 /* Do all that is due: read every socket until it would block, run timers
@@ -284,7 +390,8 @@ dr_status_t dr_client_process(dr_client_t *c);
 dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n);
 
 /* Wait for the client's descriptors at most timeout_ms and process once.
- * For simple programs that have no loop of their own. */
+ * For simple programs that have no loop of their own; needs the
+ * transport's wait (else DR_EINVAL). */
 dr_status_t dr_client_run_once(dr_client_t *c, int timeout_ms);
 
 #ifdef __cplusplus

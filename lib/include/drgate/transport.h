@@ -2,11 +2,25 @@
 /*
  * drgate transport: the network and clock seen by the EtherNet/IP client.
  *
- * The client never calls the OS itself; it goes through this table, so that
- * firmware can plug in lwIP (or a test a fake) while Linux uses the default
- * sockets transport (dr_transport_posix). Handles are small integers chosen
- * by the transport. Every call is non-blocking: DR_EAGAIN means "nothing
- * now, wait for the handle's fd". Addresses are IPv4 in host order.
+ * The client never calls the OS itself; it goes through this table, which
+ * the application passes in (dr_client_config_t.transport), so that
+ * firmware can plug in lwIP (port/lwip/) or a test a fake, while Linux uses
+ * the sockets transport, dr_transport_posix(), which lives in its own
+ * object (lib/transport_posix.c) that firmware does not link. Handles are
+ * small integers chosen by the transport. Every call is non-blocking:
+ * DR_EAGAIN means "nothing now". Addresses are IPv4 in host order.
+ *
+ * Required: resolve, tcp_connect, tcp_finish, tcp_send, tcp_recv, udp_open,
+ * udp_send, udp_recv, close, now_us. Optional (NULL):
+ *   - fd: no descriptors to poll; dr_client_pollfds() reports none.
+ *   - wait: no blocking wait; the *_sync calls, dr_client_run_once() and
+ *     dr_discover() then refuse with DR_EINVAL, and the application drives
+ *     the client from its own loop or RTOS task with
+ *     dr_client_next_deadline() and dr_client_process().
+ *   - timer_open / timer_arm: no timer handle (both or neither); the
+ *     application sleeps until dr_client_next_deadline() itself.
+ *   - udp_send_batch / udp_recv_batch: one datagram per call instead.
+ * Calls come only from the thread that drives the client (see client.h).
  */
 #ifndef DRGATE_TRANSPORT_H
 #define DRGATE_TRANSPORT_H
@@ -15,12 +29,17 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "drgate/cip.h"
 #include "drgate/status.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* An IPv4 socket address, both fields in host order. */
+typedef struct {
+    uint32_t addr;
+    uint16_t port;
+} dr_sockaddr_t;
 
 /* One datagram of a batch: buf/len to send, or buf/cap to receive into
  * (len and addr are then set). */
@@ -44,27 +63,24 @@ typedef struct {
     /* DR_EAGAIN: no data; DR_ECLOSED: orderly close by the peer. */
     dr_status_t (*tcp_recv)(void *ctx, int h, uint8_t *buf, size_t cap,
                             size_t *got);
-    /* Local and remote address of a connected TCP handle. */
-    dr_status_t (*tcp_addrs)(void *ctx, int h, dr_sockaddr_t *local,
-                             dr_sockaddr_t *peer);
-    /* A UDP socket bound to local (addr 0 = any). */
+    /* A UDP socket bound to local (addr 0 = any, port 0 = any). */
     dr_status_t (*udp_open)(void *ctx, dr_sockaddr_t local, int *h);
     dr_status_t (*udp_send)(void *ctx, int h, const uint8_t *buf, size_t len,
                             dr_sockaddr_t to);
     dr_status_t (*udp_recv)(void *ctx, int h, uint8_t *buf, size_t cap,
                             size_t *got, dr_sockaddr_t *from);
-    /* A timer that makes its fd readable at an absolute deadline;
-     * UINT64_MAX disarms it. Arming clears an earlier expiry. */
+    /* Optional. A timer that makes its fd readable at an absolute
+     * deadline; UINT64_MAX disarms it. Arming clears an earlier expiry. */
     dr_status_t (*timer_open)(void *ctx, int *h);
     dr_status_t (*timer_arm)(void *ctx, int h, uint64_t deadline_us);
     void (*close)(void *ctx, int h);
     /* Monotonic clock in microseconds. */
     uint64_t (*now_us)(void *ctx);
-    /* The file descriptor to poll for a handle, -1 if there is none. */
+    /* Optional. The file descriptor to poll for a handle, -1 if none. */
     int (*fd)(void *ctx, int h);
-    /* Block until one of the handles is readable (or writable, where
-     * want_out[i] is set) or the deadline passes. Used only by the
-     * client's *_sync calls; event loops poll the fds themselves. */
+    /* Optional. Block until one of the handles is readable (or writable,
+     * where want_out[i] is set) or the deadline passes. Used only by the
+     * client's blocking calls; event loops poll the fds themselves. */
     dr_status_t (*wait)(void *ctx, const int *h, const bool *want_out, int n,
                         uint64_t deadline_us);
     /* Optional (NULL: one udp_send / udp_recv each): several datagrams in
@@ -82,7 +98,8 @@ typedef struct {
 } dr_transport_t;
 
 /* The Linux/POSIX sockets transport (non-blocking sockets, timerfd,
- * CLOCK_MONOTONIC). Not available on firmware builds. */
+ * CLOCK_MONOTONIC), in lib/transport_posix.c: not part of firmware builds.
+ * Its handles are its file descriptors. */
 dr_transport_t dr_transport_posix(void);
 
 #ifdef __cplusplus
