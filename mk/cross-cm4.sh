@@ -9,18 +9,28 @@
 # usage: cross-cm4.sh RESULTS SOURCE...       check; add a line to RESULTS
 #        cross-cm4.sh --write-docs SOURCE...  record the sizes in docs/codec.md
 # WARN (from the Makefile) holds the warning flags; CM4_BUILD the object dir.
+#
+# The same check serves the whole firmware library (make check-firmware:
+# every lib/ source but the POSIX ones) with CM4_NAME=firmware, the figures
+# in CM4_DOC=docs/firmware.md, CM4_ALLOW more C-library calls (the text
+# conversions of lib/text.c), CM4_SUBTOTAL the objects of a subtotal row
+# (the codec's) and CM4_WHAT the name of what is built.
 set -eu
 cd "$(dirname "$0")/.."
 
 CROSS=${CM4_CROSS:-arm-none-eabi-}
 CFLAGS_CM4="-mcpu=cortex-m4 -mthumb -Os"
 WARN=${WARN:--std=c99 -Wall -Wextra -Wpedantic -Werror}
-out=${CM4_BUILD:-build/cm4}
-doc=docs/codec.md
-begin='<!-- BEGIN cm4 footprint (make docs): do not edit -->'
-end='<!-- END cm4 footprint -->'
-# What the codec may call: <string.h> and libgcc's soft-float/long helpers.
-allowed='^(memcpy|memset|memmove|memcmp|strlen|strcmp|strncmp|__aeabi_[a-z0-9_]+)$'
+name=${CM4_NAME:-cm4}
+what=${CM4_WHAT:-codec}
+out=${CM4_BUILD:-build/$name}
+doc=${CM4_DOC:-docs/codec.md}
+begin="<!-- BEGIN $name footprint (make docs): do not edit -->"
+end="<!-- END $name footprint -->"
+# What the code may call: <string.h> and libgcc's soft-float/long helpers,
+# and what CM4_ALLOW adds. Anything else (socket, timerfd_*, epoll_*,
+# clock_gettime, malloc, dr_transport_posix, ...) fails the check.
+allowed="^(memcpy|memset|memmove|memcmp|strlen|strcmp|strncmp|__aeabi_[a-z0-9_]+${CM4_ALLOW:+|$CM4_ALLOW})\$"
 
 write_docs=0
 if [ "${1:-}" = "--write-docs" ]; then write_docs=1; results=; else results=${1:?usage}; fi
@@ -28,12 +38,12 @@ shift
 [ $# -gt 0 ] || { echo "usage: $0 RESULTS|--write-docs SOURCE..." >&2; exit 2; }
 
 result() { # passed failed
-    [ -z "$results" ] || { mkdir -p "$(dirname "$results")"; echo "$1 $2 cm4" >>"$results"; }
+    [ -z "$results" ] || { mkdir -p "$(dirname "$results")"; echo "$1 $2 $name" >>"$results"; }
 }
 
 if ! command -v "${CROSS}gcc" >/dev/null 2>&1; then
     echo "###########################################################"
-    echo "## cm4: ${CROSS}gcc not found: Cortex-M4 build NOT CHECKED"
+    echo "## $name: ${CROSS}gcc not found: Cortex-M4 build NOT CHECKED"
     echo "## install gcc-arm-none-eabi libnewlib-arm-none-eabi (make deps)"
     echo "###########################################################"
     if [ -n "${CI:-}" ]; then result 0 1; exit 1; fi
@@ -41,12 +51,15 @@ if ! command -v "${CROSS}gcc" >/dev/null 2>&1; then
 fi
 
 mkdir -p "$out"
+# newlib's own headers first: the toolchain's freestanding <stdint.h> would
+# otherwise hide the 64-bit PRI macros of newlib's <inttypes.h>.
+newlib_inc=$(dirname "$(dirname "$("${CROSS}gcc" -print-file-name=libc.a)")")/include
 objs=
 for src in "$@"; do
     obj=$out/$(basename "$src" .c).o
     # shellcheck disable=SC2086 # flag lists are meant to split
-    if ! "${CROSS}gcc" $CFLAGS_CM4 $WARN -Ilib/include -c "$src" -o "$obj"; then
-        echo "cm4: FAIL: $src does not build for the Cortex-M4" >&2
+    if ! "${CROSS}gcc" $CFLAGS_CM4 $WARN -isystem "$newlib_inc" -Ilib/include -c "$src" -o "$obj"; then
+        echo "$name: FAIL: $src does not build for the Cortex-M4" >&2
         result 0 1; exit 1
     fi
     objs="$objs $obj"
@@ -59,7 +72,7 @@ done
 "${CROSS}nm" --defined-only $objs | awk 'NF == 3 { print $3 }' | sort -u >"$out/defined"
 bad=$(comm -23 "$out/undef" "$out/defined" | grep -Ev "$allowed" || true)
 if [ -n "$bad" ]; then
-    echo "cm4: FAIL: the codec references symbols a bare-metal build must not need:" >&2
+    echo "$name: FAIL: the $what references symbols a bare-metal build must not need:" >&2
     echo "$bad" | sed 's/^/    /' >&2
     result 0 1; exit 1
 fi
@@ -72,11 +85,15 @@ table() {
     echo "|---|---:|---:|---:|"
     awk '{ printf "| %s | %d | %d | %d |\n", $1, $2, $3, $4; t += $2; d += $3; b += $4 }
          END { printf "| **total** | **%d** | **%d** | **%d** |\n", t, d, b }' "$out/sizes"
+    if [ -n "${CM4_SUBTOTAL:-}" ]; then
+        awk -v objs=" $CM4_SUBTOTAL " 'index(objs, " " $1 " ") { t += $2; d += $3; b += $4 }
+             END { printf "| of which the codec | %d | %d | %d |\n", t, d, b }' "$out/sizes"
+    fi
     echo
     echo "\`$("${CROSS}gcc" --version | head -n 1)\`, \`$CFLAGS_CM4\`."
 }
 total=$(awk '{ t += $2 } END { print t }' "$out/sizes")
-echo "cm4: codec for Cortex-M4 ($CFLAGS_CM4), no malloc, no stdio:"
+echo "$name: $what for Cortex-M4 ($CFLAGS_CM4), no OS, no malloc:"
 table | sed 's/^/    /'
 
 if [ "$write_docs" = 1 ]; then
@@ -87,8 +104,8 @@ if [ "$write_docs" = 1 ]; then
                       skip = 1; next }
         $0 == end   { print ""; skip = 0 }
         !skip       { print }' "$doc" >"$tmp"
-    if cmp -s "$tmp" "$doc"; then echo "cm4: $doc is up to date"
-    else cp "$tmp" "$doc"; echo "cm4: recorded the footprint in $doc"; fi
+    if cmp -s "$tmp" "$doc"; then echo "$name: $doc is up to date"
+    else cp "$tmp" "$doc"; echo "$name: recorded the footprint in $doc"; fi
     rm -f "$tmp" "$tmp.table"
     exit 0
 fi
@@ -98,17 +115,17 @@ recorded=$(awk -v begin="$begin" -v end="$end" '
     $0 == begin { on = 1 } $0 == end { on = 0 }
     on && /\*\*total\*\*/ { gsub(/[*| ]+/, " "); split($0, f, " "); print f[2] }' "$doc")
 if [ -z "$recorded" ]; then
-    echo "cm4: FAIL: no footprint recorded in $doc (run make docs)" >&2
+    echo "$name: FAIL: no footprint recorded in $doc (run make docs)" >&2
     result 0 1; exit 1
 fi
 limit=$((recorded + recorded / 10))
 if [ "$total" -gt "$limit" ]; then
-    echo "cm4: FAIL: .text is $total bytes, more than 10% above the $recorded recorded in $doc" >&2
-    echo "cm4: if the growth is wanted, record it with make docs" >&2
+    echo "$name: FAIL: .text is $total bytes, more than 10% above the $recorded recorded in $doc" >&2
+    echo "$name: if the growth is wanted, record it with make docs" >&2
     result 0 1; exit 1
 fi
 if [ "$total" != "$recorded" ]; then
-    echo "cm4: note: .text is $total bytes, $doc records $recorded (make docs updates it)"
+    echo "$name: note: .text is $total bytes, $doc records $recorded (make docs updates it)"
 fi
-echo "cm4: ok"
+echo "$name: ok"
 result 1 0
