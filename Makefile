@@ -49,6 +49,10 @@ pc = $(shell $(PKG_CONFIG) $(1) $(2) 2>/dev/null)
 # ---- library -------------------------------------------------------------
 LIB_CODEC_SRC := lib/fields.c lib/codec.c lib/path.c lib/status.c
 LIB_SRC       := $(sort $(wildcard lib/*.c))
+# What only Linux links: the POSIX transport and the malloc'ing
+# constructors. Firmware takes the rest (docs/firmware.md).
+LIB_OS_SRC    := lib/transport_posix.c lib/client_posix.c
+LIB_FW_SRC    := $(filter-out $(LIB_OS_SRC),$(LIB_SRC))
 LIB_OBJ       := $(LIB_SRC:%.c=$(B)/%.o)
 LIB_A         := $(B)/libdrgate.a
 LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
@@ -76,7 +80,8 @@ TEST_BIN      := $(TEST_SRC:tests/%.c=$(B)/tests/%)
 TEST_SUPPORT  := $(wildcard tests/support/*.c)
 
 .PHONY: all lib clean install uninstall check check-unit check-cli check-docs \
-        check-cm4 check-be check-asan demo deps docs bench check-summary
+        check-cm4 check-firmware check-be check-asan demo deps docs bench \
+        check-summary
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -127,7 +132,8 @@ RESULTS := $(B)/check-results
 # Every step runs even if an earlier one failed; a step that fails without
 # recording its own result is recorded as one failure, so the summary line
 # (and the exit status) can never miss it.
-CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-be check-asan check-fuzz
+CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
+               check-asan check-fuzz
 check: deps
 	@rm -f $(RESULTS)
 	$(MAKE) --no-print-directory all
@@ -152,10 +158,21 @@ check-docs: $(CLI_BIN)
 docs: $(CLI_BIN)
 	@sh mk/gen-docs.sh --write $(CLI_BIN)
 	@WARN="$(WARN)" sh mk/cross-cm4.sh --write-docs $(LIB_CODEC_SRC)
+	@WARN="$(WARN)" $(FW_CM4) sh mk/cross-cm4.sh --write-docs $(LIB_FW_SRC)
 
 # The codec must build for a Cortex-M4 with no OS; its size goes to docs.
 check-cm4:
 	@WARN="$(WARN)" sh mk/cross-cm4.sh "$(RESULTS)" $(LIB_CODEC_SRC)
+
+# The whole client library but the POSIX objects, the same way: no OS
+# symbol (socket, timerfd, epoll, clock_gettime, malloc,
+# dr_transport_posix, ...); lib/text.c's conversions may call snprintf and
+# strto*. Sizes of the codec and codec + client in docs/firmware.md.
+FW_CM4 := CM4_NAME=firmware CM4_WHAT="client library" CM4_DOC=docs/firmware.md \
+          CM4_ALLOW='snprintf|strtod|strtof|strtol|strtoul|strtoll|strtoull|__errno' \
+          CM4_SUBTOTAL="$(notdir $(LIB_CODEC_SRC:.c=.o))"
+check-firmware:
+	@WARN="$(WARN)" $(FW_CM4) sh mk/cross-cm4.sh "$(RESULTS)" $(LIB_FW_SRC)
 
 # The unit tests on a big-endian CPU (s390x under qemu-user). The programs
 # run against Debian's multiarch s390x libc (libc6:s390x, which

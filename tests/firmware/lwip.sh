@@ -44,7 +44,9 @@ in_ns ip tuntap add dev "$tap" mode tap || skip "cannot create a TAP device"
 in_ns ip addr add "$kaddr/24" dev "$tap"
 in_ns ip link set "$tap" up
 
-in_ns "$drsim" -a "$kaddr" &
+# Not through in_ns: $! must be drsim itself (ip netns exec execs it),
+# so that the cleanup stops it.
+ip netns exec "$ns" "$drsim" -a "$kaddr" &
 sim_pid=$!
 # drsim is up when its TCP port listens (bounded).
 i=0
