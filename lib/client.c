@@ -164,7 +164,9 @@ static void close_handle(dr_client_t *c, int *h);
  * _Static_assert: a negative array size stops the build instead). */
 typedef char client_fits_storage[sizeof(struct dr_client) <= DR_CLIENT_STORAGE_SIZE ? 1 : -1];
 typedef char port_fits_storage[sizeof(struct dr_udp_port) <= DR_UDP_PORT_STORAGE_SIZE ? 1 : -1];
+/* cppcheck-suppress unusedStructMember ; only offsetof reads them */
 struct client_align { char c; dr_client_storage_t s; };
+/* cppcheck-suppress unusedStructMember ; only offsetof reads them */
 struct port_align { char c; dr_udp_port_storage_t s; };
 
 static bool storage_ok(const void *storage, size_t size, size_t need, size_t align)

@@ -10,7 +10,8 @@ PKGS="build-essential pkg-config libcmocka-dev libjansson-dev \
  libmodbus-dev libgpiod-dev gpiod libinih-dev libsystemd-dev \
  clang libclang-rt-14-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
- tshark mbpoll socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr"
+ tshark mbpoll socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
+ liblwip-dev"
 CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x"
 
 missing=""

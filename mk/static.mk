@@ -2,8 +2,8 @@
 # Static analysis and hardening checks (docs/quality.md), both in `make check`:
 #
 #   check-static     cppcheck (mk/cppcheck-suppressions.txt) and clang-tidy
-#                    (.clang-tidy) over lib/, cli/, sim/, gateway/, tests/ and
-#                    fuzz/; any finding fails it
+#                    (.clang-tidy) over lib/, cli/, sim/, gateway/, port/,
+#                    tests/ and fuzz/; any finding fails it
 #   check-hardening  the built programs are PIE, full RELRO (BIND_NOW), with
 #                    the stack protector and _FORTIFY_SOURCE's checked calls
 #   compdb           $(B)/compile_commands.json: every source with the flags
@@ -74,6 +74,17 @@ STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 STATIC_GROUPS += fuzz
 STATIC_SRC_fuzz   = $(sort $(wildcard fuzz/*.c))
 STATIC_FLAGS_fuzz = $(ALL_CPPFLAGS) $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(ALL_CFLAGS)
+
+# The firmware scenario (mk/firmware.mk): the POSIX side, and the lwIP
+# port with its test (lwIP's headers, from liblwip-dev).
+STATIC_GROUPS += tests_firmware
+STATIC_SRC_tests_firmware   = tests/firmware/drive.c tests/firmware/test_be_client.c
+STATIC_FLAGS_tests_firmware = $(ALL_CPPFLAGS) -Itests/firmware $(ALL_CFLAGS)
+
+STATIC_GROUPS += lwip
+STATIC_SRC_lwip   = $(LWIP_PORT_SRC) tests/firmware/test_lwip.c
+STATIC_FLAGS_lwip = $(ALL_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip \
+                    -Itests/firmware $(ALL_CFLAGS)
 
 STATIC_SRC       = $(foreach g,$(STATIC_GROUPS),$(STATIC_SRC_$(g)))
 # What clang-tidy cannot compile here (see above).

@@ -16,7 +16,7 @@ static void check(const drive_opts_t *o, bool ok, const char *what, dr_status_t 
     if (!ok && st != DR_OK)
         printf(": %s", dr_strerror(st));
     printf("\n");
-    fflush(stdout);
+    (void)fflush(stdout);
     if (!ok)
         failures++;
 }
@@ -98,7 +98,9 @@ static void class1(const drive_opts_t *o, dr_client_t *c)
         {DR_ASM_INT_IN, DR_ASM_INT_OUT}, {DR_ASM_FLOAT_IN, DR_ASM_FLOAT_OUT},
         {-1, DR_ASM_JOINT_STATE}, {-1, DR_ASM_TASK_STATE}};
     dr_conn_t *cn[6];
-    unsigned n = o->conns < 6 ? o->conns : 6;
+    unsigned n = o->conns;
+    if (n > 6)
+        n = 6;
     for (unsigned i = 0; i < n; i++) {
         dr_conn_config_t cc;
         memset(&cc, 0, sizeof cc);

@@ -100,6 +100,6 @@ int main(int argc, char **argv)
     o.tick_us = 1000;
     int rc = drive_run(&o);
     /* lwIP's threads do not stop; the process ends here. */
-    fflush(stdout);
+    (void)fflush(stdout);
     return rc;
 }
