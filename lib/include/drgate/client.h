@@ -33,9 +33,9 @@
  * clients belong to one thread (or RTOS task): every call on them, and
  * every callback they make, happens in that thread. Different clients in
  * different threads are fine (they share nothing but the transport, which
- * must then be thread-safe, as sockets are). No call is reentrant from a
- * callback except where said (dr_conn_remove, dr_conn_set_output and
- * dr_conn_set_run may be called from the connection callbacks).
+ * must then be thread-safe, as sockets are). From a callback, call only
+ * dr_conn_set_output, dr_conn_set_run and the dr_conn_state, _stats and
+ * _input getters; dr_conn_remove also from the data callback.
  */
 #ifndef DRGATE_CLIENT_H
 #define DRGATE_CLIENT_H
