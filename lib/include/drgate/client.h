@@ -97,7 +97,7 @@ typedef struct {
 #define DR_CLIENT_STORAGE_SIZE                                                \
     (DR_CLIENT_HOST_MAX + DR_ENCAP_MAX_LEN + DR_CLIENT_TX_BUF +               \
      DR_UDP_PORT_STORAGE_SIZE + DR_CLIENT_MAX_REQS * (64 + 4 * sizeof(void *)) + \
-     DR_CLIENT_MAX_CONNS * (2 * DR_ASM_MAX_SIZE + DR_CLIENT_UDP_BUF + 208 +   \
+     DR_CLIENT_MAX_CONNS * (2 * DR_ASM_MAX_SIZE + DR_CLIENT_UDP_BUF + 256 +   \
                             8 * sizeof(void *)) +                             \
      256 + 16 * sizeof(void *))
 
