@@ -179,6 +179,42 @@ static const key_desc_t gpio_keys[GK_COUNT] = {
     [GK_SAFE_VALUE] = { "safe_value", "0, 1" },
 };
 
+enum {
+    QK_HOST,
+    QK_PORT,
+    QK_CLIENT_ID,
+    QK_USERNAME,
+    QK_PASSWORD_FILE,
+    QK_CA_FILE,
+    QK_CERT_FILE,
+    QK_KEY_FILE,
+    QK_KEEPALIVE_S,
+    QK_QOS,
+    QK_TOPIC_PREFIX,
+    QK_RETAIN,
+    QK_PUBLISH_INTERVAL_MS,
+    QK_DEADBAND,
+    QK_WRITES,
+    QK_COUNT
+};
+static const key_desc_t mqtt_keys[QK_COUNT] = {
+    [QK_HOST] = { "host", "the broker's IPv4 address or host name" },
+    [QK_PORT] = { "port", "1..65535" },
+    [QK_CLIENT_ID] = { "client_id", "letters, digits, '_', '-', '.'" },
+    [QK_USERNAME] = { "username", "a user name" },
+    [QK_PASSWORD_FILE] = { "password_file", "a file whose first line is the password" },
+    [QK_CA_FILE] = { "ca_file", "a PEM file of CA certificates (enables TLS)" },
+    [QK_CERT_FILE] = { "cert_file", "a PEM client certificate" },
+    [QK_KEY_FILE] = { "key_file", "a PEM private key" },
+    [QK_KEEPALIVE_S] = { "keepalive_s", "5..3600" },
+    [QK_QOS] = { "qos", "0..2" },
+    [QK_TOPIC_PREFIX] = { "topic_prefix", "topic levels such as drgate/cell1" },
+    [QK_RETAIN] = { "retain", "yes, no" },
+    [QK_PUBLISH_INTERVAL_MS] = { "publish_interval_ms", "0..60000" },
+    [QK_DEADBAND] = { "deadband", "a number >= 0" },
+    [QK_WRITES] = { "writes", "yes, no" },
+};
+
 static const char *const yes_no[] = { "yes", "no" };
 static const char *const log_levels[] = { "error", "warning", "info", "debug" };
 static const char *const word_orders[] = { "abcd", "cdab", "badc", "dcba" };
@@ -195,7 +231,7 @@ static const char *const parity_names[] = { "none", "even", "odd" };
 static const char *const rts_names[] = { "high", "low" };
 #define COUNT(a) (sizeof(a) / sizeof((a)[0]))
 
-#define SECTIONS_ALLOWED "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME]"
+#define SECTIONS_ALLOWED "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], [mqtt]"
 
 /* ---- parse state -------------------------------------------------------- */
 
@@ -205,7 +241,8 @@ typedef enum {
     SEC_MODBUS,
     SEC_ROBOT,
     SEC_GPIO,
-    SEC_RTU
+    SEC_RTU,
+    SEC_MQTT
 } sec_kind_t;
 
 /* Where each key was set (0: not set), for "repeated" and for messages
@@ -246,6 +283,7 @@ typedef struct {
     robot_lines_t robot[GW_MAX_ROBOTS];
     gpio_lines_t gpio[GW_MAX_GPIO];
     rtu_lines_t rtu[GW_MAX_RTU];
+    unsigned mqtt_key[QK_COUNT];
 
     unsigned bad_header_line; /* a '[' line libinih will reject */
     unsigned err_line;        /* 0: no error yet; the first one wins */
@@ -702,6 +740,124 @@ static void modbus_key(ctx_t *c, const char *name, const char *v)
         break;
     default: /* -1: already reported */ break;
     }
+}
+
+/* ---- [mqtt] ------------------------------------------------------------- */
+
+/* A path to a file: anything but empty; whether it opens is checked when
+ * the MQTT side starts (or a reload prepares it). */
+static void mqtt_file(ctx_t *c, const char *key, const char *v, char *dst, size_t size)
+{
+    copy_value(c, key, v, dst, size);
+}
+
+/* MQTT topic levels: no wildcards, no empty level, printable ASCII. */
+static bool valid_topic(const char *t)
+{
+    if (t[0] == '\0' || t[0] == '/' || t[strlen(t) - 1] == '/' || strstr(t, "//"))
+        return false;
+    for (; *t; t++)
+        if (*t == '+' || *t == '#' || (unsigned char)*t <= 0x20 || (unsigned char)*t >= 0x7f)
+            return false;
+    return true;
+}
+
+static bool valid_client_id(const char *s)
+{
+    for (; *s; s++)
+        if (!is_alnum(*s) && *s != '_' && *s != '-' && *s != '.')
+            return false;
+    return true;
+}
+
+/* A non-negative decimal number such as 0.5 (no exponent, no sign). */
+static bool get_deadband(ctx_t *c, const char *key, const char *v, double *out)
+{
+    unsigned digits = 0, dots = 0;
+    const char *p = v;
+    for (; *p && (is_digit(*p) || *p == '.'); p++) {
+        digits += is_digit(*p);
+        dots += *p == '.';
+    }
+    char *end = NULL;
+    double x = *p == '\0' && digits > 0 && dots <= 1 ? strtod(v, &end) : -1.0;
+    if (end == NULL || *end != '\0' || !(x >= 0.0 && x <= 1e9)) {
+        fail(c, c->lineno, "%s '%s' invalid (allowed: a decimal number >= 0, e.g. 0.5)", key, v);
+        return false;
+    }
+    *out = x;
+    return true;
+}
+
+static void mqtt_key(ctx_t *c, const char *name, const char *v)
+{
+    gw_mqtt_config_t *q = &c->cfg.mqtt;
+    int k = begin_key(c, mqtt_keys, QK_COUNT, c->mqtt_key, name, v, false);
+    unsigned long n;
+    switch (k) {
+    case QK_HOST:
+        if (!valid_host(v))
+            fail(c, c->lineno, "host '%s' invalid (allowed: an IPv4 address or a host name)", v);
+        else
+            copy_value(c, name, v, q->host, sizeof q->host);
+        break;
+    case QK_PORT:
+        if (get_uint(c, name, v, 1, 65535, &n))
+            q->port = (uint16_t)n;
+        break;
+    case QK_CLIENT_ID:
+        if (!valid_client_id(v))
+            fail(c, c->lineno, "client_id '%s' invalid (allowed: %s)", v, mqtt_keys[k].allowed);
+        else
+            copy_value(c, name, v, q->client_id, sizeof q->client_id);
+        break;
+    case QK_USERNAME: copy_value(c, name, v, q->username, sizeof q->username); break;
+    case QK_PASSWORD_FILE: mqtt_file(c, name, v, q->password_file, sizeof q->password_file); break;
+    case QK_CA_FILE: mqtt_file(c, name, v, q->ca_file, sizeof q->ca_file); break;
+    case QK_CERT_FILE: mqtt_file(c, name, v, q->cert_file, sizeof q->cert_file); break;
+    case QK_KEY_FILE: mqtt_file(c, name, v, q->key_file, sizeof q->key_file); break;
+    case QK_KEEPALIVE_S:
+        if (get_uint(c, name, v, 5, 3600, &n))
+            q->keepalive_s = (unsigned)n;
+        break;
+    case QK_QOS:
+        if (get_uint(c, name, v, 0, 2, &n))
+            q->qos = (unsigned)n;
+        break;
+    case QK_TOPIC_PREFIX:
+        if (!valid_topic(v))
+            fail(c, c->lineno,
+                 "topic_prefix '%s' invalid (allowed: topic levels separated by '/', no "
+                 "wildcards, blanks or empty levels, e.g. drgate/cell1)",
+                 v);
+        else
+            copy_value(c, name, v, q->topic_prefix, sizeof q->topic_prefix);
+        break;
+    case QK_RETAIN: get_bool(c, name, v, &q->retain); break;
+    case QK_PUBLISH_INTERVAL_MS:
+        if (get_uint(c, name, v, 0, 60000, &n))
+            q->publish_interval_ms = (unsigned)n;
+        break;
+    case QK_DEADBAND: get_deadband(c, name, v, &q->deadband); break;
+    case QK_WRITES: get_bool(c, name, v, &q->writes); break;
+    default: break;
+    }
+}
+
+static void check_mqtt(ctx_t *c)
+{
+    const gw_mqtt_config_t *q = &c->cfg.mqtt;
+    if (!q->enabled)
+        return;
+    if (q->host[0] == '\0')
+        fail(c, q->line, "[mqtt] has no host (allowed: the broker's IPv4 address or host name)");
+    else if ((q->cert_file[0] != '\0') != (q->key_file[0] != '\0'))
+        fail(c, c->mqtt_key[q->cert_file[0] ? QK_CERT_FILE : QK_KEY_FILE],
+             "[mqtt] cert_file and key_file go together (allowed: both or neither)");
+    else if (q->cert_file[0] != '\0' && q->ca_file[0] == '\0')
+        fail(c, c->mqtt_key[QK_CERT_FILE], "[mqtt] cert_file needs ca_file (TLS)");
+    else if (q->password_file[0] != '\0' && q->username[0] == '\0')
+        fail(c, c->mqtt_key[QK_PASSWORD_FILE], "[mqtt] password_file needs username");
 }
 
 /* ---- [robot NAME] ------------------------------------------------------- */
@@ -1270,7 +1426,8 @@ static void gpio_defaults(gw_gpio_config_t *g)
 
 static void unknown_section(ctx_t *c, const char *kw, const char *rest)
 {
-    static const char *const kws[] = { "daemon", "modbus", "robot", "gpio", "modbus_rtu" };
+    static const char *const kws[] = { "daemon", "modbus", "robot", "gpio", "modbus_rtu",
+                                       "mqtt" };
     const char *best = NULL;
     unsigned best_d = ~0u;
     for (size_t i = 0; i < COUNT(kws); i++) {
@@ -1400,6 +1557,16 @@ static void begin_section(ctx_t *c, const char *raw)
             *first = c->lineno;
             c->sec = modbus ? SEC_MODBUS : SEC_DAEMON;
         }
+    } else if (strcmp(kw, "mqtt") == 0) {
+        if (named)
+            fail(c, c->lineno, "section [%s] takes no name (allowed: [mqtt])", c->sec_text);
+        else if (c->cfg.mqtt.enabled)
+            fail(c, c->lineno, "section [mqtt] repeated (first at line %u)", c->cfg.mqtt.line);
+        else {
+            c->cfg.mqtt.enabled = true;
+            c->cfg.mqtt.line = c->lineno;
+            c->sec = SEC_MQTT;
+        }
     } else if (strcmp(kw, "robot") == 0) {
         /* A lone [robot] is named "robot": log lines need a name. */
         begin_robot(c, named ? name : "robot");
@@ -1524,6 +1691,7 @@ static int on_key(void *user, const char *section, const char *name,
     case SEC_ROBOT: robot_key(c, name, value); break;
     case SEC_GPIO: gpio_key(c, name, value); break;
     case SEC_RTU: rtu_key(c, name, value); break;
+    case SEC_MQTT: mqtt_key(c, name, value); break;
     case SEC_NONE:
         fail(c, c->lineno,
              "key '%s' outside any section (allowed sections: " SECTIONS_ALLOWED
@@ -1884,6 +2052,10 @@ void gw_config_defaults(gw_config_t *cfg)
     for (unsigned i = 0; i < GW_MAX_RTU; i++)
         rtu_defaults(&cfg->rtu[i]);
     memcpy(cfg->log_level, "info", sizeof "info");
+    cfg->mqtt.port = 1883;
+    cfg->mqtt.keepalive_s = 30;
+    cfg->mqtt.retain = true;
+    cfg->mqtt.publish_interval_ms = 100;
 }
 
 /* Errors about the file as a whole carry no line. */
@@ -1956,6 +2128,8 @@ bool gw_config_load(const char *path, gw_config_t *out, char *err,
             check_gpio(c);
         if (c->err_line == 0)
             check_rtu(c);
+        if (c->err_line == 0)
+            check_mqtt(c);
         if (c->err_line != 0) {
             if (err != NULL && errlen > 0)
                 snprintf(err, errlen, "%s:%u: %s", path, c->err_line, c->err);

@@ -7,6 +7,7 @@
  *   [robot NAME]        one section per robot, each with its own unit ID
  *   [gpio NAME]         one section per GPIO line
  *   [modbus_rtu NAME]   one section per serial line (Modbus RTU slave)
+ *   [mqtt]              MQTT northbound side (north_mqtt.c), off without it
  *
  * "[robot NAME]" and "[robot.NAME]" are the same section ("[robot]" alone
  * names the robot "robot"); likewise "[gpio NAME]" and "[gpio.NAME]".
@@ -148,6 +149,26 @@ typedef struct {
     uint8_t slave_addr[GW_MAX_ROBOTS];   /* 1..247, default the unit_id */
     unsigned line;
 } gw_rtu_config_t;
+/* [mqtt]: present = enabled (docs/mqtt.md). Strings "" = not set. */
+typedef struct {
+    bool enabled;             /* the section is present */
+    char host[64];
+    uint16_t port;            /* default 1883 */
+    char client_id[64];       /* default "drgatewayd-<hostname>" */
+    char username[64];
+    char password_file[256];  /* first line is the password */
+    char ca_file[256];        /* set: TLS */
+    char cert_file[256];      /* client certificate, with key_file */
+    char key_file[256];
+    unsigned keepalive_s;     /* default 30, 5..3600 */
+    unsigned qos;             /* default 0, 0..2 */
+    char topic_prefix[128];   /* default "drgate/<hostname>" */
+    bool retain;              /* status/state/meta retained, default yes */
+    unsigned publish_interval_ms; /* per robot, default 100, 0..60000 */
+    double deadband;          /* REAL fields, absolute, default 0 */
+    bool writes;              /* plant writes via <prefix>/<robot>/set/<path> */
+    unsigned line;            /* the section's line */
+} gw_mqtt_config_t;
 
 typedef struct {
     char path[256];
@@ -159,6 +180,7 @@ typedef struct {
     unsigned rtu_count;
     gw_rtu_config_t rtu[GW_MAX_RTU];
     char log_level[16];       /* [daemon] log_level: error|warning|info|debug */
+    gw_mqtt_config_t mqtt;
 } gw_config_t;
 
 /* Load and validate `path`. On error returns false and writes

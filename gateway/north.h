@@ -80,9 +80,10 @@ typedef struct {
 } gw_north_ops_t;
 
 extern const gw_north_ops_t gw_north_modbus_tcp, gw_north_modbus_rtu, gw_north_gpio;
+extern const gw_north_ops_t gw_north_mqtt; /* north_mqtt.c */
 
 /* The sides the daemon runs, in this order (GPIO last, see above). */
 extern const gw_north_ops_t *const gw_north_sides[];
-#define GW_NORTH_SIDES 3u
+#define GW_NORTH_SIDES 4u
 
 #endif /* DRGATE_GW_NORTH_H */
