@@ -71,10 +71,14 @@ typedef struct {
     unsigned inflight;  /* QoS 1/2 publications not yet acknowledged */
     unsigned leaves;    /* dr_leaf_count() */
     mq_last_t *last[GW_MAX_ROBOTS]; /* what was last published, by leaf */
+    uint16_t *pick;      /* publish_data: the leaves in this message ... */
+    double *pick_v;      /* ... and their values */
     bool link[GW_MAX_ROBOTS];
     bool state_due[GW_MAX_ROBOTS], meta_due[GW_MAX_ROBOTS], full_due[GW_MAX_ROBOTS];
     bool status_due;
     bool data_seen[GW_MAX_ROBOTS]; /* new T->O data since the last scan */
+    unsigned asm_seen[GW_MAX_ROBOTS]; /* T->O assemblies received since link up */
+    uint64_t up_us[GW_MAX_ROBOTS];    /* when the link came up */
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     unsigned long dropped; /* error replies dropped (queue bound) */
     mq_json_t json;
@@ -251,6 +255,8 @@ static bool publish_data(mq_t *t, unsigned robot, bool full)
             continue;
         if (dr_ref_path(ref, path, sizeof path) != DR_OK)
             continue;
+        t->pick[n] = (uint16_t)i;
+        t->pick_v[n] = dr_value_as_double(&v);
         if (n++ > 0)
             js_raw(j, ",", 1);
         js_quote(j, path, strlen(path));
@@ -264,17 +270,12 @@ static bool publish_data(mq_t *t, unsigned robot, bool full)
     topic(t, top, sizeof top, (int)robot, "data");
     if (!publish(t, top, j->buf, j->len, false))
         return false;
-    /* Only now: what could not be published stays "changed". */
-    for (unsigned i = 0; i < t->leaves; i++) {
-        dr_ref_t ref;
-        dr_value_t v;
-        if (dr_leaf_at((uint16_t)i, &ref) != DR_OK)
-            continue;
-        dr_asm_t a = (dr_asm_t)ref.field->assembly;
-        if (dr_field_get(u->img[a], dr_asm_info(a)->size, ref, &v) == DR_OK) {
-            last[i].have = true;
-            last[i].v = dr_value_as_double(&v);
-        }
+    /* Only now, and only what the message holds: a change within the
+     * deadband is measured from the value the plant has, so that a slow
+     * drift is published once it adds up. */
+    for (unsigned k = 0; k < n; k++) {
+        last[t->pick[k]].have = true;
+        last[t->pick[k]].v = t->pick_v[k];
     }
     return true;
 }
@@ -558,6 +559,13 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
     else
         snprintf(t->client_id, sizeof t->client_id, "drgatewayd-%s", host);
     t->leaves = dr_leaf_count();
+    t->pick = calloc(t->leaves, sizeof *t->pick);
+    t->pick_v = calloc(t->leaves, sizeof *t->pick_v);
+    if (t->pick == NULL || t->pick_v == NULL) {
+        snprintf(err, errlen, "out of memory");
+        mq_free(t);
+        return NULL;
+    }
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         if ((t->last[r] = calloc(t->leaves, sizeof *t->last[r])) == NULL) {
             snprintf(err, errlen, "out of memory");
@@ -601,15 +609,17 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
     return t;
 }
 
-/* The robots as they are now (after create or a reload): link states from
- * the daemon, everything published afresh once connected. */
-static void mq_sync_robots(mq_t *t)
+/* The robots as they are now (after a reload; at create, sides come
+ * before the links, which are all down): link states from the daemon,
+ * everything published afresh once connected. */
+static void mq_sync_robots(mq_t *t, bool links)
 {
     const gw_north_env_t *env = t->env;
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++) {
-        t->link[r] = r < env->cfg->robot_count && env->link_up(env->user, r);
+        t->link[r] = links && r < env->cfg->robot_count && env->link_up(env->user, r);
         t->state_due[r] = t->meta_due[r] = t->full_due[r] = true;
         t->next_pub_us[r] = 0;
+        t->asm_seen[r] = ~0u; /* a link up now has its images */
         if (t->last[r] != NULL)
             memset(t->last[r], 0, t->leaves * sizeof *t->last[r]);
     }
@@ -649,6 +659,8 @@ static void mq_free(mq_t *t)
         mosquitto_destroy(t->mosq);
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         free(t->last[r]);
+    free(t->pick);
+    free(t->pick_v);
     if (t->cfg.enabled && --lib_users == 0)
         mosquitto_lib_cleanup();
     free(t);
@@ -658,7 +670,7 @@ static void *mq_create(const gw_north_env_t *env, char *err, size_t errlen)
 {
     mq_t *t = mq_new(&env->cfg->mqtt, env, err, errlen);
     if (t != NULL && t->cfg.enabled) {
-        mq_sync_robots(t);
+        mq_sync_robots(t, false);
         try_connect(t, gw_now_us());
     }
     return t;
@@ -703,8 +715,20 @@ static void *mq_commit(void *self, void *out, const gw_north_env_t *env)
             try_connect(n, gw_now_us());
     }
     if (n->cfg.enabled)
-        mq_sync_robots(n); /* robots may have moved, come or gone */
+        mq_sync_robots(n, true); /* robots may have moved, come or gone */
     return n;
+}
+
+/* After link up, the snapshot waits for every T->O assembly (each its own
+ * packet), so that it holds what the robot sent, not zeros; at most a
+ * second (an explicit-mode robot may not poll them all). */
+static bool snapshot_ready(const mq_t *t, unsigned r, uint64_t now)
+{
+    unsigned all = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
+            all |= 1u << a;
+    return (t->asm_seen[r] & all) == all || now >= t->up_us[r] + 1000000u;
 }
 
 static void mq_tick(void *self, uint64_t now)
@@ -738,6 +762,8 @@ static void mq_tick(void *self, uint64_t now)
         if (!t->link[r] || now < t->next_pub_us[r] || !room(t))
             continue;
         bool full = t->full_due[r];
+        if (full && !snapshot_ready(t, r, now))
+            continue;
         if (publish_data(t, r, full)) {
             t->full_due[r] = false;
             t->data_seen[r] = false;
@@ -760,20 +786,26 @@ static uint64_t mq_deadline(const void *self)
         return UINT64_MAX; /* EPOLLOUT, or the broker's acknowledgements, first */
     /* Wake for a robot whose data arrived, when its interval allows it;
      * other robots' O->T images are looked at with the 10 Hz tick. */
-    uint64_t d = UINT64_MAX;
-    for (unsigned r = 0; r < t->env->cfg->robot_count; r++)
-        if (t->link[r] && (t->data_seen[r] || t->full_due[r] || t->state_due[r]) &&
-            t->next_pub_us[r] < d)
-            d = t->next_pub_us[r];
+    uint64_t d = UINT64_MAX, now = gw_now_us();
+    for (unsigned r = 0; r < t->env->cfg->robot_count; r++) {
+        uint64_t x = UINT64_MAX;
+        if (t->link[r] && t->full_due[r])
+            x = snapshot_ready(t, r, now) ? t->next_pub_us[r] : t->up_us[r] + 1000000u;
+        else if (t->link[r] && t->data_seen[r])
+            x = t->next_pub_us[r];
+        if (x < d)
+            d = x;
+    }
     return d;
 }
 
 static void mq_on_data(void *self, unsigned robot, dr_asm_t a)
 {
     mq_t *t = self;
-    (void)a;
-    if (robot < GW_MAX_ROBOTS)
+    if (robot < GW_MAX_ROBOTS) {
         t->data_seen[robot] = true;
+        t->asm_seen[robot] |= 1u << a;
+    }
 }
 
 static void mq_on_link(void *self, unsigned robot, bool up)
@@ -783,8 +815,11 @@ static void mq_on_link(void *self, unsigned robot, bool up)
         return;
     t->link[robot] = up;
     t->state_due[robot] = true;
-    if (up)
+    if (up) {
         t->full_due[robot] = true; /* the plant gets every field afresh */
+        t->asm_seen[robot] = 0;
+        t->up_us[robot] = gw_now_us();
+    }
 }
 
 static void mq_on_fault(void *self, unsigned robot, bool latched)

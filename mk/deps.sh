@@ -11,7 +11,7 @@ PKGS="build-essential pkg-config libcmocka-dev libjansson-dev \
  clang libclang-rt-14-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
  tshark mbpoll socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
- liblwip-dev"
+ liblwip-dev libmosquitto-dev mosquitto openssl"
 CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x"
 
 missing=""

@@ -1,0 +1,345 @@
+# SPDX-License-Identifier: MIT
+"""The MQTT northbound side ([mqtt], docs/mqtt.md) against a real broker:
+Debian's mosquitto, started here on a free port (and once with TLS, with
+a CA and a server certificate made here with openssl), and paho-mqtt as
+the plant's independent client. drsim's data must arrive under the
+canonical names with the robot's values, changes respect the deadband
+and the rate, the Will fires when the gateway dies, plant writes go
+through the same checks as Modbus writes (refusals on the error topic),
+and a broker that goes away and comes back is survived."""
+import json
+import math
+import shutil
+import subprocess
+import threading
+import time
+
+import pytest
+
+from gwlib import (GW_ADDR, LOGDIR, SIM_ADDR, EnipReader, decode_t2o, free_port, read_text,
+                   running, spawn, timeout, wait_for)
+
+mqtt = pytest.importorskip("paho.mqtt.client")
+
+MOSQUITTO = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+PREFIX = "drgate/test"
+
+
+class Broker:
+    """mosquitto -c <generated conf> on 127.0.0.1:<free port>, no
+    persistence (a restart forgets retained messages)."""
+
+    def __init__(self, name, tls=None):
+        self.name = name
+        self.tls = tls  # dict of cafile/certfile/keyfile, or None
+        self.port = None
+        self.proc = None
+        self.conf = LOGDIR / ("%s.mosquitto.conf" % name)
+        self.log_path = LOGDIR / ("%s.mosquitto.log" % name)
+
+    def start(self, same_port=False):
+        if not same_port or self.port is None:
+            self.port = free_port(GW_ADDR, udp=False)
+        text = ("per_listener_settings false\nallow_anonymous true\n"
+                "persistence false\nuser root\nlistener %d %s\n" % (self.port, GW_ADDR))
+        if self.tls:
+            text += "cafile %s\ncertfile %s\nkeyfile %s\n" % (
+                self.tls["ca"], self.tls["cert"], self.tls["key"])
+        LOGDIR.mkdir(parents=True, exist_ok=True)
+        self.conf.write_text(text)
+        mark = len(read_text(self.log_path))
+        self.proc = spawn([MOSQUITTO, "-c", str(self.conf), "-v"], self.log_path)
+        wait_for(lambda: self.proc.poll() is not None or
+                 " running" in read_text(self.log_path)[mark:], 10, "mosquitto to start")
+        assert self.proc.poll() is None, read_text(self.log_path)[-2000:]
+        return self
+
+    def stop(self):
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            self.proc.wait(timeout(10))
+
+
+class Plant:
+    """A paho client subscribed to <PREFIX>/#: every message kept as
+    (topic, payload text, retained)."""
+
+    def __init__(self, broker, tls_ca=None):
+        self.msgs = []
+        self.lock = threading.Lock()
+        self.c = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+        if tls_ca:
+            self.c.tls_set(ca_certs=str(tls_ca))
+        self.c.on_message = self._on_message
+        self.c.on_connect = lambda c, u, f, rc, p: c.subscribe(PREFIX + "/#", qos=1)
+        self.c.connect(GW_ADDR, broker.port, 30)
+        self.c.loop_start()
+
+    def _on_message(self, c, u, m):
+        with self.lock:
+            self.msgs.append((m.topic, m.payload.decode("utf-8", "replace"), m.retain))
+
+    def all(self, topic=None):
+        with self.lock:
+            return [m for m in self.msgs if topic is None or m[0] == topic]
+
+    def last(self, topic):
+        ms = self.all(topic)
+        return ms[-1][1] if ms else None
+
+    def data(self, robot="r0"):
+        return [json.loads(p) for _, p, _ in self.all("%s/%s/data" % (PREFIX, robot))]
+
+    def merged(self, robot="r0"):
+        """The robot's fields as the plant knows them from all data so far."""
+        out = {}
+        for d in self.data(robot):
+            out.update(d)
+        return out
+
+    def set(self, path, value, robot="r0"):
+        info = self.c.publish("%s/%s/set/%s" % (PREFIX, robot, path), value, qos=1)
+        info.wait_for_publish(timeout(5))
+
+    def close(self):
+        self.c.loop_stop()
+        self.c.disconnect()
+
+
+def mqtt_section(broker, extra=""):
+    return ("\n[mqtt]\nhost = %s\nport = %d\ntopic_prefix = %s\nkeepalive_s = 5\n%s\n"
+            % (GW_ADDR, broker.port, PREFIX, extra))
+
+
+@pytest.fixture
+def broker(request):
+    b = Broker(request.node.name).start()
+    yield b
+    b.stop()
+
+
+def wait_up(plant, g=None):
+    wait_for(lambda: plant.last(PREFIX + "/status") == "online", 20, "status online")
+    wait_for(lambda: plant.last(PREFIX + "/r0/state") == "up", 20, "state up")
+    return wait_for(lambda: plant.data(), 20, "a first data message")[0]
+
+
+def test_snapshot_names_and_values(broker):
+    with running("mqtt_snapshot", extra=mqtt_section(broker)) as g:
+        plant = Plant(broker)
+        try:
+            snap = wait_up(plant)
+            robot = decode_t2o({i: EnipReader(SIM_ADDR, g.sim.tcp).get(i)
+                                for i in (101, 102, 103, 104, 105, 106)})
+            # every leaf of the robot's T->O data, by its canonical name
+            # (masks such as io_state.cb_di are not leaves)
+            for name in robot:
+                if name in ("io_state.cb_di", "io_state.cb_do", "io_state.tool_di",
+                            "io_state.tool_do", "bit_out"):
+                    assert name not in snap
+                else:
+                    assert name in snap, name
+            for name in ("io_state.version.major", "io_state.version.minor",
+                         "io_state.version.patch", "io_state.robot_state",
+                         "int_out[3]", "bit_out[5]", "io_state.cb_di[1]"):
+                assert snap[name] == robot[name], name
+            assert "float_in[0]" in snap and "io_control.ao[0]" in snap  # O->T too
+            # units: the retained meta topic
+            meta = json.loads(wait_for(lambda: plant.last(PREFIX + "/r0/meta"), 10, "meta"))
+            assert meta["joint_state.position[1]"] == {"type": "REAL", "unit": "degree",
+                                                       "dir": "T->O"}
+            assert meta["float_in[0]"]["dir"] == "O->T"
+            assert set(meta) == set(snap)
+        finally:
+            plant.close()
+
+
+def test_plant_write_echoes_through_drsim(broker):
+    with running("mqtt_write", extra=mqtt_section(broker, "writes = yes")) as g:
+        plant = Plant(broker)
+        try:
+            wait_up(plant)
+            plant.set("float_in[3]", "2.5")
+            plant.set("int_in[5]", "-7")
+            plant.set("bit_in[9]", "1")
+            wait_for(lambda: plant.merged().get("float_out[3]") == 2.5 and
+                     plant.merged().get("int_out[5]") == -7 and
+                     plant.merged().get("bit_out[9]") == 1, 10, "the echo of the writes")
+            assert plant.merged()["float_in[3]"] == 2.5
+            # the robot itself has it (read beside the gateway)
+            robot = decode_t2o({i: EnipReader(SIM_ADDR, g.sim.tcp).get(i)
+                                for i in (101, 102, 103, 104, 105, 106)})
+            assert robot["int_out[5]"] == -7
+            assert plant.all(PREFIX + "/r0/error") == []
+        finally:
+            plant.close()
+
+
+def errors(plant):
+    return [json.loads(p) for _, p, _ in plant.all(PREFIX + "/r0/error")]
+
+
+def test_refused_writes_are_reported(broker):
+    with running("mqtt_refused", extra=mqtt_section(broker, "writes = yes")):
+        plant = Plant(broker)
+        try:
+            wait_up(plant)
+            bad = [("float_in[0]", "nan", "non-finite"),
+                   ("int_in[0]", "1.5", "invalid value"),
+                   ("bit_in[0]", "2", "invalid value"),
+                   ("joint_state.position[1]", "1", "read-only"),
+                   ("float_inn[0]", "1", "did you mean float_in[0]"),
+                   ("int_in[1]", "", "payload")]
+            for path, value, _ in bad:
+                plant.set(path, value)
+            wait_for(lambda: len(errors(plant)) == len(bad), 10, "one error per refused write")
+            for (path, value, why), e in zip(bad, errors(plant)):
+                assert e["topic"] == "%s/r0/set/%s" % (PREFIX, path)
+                assert e["payload"] == value
+                assert why in e["error"].lower() or why in e["error"], (why, e)
+            # nothing of it reached the robot's image
+            plant.set("int_in[2]", "5")
+            wait_for(lambda: plant.merged().get("int_out[2]") == 5, 10, "a good write after")
+            m = plant.merged()
+            assert m["int_in[0]"] == 0 and m["bit_in[0]"] == 0
+            assert not (isinstance(m["float_in[0]"], float) and math.isnan(m["float_in[0]"]))
+        finally:
+            plant.close()
+
+
+def test_single_writer_mode_refuses_plant_writes(broker):
+    with running("mqtt_single", modbus="single_writer = yes",
+                 extra=mqtt_section(broker, "writes = yes")):
+        plant = Plant(broker)
+        try:
+            wait_up(plant)
+            plant.set("int_in[0]", "3")
+            e = wait_for(lambda: errors(plant), 10, "the refusal")[0]
+            assert "single-writer" in e["error"]
+        finally:
+            plant.close()
+
+
+def test_writes_off_by_default(broker):
+    with running("mqtt_nowrite", extra=mqtt_section(broker)):
+        plant = Plant(broker)
+        try:
+            wait_up(plant)
+            plant.set("int_in[4]", "9")
+            time.sleep(timeout(1.0))  # nothing is to happen: give it the chance
+            assert plant.merged().get("int_out[4]") == 0
+            assert errors(plant) == []
+        finally:
+            plant.close()
+
+
+def test_deadband_and_rate(broker):
+    extra = mqtt_section(broker, "writes = yes\ndeadband = 1.0\npublish_interval_ms = 200")
+    with running("mqtt_deadband", extra=extra):
+        plant = Plant(broker)
+        try:
+            wait_up(plant)
+            plant.set("float_in[0]", "10")
+            wait_for(lambda: plant.merged().get("float_out[0]") == 10, 10, "float_out[0] = 10")
+            plant.set("float_in[0]", "10.5")  # within the deadband
+            plant.set("int_in[0]", "1")       # integers: every change
+            wait_for(lambda: plant.merged().get("int_out[0]") == 1, 10, "int_out[0] = 1")
+            # the images went 10 -> 10.5 before int_out[0] changed: not published
+            assert all(d.get("float_out[0]") in (None, 0, 10) for d in plant.data())
+            assert all(d.get("float_in[0]") in (None, 0, 10) for d in plant.data())
+            plant.set("float_in[0]", "11.5")  # 1.5 from what was published
+            wait_for(lambda: plant.merged().get("float_out[0]") == 11.5, 10, "11.5")
+            # the rate: drsim's noise changes data every RPI, the gateway
+            # publishes at most once per 200 ms
+            n0, t0 = len(plant.data()), time.monotonic()
+            time.sleep(timeout(2.0))
+            n, dt = len(plant.data()) - n0, time.monotonic() - t0
+            assert 2 <= n <= dt / 0.2 + 2, (n, dt)
+        finally:
+            plant.close()
+
+
+def test_will_when_killed_offline_when_stopped(broker):
+    with running("mqtt_lwt", extra=mqtt_section(broker)) as g:
+        plant = Plant(broker)
+        try:
+            wait_up(plant)
+            g.proc.kill()
+            g.proc.wait()
+            wait_for(lambda: plant.last(PREFIX + "/status") == "offline", 20,
+                     "the Will (status offline)")
+            # retained: a plant that connects later sees it too
+            late = Plant(broker)
+            try:
+                wait_for(lambda: late.all(PREFIX + "/status"), 10, "the retained status")
+                assert late.all(PREFIX + "/status")[-1][1:] == ("offline", True)
+            finally:
+                late.close()
+            g.start()
+            wait_for(lambda: plant.last(PREFIX + "/status") == "online", 20, "online again")
+            n = len(plant.all(PREFIX + "/status"))
+            rc, _ = g.stop()
+            assert rc == 0
+            wait_for(lambda: len(plant.all(PREFIX + "/status")) > n, 10, "status at stop")
+            assert plant.last(PREFIX + "/status") == "offline"
+        finally:
+            plant.close()
+
+
+def test_broker_restart_is_survived(broker):
+    with running("mqtt_restart", extra=mqtt_section(broker)) as g:
+        plant = Plant(broker)
+        wait_up(plant)
+        plant.close()
+        mark = len(g.log())
+        broker.stop()
+        # Modbus and the robot link do not care
+        for _ in range(5):
+            assert g.status()[1] == 2
+            time.sleep(timeout(0.2))
+        g.log_wait("mqtt: connection to", start=mark)
+        broker.start(same_port=True)
+        plant = Plant(broker)
+        try:
+            snap = wait_up(plant)  # published afresh: the broker forgot all
+            assert "joint_state.position[1]" in snap
+            assert g.alive() and g.status()[1] == 2
+        finally:
+            plant.close()
+
+
+def openssl(*args, cwd):
+    subprocess.run(["openssl"] + list(args), cwd=cwd, check=True, capture_output=True,
+                   timeout=timeout(60))
+
+
+@pytest.fixture
+def tls_files(tmp_path):
+    """A CA and a server certificate for 127.0.0.1 (EC P-256: fast)."""
+    d = tmp_path
+    openssl("req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+            "-nodes", "-keyout", "ca.key", "-out", "ca.crt", "-days", "2", "-subj",
+            "/CN=drgate test CA", cwd=d)
+    openssl("req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+            "-keyout", "server.key", "-out", "server.csr", "-subj", "/CN=127.0.0.1", cwd=d)
+    (d / "ext.cnf").write_text("subjectAltName=IP:127.0.0.1\n")
+    openssl("x509", "-req", "-in", "server.csr", "-CA", "ca.crt", "-CAkey", "ca.key",
+            "-CAcreateserial", "-out", "server.crt", "-days", "2", "-extfile", "ext.cnf",
+            cwd=d)
+    return {"ca": d / "ca.crt", "cert": d / "server.crt", "key": d / "server.key"}
+
+
+def test_tls(request, tls_files):
+    b = Broker(request.node.name, tls=tls_files).start()
+    try:
+        extra = mqtt_section(b, "ca_file = %s" % tls_files["ca"])
+        with running("mqtt_tls", extra=extra) as g:
+            plant = Plant(b, tls_ca=tls_files["ca"])
+            try:
+                snap = wait_up(plant)
+                assert "io_state.robot_state" in snap
+                assert "connected to" in g.log()
+            finally:
+                plant.close()
+    finally:
+        b.stop()
