@@ -857,7 +857,87 @@ static const err_case_t err_cases[] = {
       "with ; or #)" },
     { ROBOT "[modbus]\nfoo = 1\nport\n",
       "4: unknown key 'foo' in [modbus] (allowed: " MODBUS_KEYS ")" },
+    /* [mqtt] */
+    { ROBOT "[mqtt]\nport = 1883\n",
+      "3: [mqtt] has no host (allowed: the broker's IPv4 address or host name)" },
+    { ROBOT "[mqtt]\nhost = b\n[mqtt]\n",
+      "5: section [mqtt] repeated (first at line 3)" },
+    { ROBOT "[mqtt broker]\n", "3: section [mqtt broker] takes no name (allowed: [mqtt])" },
+    { ROBOT "[mqt]\n",
+      "3: unknown section [mqt] (did you mean [mqtt]? allowed: " SECTIONS ")" },
+    { ROBOT "[mqtt]\nhost = b\nqos = 3\n", "5: qos 3 out of range (allowed: 0..2)" },
+    { ROBOT "[mqtt]\nhost = b\ntopic_prefx = x\n",
+      "5: unknown key 'topic_prefx' in [mqtt] (did you mean 'topic_prefix'? allowed: "
+      "host, port, client_id, username, password_file, ca_file, cert_file, key_file, "
+      "keepalive_s, qos, topic_prefix, retain, publish_interval_ms, deadband, writes)" },
+    { ROBOT "[mqtt]\nhost = b\ntopic_prefix = plant/#\n",
+      "5: topic_prefix 'plant/#' invalid (allowed: topic levels separated by '/', no "
+      "wildcards, blanks or empty levels, e.g. drgate/cell1)" },
+    { ROBOT "[mqtt]\nhost = b\ntopic_prefix = a//b\n",
+      "5: topic_prefix 'a//b' invalid (allowed: topic levels separated by '/', no "
+      "wildcards, blanks or empty levels, e.g. drgate/cell1)" },
+    { ROBOT "[mqtt]\nhost = b\ndeadband = -1\n",
+      "5: deadband '-1' invalid (allowed: a decimal number >= 0, e.g. 0.5)" },
+    { ROBOT "[mqtt]\nhost = b\ndeadband = 1.2.3\n",
+      "5: deadband '1.2.3' invalid (allowed: a decimal number >= 0, e.g. 0.5)" },
+    { ROBOT "[mqtt]\nhost = b\ndeadband = nan\n",
+      "5: deadband 'nan' invalid (allowed: a decimal number >= 0, e.g. 0.5)" },
+    { ROBOT "[mqtt]\nhost = b\nca_file = ca.pem\ncert_file = c.pem\n",
+      "6: [mqtt] cert_file and key_file go together (allowed: both or neither)" },
+    { ROBOT "[mqtt]\nhost = b\ncert_file = c.pem\nkey_file = k.pem\n",
+      "5: [mqtt] cert_file needs ca_file (TLS)" },
+    { ROBOT "[mqtt]\nhost = b\npassword_file = p\n",
+      "5: [mqtt] password_file needs username" },
+    { ROBOT "[mqtt]\nhost = b\nclient_id = a b\n",
+      "5: client_id 'a b' invalid (allowed: letters, digits, '_', '-', '.')" },
+    { ROBOT "[mqtt]\nhost = b\nwrites = on\n", "5: writes 'on' invalid (allowed: yes, no)" },
 };
+
+/* [mqtt]: every key, and the defaults of those not given. */
+static void test_mqtt(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    if (!load_text(ROBOT, &c, err, sizeof err))
+        fail_msg("%s", err);
+    assert_false(c.mqtt.enabled);
+    if (!load_text(ROBOT "[mqtt]\nhost = broker.local\n", &c, err, sizeof err))
+        fail_msg("%s", err);
+    const gw_mqtt_config_t *q = &c.mqtt;
+    assert_true(q->enabled);
+    assert_string_equal(q->host, "broker.local");
+    assert_int_equal(q->port, 1883);
+    assert_int_equal(q->keepalive_s, 30);
+    assert_int_equal(q->qos, 0);
+    assert_true(q->retain);
+    assert_int_equal(q->publish_interval_ms, 100);
+    assert_true(q->deadband == 0.0);
+    assert_false(q->writes);
+    assert_string_equal(q->topic_prefix, "");
+    if (!load_text(ROBOT "[mqtt]\nhost = 10.0.0.9\nport = 8883\nclient_id = cell-1.gw\n"
+                         "username = gw\npassword_file = /etc/drgate/mqtt.pw\n"
+                         "ca_file = ca.pem\ncert_file = c.pem\nkey_file = k.pem\n"
+                         "keepalive_s = 5\nqos = 1\ntopic_prefix = plant/cell1\nretain = no\n"
+                         "publish_interval_ms = 0\ndeadband = 0.25\nwrites = yes\n",
+                   &c, err, sizeof err))
+        fail_msg("%s", err);
+    assert_int_equal(q->port, 8883);
+    assert_string_equal(q->client_id, "cell-1.gw");
+    assert_string_equal(q->username, "gw");
+    assert_string_equal(q->password_file, "/etc/drgate/mqtt.pw");
+    assert_string_equal(q->ca_file, "ca.pem");
+    assert_string_equal(q->cert_file, "c.pem");
+    assert_string_equal(q->key_file, "k.pem");
+    assert_int_equal(q->keepalive_s, 5);
+    assert_int_equal(q->qos, 1);
+    assert_string_equal(q->topic_prefix, "plant/cell1");
+    assert_false(q->retain);
+    assert_int_equal(q->publish_interval_ms, 0);
+    assert_true(q->deadband == 0.25);
+    assert_true(q->writes);
+    assert_int_equal(q->line, 3);
+}
 
 static void test_errors(void **state)
 {
@@ -1088,6 +1168,7 @@ int main(void)
         cmocka_unit_test(test_rtu_defaults),
         cmocka_unit_test(test_example_values),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_mqtt),
         cmocka_unit_test(test_long_line),
         cmocka_unit_test(test_nul_byte),
         cmocka_unit_test(test_file_errors),
