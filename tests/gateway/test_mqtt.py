@@ -10,6 +10,7 @@ and a broker that goes away and comes back is survived."""
 import json
 import math
 import shutil
+import signal
 import subprocess
 import threading
 import time
@@ -343,3 +344,37 @@ def test_tls(request, tls_files):
                 plant.close()
     finally:
         b.stop()
+
+
+def test_reload(broker):
+    """SIGHUP: an unchanged [mqtt] keeps its connection and publishes afresh;
+    a changed one reconnects (offline, then online); one whose
+    password_file cannot be read is refused and the running one kept."""
+    with running("mqtt_reload", extra=mqtt_section(broker)) as g:
+        plant = Plant(broker)
+        try:
+            wait_up(plant)
+            connects = lambda: g.log().count("mqtt: connected to")
+            assert connects() == 1
+            states = len(plant.all(PREFIX + "/r0/state"))
+            g.signal(signal.SIGHUP)
+            wait_for(lambda: "reloaded (generation 1)" in g.log(), 10, "reload 1")
+            wait_for(lambda: len(plant.all(PREFIX + "/r0/state")) > states, 10, "state again")
+            assert connects() == 1
+            g.extra = mqtt_section(broker, "publish_interval_ms = 50")
+            g.write_config()
+            n = len(plant.all(PREFIX + "/status"))
+            g.signal(signal.SIGHUP)
+            wait_for(lambda: connects() == 2, 10, "a new connection")
+            wait_for(lambda: [p for _, p, _ in plant.all(PREFIX + "/status")][n:] ==
+                     ["offline", "online"], 10, "offline, then online")
+            g.extra = mqtt_section(broker, "username = u\npassword_file = /nonexistent/pw")
+            g.write_config()
+            mark = len(g.log())
+            g.signal(signal.SIGHUP)
+            g.log_wait("reload refused", start=mark)
+            assert "/nonexistent/pw" in g.log()[mark:]
+            assert g.alive() and connects() == 2
+            assert plant.last(PREFIX + "/status") == "online"
+        finally:
+            plant.close()
