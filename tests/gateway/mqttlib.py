@@ -1,0 +1,95 @@
+# SPDX-License-Identifier: MIT
+"""MQTT peers for tests/gateway/test_mqtt.py and bench/mqtt_bench.py: Debian's
+mosquitto broker started from a generated configuration on a free
+loopback port, and a paho-mqtt client playing the plant."""
+import json
+import shutil
+import threading
+
+import paho.mqtt.client as mqtt
+
+from gwlib import GW_ADDR, LOGDIR, free_port, read_text, spawn, timeout, wait_for
+
+MOSQUITTO = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
+PREFIX = "drgate/test"
+
+
+class Broker:
+    """mosquitto -c <generated conf> on 127.0.0.1:<free port>, no
+    persistence (a restart forgets retained messages)."""
+
+    def __init__(self, name, tls=None):
+        self.name = name
+        self.tls = tls  # dict of cafile/certfile/keyfile, or None
+        self.port = None
+        self.proc = None
+        self.conf = LOGDIR / ("%s.mosquitto.conf" % name)
+        self.log_path = LOGDIR / ("%s.mosquitto.log" % name)
+
+    def start(self, same_port=False):
+        if not same_port or self.port is None:
+            self.port = free_port(GW_ADDR, udp=False)
+        text = ("per_listener_settings false\nallow_anonymous true\n"
+                "persistence false\nuser root\nlistener %d %s\n" % (self.port, GW_ADDR))
+        if self.tls:
+            text += "cafile %s\ncertfile %s\nkeyfile %s\n" % (
+                self.tls["ca"], self.tls["cert"], self.tls["key"])
+        LOGDIR.mkdir(parents=True, exist_ok=True)
+        self.conf.write_text(text)
+        mark = len(read_text(self.log_path))
+        self.proc = spawn([MOSQUITTO, "-c", str(self.conf), "-v"], self.log_path)
+        wait_for(lambda: self.proc.poll() is not None or
+                 " running" in read_text(self.log_path)[mark:], 10, "mosquitto to start")
+        assert self.proc.poll() is None, read_text(self.log_path)[-2000:]
+        return self
+
+    def stop(self):
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            self.proc.wait(timeout(10))
+
+
+class Plant:
+    """A paho client subscribed to <PREFIX>/#: every message kept as
+    (topic, payload text, retained)."""
+
+    def __init__(self, broker, tls_ca=None):
+        self.msgs = []
+        self.lock = threading.Lock()
+        self.c = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+        if tls_ca:
+            self.c.tls_set(ca_certs=str(tls_ca))
+        self.c.on_message = self._on_message
+        self.c.on_connect = lambda c, u, f, rc, p: c.subscribe(PREFIX + "/#", qos=1)
+        self.c.connect(GW_ADDR, broker.port, 30)
+        self.c.loop_start()
+
+    def _on_message(self, c, u, m):
+        with self.lock:
+            self.msgs.append((m.topic, m.payload.decode("utf-8", "replace"), m.retain))
+
+    def all(self, topic=None):
+        with self.lock:
+            return [m for m in self.msgs if topic is None or m[0] == topic]
+
+    def last(self, topic):
+        ms = self.all(topic)
+        return ms[-1][1] if ms else None
+
+    def data(self, robot="r0"):
+        return [json.loads(p) for _, p, _ in self.all("%s/%s/data" % (PREFIX, robot))]
+
+    def merged(self, robot="r0"):
+        """The robot's fields as the plant knows them from all data so far."""
+        out = {}
+        for d in self.data(robot):
+            out.update(d)
+        return out
+
+    def set(self, path, value, robot="r0"):
+        info = self.c.publish("%s/%s/set/%s" % (PREFIX, robot, path), value, qos=1)
+        info.wait_for_publish(timeout(5))
+
+    def close(self):
+        self.c.loop_stop()
+        self.c.disconnect()
