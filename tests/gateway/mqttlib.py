@@ -5,6 +5,7 @@ loopback port, and a paho-mqtt client playing the plant."""
 import json
 import shutil
 import threading
+import time
 
 import paho.mqtt.client as mqtt
 
@@ -55,6 +56,7 @@ class Plant:
 
     def __init__(self, broker, tls_ca=None):
         self.msgs = []
+        self.times = []  # time.monotonic() of each message's arrival
         self.lock = threading.Lock()
         self.c = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
         if tls_ca:
@@ -67,6 +69,7 @@ class Plant:
     def _on_message(self, c, u, m):
         with self.lock:
             self.msgs.append((m.topic, m.payload.decode("utf-8", "replace"), m.retain))
+            self.times.append(time.monotonic())
 
     def all(self, topic=None):
         with self.lock:
@@ -93,3 +96,8 @@ class Plant:
     def close(self):
         self.c.loop_stop()
         self.c.disconnect()
+
+
+def mqtt_section(broker, extra=""):
+    return ("\n[mqtt]\nhost = %s\nport = %d\ntopic_prefix = %s\nkeepalive_s = 5\n%s\n"
+            % (GW_ADDR, broker.port, PREFIX, extra))

@@ -19,12 +19,7 @@ from gwlib import GW_ADDR, SIM_ADDR, EnipReader, decode_t2o, running, timeout, w
 
 pytest.importorskip("paho.mqtt.client")
 
-from mqttlib import PREFIX, Broker, Plant  # noqa: E402 (needs paho)
-
-def mqtt_section(broker, extra=""):
-    return ("\n[mqtt]\nhost = %s\nport = %d\ntopic_prefix = %s\nkeepalive_s = 5\n%s\n"
-            % (GW_ADDR, broker.port, PREFIX, extra))
-
+from mqttlib import PREFIX, Broker, Plant, mqtt_section  # noqa: E402 (needs paho)
 
 @pytest.fixture
 def broker(request):
