@@ -61,10 +61,14 @@ class Plant:
         self.c = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
         if tls_ca:
             self.c.tls_set(ca_certs=str(tls_ca))
+        self.subscribed = threading.Event()
         self.c.on_message = self._on_message
         self.c.on_connect = lambda c, u, f, rc, p: c.subscribe(PREFIX + "/#", qos=1)
+        self.c.on_subscribe = lambda c, u, mid, rcs, p: self.subscribed.set()
         self.c.connect(GW_ADDR, broker.port, 30)
         self.c.loop_start()
+        # what the gateway publishes from now on (its snapshot) is seen
+        assert self.subscribed.wait(timeout(10)), "no SUBACK from the broker"
 
     def _on_message(self, c, u, m):
         with self.lock:
