@@ -44,6 +44,7 @@
 #define MQ_JSON_MAX 65536u           /* the largest payload (meta) is ~30 kB */
 #define MQ_SET_MAX 64u               /* a write's value text */
 #define MQ_READS_PER_EVENT 64        /* packets read per readiness event */
+#define MQ_ERR_QUEUE 32u             /* error replies queued at once */
 
 typedef struct {
     char buf[MQ_JSON_MAX];
@@ -80,6 +81,7 @@ typedef struct {
     unsigned asm_seen[GW_MAX_ROBOTS]; /* T->O assemblies received since link up */
     uint64_t up_us[GW_MAX_ROBOTS];    /* when the link came up */
     uint64_t next_pub_us[GW_MAX_ROBOTS];
+    unsigned err_queued;   /* error replies given since libmosquitto's queue was empty */
     unsigned long dropped; /* error replies dropped (queue bound) */
     mq_json_t json;
 } mq_t;
@@ -285,10 +287,19 @@ static bool publish_data(mq_t *t, unsigned robot, bool full)
 static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, const char *why)
 {
     gw_log(GW_LOG_INFO, "mqtt: write %s refused: %s", m->topic, why);
-    if (!room(t)) {
-        t->dropped++; /* bounded: a flood of bad writes cannot grow a queue */
+    /* Called from within mosquitto_loop_read, where libmosquitto queues
+     * what is published instead of writing it: each refusal of a burst
+     * gets its reply, up to a bound; a flood of bad writes cannot grow
+     * the queue (the refusal is still logged). */
+    if (!mosquitto_want_write(t->mosq) && (t->cfg.qos == 0 || t->inflight < MQ_MAX_INFLIGHT))
+        t->err_queued = 0;
+    if (!t->connected || t->err_queued >= MQ_ERR_QUEUE ||
+        (t->cfg.qos > 0 && t->inflight >= MQ_MAX_INFLIGHT + MQ_ERR_QUEUE)) {
+        if (t->dropped++ % 1000u == 0)
+            gw_log(GW_LOG_WARNING, "mqtt: error replies dropped: %lu (queue bound)", t->dropped);
         return;
     }
+    t->err_queued++;
     mq_json_t *j = &t->json;
     j->len = 0, j->full = false;
     js_str(j, "{\"topic\":");

@@ -93,9 +93,13 @@ class Plant:
             out.update(d)
         return out
 
-    def set(self, path, value, robot="r0"):
-        info = self.c.publish("%s/%s/set/%s" % (PREFIX, robot, path), value, qos=1)
-        info.wait_for_publish(timeout(5))
+    def set(self, path, value, robot="r0", wait=True):
+        """wait=False: QoS 0, not waiting: a burst reaches the gateway in
+        as few reads as the network makes it."""
+        info = self.c.publish("%s/%s/set/%s" % (PREFIX, robot, path), value,
+                              qos=1 if wait else 0)
+        if wait:
+            info.wait_for_publish(timeout(5))
 
     def close(self):
         self.c.loop_stop()
