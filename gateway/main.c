@@ -2,7 +2,7 @@
 /*
  * drgatewayd: keeps the robots' assemblies live over EtherNet/IP and serves
  * them to its northbound sides (north.h: Modbus TCP, Modbus RTU, GPIO
- * lines). One thread, one epoll loop.
+ * lines, MQTT). One thread, one epoll loop.
  */
 #define _GNU_SOURCE /* signalfd */
 #include <errno.h>
@@ -430,7 +430,8 @@ static void usage(FILE *out)
             "       drgatewayd --check-config FILE\n"
             "       drgatewayd --print-map [--json | --markdown]\n"
             "Serves Doosan robots' EtherNet/IP assemblies as Modbus TCP registers, as a\n"
-            "Modbus RTU slave on serial lines, and as GPIO lines.\n\n"
+            "Modbus RTU slave on serial lines, as GPIO lines, and publishes them to an\n"
+            "MQTT broker ([mqtt], docs/mqtt.md).\n\n"
             "  -c, --config FILE      configuration (default " DEFAULT_CONFIG ")\n"
             "      --check-config FILE  validate FILE and exit (0 valid, 78 invalid)\n"
             "      --print-map        print the Modbus register map and exit\n"
