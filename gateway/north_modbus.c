@@ -417,7 +417,7 @@ static void rtu_on_link(void *self, unsigned robot, bool up)
     (void)self, (void)robot, (void)up; /* the stale policy is applied once, by TCP's side */
 }
 
-/* Status IR 31: the frames dropped and the frames for other slaves of
+/* Status IR 40-43: the frames dropped and the frames for other slaves of
  * the lines this robot is on. */
 static void rtu_status(const void *self, unsigned robot, gw_status_t *st)
 {

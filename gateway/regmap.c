@@ -45,6 +45,10 @@ static const uint16_t bit_base[DR_ASM_COUNT] = {100, 0, 0, 400, 0, 0,
 #define STATUS_REGS 32u
 #define TEST_BASE 32u
 #define TEST_REGS 8u
+/* The status block goes on after the test registers (IR 0-31 was full and
+ * IR 32-39 are read by PLC programs): status elements 32.. at IR 40.. */
+#define STATUS_EXT_BASE 40u
+#define STATUS_EXT_REGS 4u
 #define STATUS_BITS 4u
 #define CONTROL_REGS 2u
 
@@ -107,6 +111,9 @@ void gw_regmap_init(void)
         put(GW_INPUT, &addr, SL_STATUS, 0, 0, (int16_t)i);
     for (unsigned i = 0; i < TEST_REGS; i++)
         put(GW_INPUT, &addr, SL_TEST, 0, 0, (int16_t)i);
+    addr = STATUS_EXT_BASE;
+    for (unsigned i = 0; i < STATUS_EXT_REGS; i++)
+        put(GW_INPUT, &addr, SL_STATUS, 0, 0, (int16_t)(STATUS_REGS + i));
     addr = 0;
     for (unsigned i = 0; i < STATUS_BITS; i++)
         put(GW_DISCRETE, &addr, SL_STATUS, 0, 0, (int16_t)i);
@@ -225,7 +232,12 @@ static uint16_t status_reg(const gw_unit_t *u, unsigned i)
     case 28: return (uint16_t)u->order;
     case 29: return st->config_generation;
     case 30: return st->last_cip_general;
-    case 31: return (uint16_t)((st->rtu_dropped & 0xFFu) << 8 | (st->rtu_other & 0xFFu));
+    /* 31 is reserved (reads 0); the block goes on at IR 40, its 32-bit
+     * counters high word first too */
+    case STATUS_REGS + 0: return (uint16_t)(st->rtu_dropped >> 16);
+    case STATUS_REGS + 1: return (uint16_t)st->rtu_dropped;
+    case STATUS_REGS + 2: return (uint16_t)(st->rtu_other >> 16);
+    case STATUS_REGS + 3: return (uint16_t)st->rtu_other;
     default:
         if (i >= 16 && i < 16 + GW_MAX_CONN_STATUS)
             return st->conn_state[i - 16];
@@ -476,7 +488,7 @@ static const char *const area_name[GW_AREAS] = {"coil", "discrete input",
 static const char *const area_short[GW_AREAS] = {"CO", "DI", "HR", "IR"};
 static const unsigned area_prefix[GW_AREAS] = {0, 1, 4, 3};
 
-static const char *const status_names[STATUS_REGS] = {
+static const char *const status_names[STATUS_REGS + STATUS_EXT_REGS] = {
     "status.layout_version", "status.link_state (0 down, 1 connecting, 2 up)",
     "status.data_fresh", "status.data_age_ms", "status.heartbeat", "status.rpi_ms",
     "status.rx_packets (high word)", "status.rx_packets (low word)",
@@ -488,8 +500,9 @@ static const char *const status_names[STATUS_REGS] = {
     "status.conn_state[5]", "status.conn_state[6]", "status.conn_state[7]",
     "status.conn_state[8]", "status.conn_state[9]", "status.write_fault",
     "status.writer_present", "status.word_order (0 abcd, 1 cdab, 2 badc, 3 dcba)",
-    "status.config_generation", "status.last_cip_general",
-    "status.rtu_frames (high byte: dropped, low byte: for other slaves)",
+    "status.config_generation", "status.last_cip_general", "status.reserved31",
+    "status.rtu_frames_dropped (high word)", "status.rtu_frames_dropped (low word)",
+    "status.rtu_frames_other_slave (high word)", "status.rtu_frames_other_slave (low word)",
 };
 static const char *const status_bit_names[STATUS_BITS] = {
     "status.link_up", "status.data_fresh", "status.write_fault", "status.writer_present"};

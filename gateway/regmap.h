@@ -55,8 +55,7 @@ typedef struct {
     bool writer_present;
     uint16_t config_generation;
     /* Modbus RTU lines of this robot: frames dropped (bad CRC, short,
-     * long) and frames for other slave addresses; IR 31 shows the low
-     * byte of each (the status block has no other free register). */
+     * long, cut by t3.5) and frames for other slave addresses (IR 40-43). */
     uint32_t rtu_dropped, rtu_other;
 } gw_status_t;
 

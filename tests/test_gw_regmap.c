@@ -2,8 +2,9 @@
 /*
  * The register map's checks that the end-to-end tests (tests/gateway)
  * cannot set up cheaply: bits owned by GPIO inputs (which need a GPIO
- * chip there; tests/gpio/gateway covers them in a guest with a real one)
- * and the two policies for reserved addresses, on every table. The units
+ * chip there; tests/gpio/gateway covers them in a guest with a real one),
+ * the two policies for reserved addresses, on every table, and the status
+ * block's 32-bit counters in every word order. The units
  * here are plain structs, as the daemon's are; nothing is faked.
  */
 #include <stdarg.h>
@@ -118,17 +119,50 @@ static void test_reserved_addresses(void **state)
         assert_int_equal(gw_regmap_read(&U, a, (uint16_t)(end - 1), 1, v), 0);
         assert_int_equal(gw_regmap_read(&U, a, 99, 1, v), GW_EX_ILLEGAL_ADDRESS);
     }
-    /* a reserved register reads 0 among its mapped neighbours: IR 40-99
-     * lie between the test registers and io_state */
+    /* a reserved register reads 0 among its mapped neighbours: IR 44-99
+     * lie between the status block's RTU counters and io_state */
     U.unmapped = GW_UNMAPPED_ZERO;
     memset(v, 0xAB, sizeof v);
     assert_int_equal(gw_regmap_read(&U, GW_INPUT, 32, 70, v), 0);
     assert_int_equal(v[0], 0x1234); /* test register 32 */
-    for (unsigned i = 8; i < 68; i++)
+    for (unsigned i = 12; i < 68; i++)
         assert_int_equal(v[i], 0);
     /* writes to reserved addresses stay refused, whatever the policy */
     assert_int_equal(write1(GW_HOLDING, 2, 0), GW_EX_ILLEGAL_ADDRESS);
     assert_int_equal(write1(GW_COILS, 0, 0), GW_EX_ILLEGAL_ADDRESS);
+}
+
+/* IR 40-43 (Modbus RTU frames dropped, for other slaves) are 32-bit
+ * counters like IR 6-15: high word first whatever the word order. IR 31
+ * is reserved but part of the block: IR 0-43 is one read, also with
+ * unmapped_read = exception. */
+static void test_status_counters(void **state)
+{
+    (void)state;
+    static const gw_word_order_t orders[] = {GW_WORD_ABCD, GW_WORD_CDAB, GW_WORD_BADC,
+                                             GW_WORD_DCBA};
+    U.status.rtu_dropped = 0x00010203u;
+    U.status.rtu_other = 0x80000101u;
+    U.status.rx_packets = 0x12345678u;
+    U.unmapped = GW_UNMAPPED_EXCEPTION;
+    for (unsigned i = 0; i < 4; i++) {
+        uint16_t v[44];
+        U.order = orders[i];
+        memset(v, 0xAB, sizeof v);
+        assert_int_equal(gw_regmap_read(&U, GW_INPUT, 0, 44, v), 0);
+        assert_int_equal(v[6], 0x1234);
+        assert_int_equal(v[7], 0x5678);
+        assert_int_equal(v[31], 0);
+        assert_int_equal(v[32], 0x1234); /* the test registers stay between */
+        assert_int_equal(v[40], 0x0001);
+        assert_int_equal(v[41], 0x0203);
+        assert_int_equal(v[42], 0x8000);
+        assert_int_equal(v[43], 0x0101);
+    }
+    /* the block ends at IR 43 */
+    uint16_t w[2];
+    assert_int_equal(gw_regmap_read(&U, GW_INPUT, 43, 2, w), GW_EX_ILLEGAL_ADDRESS);
+    assert_false(gw_regmap_touches_robot_data(GW_INPUT, 0, 44));
 }
 
 int main(void)
@@ -136,6 +170,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_gpio_owned_bits, setup),
         cmocka_unit_test_setup(test_reserved_addresses, setup),
+        cmocka_unit_test_setup(test_status_counters, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

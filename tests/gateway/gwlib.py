@@ -372,7 +372,7 @@ class Gateway:
 
     def status(self, unit=1):
         with self.raw() as m:
-            return m.read(4, 0, 40, unit=unit)
+            return m.read(4, 0, 44, unit=unit)  # status, test registers, status
 
     def wait_link(self, up, unit=1, seconds=20):
         def check():

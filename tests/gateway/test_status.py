@@ -41,9 +41,13 @@ def status(g, regmap, unit=1):
 
 
 def test_layout(regmap):
-    names = [e["name"] for e in regmap.area("IR") if e["address"] < 40]
-    assert [e["address"] for e in regmap.area("IR") if e["address"] < 40] == list(range(40))
+    names = [e["name"] for e in regmap.area("IR") if e["address"] < 44]
+    assert [e["address"] for e in regmap.area("IR") if e["address"] < 44] == list(range(44))
     assert names[0] == "status.layout_version"
+    assert names[31] == "status.reserved31" and names[32].startswith("test.")
+    # the block goes on after the test registers: two 32-bit RTU counters
+    assert names[40:44] == ["status.rtu_frames_%s (%s word)" % (c, w)
+                            for c in ("dropped", "other_slave") for w in ("high", "low")]
     assert [e["name"] for e in regmap.area("DI") if e["address"] < 4] == [
         "status.link_up", "status.data_fresh", "status.write_fault", "status.writer_present"]
 
@@ -59,6 +63,8 @@ def test_values_while_up(gw, regmap):
     assert s["write_fault"] == 0 and s["writer_present"] == 0
     assert s["word_order"] == 0
     assert s["config_generation"] == 0
+    assert s["reserved31"] == 0
+    assert s.u32("rtu_frames_dropped") == 0 and s.u32("rtu_frames_other_slave") == 0
     # six Class 1 connections, all established (dr_conn_state_t 2)
     assert [s["conn_state[%d]" % i] for i in range(10)] == [2] * 6 + [0] * 4
     with gw.raw() as m:
