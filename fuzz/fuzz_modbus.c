@@ -165,7 +165,9 @@ static void check_write_effect(const gw_unit_t *before, const gw_unit_t *after,
                same_bytes(x->conn_state, y->conn_state, sizeof x->conn_state) &&
                (x->write_fault == y->write_fault || r->reset) &&
                x->writer_present == y->writer_present &&
-               x->config_generation == y->config_generation);
+               x->config_generation == y->config_generation &&
+               x->last_cip_general == y->last_cip_general &&
+               x->rtu_dropped == y->rtu_dropped && x->rtu_other == y->rtu_other);
     FUZZ_CHECK(before->order == after->order && before->on_loss == after->on_loss);
     /* A bit a GPIO input drives is the input's. */
     for (unsigned i = 0; i < before->gpio_in_count; i++) {

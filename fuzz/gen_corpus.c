@@ -572,7 +572,8 @@ static void gen_modbus(void)
 {
     /* Addresses: docs/register-map.md. O->T holding registers: io_control
      * 100, bit_in 200, int_in 300, float_in 400 (scaled view +1000);
-     * control 0-1; T->O input registers 100-600, status 0-31, test 32-39;
+     * control 0-1; T->O input registers 100-600, status 0-31 and 40-43
+     * (RTU counters), test 32-39;
      * coils: io_control 100, bit_in 200. */
     buf_t b;
     const uint16_t real15[2] = {0x3FC0, 0x0000};   /* 1.5 in abcd */
@@ -584,7 +585,7 @@ static void gen_modbus(void)
     mb_4(&b, 1, 0x01, 100, 16);
     mb_4(&b, 1, 0x02, 0, 4);
     mb_4(&b, 1, 0x03, 0, 2);
-    mb_4(&b, 1, 0x04, 0, 40);
+    mb_4(&b, 1, 0x04, 0, 44);
     mb_4(&b, 1, 0x04, 100, 18);
     mb_4(&b, 1, 0x04, 1200, 6);
     mb_4(&b, 1, 0x03, 400, 8);
