@@ -26,6 +26,7 @@ import time
 
 TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(TOP, "tests", "gateway"))
+from gwlib import crc16  # noqa: E402 (after the path it is found on)
 
 BAUD = 115200
 BITS = 10  # start, 8 data, stop
@@ -35,15 +36,6 @@ REQ, REPLY = 8, 5 + 250
 
 def line_limit():
     return 1.0 / ((REQ + REPLY) * BITS / BAUD + 2 * T35)
-
-
-def crc16(data):
-    crc = 0xFFFF
-    for b in data:
-        crc ^= b
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
-    return struct.pack("<H", crc)
 
 
 def run_master(path, seconds):

@@ -118,6 +118,17 @@ def regs_dint(regs, order):
     return struct.unpack(">i", bytes_of(regs, order))[0]
 
 
+def crc16(data):
+    """Modbus RTU CRC-16 (polynomial 0xA001, initial 0xFFFF), as the two
+    bytes that end a frame, low byte first."""
+    crc = 0xFFFF
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+    return struct.pack("<H", crc)
+
+
 def f32(x):
     """x rounded to binary32, as the robot stores it."""
     return struct.unpack("<f", struct.pack("<f", x))[0]

@@ -20,7 +20,7 @@ import time
 
 import pytest
 
-from gwlib import (DRGATEWAYD, GW_ADDR, free_port, EX_ILLEGAL_ADDRESS, EX_ILLEGAL_FUNCTION, INSTANCE, LOGDIR, Drsim,
+from gwlib import (DRGATEWAYD, crc16, GW_ADDR, free_port, EX_ILLEGAL_ADDRESS, EX_ILLEGAL_FUNCTION, INSTANCE, LOGDIR, Drsim,
                    EnipReader, Gateway, REAL_123456, spawn, timeout, wait_for)
 
 SOCAT = shutil.which("socat")
@@ -29,15 +29,6 @@ pytestmark = pytest.mark.skipif(SOCAT is None, reason="socat is not installed (m
 
 BAUD = 9600
 R0, R1 = 5, 2  # slave addresses
-
-
-def crc16(data):
-    crc = 0xFFFF
-    for b in data:
-        crc ^= b
-        for _ in range(8):
-            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
-    return struct.pack("<H", crc)
 
 
 @contextlib.contextmanager
