@@ -8,8 +8,9 @@
 # `make bench-scale SCALE_BENCH_ARGS=--quick` measures N = 1, 2, 4 only.
 # Method and results in docs/performance.md ("Robots per core").
 #
-# The daemon ships with at most 8 robots (GW_MAX_ROBOTS, gateway/config.h);
-# the bench measures a build with room for 32, otherwise the same daemon.
+# The daemon takes 32 robots (GW_MAX_ROBOTS, gateway/config.h); the bench
+# builds it with -DGW_MAX_ROBOTS=32 all the same, so that it keeps measuring
+# 32 robots should the default change.
 # Like bench_gw.mk, the prerequisites naming gateway variables are expanded
 # in make's second expansion (gw_daemon.mk is read after this file).
 

@@ -537,12 +537,13 @@ static void test_shared_port_limits(void **state)
     dr_udp_port_t *p = dr_udp_port_new("here", 0, tp, &err);
     assert_non_null(p);
     assert_int_equal(dr_udp_port_fd(p), FD_OF(UDP_H));
-    /* sixteen clients share one port; the seventeenth is refused until
-     * one of them is freed */
-    dr_client_t *c[17];
+    /* DR_UDP_PORT_MAX_CLIENTS (32, as many as drgatewayd's robots) share
+     * one port; one more is refused until one of them is freed */
+    assert_int_equal(DR_UDP_PORT_MAX_CLIENTS, 32);
+    dr_client_t *c[DR_UDP_PORT_MAX_CLIENTS];
     dr_client_config_t cfg = config(&fake_ops);
     cfg.shared_udp = p;
-    for (int i = 0; i < 16; i++) {
+    for (int i = 0; i < DR_UDP_PORT_MAX_CLIENTS; i++) {
         c[i] = dr_client_new(&cfg);
         assert_non_null(c[i]);
     }
@@ -563,7 +564,7 @@ static void test_shared_port_limits(void **state)
     F.udp_in_n = 2;
     assert_int_equal(dr_udp_port_process(p), DR_OK);
     assert_int_equal(F.udp_in_n, 0);
-    for (int i = 0; i < 16; i++)
+    for (int i = 0; i < DR_UDP_PORT_MAX_CLIENTS; i++)
         dr_client_free(c[i]);
     dr_udp_port_free(p);
     dr_udp_port_free(NULL);

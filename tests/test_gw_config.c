@@ -679,15 +679,6 @@ static const err_case_t err_cases[] = {
                            "characters)" },
     { "port = 502\n" ROBOT,
       "1: key 'port' outside any section (allowed sections: " SECTIONS ")" },
-    { ROBOT
-      "[robot b]\nhost = 10.0.0.2\nunit_id = 2\n[robot c]\nhost = "
-      "10.0.0.3\nunit_id = 3\n"
-      "[robot d]\nhost = 10.0.0.4\nunit_id = 4\n[robot e]\nhost = "
-      "10.0.0.5\nunit_id = 5\n"
-      "[robot f]\nhost = 10.0.0.6\nunit_id = 6\n[robot g]\nhost = "
-      "10.0.0.7\nunit_id = 7\n"
-      "[robot h]\nhost = 10.0.0.8\nunit_id = 8\n[robot i]\nhost = 10.0.0.9\n",
-      "24: too many robot sections (at most 8)" },
     /* repeated keys */
     { ROBOT "[modbus]\nport = 502\nlisten = 0.0.0.0\nport = 503\n",
       "6: key 'port' repeated in [modbus] (first at line 4)" },
@@ -958,6 +949,44 @@ static void test_errors(void **state)
     assert_int_equal(failures, 0);
 }
 
+/* `n` robot sections r1..rn, each with its own host and unit_id, written
+ * into `text`; returns the line number of the last section's header. */
+static unsigned robots_text(char *text, size_t size, unsigned n)
+{
+    size_t len = 0;
+    unsigned line = 0;
+    text[0] = '\0';
+    for (unsigned i = 1; i <= n; i++) {
+        int w = snprintf(text + len, size - len,
+                         "[robot r%u]\nhost = 10.0.%u.%u\nunit_id = %u\n", i,
+                         i / 200, i % 200 + 1, i);
+        assert_true(w > 0 && (size_t)w < size - len);
+        len += (size_t)w;
+        line += 3;
+    }
+    return line - 2;
+}
+
+/* The robot limit (GW_MAX_ROBOTS, 32): that many sections load, one more
+ * is refused at its header. */
+static void test_robot_limit(void **state)
+{
+    (void)state;
+    static char text[(GW_MAX_ROBOTS + 1) * 64];
+    static gw_config_t c;
+    char err[512], want[700];
+    assert_int_equal(GW_MAX_ROBOTS, 32);
+    robots_text(text, sizeof text, GW_MAX_ROBOTS);
+    assert_true(load_text(text, &c, err, sizeof err));
+    assert_int_equal(c.robot_count, GW_MAX_ROBOTS);
+    assert_string_equal(c.robot[GW_MAX_ROBOTS - 1].name, "r32");
+    unsigned line = robots_text(text, sizeof text, GW_MAX_ROBOTS + 1);
+    assert_false(load_text(text, &c, err, sizeof err));
+    snprintf(want, sizeof want, "%s:%u: too many robot sections (at most 32)",
+             tmpini, line);
+    assert_string_equal(err, want);
+}
+
 static void test_long_line(void **state)
 {
     (void)state;
@@ -1169,6 +1198,7 @@ int main(void)
         cmocka_unit_test(test_example_values),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_mqtt),
+        cmocka_unit_test(test_robot_limit),
         cmocka_unit_test(test_long_line),
         cmocka_unit_test(test_nul_byte),
         cmocka_unit_test(test_file_errors),

@@ -45,9 +45,10 @@
 #define DR_CLIENT_RX_BATCH 8
 #endif
 
-/* Clients that can share one UDP port (dr_udp_port_t, default 16). */
+/* Clients that can share one UDP port (dr_udp_port_t, default 32: as many
+ * robots as drgatewayd takes, GW_MAX_ROBOTS; each costs a pointer). */
 #ifndef DR_UDP_PORT_MAX_CLIENTS
-#define DR_UDP_PORT_MAX_CLIENTS 16
+#define DR_UDP_PORT_MAX_CLIENTS 32
 #endif
 
 /* Longest host name or address the client copies, with its NUL
