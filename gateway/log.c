@@ -2,6 +2,7 @@
 /* Log lines: "<N>" priority prefixes when stderr is the journal (systemd
  * sets JOURNAL_STREAM), a level word otherwise. */
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,17 +57,105 @@ void gw_log(gw_log_level_t level, const char *fmt, ...)
     va_end(ap);
 }
 
+/* ---- limited kinds ------------------------------------------------------------
+ * While a kind is being suppressed, its count and a copy of its latest line
+ * live here rather than in its gw_log_limit_t: gw_log_flush then never
+ * reads the owner's memory, so a robot, map or server freed (by a reload)
+ * with a count still pending neither dangles nor loses that count. An
+ * entry also holds the kind's window: after a summary the next 10 s are
+ * suppressed as well, so a flood that goes on prints one line per 10 s. */
+
+#define PENDING_MAX 64  /* kinds suppressing at once; beyond, the old way */
+#define TEXT_MAX 256
+
+typedef struct {
+    const gw_log_limit_t *limit; /* identity only, never dereferenced */
+    uint64_t due_us;             /* end of the kind's window */
+    gw_log_level_t level;
+    unsigned count;              /* suppressed in this window */
+    char text[TEXT_MAX];         /* the latest of them */
+} pending_t;
+
+static pending_t pending[PENDING_MAX];
+
+static pending_t *pending_of(const gw_log_limit_t *limit)
+{
+    if (limit->slot == 0 || limit->slot > PENDING_MAX)
+        return NULL;
+    pending_t *p = &pending[limit->slot - 1];
+    return p->limit == limit ? p : NULL;
+}
+
+static void flush_at_exit(void)
+{
+    gw_log_flush(UINT64_MAX);
+}
+
+static pending_t *pending_new(gw_log_limit_t *limit, uint64_t due_us, gw_log_level_t level)
+{
+    static bool at_exit;
+    if (!at_exit)
+        at_exit = atexit(flush_at_exit) == 0;
+    for (unsigned i = 0; i < PENDING_MAX; i++)
+        if (pending[i].limit == NULL) {
+            pending[i] = (pending_t){.limit = limit, .due_us = due_us, .level = level};
+            limit->slot = i + 1;
+            return &pending[i];
+        }
+    return NULL;
+}
+
+static void pending_print(const pending_t *p)
+{
+    gw_log(p->level, "%s [%u similar message%s suppressed in 10 s, the last shown]", p->text,
+           p->count, p->count == 1 ? "" : "s");
+}
+
 void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
 {
     uint64_t now = gw_now_us();
-    if (limit->last_us != 0 && now - limit->last_us < LIMIT_US) {
-        limit->suppressed++;
-        return;
-    }
-    limit->last_us = now;
+    pending_t *p = pending_of(limit);
+    uint64_t end = p != NULL ? p->due_us : limit->last_us + LIMIT_US;
     va_list ap;
     va_start(ap, fmt);
-    vlog(level, limit->suppressed, fmt, ap);
-    va_end(ap);
+    if (limit->last_us != 0 && now < end) {
+        if (p == NULL)
+            p = pending_new(limit, end, level);
+        if (p != NULL) {
+            p->count++;
+            p->level = level;
+            (void)vsnprintf(p->text, sizeof p->text, fmt, ap);
+        } else {
+            limit->suppressed++; /* table full: ends the kind's next line */
+        }
+        va_end(ap);
+        return;
+    }
+    /* a window over but not flushed yet (the tick runs at 10 Hz): its
+     * count ends this line, as one that waited for the next line does */
+    unsigned n = limit->suppressed;
+    if (p != NULL) {
+        n += p->count;
+        p->limit = NULL;
+    }
+    limit->last_us = now;
     limit->suppressed = 0;
+    vlog(level, n, fmt, ap);
+    va_end(ap);
+}
+
+void gw_log_flush(uint64_t now)
+{
+    for (unsigned i = 0; i < PENDING_MAX; i++) {
+        pending_t *p = &pending[i];
+        if (p->limit == NULL || now < p->due_us)
+            continue;
+        if (p->count == 0) {
+            p->limit = NULL; /* a quiet window: the kind is free again */
+            continue;
+        }
+        pending_print(p);
+        p->count = 0;
+        p->due_us = now + LIMIT_US;
+    }
 }

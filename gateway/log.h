@@ -24,13 +24,21 @@ void gw_log(gw_log_level_t level, const char *fmt, ...) GW_PRINTF(2, 3);
  * zero-initialised. */
 typedef struct {
     uint64_t last_us;    /* when one was last printed */
-    unsigned suppressed; /* of this kind since */
+    unsigned suppressed; /* of this kind since, when log.c had no room for them */
+    unsigned slot;       /* log.c's entry for the ones it holds (0: none) */
 } gw_log_limit_t;
 
 /* At most one line every 10 s per limit; the lines in between are counted
- * there, and the count is printed at the end of the next line of the same
- * kind that passes ("... [N similar messages suppressed]"). */
+ * for that kind, and when its 10 s are over gw_log_flush prints the latest
+ * of them with the count ("... [N similar messages suppressed in 10 s, the
+ * last shown]"). A line of the kind that comes after the 10 s and before
+ * the flush ends with the count instead ("... [N similar messages
+ * suppressed]"). */
 void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
     GW_PRINTF(3, 4);
+
+/* Prints the counts of the kinds whose 10 s ended by now (gw_now_us()); the
+ * daemon's tick calls it. What is still pending at exit is printed then. */
+void gw_log_flush(uint64_t now);
 
 #endif

@@ -105,6 +105,7 @@ static void tick(gw_t *g, uint64_t now, bool busy)
     if (now < g->next_tick_us)
         return;
     g->next_tick_us = now + TICK_US;
+    gw_log_flush(now); /* suppressed counts whose 10 s are over */
     bool beat = now >= g->next_beat_us;
     if (beat)
         g->next_beat_us = now + 1000000u;
