@@ -1911,6 +1911,38 @@ static void chip_key(const char *chip, char *out, size_t size)
     snprintf(out, size, "%s%s", number ? "gpiochip" : "", chip);
 }
 
+/* Whether the robot's connection plan opens an owner connection for O->T
+ * assembly o2t: only those are written (Modbus writes to others get
+ * exception 0x02). */
+static bool has_owner(const gw_robot_config_t *r, int o2t)
+{
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (r->open[a].kind == GW_OPEN_OWNER && r->open[a].o2t == o2t)
+            return true;
+    return false;
+}
+
+/* An input on an O->T bit no connection writes would drive nothing. The
+ * hint names the T->O partner of the default plan when there is one. */
+static void unowned_input(ctx_t *c, const gw_gpio_config_t *gp, const gpio_lines_t *gl,
+                          const char *path)
+{
+    int o2t = (int)gp->field.field->assembly;
+    const char *o2t_name = dr_asm_info((dr_asm_t)o2t)->name;
+    gw_robot_config_t def;
+    memset(&def, 0, sizeof def);
+    gw_robot_default_plan(&def);
+    const char *t2o_name = "<T->O assembly>";
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (def.open[a].kind == GW_OPEN_OWNER && def.open[a].o2t == o2t)
+            t2o_name = dr_asm_info((dr_asm_t)a)->name;
+    fail(c, gl->key[GK_FIELD],
+         "gpio '%s': input drives '%s', but robot '%s' opens no owner connection for %s "
+         "(its open.* plan), so nothing would send it: give %s an owner (e.g. "
+         "open.%s = owner:%s) or map the input elsewhere",
+         gp->name, path, gp->robot, o2t_name, o2t_name, t2o_name, o2t_name);
+}
+
 static void check_gpio_one(ctx_t *c, unsigned i)
 {
     gw_config_t *g = &c->cfg;
@@ -1964,6 +1996,8 @@ static void check_gpio_one(ctx_t *c, unsigned i)
                  "io_control.tool_do[N], "
                  "io_control.ao_type.*, bit_in[N])",
                  gp->name, path);
+        } else if (!has_owner(&g->robot[gp->robot_index], (int)gp->field.field->assembly)) {
+            unowned_input(c, gp, gl, path);
         } else if (gl->key[GK_SAFE_VALUE] != 0) {
             fail(c, gl->key[GK_SAFE_VALUE],
                  "gpio '%s': safe_value applies to outputs only (this is an "

@@ -634,6 +634,20 @@ static const err_case_t err_cases[] = {
       "(T->O); "
       "inputs drive O->T bits (io_control.cb_do[N], io_control.tool_do[N], "
       "io_control.ao_type.*, bit_in[N])" },
+    /* an input on an O->T assembly no owner connection writes (runtime
+     * writes to it get exception 0x02: the input would drive nothing) */
+    { ROBOT "open.bit_out = input_only\n" GPIO_HEAD
+      "line = 1\ndirection = input\nfield = bit_in[2]\n",
+      "8: gpio 'g': input drives 'bit_in[2]', but robot 'a' opens no owner "
+      "connection for bit_in (its open.* plan), so nothing would send it: give "
+      "bit_in an owner (e.g. open.bit_out = owner:bit_in) or map the input "
+      "elsewhere" },
+    { ROBOT "open.io_state = listen_only\n" GPIO_HEAD
+      "field = io_control.cb_do[1]\nline = 1\ndirection = input\n",
+      "6: gpio 'g': input drives 'io_control.cb_do[1]', but robot 'a' opens no "
+      "owner connection for io_control (its open.* plan), so nothing would send "
+      "it: give io_control an owner (e.g. open.io_state = owner:io_control) or "
+      "map the input elsewhere" },
     /* sections */
     { "[modbsu]\nport = 502\n" ROBOT,
       "1: unknown section [modbsu] (did you mean [modbus]? allowed: " SECTIONS
