@@ -646,6 +646,24 @@ static void conn_close(drsim_conn_t *c, const char *why)
     memset(c, 0, sizeof *c);
 }
 
+/* Closes c; when it was the last connection producing its T->O assembly
+ * (an owner or input-only one), the listen-only connections on that
+ * assembly go with it, as on an ODVA adapter (OpENer closes them when the
+ * last master connection of an input point closes, by Forward Close or
+ * timeout): they have nothing left to listen to, and their originators
+ * see them time out. */
+static void conn_end(drsim_t *s, drsim_conn_t *c, const char *why)
+{
+    bool producer = !c->listen_only;
+    dr_asm_t t2o = c->t2o_asm;
+    conn_close(c, why); /* logged first: the listeners' lines follow it */
+    if (!producer || t2o_produced(s, t2o))
+        return;
+    for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++)
+        if (s->conn[i].used && s->conn[i].listen_only && s->conn[i].t2o_asm == t2o)
+            conn_close(&s->conn[i], "its producer closed");
+}
+
 static void forward_close(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
 {
     dr_fwd_close_t fc;
@@ -665,7 +683,7 @@ static void forward_close(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
                   (unsigned)fc.orig_serial);
         return;
     }
-    conn_close(c, "forward close");
+    conn_end(ctx->s, c, "forward close");
     dr_cip_rsp_write(w, rq->service, GS_OK, NULL, 0, NULL, 0);
     dr_fwd_close_reply_write(w, fc.conn_serial, fc.vendor, fc.orig_serial);
 }
@@ -1056,7 +1074,7 @@ void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
         if (!c->used)
             continue;
         if (now_ns >= timeout_deadline(c)) {
-            conn_close(c, c->o2t_seen ? "O->T timeout" : "no O->T packet");
+            conn_end(s, c, c->o2t_seen ? "O->T timeout" : "no O->T packet");
             continue;
         }
         if (!c->stopped && now_ns >= c->next_produce_ns)

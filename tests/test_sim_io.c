@@ -309,6 +309,79 @@ static void test_connection_points(void **state)
     assert_int_equal(drsim_conn_count(&f.sim), 2);
 }
 
+/* Forward Opens fo (ok), returns the O->T connection ID. */
+static uint32_t fo_open(fx_t *f, const dr_fwd_open_t *fo)
+{
+    assert_int_equal(fo_send(f, fo, NULL), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f->rsp.data, f->rsp.data_len, &r), DR_OK);
+    return r.o2t_cid;
+}
+
+/* A heartbeat (run/idle header, no data) for connection `cid` at t. */
+static void send_heartbeat(fx_t *f, uint32_t cid, uint32_t seq, uint64_t t)
+{
+    uint8_t pkt[64], none[1] = {0};
+    size_t n = o2t_packet(pkt, sizeof pkt, cid, seq, (uint16_t)seq, true, none, 0);
+    dr_sockaddr_t from = {0x7F000001u, 2222};
+    drsim_io_receive(&f->sim, t, &from, pkt, n);
+}
+
+/* Listen-only connections end with the last connection producing their
+ * T->O assembly, by Forward Close or by timeout (as OpENer's do), and not
+ * while another owner or input-only connection still produces it. */
+static void test_listen_only_follows_its_producer(void **state)
+{
+    (void)state;
+    static fx_t f;
+    fx_init(&f, NULL);
+    fx_register(&f);
+    uint8_t p1[16], p2[16], p3[16], p4[16], p5[16];
+    /* io_state: an owner, an input-only and a listen-only connection */
+    dr_fwd_open_t own = fo_make(107, 101, 18, 38, 10000, p1, sizeof p1);
+    uint32_t own_cid = fo_open(&f, &own);
+    dr_fwd_open_t in1 = fo_make(DRSIM_HB_INPUT_ONLY, 101, 6, 38, 10000, p2, sizeof p2);
+    uint32_t in1_cid = fo_open(&f, &in1);
+    dr_fwd_open_t lo1 = fo_make(DRSIM_HB_LISTEN_ONLY, 101, 6, 38, 10000, p3, sizeof p3);
+    uint32_t lo1_cid = fo_open(&f, &lo1);
+    /* joint_state: an input-only and a listen-only connection */
+    dr_fwd_open_t in2 = fo_make(DRSIM_HB_INPUT_ONLY, 102, 6, 146, 10000, p4, sizeof p4);
+    uint32_t in2_cid = fo_open(&f, &in2);
+    dr_fwd_open_t lo2 = fo_make(DRSIM_HB_LISTEN_ONLY, 102, 6, 146, 10000, p5, sizeof p5);
+    uint32_t lo2_cid = fo_open(&f, &lo2);
+    assert_int_equal(drsim_conn_count(&f.sim), 5);
+    /* the owner closes; the input-only one still produces io_state */
+    assert_int_equal(fc_send(&f, &own), DR_OK);
+    assert_null(drsim_conn_by_o2t(&f.sim, own_cid));
+    assert_non_null(drsim_conn_by_o2t(&f.sim, lo1_cid));
+    /* the last producer of io_state closes: its listener goes too, the
+     * joint_state ones stay */
+    assert_int_equal(fc_send(&f, &in1), DR_OK);
+    assert_null(drsim_conn_by_o2t(&f.sim, in1_cid));
+    assert_null(drsim_conn_by_o2t(&f.sim, lo1_cid));
+    assert_non_null(drsim_conn_by_o2t(&f.sim, in2_cid));
+    assert_non_null(drsim_conn_by_o2t(&f.sim, lo2_cid));
+    assert_int_equal(drsim_conn_count(&f.sim), 2);
+    /* by timeout: joint_state's producer never sends (closed after the
+     * first-packet grace); its listener, alive by its own heartbeats
+     * until T0 + 10030 ms (4 x RPI), is closed with it */
+    send_heartbeat(&f, lo2_cid, 1, T0 + 9990 * MS);
+    drsim_run(&f.sim, T0 + 9999 * MS, fx_capture, &f);
+    assert_int_equal(drsim_conn_count(&f.sim), 2);
+    drsim_run(&f.sim, T0 + 10000 * MS, fx_capture, &f);
+    assert_null(drsim_conn_by_o2t(&f.sim, in2_cid));
+    assert_null(drsim_conn_by_o2t(&f.sim, lo2_cid));
+    assert_int_equal(drsim_conn_count(&f.sim), 0);
+    /* a listen-only Forward Close leaves its producer alone */
+    own = fo_make(107, 101, 18, 38, 10000, p1, sizeof p1);
+    own_cid = fo_open(&f, &own);
+    lo1 = fo_make(DRSIM_HB_LISTEN_ONLY, 101, 6, 38, 10000, p3, sizeof p3);
+    lo1_cid = fo_open(&f, &lo1);
+    assert_int_equal(fc_send(&f, &lo1), DR_OK);
+    assert_null(drsim_conn_by_o2t(&f.sim, lo1_cid));
+    assert_non_null(drsim_conn_by_o2t(&f.sim, own_cid));
+}
+
 /* Opens io_control/io_state at 10 ms, returns the O->T connection ID. */
 static uint32_t open_io(fx_t *f, uint8_t mult)
 {
@@ -629,6 +702,7 @@ int main(void)
         cmocka_unit_test(test_forward_open_refused),
         cmocka_unit_test(test_refuse_fault),
         cmocka_unit_test(test_connection_points),
+        cmocka_unit_test(test_listen_only_follows_its_producer),
         cmocka_unit_test(test_sequence_handling),
         cmocka_unit_test(test_timeouts),
         cmocka_unit_test(test_drop_and_stop),

@@ -8,7 +8,8 @@ import struct
 
 import pytest
 
-from gwlib import EX_ILLEGAL_ADDRESS, real_regs, regs_real, running, wait_for
+from gwlib import (EX_ILLEGAL_ADDRESS, Drsim, Gateway, real_regs, regs_real, running,
+                   wait_for)
 
 LAST_ERROR, CONN_STATE, LAST_CIP_GENERAL = 12, 16, 30
 # conn_state[0..5]: the connections of these T->O assemblies, whatever the plan
@@ -62,6 +63,37 @@ def test_listen_only_needs_an_owner():
                  "the five other connections established")
         assert g.status()[CONN_STATE + 5] != 2
         assert st[1] != 2
+
+
+LISTEN_ONLY = "".join("open.%s = none\n" % a for a in SLOTS[:5]) + "open.task_state = listen_only\n"
+
+
+def test_listen_only_ends_with_its_owner():
+    """A listen-only connection lives on another originator's: when that
+    one's connections time out, drsim closes the listen-only ones too (as
+    ODVA adapters do); the gateway sees its connection time out, is refused
+    (0x0119) while nobody produces task_state, and comes back with the
+    other originator."""
+    sim = Drsim("plan-lo-sim").start()
+    owner = Gateway("plan-lo-owner", sim)
+    listener = Gateway("plan-lo-listener", sim, robot=LISTEN_ONLY)
+    try:
+        owner.start()                   # task_state input-only: its producer
+        listener.start()
+        assert listener.status()[CONN_STATE:CONN_STATE + 6] == [0] * 5 + [2]
+        owner.kill()                    # its connections time out at drsim
+        wait_for(lambda: "closed (its producer closed)" in sim.log(), 20,
+                 "drsim to close the listen-only connection with its producer")
+        listener.wait_link(False)
+        listener.log_wait("robot r0: task_state (listen-only): ")
+        wait_refusal(listener, 0x0119)
+        owner.start()
+        listener.wait_link(True, seconds=30)
+        assert listener.status()[CONN_STATE + 5] == 2
+    finally:
+        listener.kill()
+        owner.kill()
+        sim.kill()
 
 
 PLAN = ("config_instance = 199\ninput_only_heartbeat = 250\nlisten_only_heartbeat = 251\n"
