@@ -255,6 +255,9 @@ static void gen_cip_reply(void)
     dr_wr_init(&w, b, sizeof b);
     dr_list_identity_write(&w, &id);
     put_w("cip_reply", "list_identity", &w);
+    /* the same with an item its count leaves out (read leniently) */
+    dr_cpf_sockaddr_write(&w, DR_CPF_SOCKADDR_T2O, (dr_sockaddr_t){0x7F000001u, 2222});
+    put_w("cip_reply", "list_identity_trailing", &w);
 
     dr_wr_init(&w, b, sizeof b);
     dr_cip_rsp_write(&w, DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, 0x0E, NULL, 0, NULL, 0);

@@ -832,8 +832,11 @@ void dr_identity_write_all(dr_wr_t *w, const dr_identity_t *id)
 
 dr_status_t dr_list_identity_parse(const uint8_t *body, size_t len, dr_identity_t *out)
 {
+    /* A reply, read as Forward Open replies are: an item after the
+     * declared ones (as some adapters append) does not lose the answer. */
     dr_cpf_t cpf;
-    dr_status_t st = dr_cpf_parse(body, len, &cpf);
+    size_t extra;
+    dr_status_t st = dr_cpf_parse_reply(body, len, &cpf, &extra);
     if (st != DR_OK)
         return st;
     const dr_cpf_item_t *it = dr_cpf_find(&cpf, DR_CPF_LIST_IDENTITY);

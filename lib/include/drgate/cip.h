@@ -362,7 +362,9 @@ typedef struct {
 dr_status_t dr_identity_parse_all(const uint8_t *data, size_t len, dr_identity_t *out);
 void dr_identity_write_all(dr_wr_t *w, const dr_identity_t *id);
 
-/* ListIdentity reply body (CPF with one 0x0C item). */
+/* ListIdentity reply body (CPF with a 0x0C item), read leniently as
+ * dr_cpf_parse_reply does: every declared item is length-checked, bytes
+ * after them are ignored; the identity item must be exact. */
 dr_status_t dr_list_identity_parse(const uint8_t *body, size_t len, dr_identity_t *out);
 void dr_list_identity_write(dr_wr_t *w, const dr_identity_t *id);
 
