@@ -588,17 +588,31 @@ BEGIN = "<!-- bench-gw results: begin (rewritten by make bench-gw GW_BENCH_ARGS=
 END = "<!-- bench-gw results: end -->"
 
 
-def write_doc(md):
-    """Replace the results between the markers of the Gateway section; the
-    rest of the section is written by hand. A missing section is created."""
-    text = open(DOC).read() if os.path.exists(DOC) else DOC_INTRO
-    block = BEGIN + "\n\n" + md + "\n\n" + END
-    if BEGIN in text and END in text:
-        text = text[:text.index(BEGIN)] + block + text[text.index(END) + len(END):]
+def write_between(doc, begin, end, md, missing=None):
+    """Replace what stands between the marker lines begin and end of doc
+    with md (a blank line either side); the prose around them is written
+    by hand. Without the markers, missing(text, block) gives the whole
+    document (block: md with its markers), or without missing that is an
+    error. Shared with gw_scale.py, which writes the same document."""
+    text = open(doc).read() if os.path.exists(doc) else ""
+    block = begin + "\n\n" + md + "\n\n" + end
+    b, e = text.find(begin), text.find(end)
+    if b >= 0 and e > b:
+        text = text[:b] + block + text[e + len(end):]
+    elif missing is not None and b < 0 and e < 0:
+        text = missing(text, block)
     else:
-        text = text.rstrip("\n") + "\n\n" + DOC_METHOD + "\n### Results\n\n" + block + "\n"
-    with open(DOC, "w") as f:
+        raise RuntimeError(f"{doc}: the markers {begin!r} and {end!r} are missing or out of order")
+    with open(doc, "w") as f:
         f.write(text)
+
+
+def write_doc(md):
+    """The results of the Gateway section; a missing section is created."""
+    def add_section(text, block):
+        text = text or DOC_INTRO
+        return text.rstrip("\n") + "\n\n" + DOC_METHOD + "\n### Results\n\n" + block + "\n"
+    write_between(DOC, BEGIN, END, md, missing=add_section)
 
 
 def main():

@@ -55,8 +55,9 @@ import tempfile
 import threading
 import time
 
-# The child-process and free-port helpers of the gateway bench, beside this file.
-from gw_bench import Proc, free_port
+# The child-process, free-port and doc-writing helpers of the gateway bench,
+# beside this file.
+from gw_bench import Proc, free_port, write_between
 
 TOP = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DOC = os.path.join(TOP, "docs", "performance.md")
@@ -472,15 +473,9 @@ END = "<!-- bench-scale results: end -->"
 
 
 def write_doc(md):
-    """Replace the results between the markers of the "Robots per core"
-    section; the rest of the section is written by hand."""
-    with open(DOC) as f:
-        text = f.read()
-    if BEGIN not in text or END not in text:
-        raise RuntimeError(f"{DOC}: no bench-scale result markers")
-    text = text[:text.index(BEGIN)] + BEGIN + "\n\n" + md + "\n\n" + text[text.index(END):]
-    with open(DOC, "w") as f:
-        f.write(text)
+    """The results of the "Robots per core" section (its markers must be
+    there: the rest of the section is written by hand)."""
+    write_between(DOC, BEGIN, END, md)
 
 
 def int_list(s):

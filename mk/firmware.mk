@@ -31,10 +31,8 @@ $(B)/tests/firmware/test_lwip: tests/firmware/test_lwip.c $(FW_TEST_SRC) $(FW_TE
 
 check-lwip: $(SIM_BIN)
 	@if [ ! -f $(LWIP_INC)/lwip/sockets.h ]; then \
-	    echo "###################################################################"; \
-	    echo "### check-lwip SKIPPED: no lwIP headers in $(LWIP_INC) (make deps)"; \
-	    echo "###################################################################"; \
-	    if [ -n "$$CI" ]; then echo "0 1 lwip (no liblwip-dev)" >> $(RESULTS); exit 1; fi; \
+	    sh tests/skip.sh check-lwip "no lwIP headers in $(LWIP_INC) (make deps)" \
+	        "$(RESULTS)" lwip; \
 	else \
 	    $(MAKE) --no-print-directory $(B)/tests/firmware/test_lwip && \
 	    sh tests/firmware/lwip.sh $(B)/tests/firmware/test_lwip $(SIM_BIN) \

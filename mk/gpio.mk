@@ -134,9 +134,7 @@ check-gpio-v2:
 	        --results "$(RESULTS)" --label gpio_v2_qemu \
 	        --bin $(GPIO_V2_DIR)/gpio_selftest --script tests/gpio/qemu/selftest.sh; \
 	else \
-	    echo "#################################################################"; \
-	    echo "### check-gpio-v2 SKIPPED: no libgpiod 2 sources (see above)  ###"; \
-	    echo "#################################################################"; \
+	    sh tests/skip.sh check-gpio-v2 "no libgpiod 2 sources (see above)"; \
 	fi
 
 ifdef GPIO_V2_READY

@@ -56,10 +56,7 @@ check-gateway-asan:
 GW_UNIT_LABEL := drgatewayd.service (systemd-analyze verify)
 check-gateway-unit: $(GW_BIN)
 	@if ! command -v systemd-analyze >/dev/null 2>&1; then \
-	    echo "######################################################################"; \
-	    echo "### check-gateway-unit SKIPPED: no systemd-analyze on this machine ###"; \
-	    echo "######################################################################"; \
-	    exit 0; fi; \
+	    exec sh tests/skip.sh check-gateway-unit "no systemd-analyze on this machine"; fi; \
 	d=$$(mktemp -d); \
 	sed -e 's|/usr/local/bin/drgatewayd|$(abspath $(GW_BIN))|' gateway/drgatewayd.service \
 	    > $$d/drgatewayd.service; \

@@ -12,13 +12,8 @@ set -u
 runner=$1 bin=$2 drsim=$3 results=$4
 label=be_client
 
-skip() {
-    echo "###################################################################"
-    echo "### check-be-client SKIPPED: $1"
-    echo "###################################################################"
-    if [ -n "${CI:-}" ]; then echo "0 1 $label (skipped in CI: $1)" >>"$results"; exit 1; fi
-    exit 0
-}
+. "$(dirname "$0")/../skip.sh"
+skip_name=check-be-client skip_results=$results skip_label=$label
 command -v "${runner%% *}" >/dev/null 2>&1 || skip "no ${runner%% *} (qemu-user)"
 
 # Ports of our own, away from 44818/2222 and from other tests' picks.

@@ -14,13 +14,8 @@ set -u
 bin=$1 drsim=$2 results=$3 secs=${4:-5}
 label=lwip
 
-skip() {
-    echo "###################################################################"
-    echo "### check-lwip SKIPPED: $1"
-    echo "###################################################################"
-    if [ -n "${CI:-}" ]; then echo "0 1 $label (skipped in CI: $1)" >>"$results"; exit 1; fi
-    exit 0
-}
+. "$(dirname "$0")/../skip.sh"
+skip_name=check-lwip skip_results=$results skip_label=$label
 [ "$(id -u)" = 0 ] || skip "not root (network namespaces and TAP devices need it)"
 [ -c /dev/net/tun ] || skip "no /dev/net/tun"
 command -v ip >/dev/null 2>&1 || skip "no ip command (iproute2)"
