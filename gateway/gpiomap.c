@@ -46,7 +46,7 @@ typedef struct {
 
 struct gw_gpiomap {
     gw_config_t cfg; /* own copy: lines point into it */
-    gw_unit_t *units;
+    gw_robot_t *robots;
     int epfd;
     gw_gpiomap_hooks_t hooks;
     chip_t *chips[MAX_CHIPS];
@@ -171,7 +171,7 @@ static chip_t *get_chip(gw_gpiomap_t *m, const gw_gpiomap_t *old, const char *sp
 
 /* The map for cfg with its lines resolved (chips open, offsets found) but
  * nothing requested. NULL with err on error. */
-static gw_gpiomap_t *resolve(const gw_config_t *cfg, gw_unit_t *units, int epfd,
+static gw_gpiomap_t *resolve(const gw_config_t *cfg, gw_robot_t *robots, int epfd,
                              const gw_gpiomap_hooks_t *hooks, const gw_gpiomap_t *old,
                              char *err, size_t errlen);
 
@@ -192,7 +192,7 @@ static void discard(gw_gpiomap_t *m)
     free(m);
 }
 
-static gw_gpiomap_t *resolve(const gw_config_t *cfg, gw_unit_t *units, int epfd,
+static gw_gpiomap_t *resolve(const gw_config_t *cfg, gw_robot_t *robots, int epfd,
                              const gw_gpiomap_hooks_t *hooks, const gw_gpiomap_t *old,
                              char *err, size_t errlen)
 {
@@ -202,7 +202,7 @@ static gw_gpiomap_t *resolve(const gw_config_t *cfg, gw_unit_t *units, int epfd,
         return NULL;
     }
     m->cfg = *cfg;
-    m->units = units;
+    m->robots = robots;
     m->epfd = epfd;
     m->hooks = *hooks;
     for (unsigned r = 0; r < m->cfg.robot_count && r < GW_MAX_ROBOTS; r++)
@@ -264,10 +264,10 @@ static gw_gpiomap_t *resolve(const gw_config_t *cfg, gw_unit_t *units, int epfd,
     return m;
 }
 
-gw_gpiomap_t *gw_gpiomap_new(const gw_config_t *cfg, gw_unit_t *units, int epfd,
+gw_gpiomap_t *gw_gpiomap_new(const gw_config_t *cfg, gw_robot_t *robots, int epfd,
                              const gw_gpiomap_hooks_t *hooks, char *err, size_t errlen)
 {
-    gw_gpiomap_t *m = resolve(cfg, units, epfd, hooks, NULL, err, errlen);
+    gw_gpiomap_t *m = resolve(cfg, robots, epfd, hooks, NULL, err, errlen);
     if (m == NULL)
         return NULL;
     char why[400];
@@ -298,16 +298,16 @@ static line_t *old_line(const gw_gpiomap_t *old, const line_t *l, unsigned *idx)
 }
 
 gw_gpiomap_reload_t gw_gpiomap_reload(gw_gpiomap_t *old, const gw_config_t *cfg,
-                                      gw_unit_t *units, int epfd,
+                                      gw_robot_t *robots, int epfd,
                                       const gw_gpiomap_hooks_t *hooks, gw_gpiomap_t **out,
                                       char *err, size_t errlen)
 {
     *out = NULL;
     if (old == NULL) {
-        *out = gw_gpiomap_new(cfg, units, epfd, hooks, err, errlen);
+        *out = gw_gpiomap_new(cfg, robots, epfd, hooks, err, errlen);
         return *out != NULL ? GW_GPIOMAP_OK : GW_GPIOMAP_REFUSED;
     }
-    gw_gpiomap_t *m = resolve(cfg, units, epfd, hooks, old, err, errlen);
+    gw_gpiomap_t *m = resolve(cfg, robots, epfd, hooks, old, err, errlen);
     if (m == NULL)
         return GW_GPIOMAP_REFUSED;
     /* Which of old's lines are kept as they are, and which are in the
@@ -418,8 +418,7 @@ static int wanted(const gw_gpiomap_t *m, const line_t *l)
     if (!r->up || r->fault || !(r->fresh & (1u << f->assembly)))
         return safe;
     dr_value_t v;
-    if (dr_field_get(m->units[l->robot].img[f->assembly], dr_asm_info((dr_asm_t)f->assembly)->size,
-                     l->cfg->field, &v) != DR_OK)
+    if (gw_robot_get(&m->robots[l->robot], l->cfg->field, &v) != DR_OK)
         return safe;
     return v.u != 0;
 }
@@ -505,7 +504,7 @@ static void poll_inputs(gw_gpiomap_t *m, uint64_t now_ns)
             continue;
         }
         const dr_field_t *f = l->cfg->field.field;
-        uint8_t *img = m->units[l->robot].img[f->assembly];
+        uint8_t *img = m->robots[l->robot].img[f->assembly];
         size_t size = dr_asm_info((dr_asm_t)f->assembly)->size;
         dr_value_t cur, nv = dr_value_uint((uint64_t)v);
         if (dr_field_get(img, size, l->cfg->field, &cur) == DR_OK && cur.u != (uint64_t)v &&

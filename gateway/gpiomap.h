@@ -21,7 +21,7 @@
 #include <stdint.h>
 
 #include "config.h"
-#include "regmap.h"
+#include "robot.h"
 
 typedef struct gw_gpiomap gw_gpiomap_t;
 
@@ -34,7 +34,7 @@ typedef struct {
 /* Open the chips and request every configured line (outputs at their safe
  * value). With no [gpio] sections this succeeds and does nothing. NULL on
  * error, with "gpio NAME: reason" in err. */
-gw_gpiomap_t *gw_gpiomap_new(const gw_config_t *cfg, gw_unit_t *units, int epfd,
+gw_gpiomap_t *gw_gpiomap_new(const gw_config_t *cfg, gw_robot_t *robots, int epfd,
                              const gw_gpiomap_hooks_t *hooks, char *err, size_t errlen);
 
 typedef enum {
@@ -53,7 +53,7 @@ typedef enum {
  * name: call gw_gpiomap_fault() and gw_gpiomap_link() for every robot
  * afterwards, the link first. */
 gw_gpiomap_reload_t gw_gpiomap_reload(gw_gpiomap_t *old, const gw_config_t *cfg,
-                                      gw_unit_t *units, int epfd,
+                                      gw_robot_t *robots, int epfd,
                                       const gw_gpiomap_hooks_t *hooks, gw_gpiomap_t **out,
                                       char *err, size_t errlen);
 

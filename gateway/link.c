@@ -42,7 +42,7 @@ typedef struct {
 struct gw_link {
     gw_robot_config_t cfg;
     unsigned robot;
-    gw_unit_t *unit;
+    gw_robot_t *data; /* the robot's images and link facts */
     int epfd;
     gw_link_hooks_t hooks;
     dr_client_t *client;
@@ -96,24 +96,11 @@ void gw_link_ports_free(gw_link_ports_t *p)
     free(p); /* the links have given their ports back (port_put) */
 }
 
-/* Why the link failed, in the status block: last_error (IR 12) holds the
- * CIP extended status (the general status when the reply had none), an
- * encapsulation status or a drgate code; last_cip_general (IR 30) the CIP
- * general status, 0 for anything that is not a CIP refusal. Kept for
- * every failure, not only the ones that change the link's state: an
- * adapter that refuses every Forward Open never brings the link up. */
+/* Why the link failed, in the robot's link facts (gw_robot_record_error):
+ * every failure, not only the ones that change the link's state. */
 static void link_record_error(gw_link_t *l, dr_status_t why)
 {
-    if (why == DR_OK)
-        return;
-    gw_status_t *st = &l->unit->status;
-    if (DR_IS_CIP(why)) {
-        st->last_cip_general = DR_CIP_GENERAL(why);
-        st->last_error = DR_CIP_EXTENDED(why) != 0 ? DR_CIP_EXTENDED(why) : DR_CIP_GENERAL(why);
-    } else {
-        st->last_cip_general = 0;
-        st->last_error = (uint16_t)why;
-    }
+    gw_robot_record_error(l->data, why);
 }
 
 static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
@@ -126,6 +113,9 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
     if (!up && l->cfg.mode == GW_MODE_EXPLICIT)
         l->dirty = (1u << DR_ASM_COUNT) - 1u;
     link_record_error(l, why);
+    /* Before any side hears of it: they all read the same images. */
+    if (!up)
+        gw_robot_link_down(l->data);
     /* Closed on purpose (SIGTERM, reload): not a fault, and the reason is
      * ours, not what the closing connections report. */
     const char *reason = l->closing != NULL ? l->closing : why != DR_OK ? dr_strerror(why) : "";
@@ -185,8 +175,8 @@ static void on_client_fd(void *obj, uint32_t events)
  * timestamp of the datagram (SIOCGSTAMPNS on the Class 1 socket: when it
  * entered this host's network stack), the time the event loop last woke up
  * (epoll_wait returned: see bench/gw_lat_hook.h) and the time its data is in
- * the unit image that Modbus reads answer from, all CLOCK_REALTIME. Kept in
- * memory, written at exit to $GW_BENCH_LATENCY_FILE as lines
+ * the robot's image that Modbus reads answer from, all CLOCK_REALTIME. Kept
+ * in memory, written at exit to $GW_BENCH_LATENCY_FILE as lines
  * "ARRIVAL WAKE VISIBLE" (ns). Costs one ioctl and two clock reads a packet,
  * and the Class 1 port is read one datagram at a time (see port_transport),
  * which puts the figures on the safe side by about a microsecond for each
@@ -276,12 +266,12 @@ static dr_transport_t port_transport(void)
 
 /* ---- implicit mode ----------------------------------------------------------- */
 
-/* on_link_loss = zero: the robot data reads 0 for as long as the link is
- * down, also while some of its connections still deliver (the link is up
- * only with all of them). */
+/* clear_while_down (robot.h): the robot data stays 0 for as long as the
+ * link is down, also while some of its connections still deliver (the
+ * link is up only with all of them). */
 static bool data_withheld(const gw_link_t *l)
 {
-    return !l->up && l->unit->on_loss == GW_LOSS_ZERO;
+    return !gw_robot_takes_data(l->data, l->up);
 }
 
 static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void *user)
@@ -294,7 +284,7 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
         l->last_rx_us[a] = gw_now_us();
         if (data_withheld(l))
             continue;
-        memcpy(l->unit->img[a], data, len);
+        memcpy(l->data->img[a], data, len);
         LAT_RECORD(l); /* the new data is now what a Modbus read gets */
         if (l->hooks.on_data != NULL)
             l->hooks.on_data(l->hooks.user, l->robot, a);
@@ -334,7 +324,7 @@ static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, 
     bool all = true;
     for (unsigned i = 0; i < NPAIRS; i++) {
         if (l->conn[i] == conn)
-            l->unit->status.conn_state[i] = (uint16_t)st;
+            l->data->link.conn_state[i] = (uint16_t)st;
         if (l->conn[i] != NULL && l->conn[i] != conn &&
             dr_conn_state(l->conn[i]) != DR_CONN_ESTABLISHED)
             all = false;
@@ -379,7 +369,7 @@ static bool add_connections(gw_link_t *l)
         if (l->conn[i] == NULL)
             return false;
         if (cc.o2t_asm >= 0)
-            (void)dr_conn_set_output(l->conn[i], l->unit->img[cc.o2t_asm],
+            (void)dr_conn_set_output(l->conn[i], l->data->img[cc.o2t_asm],
                                      dr_asm_info((dr_asm_t)cc.o2t_asm)->size);
     }
     return true;
@@ -417,9 +407,9 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
     }
     if (info->dir == DR_DIR_T2O) {
         l->last_rx_us[pc->a] = gw_now_us(); /* the link's health: counted anyway */
-        l->unit->status.rx_packets++;
+        l->data->link.rx_packets++;
         if (!data_withheld(l)) {
-            memcpy(l->unit->img[pc->a], data, len);
+            memcpy(l->data->img[pc->a], data, len);
             if (l->hooks.on_data != NULL)
                 l->hooks.on_data(l->hooks.user, l->robot, pc->a);
         }
@@ -452,7 +442,7 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
                        DR_CIP_ASM_ATTR_DATA);
         dr_status_t st = dr_client_call_async(
             l->client, t2o ? DR_CIP_SVC_GET_ATTRIBUTE_SINGLE : DR_CIP_SVC_SET_ATTRIBUTE_SINGLE,
-            path, w.len, t2o ? NULL : l->unit->img[a], t2o ? 0 : info->size, on_poll_reply,
+            path, w.len, t2o ? NULL : l->data->img[a], t2o ? 0 : info->size, on_poll_reply,
             &l->poll_ctx[a]);
         if (st == DR_OK) {
             l->in_flight++;
@@ -540,7 +530,7 @@ static bool resolve_host(const gw_robot_config_t *rc, char ip[INET_ADDRSTRLEN])
     return ok;
 }
 
-gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
+gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *data,
                        int epfd, gw_link_ports_t *ports, const gw_link_hooks_t *hooks)
 {
     if (robot >= GW_MAX_ROBOTS)
@@ -569,11 +559,11 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
         l->ev[i].ev.obj = &l->ev[i];
         l->ev[i].ev.fd = -1;
     }
-    gw_link_set_unit(l, robot, unit);
-    unit->o2t_unsent = 0;
+    gw_link_set_robot(l, robot, data);
+    data->o2t_unsent = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T && !(l->o2t_planned & (1u << a)))
-            unit->o2t_unsent |= 1u << a;
+            data->o2t_unsent |= 1u << a;
     char ip[INET_ADDRSTRLEN];
     if (!resolve_host(rc, ip)) {
         gw_link_free(l, NULL);
@@ -604,8 +594,8 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *u
     }
     l->start_us = gw_now_us();
     l->dirty = (1u << DR_ASM_COUNT) - 1u;
-    l->unit->status.link_state = 1;
-    l->unit->status.rpi_ms = (uint16_t)rc->rpi_ms;
+    l->data->link.link_state = 1;
+    l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
     dr_client_start(l->client);
     process(l);
     bool named = strcmp(ip, rc->host) != 0; /* a host name: show its address too */
@@ -631,10 +621,10 @@ void gw_link_free(gw_link_t *l, const char *why)
     free(l);
 }
 
-void gw_link_set_unit(gw_link_t *l, unsigned robot, gw_unit_t *unit)
+void gw_link_set_robot(gw_link_t *l, unsigned robot, gw_robot_t *data)
 {
     l->robot = robot;
-    l->unit = unit;
+    l->data = data;
 }
 
 void gw_link_outputs_changed(gw_link_t *l, unsigned dirty)
@@ -647,15 +637,15 @@ void gw_link_outputs_changed(gw_link_t *l, unsigned dirty)
     for (unsigned i = 0; i < NPAIRS; i++) {
         const gw_open_t *o = &l->cfg.open[slot_t2o[i]];
         if (o->kind == GW_OPEN_OWNER && (dirty & (1u << o->o2t)))
-            (void)dr_conn_set_output(l->conn[i], l->unit->img[o->o2t],
+            (void)dr_conn_set_output(l->conn[i], l->data->img[o->o2t],
                                      dr_asm_info((dr_asm_t)o->o2t)->size);
     }
 }
 
-/* Status block values derived from the connections. */
+/* The robot's link facts derived from the connections. */
 static void update_status(gw_link_t *l, uint64_t now)
 {
-    gw_status_t *st = &l->unit->status;
+    gw_robot_link_t *st = &l->data->link;
     uint64_t oldest = UINT64_MAX;
     /* A packet that repeats the last data (same CIP sequence count) calls
      * no on_data, yet says the data is current: age goes by the last

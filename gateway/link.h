@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * One robot's EtherNet/IP link, seen from the gateway: keeps the unit's
+ * One robot's EtherNet/IP link, seen from the gateway: keeps the robot's
  * T->O images live (Class 1 connections, or cyclic Get_Attribute_Single in
- * explicit mode), sends its O->T images, and reports link changes.
+ * explicit mode), sends its O->T images, keeps its link facts, and reports
+ * link changes. It knows the robot (robot.h) and nothing of the sides that
+ * serve it: no Modbus header, no [modbus] setting (mk/gw_robot.mk checks).
  */
 #ifndef DRGATE_GW_LINK_H
 #define DRGATE_GW_LINK_H
@@ -11,7 +13,7 @@
 #include <stdint.h>
 
 #include "config.h"
-#include "regmap.h"
+#include "robot.h"
 
 typedef struct gw_link gw_link_t;
 
@@ -25,12 +27,12 @@ void gw_link_ports_free(gw_link_ports_t *p);
 typedef struct {
     /* The link came up (true) or went down (false). */
     void (*on_link)(void *user, unsigned robot, bool up, dr_status_t why);
-    /* New T->O data of assembly `a` is in the unit's image. */
+    /* New T->O data of assembly `a` is in the robot's image. */
     void (*on_data)(void *user, unsigned robot, dr_asm_t a);
     void *user;
 } gw_link_hooks_t;
 
-gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_unit_t *unit,
+gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *data,
                        int epfd, gw_link_ports_t *ports, const gw_link_hooks_t *hooks);
 /* Forward Close, UnRegisterSession, free. NULL is fine. why: the reason
  * the link goes down on purpose, logged at info level ("gateway
@@ -48,7 +50,8 @@ uint64_t gw_link_next_deadline(const gw_link_t *l);
 
 bool gw_link_up(const gw_link_t *l);
 const gw_robot_config_t *gw_link_config(const gw_link_t *l);
-/* Point the link at another unit image (config reload keeps the link). */
-void gw_link_set_unit(gw_link_t *l, unsigned robot, gw_unit_t *unit);
+/* Point the link at the robot's new place (a reload keeps the link and
+ * moves the robot). */
+void gw_link_set_robot(gw_link_t *l, unsigned robot, gw_robot_t *data);
 
 #endif

@@ -21,7 +21,8 @@
 #include "log.h"
 #include "loop.h"
 #include "north.h"
-#include "regmap.h"
+#include "regmap.h" /* --print-map only */
+#include "robot.h"
 
 #ifndef DRGATE_VERSION
 #define DRGATE_VERSION "0.0.0"
@@ -35,7 +36,7 @@ typedef struct {
     int epfd;
     gw_ev_t sig_ev;
     int sigfd;
-    gw_unit_t units[GW_MAX_ROBOTS];
+    gw_robot_t robots[GW_MAX_ROBOTS]; /* by position in cfg.robot */
     gw_link_t *links[GW_MAX_ROBOTS];
     gw_link_ports_t *ports; /* the links' shared UDP ports */
     gw_north_env_t env;     /* what the northbound sides see of the daemon */
@@ -46,6 +47,7 @@ typedef struct {
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
     uint64_t last_notify_us;
     uint16_t generation;
+    uint32_t serial; /* the last robot's (gw_robot_t serial) */
     int exit_status; /* 0 after a signal, 1 after a failure */
 } gw_t;
 
@@ -70,6 +72,8 @@ static bool robot_link_up(void *user, unsigned robot)
 static void fault(void *user, unsigned robot, bool latched)
 {
     gw_t *g = user;
+    if (robot < GW_MAX_ROBOTS)
+        g->robots[robot].fault = latched;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
         if (g->side[i] != NULL)
             gw_north_sides[i]->on_fault(g->side[i], robot, latched);
@@ -109,15 +113,14 @@ static void tick(gw_t *g, uint64_t now, bool busy)
     bool beat = now >= g->next_beat_us;
     if (beat)
         g->next_beat_us = now + 1000000u;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        gw_north_sides[i]->refresh(g->side[i]);
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        gw_status_t *st = &g->units[r].status;
-        st->exceptions = 0; /* every side adds its own */
-        for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
-            gw_north_sides[i]->status(g->side[i], r, st);
-        st->uptime_s = (uint32_t)((now - g->start_us) / 1000000u);
-        st->config_generation = g->generation;
+        gw_robot_t *rb = &g->robots[r];
+        rb->uptime_s = (uint32_t)((now - g->start_us) / 1000000u);
+        rb->generation = g->generation;
         if (beat)
-            st->heartbeat++;
+            rb->heartbeat++;
     }
 }
 
@@ -161,31 +164,20 @@ static void on_signal(void *obj, uint32_t events)
     }
 }
 
-/* What [modbus] decides about how a unit answers. */
-static void unit_policy(gw_unit_t *u, const gw_modbus_config_t *m)
+/* The robots before anything serves them: the sides set up their own
+ * state for each at create. */
+static void init_robots(gw_t *g)
 {
-    u->order = m->word_order;
-    u->on_loss = m->on_link_loss;
-    u->unmapped = m->unmapped_read;
-}
-
-static void init_unit(gw_t *g, unsigned r)
-{
-    gw_unit_t *u = &g->units[r];
-    unit_policy(u, &g->cfg.modbus);
-    memcpy(u->name, g->cfg.robot[r].name, sizeof u->name);
-    u->gpio_in_count = 0;
-    for (unsigned i = 0; i < g->cfg.gpio_count; i++)
-        if (g->cfg.gpio[i].dir == GW_GPIO_INPUT && g->cfg.gpio[i].robot_index == r)
-            u->gpio_in[u->gpio_in_count++] = g->cfg.gpio[i].field;
-    u->status.config_generation = g->generation;
+    for (unsigned r = 0; r < g->cfg.robot_count; r++) {
+        gw_robot_init(&g->robots[r], g->cfg.robot[r].name, ++g->serial);
+        g->robots[r].generation = g->generation;
+    }
 }
 
 static bool start_links(gw_t *g)
 {
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        init_unit(g, r);
-        g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->units[r], g->epfd, g->ports,
+        g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->robots[r], g->epfd, g->ports,
                                   &link_hooks);
         if (g->links[r] == NULL)
             return false;
@@ -210,7 +202,7 @@ static void fail_stop(gw_t *g)
 static void reload(gw_t *g)
 {
     static gw_config_t next;
-    static gw_unit_t units[GW_MAX_ROBOTS];
+    static gw_robot_t robots[GW_MAX_ROBOTS];
     char err[512];
     g->reload = false;
     if (!gw_config_load(g->cfg.path, &next, err, sizeof err)) {
@@ -219,22 +211,25 @@ static void reload(gw_t *g)
     }
     gw_link_t *links[GW_MAX_ROBOTS] = {NULL};
     bool kept[GW_MAX_ROBOTS] = {false}, fresh[GW_MAX_ROBOTS] = {false};
-    memset(units, 0, sizeof units);
+    memset(robots, 0, sizeof robots);
     for (unsigned n = 0; n < next.robot_count; n++)
         for (unsigned o = 0; o < g->cfg.robot_count; o++)
             if (!kept[o] && strcmp(next.robot[n].name, g->cfg.robot[o].name) == 0 &&
                 gw_robot_config_same_link(&next.robot[n], &g->cfg.robot[o])) {
-                units[n] = g->units[o];
+                robots[n] = g->robots[o]; /* its data, link facts and serial */
                 links[n] = g->links[o];
                 kept[o] = true;
             }
     /* New and changed robots first: one that cannot start (its UDP port
      * taken, say) refuses the reload while the old links still run. */
+    uint32_t serial = g->serial;
     for (unsigned n = 0; n < next.robot_count; n++) {
         if (links[n] != NULL)
             continue;
-        unit_policy(&units[n], &next.modbus); /* the new link may look at it */
-        links[n] = gw_link_new(&next.robot[n], n, &units[n], g->epfd, g->ports, &link_hooks);
+        /* No data reaches it before the sides have committed (no turn of
+         * the loop in between): they set it up then (clear_while_down). */
+        gw_robot_init(&robots[n], next.robot[n].name, ++serial);
+        links[n] = gw_link_new(&next.robot[n], n, &robots[n], g->epfd, g->ports, &link_hooks);
         fresh[n] = true;
         if (links[n] == NULL) {
             gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: "
@@ -279,13 +274,14 @@ static void reload(gw_t *g)
         }
     g->sides_quiet = false;
     g->cfg = next;
-    memcpy(g->units, units, sizeof units);
+    memcpy(g->robots, robots, sizeof robots);
     memset(g->links, 0, sizeof g->links);
     g->generation++;
+    g->serial = serial;
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        init_unit(g, r);
+        g->robots[r].generation = g->generation;
         g->links[r] = links[r];
-        gw_link_set_unit(links[r], r, &g->units[r]);
+        gw_link_set_robot(links[r], r, &g->robots[r]);
     }
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->commit(g->side[i], out[i], &g->env);
@@ -328,7 +324,7 @@ static void free_sides(gw_t *g)
 static bool start_sides(gw_t *g)
 {
     char err[512];
-    g->env = (gw_north_env_t){g->epfd, &g->cfg, g->units, outputs_changed, robot_link_up,
+    g->env = (gw_north_env_t){g->epfd, &g->cfg, g->robots, outputs_changed, robot_link_up,
                               fault, g, DRGATE_VERSION};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
@@ -382,7 +378,7 @@ static int run(gw_t *g)
         gw_log(GW_LOG_ERROR, "out of memory");
         return close_loop(g, 1);
     }
-    gw_regmap_init();
+    init_robots(g);
     if (!start_sides(g))
         return close_loop(g, 1);
     if (!start_links(g)) {

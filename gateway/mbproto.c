@@ -178,7 +178,7 @@ static int devid_object(const gw_unit_t *u, const char *version, uint8_t id, cha
     case 0x04: return snprintf(out, n, "drgate Modbus TCP gateway for Doosan robots");
     case 0x05: return snprintf(out, n, "drgatewayd");
     case 0x06: /* UserApplicationName: the robot this unit serves */
-    case 0x80: return snprintf(out, n, "%s", u->name);
+    case 0x80: return snprintf(out, n, "%s", u->robot->name);
     case 0x81: { /* the controller's version, as io_state reports it */
         static const char *const part[3] = {"io_state.version.major", "io_state.version.minor",
                                             "io_state.version.patch"};
@@ -186,9 +186,7 @@ static int devid_object(const gw_unit_t *u, const char *version, uint8_t id, cha
         for (unsigned i = 0; i < 3; i++) {
             dr_ref_t ref;
             dr_value_t x;
-            if (dr_path_parse(part[i], &ref) == DR_OK &&
-                dr_field_get(u->img[DR_ASM_IO_STATE], dr_asm_info(DR_ASM_IO_STATE)->size, ref,
-                             &x) == DR_OK)
+            if (dr_path_parse(part[i], &ref) == DR_OK && gw_robot_get(u->robot, ref, &x) == DR_OK)
                 v[i] = x.u;
         }
         return snprintf(out, n, "%u.%u.%u", (unsigned)v[0], (unsigned)v[1], (unsigned)v[2]);

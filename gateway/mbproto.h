@@ -17,8 +17,8 @@
  * check changes nothing; FC 23 (read/write multiple registers) checks its
  * read part before it applies its write part, so a refused FC 23 changes
  * nothing either. FC 43 / MEI 14 (read device identification) answers
- * from the unit's identity (gw_unit_t name, io_state's version) and the
- * gateway's version (gw_mb_env_t).
+ * from the unit's robot (its name and io_state's version, gw_robot_t)
+ * and the gateway's version (gw_mb_env_t).
  */
 #ifndef DRGATE_GW_MBPROTO_H
 #define DRGATE_GW_MBPROTO_H

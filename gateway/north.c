@@ -3,8 +3,7 @@
 #include "north.h"
 
 const gw_north_ops_t *const gw_north_sides[GW_NORTH_SIDES] = {
-    &gw_north_modbus_tcp,
-    &gw_north_modbus_rtu,
+    &gw_north_modbus, /* TCP and RTU */
     &gw_north_mqtt,
     &gw_north_gpio, /* last: its reload cannot be undone */
 };

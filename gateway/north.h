@@ -1,14 +1,17 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Northbound sides: what the gateway serves the robots' data to (Modbus
- * TCP, Modbus RTU, GPIO lines). The daemon's loop (main.c) knows them only
- * through this interface and the list gw_north_sides[]: adding a side
+ * TCP and RTU, GPIO lines, MQTT). The daemon's loop (main.c) knows them
+ * only through this interface and the list gw_north_sides[]: adding a side
  * (MQTT, OPC UA) means one more entry there and its configuration section,
  * nothing else in the loop.
  *
  * A side registers its own descriptors in the loop's epoll set (env->epfd)
  * when it is created or reloaded, and tells the loop when it next needs a
- * tick (deadline). The robots' side (links) tells every side about new
+ * tick (deadline). The robots (robot.h: images, link facts) are the
+ * daemon's and the same for every side; what a side keeps per robot (the
+ * Modbus units and their rules) is its own, carried over a reload by the
+ * robot's serial. The robots' side (links) tells every side about new
  * data and link changes; a side that writes a robot's O->T image says so
  * through env->outputs_changed; a fault latched by one side (the Modbus
  * single writer's watchdog) reaches every side through env->fault.
@@ -29,19 +32,21 @@
 #include <stdint.h>
 
 #include "config.h"
-#include "regmap.h"
+#include "robot.h"
 
 typedef struct {
     int epfd;
     /* The daemon's configuration, current after every commit (stable
-     * address), and the units by robot index (stable address). */
+     * address), and the robots by index (stable address; a reload moves
+     * robots to other indexes, see gw_robot_t serial). */
     const gw_config_t *cfg;
-    gw_unit_t *units;
+    gw_robot_t *robots;
     /* A side changed O->T images of `robot` (bit per assembly). */
     void (*outputs_changed)(void *user, unsigned robot, unsigned dirty);
     /* Is the robot's link up? */
     bool (*link_up)(void *user, unsigned robot);
-    /* A fault latched (true) or cleared for `robot`: told to every side. */
+    /* A fault latched (true) or cleared for `robot`: told to every side,
+     * and kept in robots[robot].fault. */
     void (*fault)(void *user, unsigned robot, bool latched);
     void *user;
     const char *version; /* the gateway's */
@@ -63,7 +68,7 @@ typedef struct {
     gw_north_reload_t (*prepare)(void *self, const gw_config_t *next, const gw_north_env_t *env,
                                  void **out, char *err, size_t errlen);
     void (*abort)(void *self, void *out);
-    /* Phase 2: env->cfg and env->units are the new ones; `out` replaces
+    /* Phase 2: env->cfg and env->robots are the new ones; `out` replaces
      * self (freeing self if they differ). Returns the side to keep, NULL
      * if it failed for good (logged; the daemon stops). */
     void *(*commit)(void *self, void *out, const gw_north_env_t *env);
@@ -72,18 +77,23 @@ typedef struct {
     void (*on_data)(void *self, unsigned robot, dr_asm_t a);
     void (*on_link)(void *self, unsigned robot, bool up);
     void (*on_fault)(void *self, unsigned robot, bool latched);
-    /* Its part of the robot's status block (the 10 Hz refresh). */
-    void (*status)(const void *self, unsigned robot, gw_status_t *st);
+    /* Ten times a second, with the daemon's refresh of the robots'
+     * heartbeat and uptime: what the side shows of itself (Modbus: its
+     * part of the status block: clients, exceptions, RTU counters). */
+    void (*refresh)(void *self);
     /* Shutdown, first of all: outputs to their safe state. */
     void (*safe)(void *self);
     void (*free)(void *self);
 } gw_north_ops_t;
 
-extern const gw_north_ops_t gw_north_modbus_tcp, gw_north_modbus_rtu, gw_north_gpio;
+/* Modbus TCP and RTU are one side (north_modbus.c): both answer from the
+ * same units, whose rules and state (the single writer's watchdog, the
+ * write fault latch, the status counters) are one. */
+extern const gw_north_ops_t gw_north_modbus, gw_north_gpio;
 extern const gw_north_ops_t gw_north_mqtt; /* north_mqtt.c */
 
 /* The sides the daemon runs, in this order (GPIO last, see above). */
 extern const gw_north_ops_t *const gw_north_sides[];
-#define GW_NORTH_SIDES 4u
+#define GW_NORTH_SIDES 3u
 
 #endif /* DRGATE_GW_NORTH_H */

@@ -27,7 +27,7 @@ static void *gpio_create(const gw_north_env_t *env, char *err, size_t errlen)
     }
     t->env = env;
     gw_gpiomap_hooks_t gh = {on_input, t};
-    t->map = gw_gpiomap_new(env->cfg, env->units, env->epfd, &gh, err, errlen);
+    t->map = gw_gpiomap_new(env->cfg, env->robots, env->epfd, &gh, err, errlen);
     if (t->map == NULL) {
         free(t);
         return NULL;
@@ -45,7 +45,7 @@ static gw_north_reload_t gpio_prepare(void *self, const gw_config_t *next,
     gpio_t *t = self;
     gw_gpiomap_hooks_t gh = {on_input, t};
     gw_gpiomap_t *map = NULL;
-    switch (gw_gpiomap_reload(t->map, next, env->units, env->epfd, &gh, &map, err, errlen)) {
+    switch (gw_gpiomap_reload(t->map, next, env->robots, env->epfd, &gh, &map, err, errlen)) {
     case GW_GPIOMAP_OK:
         /* Installed at commit, once the old links are gone: closing one
          * reports it down under its old index, which the new map must
@@ -75,7 +75,7 @@ static void *gpio_commit(void *self, void *out, const gw_north_env_t *env)
      * image. For the others nothing changes and nothing is written. */
     for (unsigned r = 0; r < env->cfg->robot_count; r++) {
         gw_gpiomap_link(t->map, r, env->link_up(env->user, r));
-        gw_gpiomap_fault(t->map, r, env->units[r].status.write_fault);
+        gw_gpiomap_fault(t->map, r, env->robots[r].fault);
     }
     return t;
 }
@@ -110,9 +110,9 @@ static void gpio_on_fault(void *self, unsigned robot, bool latched)
     gw_gpiomap_fault(t->map, robot, latched);
 }
 
-static void gpio_status(const void *self, unsigned robot, gw_status_t *st)
+static void gpio_refresh(void *self)
 {
-    (void)self, (void)robot, (void)st;
+    (void)self;
 }
 
 static void gpio_safe(void *self)
@@ -132,5 +132,5 @@ static void gpio_free(void *self)
 
 const gw_north_ops_t gw_north_gpio = {
     "gpio",       gpio_create,  gpio_prepare,  gpio_abort,  gpio_commit, gpio_tick, gpio_deadline,
-    gpio_on_data, gpio_on_link, gpio_on_fault, gpio_status, gpio_safe,   gpio_free,
+    gpio_on_data, gpio_on_link, gpio_on_fault, gpio_refresh, gpio_safe, gpio_free,
 };

@@ -1,10 +1,18 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The Modbus sides of the gateway as northbound sides (north.h): Modbus
- * TCP (mbserver.c) with the [modbus] rules that are not per request (the
- * stale policy on link loss, the single writer's watchdog), and the
- * Modbus RTU lines (mbrtu.c). Both answer through the one request
- * handler (mbproto.c) from the same units.
+ * The Modbus side of the gateway as one northbound side (north.h): Modbus
+ * TCP (mbserver.c) and the Modbus RTU lines (mbrtu.c), both answering
+ * through the one request handler (mbproto.c) from the same units.
+ *
+ * A unit (regmap.h) is Modbus's per-robot state: the [modbus] rules
+ * (word order, on_link_loss, unmapped reads, the bits GPIO inputs own),
+ * the single writer's watchdog register and write fault latch, and
+ * Modbus's part of the status block; it points at the robot (robot.h),
+ * whose images and link facts are the daemon's. The units are kept here
+ * by robot position and carried over a reload by the robot's serial, as
+ * the daemon carries the robots (same name and link settings: same robot,
+ * same unit state). The single writer's watchdog is here too: it spans
+ * TCP and RTU (a write on either line moves the same register).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -16,39 +24,17 @@
 #include "mbserver.h"
 #include "north.h"
 
+typedef struct mb mb_t;
+
 /* ---- unit lookup and writes, shared by TCP and RTU ------------------------------ */
 
 typedef struct {
-    const gw_north_env_t *env;
+    mb_t *mb;
     void (*wrote)(void *side); /* a write reached a robot (single writer) */
     void *side;
 } mb_ctx_t;
 
-static gw_unit_t *unit_for(void *user, uint8_t unit_id)
-{
-    const mb_ctx_t *c = user;
-    const gw_config_t *cfg = c->env->cfg;
-    for (unsigned i = 0; i < cfg->robot_count; i++)
-        if (cfg->robot[i].unit_id == unit_id)
-            return &c->env->units[i];
-    return NULL;
-}
-
-static void on_write(void *user, uint8_t unit_id, unsigned dirty)
-{
-    const mb_ctx_t *c = user;
-    const gw_config_t *cfg = c->env->cfg;
-    unsigned r = 0;
-    for (unsigned i = 0; i < cfg->robot_count; i++)
-        if (cfg->robot[i].unit_id == unit_id)
-            r = i;
-    if (c->wrote != NULL)
-        c->wrote(c->side);
-    c->env->outputs_changed(c->env->user, r, dirty);
-}
-
-/* ---- Modbus TCP ---------------------------------------------------------------- */
-
+/* Modbus TCP */
 typedef struct {
     mb_ctx_t ctx;
     gw_mbs_t *mbs;
@@ -59,13 +45,91 @@ typedef struct {
     uint64_t watchdog_change_us;
 } tcp_t;
 
+/* The RTU lines, and during a reload the ones that will take over (a line
+ * keeps its hooks, which point at ctx: the lines are reloaded in place). */
+typedef struct {
+    mb_ctx_t ctx;
+    unsigned count, pending_count;
+    gw_rtu_config_t cfg[GW_MAX_RTU], pending_cfg[GW_MAX_RTU];
+    gw_rtu_t *line[GW_MAX_RTU], *pending[GW_MAX_RTU];
+    bool handed[GW_MAX_RTU]; /* line[i] is in pending[] too */
+} rtu_t;
+
+struct mb {
+    const gw_north_env_t *env;
+    gw_unit_t unit[GW_MAX_ROBOTS];   /* by robot position */
+    uint32_t serial[GW_MAX_ROBOTS];  /* whose unit it is (prepare: before the move) */
+    tcp_t tcp;
+    rtu_t rtu;
+};
+
+static gw_unit_t *unit_for(void *user, uint8_t unit_id)
+{
+    const mb_ctx_t *c = user;
+    const gw_config_t *cfg = c->mb->env->cfg;
+    for (unsigned i = 0; i < cfg->robot_count; i++)
+        if (cfg->robot[i].unit_id == unit_id)
+            return &c->mb->unit[i];
+    return NULL;
+}
+
+static void on_write(void *user, uint8_t unit_id, unsigned dirty)
+{
+    const mb_ctx_t *c = user;
+    const gw_north_env_t *env = c->mb->env;
+    const gw_config_t *cfg = env->cfg;
+    unsigned r = 0;
+    for (unsigned i = 0; i < cfg->robot_count; i++)
+        if (cfg->robot[i].unit_id == unit_id)
+            r = i;
+    if (c->wrote != NULL)
+        c->wrote(c->side);
+    env->outputs_changed(env->user, r, dirty);
+}
+
+/* What [modbus] and the [gpio] inputs decide about unit r, and its robot.
+ * on_link_loss = zero is handed to the robot (robot.h: clear_while_down):
+ * every side reads its images. */
+static void unit_policy(mb_t *m, unsigned r)
+{
+    const gw_config_t *cfg = m->env->cfg;
+    gw_unit_t *u = &m->unit[r];
+    u->robot = &m->env->robots[r];
+    u->order = cfg->modbus.word_order;
+    u->on_loss = cfg->modbus.on_link_loss;
+    u->unmapped = cfg->modbus.unmapped_read;
+    u->gpio_in_count = 0;
+    for (unsigned i = 0; i < cfg->gpio_count; i++)
+        if (cfg->gpio[i].dir == GW_GPIO_INPUT && cfg->gpio[i].robot_index == r)
+            u->gpio_in[u->gpio_in_count++] = cfg->gpio[i].field;
+    u->robot->clear_while_down = cfg->modbus.on_link_loss == GW_LOSS_ZERO;
+}
+
+/* After a reload: each robot's unit from where the robot was (its serial,
+ * recorded at prepare), a new robot's afresh. */
+static void units_move(mb_t *m)
+{
+    static gw_unit_t old[GW_MAX_ROBOTS];
+    memcpy(old, m->unit, sizeof old);
+    memset(m->unit, 0, sizeof m->unit);
+    const gw_north_env_t *env = m->env;
+    for (unsigned r = 0; r < env->cfg->robot_count; r++)
+        for (unsigned o = 0; o < GW_MAX_ROBOTS; o++)
+            if (m->serial[o] != 0 && m->serial[o] == env->robots[r].serial)
+                m->unit[r] = old[o];
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        unit_policy(m, r);
+}
+
+/* ---- Modbus TCP ---------------------------------------------------------------- */
+
 /* A writer seen only between two ticks (it wrote and left within one
  * loop iteration) must still start the watchdog: only the owner's writes
  * get here in single-writer mode. */
 static void writer_wrote(void *side)
 {
     tcp_t *t = side;
-    if (t->ctx.env->cfg->modbus.single_writer && !t->writer_seen) {
+    if (t->ctx.mb->env->cfg->modbus.single_writer && !t->writer_seen) {
         t->writer_seen = true;
         t->watchdog_change_us = gw_now_us();
     }
@@ -73,76 +137,54 @@ static void writer_wrote(void *side)
 
 static gw_mbs_t *tcp_server(tcp_t *t, char *err, size_t errlen)
 {
-    gw_mbs_hooks_t mh = {unit_for, on_write, &t->ctx, t->ctx.env->version};
-    return gw_mbs_new(&t->ctx.env->cfg->modbus, t->ctx.env->epfd, &mh, err, errlen);
+    gw_mbs_hooks_t mh = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version};
+    return gw_mbs_new(&t->ctx.mb->env->cfg->modbus, t->ctx.mb->env->epfd, &mh, err, errlen);
 }
 
-static void *tcp_create(const gw_north_env_t *env, char *err, size_t errlen)
+static bool tcp_create(mb_t *m, char *err, size_t errlen)
 {
-    tcp_t *t = calloc(1, sizeof *t);
-    if (t == NULL) {
-        snprintf(err, errlen, "out of memory");
-        return NULL;
-    }
-    t->ctx = (mb_ctx_t){env, writer_wrote, t};
+    tcp_t *t = &m->tcp;
+    t->ctx = (mb_ctx_t){m, writer_wrote, t};
     t->mbs = tcp_server(t, err, errlen);
-    if (t->mbs == NULL) {
-        free(t);
-        return NULL;
-    }
-    return t;
+    return t->mbs != NULL;
 }
 
-static gw_north_reload_t tcp_prepare(void *self, const gw_config_t *next,
-                                     const gw_north_env_t *env, void **out, char *err,
-                                     size_t errlen)
+/* Reconfigured in place at commit: it cannot refuse. false: no listener
+ * is left (logged). */
+static bool tcp_commit(tcp_t *t)
 {
-    (void)next, (void)env, (void)err, (void)errlen;
-    *out = self; /* reconfigured in place at commit: it cannot refuse */
-    return GW_NORTH_OK;
-}
-
-static void tcp_abort(void *self, void *out)
-{
-    (void)self, (void)out;
-}
-
-static void *tcp_commit(void *self, void *out, const gw_north_env_t *env)
-{
-    tcp_t *t = self;
-    (void)out;
+    const gw_north_env_t *env = t->ctx.mb->env;
     /* Robots may have moved to other positions: the watchdog registers
      * are compared from their current values on, not from the old order. */
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
-        t->last_watchdog[r] = env->units[r].watchdog;
+        t->last_watchdog[r] = t->ctx.mb->unit[r].watchdog;
     if (gw_mbs_reconfigure(t->mbs, &env->cfg->modbus))
-        return t;
+        return true;
     char err[512];
     gw_mbs_free(t->mbs);
     t->mbs = tcp_server(t, err, sizeof err);
     if (t->mbs == NULL) {
         gw_log(GW_LOG_ERROR, "reload: %s", err);
-        free(t);
-        return NULL;
+        return false;
     }
-    return t;
+    return true;
 }
 
 /* The outputs of every robot to their fallback, the fault latched. */
 static void writer_expired(tcp_t *t)
 {
-    const gw_north_env_t *env = t->ctx.env;
+    const gw_north_env_t *env = t->ctx.mb->env;
     t->writer_seen = false;
     gw_mbs_release_writer(t->mbs);
     gw_log(GW_LOG_WARNING, "modbus: single writer's watchdog expired: outputs to fallback");
     for (unsigned r = 0; r < env->cfg->robot_count; r++) {
-        gw_unit_t *u = &env->units[r];
+        gw_unit_t *u = &t->ctx.mb->unit[r];
         u->status.write_fault = true;
         if (!env->cfg->robot[r].fallback_hold) {
             unsigned dirty = 0;
             for (unsigned a = 0; a < DR_ASM_COUNT; a++)
                 if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T) {
-                    memset(u->img[a], 0, DR_ASM_MAX_SIZE);
+                    memset(u->robot->img[a], 0, DR_ASM_MAX_SIZE);
                     dirty |= 1u << a;
                 }
             env->outputs_changed(env->user, r, dirty);
@@ -158,12 +200,12 @@ static void writer_expired(tcp_t *t)
  * latches until a client writes the reset register. */
 static void writer_watchdog(tcp_t *t, uint64_t now)
 {
-    const gw_north_env_t *env = t->ctx.env;
+    const gw_north_env_t *env = t->ctx.mb->env;
     const gw_config_t *cfg = env->cfg;
     /* A reset counts in any mode: a fault latched before a reload turned
      * single-writer mode off must not hold the GPIO outputs for ever. */
     for (unsigned r = 0; r < cfg->robot_count; r++) {
-        gw_unit_t *u = &env->units[r];
+        gw_unit_t *u = &t->ctx.mb->unit[r];
         /* The write that reset the latch cleared write_fault at once
          * (mbproto.c: writes pipelined behind it are taken) and logged it. */
         if (u->fault_reset) {
@@ -188,7 +230,7 @@ static void writer_watchdog(tcp_t *t, uint64_t now)
     }
     t->writer_seen = t->writer_seen || gw_mbs_writer_present(t->mbs);
     for (unsigned r = 0; r < cfg->robot_count; r++) {
-        const gw_unit_t *u = &env->units[r];
+        const gw_unit_t *u = &t->ctx.mb->unit[r];
         if (u->watchdog != t->last_watchdog[r]) {
             t->last_watchdog[r] = u->watchdog;
             writer_wrote(t); /* only the owner can have written it */
@@ -200,116 +242,35 @@ static void writer_watchdog(tcp_t *t, uint64_t now)
         writer_expired(t);
 }
 
-static void tcp_tick(void *self, uint64_t now)
-{
-    tcp_t *t = self;
-    gw_mbs_tick(t->mbs, now);
-    writer_watchdog(t, now);
-}
-
-static uint64_t tcp_deadline(const void *self)
-{
-    const tcp_t *t = self;
-    return gw_mbs_next_deadline(t->mbs);
-}
-
-static void tcp_on_data(void *self, unsigned robot, dr_asm_t a)
-{
-    (void)self, (void)robot, (void)a; /* requests read the images as they are */
-}
-
-/* [modbus] on_link_loss = zero: the robot's T->O data reads 0 while the
- * link is down (hold: as last received; exception: 0x0B, regmap.c). */
-static void tcp_on_link(void *self, unsigned robot, bool up)
-{
-    const tcp_t *t = self;
-    const gw_north_env_t *env = t->ctx.env;
-    if (!up && env->cfg->modbus.on_link_loss == GW_LOSS_ZERO)
-        for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-            if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
-                memset(env->units[robot].img[a], 0, DR_ASM_MAX_SIZE);
-}
-
-static void tcp_on_fault(void *self, unsigned robot, bool latched)
-{
-    (void)self, (void)robot, (void)latched; /* its own: write_fault in the unit */
-}
-
-static void tcp_status(const void *self, unsigned robot, gw_status_t *st)
-{
-    const tcp_t *t = self;
-    (void)robot;
-    st->clients = (uint16_t)gw_mbs_client_count(t->mbs);
-    st->exceptions += gw_mbs_exceptions(t->mbs);
-    st->writer_present = gw_mbs_writer_present(t->mbs);
-}
-
-static void tcp_safe(void *self)
-{
-    (void)self;
-}
-
-static void tcp_free(void *self)
-{
-    tcp_t *t = self;
-    if (t == NULL)
-        return;
-    gw_mbs_free(t->mbs);
-    free(t);
-}
-
-const gw_north_ops_t gw_north_modbus_tcp = {
-    "modbus",     tcp_create, tcp_prepare, tcp_abort,    tcp_commit, tcp_tick, tcp_deadline,
-    tcp_on_data,  tcp_on_link, tcp_on_fault, tcp_status, tcp_safe,  tcp_free,
-};
-
 /* ---- Modbus RTU ---------------------------------------------------------------- */
 
-/* The lines, and during a reload the ones that will take over (a line
- * keeps its hooks, which point at ctx: the side is reloaded in place). */
-typedef struct {
-    mb_ctx_t ctx;
-    unsigned count, pending_count;
-    gw_rtu_config_t cfg[GW_MAX_RTU], pending_cfg[GW_MAX_RTU];
-    gw_rtu_t *line[GW_MAX_RTU], *pending[GW_MAX_RTU];
-    bool handed[GW_MAX_RTU]; /* line[i] is in pending[] too */
-} rtu_t;
-
-static void rtu_free(void *self)
+static void rtu_free(rtu_t *t)
 {
-    rtu_t *t = self;
-    if (t == NULL)
-        return;
     for (unsigned i = 0; i < t->count; i++)
         gw_rtu_free(t->line[i]);
-    free(t);
+    t->count = 0;
 }
 
 static gw_rtu_t *rtu_open(rtu_t *t, const gw_rtu_config_t *cfg, const gw_robot_config_t *robots,
                           char *err, size_t errlen)
 {
-    gw_mbs_hooks_t h = {unit_for, on_write, &t->ctx, t->ctx.env->version};
-    return gw_rtu_new(cfg, robots, t->ctx.env->epfd, &h, err, errlen);
+    gw_mbs_hooks_t h = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version};
+    return gw_rtu_new(cfg, robots, t->ctx.mb->env->epfd, &h, err, errlen);
 }
 
-static void *rtu_create(const gw_north_env_t *env, char *err, size_t errlen)
+static bool rtu_create(mb_t *m, char *err, size_t errlen)
 {
-    rtu_t *t = calloc(1, sizeof *t);
-    if (t == NULL) {
-        snprintf(err, errlen, "out of memory");
-        return NULL;
-    }
-    t->ctx = (mb_ctx_t){env, NULL, NULL};
+    rtu_t *t = &m->rtu;
+    const gw_north_env_t *env = m->env;
+    t->ctx = (mb_ctx_t){m, NULL, NULL};
     for (unsigned i = 0; i < env->cfg->rtu_count; i++) {
         t->cfg[i] = env->cfg->rtu[i];
         t->line[i] = rtu_open(t, &t->cfg[i], env->cfg->robot, err, errlen);
-        if (t->line[i] == NULL) {
-            rtu_free(t);
-            return NULL;
-        }
+        if (t->line[i] == NULL)
+            return false;
         t->count++;
     }
-    return t;
+    return true;
 }
 
 /* The same line, set up the same way, for the same robots at the same
@@ -331,10 +292,8 @@ static bool same_line(const gw_rtu_config_t *a, const gw_robot_config_t *ra,
     return true;
 }
 
-static void rtu_abort(void *self, void *out)
+static void rtu_abort(rtu_t *t)
 {
-    rtu_t *t = self;
-    (void)out;
     for (unsigned i = 0; i < t->pending_count; i++) {
         bool carried = false;
         for (unsigned o = 0; o < t->count; o++)
@@ -348,11 +307,9 @@ static void rtu_abort(void *self, void *out)
 
 /* Unchanged lines carry over (their port stays open); new and changed
  * ones are opened now, while the old ones still serve. */
-static gw_north_reload_t rtu_prepare(void *self, const gw_config_t *next,
-                                     const gw_north_env_t *env, void **out, char *err,
-                                     size_t errlen)
+static bool rtu_prepare(rtu_t *t, const gw_config_t *next, const gw_north_env_t *env,
+                        char *err, size_t errlen)
 {
-    rtu_t *t = self;
     t->pending_count = 0;
     memset(t->handed, 0, sizeof t->handed);
     for (unsigned i = 0; i < next->rtu_count; i++) {
@@ -366,19 +323,16 @@ static gw_north_reload_t rtu_prepare(void *self, const gw_config_t *next,
         if (t->pending[i] == NULL)
             t->pending[i] = rtu_open(t, &t->pending_cfg[i], next->robot, err, errlen);
         if (t->pending[i] == NULL) {
-            rtu_abort(t, NULL);
-            return GW_NORTH_REFUSED;
+            rtu_abort(t);
+            return false;
         }
         t->pending_count = i + 1;
     }
-    *out = t;
-    return GW_NORTH_OK;
+    return true;
 }
 
-static void *rtu_commit(void *self, void *out, const gw_north_env_t *env)
+static void rtu_commit(rtu_t *t)
 {
-    rtu_t *t = self;
-    (void)out, (void)env;
     for (unsigned o = 0; o < t->count; o++)
         if (!t->handed[o]) {
             gw_log(GW_LOG_INFO, "reload: modbus_rtu %s changed or removed: closing %s",
@@ -390,19 +344,16 @@ static void *rtu_commit(void *self, void *out, const gw_north_env_t *env)
     t->count = t->pending_count;
     t->pending_count = 0;
     memset(t->handed, 0, sizeof t->handed);
-    return t;
 }
 
-static void rtu_tick(void *self, uint64_t now)
+static void rtu_tick(rtu_t *t, uint64_t now)
 {
-    rtu_t *t = self;
     for (unsigned i = 0; i < t->count; i++)
         gw_rtu_tick(t->line[i], now);
 }
 
-static uint64_t rtu_deadline(const void *self)
+static uint64_t rtu_deadline(const rtu_t *t)
 {
-    const rtu_t *t = self;
     uint64_t d = UINT64_MAX;
     for (unsigned i = 0; i < t->count; i++) {
         uint64_t x = gw_rtu_next_deadline(t->line[i]);
@@ -412,30 +363,138 @@ static uint64_t rtu_deadline(const void *self)
     return d;
 }
 
-static void rtu_on_link(void *self, unsigned robot, bool up)
+/* ---- the side ------------------------------------------------------------------ */
+
+static void mb_free(void *self)
 {
-    (void)self, (void)robot, (void)up; /* the stale policy is applied once, by TCP's side */
+    mb_t *m = self;
+    if (m == NULL)
+        return;
+    gw_mbs_free(m->tcp.mbs);
+    rtu_free(&m->rtu);
+    free(m);
 }
 
-/* Status IR 40-43: the frames dropped and the frames for other slaves of
- * the lines this robot is on. */
-static void rtu_status(const void *self, unsigned robot, gw_status_t *st)
+static void *mb_create(const gw_north_env_t *env, char *err, size_t errlen)
 {
-    const rtu_t *t = self;
-    uint8_t unit_id = t->ctx.env->cfg->robot[robot].unit_id;
-    st->rtu_dropped = 0;
-    st->rtu_other = 0;
-    for (unsigned i = 0; i < t->count; i++) {
-        const gw_rtu_counters_t *n = gw_rtu_counters(t->line[i]);
-        st->exceptions += n->exceptions;
-        if (!gw_rtu_serves(t->line[i], unit_id))
-            continue;
-        st->rtu_dropped += n->crc_errors;
-        st->rtu_other += n->other;
+    mb_t *m = calloc(1, sizeof *m);
+    if (m == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    m->env = env;
+    gw_regmap_init();
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        unit_policy(m, r);
+    if (!tcp_create(m, err, errlen) || !rtu_create(m, err, errlen)) {
+        mb_free(m);
+        return NULL;
+    }
+    return m;
+}
+
+/* TCP is reconfigured in place at commit and cannot refuse; RTU lines
+ * that cannot be opened refuse the reload. The robots' serials are taken
+ * now, while they are still where the units are. */
+static gw_north_reload_t mb_prepare(void *self, const gw_config_t *next,
+                                    const gw_north_env_t *env, void **out, char *err,
+                                    size_t errlen)
+{
+    mb_t *m = self;
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        m->serial[r] = r < env->cfg->robot_count ? env->robots[r].serial : 0;
+    if (!rtu_prepare(&m->rtu, next, env, err, errlen))
+        return GW_NORTH_REFUSED;
+    *out = m;
+    return GW_NORTH_OK;
+}
+
+/* cppcheck-suppress constParameter ; the signature is gw_north_ops_t's */
+static void mb_abort(void *self, void *out)
+{
+    mb_t *m = self;
+    (void)out;
+    rtu_abort(&m->rtu);
+}
+
+static void *mb_commit(void *self, void *out, const gw_north_env_t *env)
+{
+    mb_t *m = self;
+    (void)out, (void)env;
+    units_move(m);
+    bool ok = tcp_commit(&m->tcp);
+    rtu_commit(&m->rtu);
+    if (!ok) {
+        mb_free(m);
+        return NULL;
+    }
+    return m;
+}
+
+static void mb_tick(void *self, uint64_t now)
+{
+    mb_t *m = self;
+    gw_mbs_tick(m->tcp.mbs, now);
+    writer_watchdog(&m->tcp, now);
+    rtu_tick(&m->rtu, now);
+}
+
+static uint64_t mb_deadline(const void *self)
+{
+    const mb_t *m = self;
+    uint64_t d = gw_mbs_next_deadline(m->tcp.mbs), x = rtu_deadline(&m->rtu);
+    return x < d ? x : d;
+}
+
+static void mb_on_data(void *self, unsigned robot, dr_asm_t a)
+{
+    (void)self, (void)robot, (void)a; /* requests read the images as they are */
+}
+
+/* on_link_loss = zero is applied to the images by the robot (robot.h),
+ * exception by the read path (regmap.c): nothing to do here. */
+static void mb_on_link(void *self, unsigned robot, bool up)
+{
+    (void)self, (void)robot, (void)up;
+}
+
+static void mb_on_fault(void *self, unsigned robot, bool latched)
+{
+    (void)self, (void)robot, (void)latched; /* its own: write_fault in the unit */
+}
+
+/* Modbus's part of the status block: clients, exceptions (TCP and every
+ * RTU line), the writer, and IR 40-43: the frames dropped and the frames
+ * for other slaves of the lines this robot is on. */
+static void mb_refresh(void *self)
+{
+    mb_t *m = self;
+    const gw_config_t *cfg = m->env->cfg;
+    for (unsigned r = 0; r < cfg->robot_count; r++) {
+        gw_status_t *st = &m->unit[r].status;
+        uint8_t unit_id = cfg->robot[r].unit_id;
+        st->clients = (uint16_t)gw_mbs_client_count(m->tcp.mbs);
+        st->exceptions = gw_mbs_exceptions(m->tcp.mbs);
+        st->writer_present = gw_mbs_writer_present(m->tcp.mbs);
+        st->rtu_dropped = 0;
+        st->rtu_other = 0;
+        for (unsigned i = 0; i < m->rtu.count; i++) {
+            const gw_rtu_counters_t *n = gw_rtu_counters(m->rtu.line[i]);
+            st->exceptions += n->exceptions;
+            if (!gw_rtu_serves(m->rtu.line[i], unit_id))
+                continue;
+            st->rtu_dropped += n->crc_errors;
+            st->rtu_other += n->other;
+        }
     }
 }
 
-const gw_north_ops_t gw_north_modbus_rtu = {
-    "modbus_rtu", rtu_create,   rtu_prepare,  rtu_abort,  rtu_commit, rtu_tick, rtu_deadline,
-    tcp_on_data,  rtu_on_link,  tcp_on_fault, rtu_status, tcp_safe, rtu_free,
+static void mb_safe(void *self)
+{
+    (void)self;
+}
+
+const gw_north_ops_t gw_north_modbus = {
+    "modbus",   mb_create,  mb_prepare,  mb_abort,   mb_commit, mb_tick, mb_deadline,
+    mb_on_data, mb_on_link, mb_on_fault, mb_refresh, mb_safe,   mb_free,
 };

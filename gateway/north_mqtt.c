@@ -238,7 +238,7 @@ static bool changed(const mq_t *t, const mq_last_t *l, const dr_value_t *v)
  * with `full`), as one JSON object; nothing if none did. */
 static bool publish_data(mq_t *t, unsigned robot, bool full)
 {
-    const gw_unit_t *u = &t->env->units[robot];
+    const gw_robot_t *rb = &t->env->robots[robot];
     mq_json_t *j = &t->json;
     mq_last_t *last = t->last[robot];
     j->len = 0, j->full = false;
@@ -250,8 +250,7 @@ static bool publish_data(mq_t *t, unsigned robot, bool full)
         char path[96];
         if (dr_leaf_at((uint16_t)i, &ref) != DR_OK)
             continue;
-        dr_asm_t a = (dr_asm_t)ref.field->assembly;
-        if (dr_field_get(u->img[a], dr_asm_info(a)->size, ref, &v) != DR_OK)
+        if (gw_robot_get(rb, ref, &v) != DR_OK)
             continue;
         if (!full && !changed(t, &last[i], &v))
             continue;
@@ -317,13 +316,16 @@ static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, c
     }
 }
 
-/* Is this bit driven by a GPIO input (and so not the plant's to write)? */
-static bool gpio_driven(const gw_unit_t *u, dr_ref_t ref)
+/* Is this bit driven by a GPIO input of the robot's (and so not the
+ * plant's to write)? */
+static bool gpio_driven(const gw_config_t *cfg, unsigned robot, dr_ref_t ref)
 {
-    for (unsigned i = 0; i < u->gpio_in_count; i++)
-        if (u->gpio_in[i].field == ref.field &&
-            (ref.elem < 0 || u->gpio_in[i].elem < 0 || u->gpio_in[i].elem == ref.elem))
+    for (unsigned i = 0; i < cfg->gpio_count; i++) {
+        const gw_gpio_config_t *g = &cfg->gpio[i];
+        if (g->dir == GW_GPIO_INPUT && g->robot_index == robot && g->field.field == ref.field &&
+            (ref.elem < 0 || g->field.elem < 0 || g->field.elem == ref.elem))
             return true;
+    }
     return false;
 }
 
@@ -334,7 +336,7 @@ static bool gpio_driven(const gw_unit_t *u, dr_ref_t ref)
 static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosquitto_message *m)
 {
     const gw_config_t *cfg = t->env->cfg;
-    gw_unit_t *u = &t->env->units[robot];
+    gw_robot_t *rb = &t->env->robots[robot];
     char text[MQ_SET_MAX + 1], why[160];
     dr_ref_t ref;
     dr_value_t v;
@@ -364,11 +366,11 @@ static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosqu
         refuse(t, robot, m, why);
     } else if (cfg->modbus.single_writer)
         refuse(t, robot, m, "single-writer mode: the outputs belong to the Modbus writer");
-    else if (u->status.write_fault)
+    else if (rb->fault)
         refuse(t, robot, m, "write fault latched (reset it through Modbus)");
-    else if (gpio_driven(u, ref))
+    else if (gpio_driven(cfg, robot, ref))
         refuse(t, robot, m, "driven by a GPIO input");
-    else if ((st = dr_field_set(u->img[a], dr_asm_info(a)->size, ref, &v, DR_SET_O2T_ONLY)) !=
+    else if ((st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, &v, DR_SET_O2T_ONLY)) !=
              DR_OK) {
         snprintf(why, sizeof why, "invalid value: %s", dr_strerror(st));
         refuse(t, robot, m, why);
@@ -842,12 +844,12 @@ static void mq_on_link(void *self, unsigned robot, bool up)
 
 static void mq_on_fault(void *self, unsigned robot, bool latched)
 {
-    (void)self, (void)robot, (void)latched; /* writes look at write_fault */
+    (void)self, (void)robot, (void)latched; /* writes look at the robot's fault */
 }
 
-static void mq_status(const void *self, unsigned robot, gw_status_t *st)
+static void mq_refresh(void *self)
 {
-    (void)self, (void)robot, (void)st;
+    (void)self;
 }
 
 static void mq_safe(void *self)
@@ -866,5 +868,5 @@ static void mq_side_free(void *self)
 
 const gw_north_ops_t gw_north_mqtt = {
     "mqtt",     mq_create,  mq_prepare,  mq_abort,  mq_commit, mq_tick,      mq_deadline,
-    mq_on_data, mq_on_link, mq_on_fault, mq_status, mq_safe,   mq_side_free,
+    mq_on_data, mq_on_link, mq_on_fault, mq_refresh, mq_safe,  mq_side_free,
 };

@@ -181,7 +181,7 @@ static size_t asm_size(const dr_field_t *f)
 
 static const uint8_t *asm_img(const gw_unit_t *u, const dr_field_t *f)
 {
-    return u->img[f->assembly];
+    return u->robot->img[f->assembly];
 }
 
 static dr_value_t get_value(const gw_unit_t *u, const slot_t *s, int16_t elem)
@@ -206,32 +206,38 @@ static uint16_t scaled(double f, unsigned scale)
     return (uint16_t)(int16_t)x;
 }
 
+/* The block is assembled here from both owners: the robot's facts (its
+ * link, counters, errors; the daemon's heartbeat, uptime, generation) and
+ * Modbus's own (exceptions, clients, the single writer, word order, RTU
+ * counters). */
 static uint16_t status_reg(const gw_unit_t *u, unsigned i)
 {
     const gw_status_t *st = &u->status;
+    const gw_robot_t *rb = u->robot;
+    const gw_robot_link_t *lk = &rb->link;
     switch (i) {
     case 0: return GW_MAP_LAYOUT_VERSION;
-    case 1: return st->link_state;
-    case 2: return st->fresh;
-    case 3: return st->age_ms > 0xFFFF ? 0xFFFF : (uint16_t)st->age_ms;
-    case 4: return st->heartbeat;
-    case 5: return st->rpi_ms;
+    case 1: return lk->link_state;
+    case 2: return lk->fresh;
+    case 3: return lk->age_ms > 0xFFFF ? 0xFFFF : (uint16_t)lk->age_ms;
+    case 4: return rb->heartbeat;
+    case 5: return lk->rpi_ms;
     /* 32-bit counters: high word first, whatever the word order */
-    case 6: return (uint16_t)(st->rx_packets >> 16);
-    case 7: return (uint16_t)st->rx_packets;
-    case 8: return (uint16_t)(st->lost_packets >> 16);
-    case 9: return (uint16_t)st->lost_packets;
+    case 6: return (uint16_t)(lk->rx_packets >> 16);
+    case 7: return (uint16_t)lk->rx_packets;
+    case 8: return (uint16_t)(lk->lost_packets >> 16);
+    case 9: return (uint16_t)lk->lost_packets;
     case 10: return (uint16_t)(st->exceptions >> 16);
     case 11: return (uint16_t)st->exceptions;
-    case 12: return st->last_error;
+    case 12: return lk->last_error;
     case 13: return st->clients;
-    case 14: return (uint16_t)(st->uptime_s >> 16);
-    case 15: return (uint16_t)st->uptime_s;
+    case 14: return (uint16_t)(rb->uptime_s >> 16);
+    case 15: return (uint16_t)rb->uptime_s;
     case 26: return st->write_fault;
     case 27: return st->writer_present;
     case 28: return (uint16_t)u->order;
-    case 29: return st->config_generation;
-    case 30: return st->last_cip_general;
+    case 29: return rb->generation;
+    case 30: return lk->last_cip_general;
     /* 31 is reserved (reads 0); the block goes on at IR 40, its 32-bit
      * counters high word first too */
     case STATUS_REGS + 0: return (uint16_t)(st->rtu_dropped >> 16);
@@ -239,8 +245,8 @@ static uint16_t status_reg(const gw_unit_t *u, unsigned i)
     case STATUS_REGS + 2: return (uint16_t)(st->rtu_other >> 16);
     case STATUS_REGS + 3: return (uint16_t)st->rtu_other;
     default:
-        if (i >= 16 && i < 16 + GW_MAX_CONN_STATUS)
-            return st->conn_state[i - 16];
+        if (i >= 16 && i < 16 + GW_ROBOT_CONNS)
+            return lk->conn_state[i - 16];
         return 0;
     }
 }
@@ -248,8 +254,8 @@ static uint16_t status_reg(const gw_unit_t *u, unsigned i)
 static uint16_t status_bit(const gw_unit_t *u, unsigned i)
 {
     switch (i) {
-    case 0: return u->status.link_state == 2;
-    case 1: return u->status.fresh;
+    case 0: return u->robot->link.link_state == 2;
+    case 1: return u->robot->link.fresh;
     case 2: return u->status.write_fault;
     default: return u->status.writer_present;
     }
@@ -344,7 +350,7 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
         for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
             if (map[area][a].kind == SL_NONE)
                 return GW_EX_ILLEGAL_ADDRESS;
-    if (u->on_loss == GW_LOSS_EXCEPTION && u->status.link_state != 2 &&
+    if (u->on_loss == GW_LOSS_EXCEPTION && u->robot->link.link_state != 2 &&
         (area == GW_INPUT || area == GW_DISCRETE) &&
         gw_regmap_touches_robot_data(area, addr, count))
         return GW_EX_TARGET_FAILED;
@@ -393,9 +399,9 @@ static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
 {
     const dr_field_t *f = slot_field(s);
     dr_ref_t ref = {f, elem};
-    if (u->o2t_unsent & (1u << f->assembly))
+    if (u->robot->o2t_unsent & (1u << f->assembly))
         return GW_EX_ILLEGAL_ADDRESS;
-    int ex = status_to_exception(dr_field_set(u->img[f->assembly], asm_size(f), ref, &v,
+    int ex = status_to_exception(dr_field_set(u->robot->img[f->assembly], asm_size(f), ref, &v,
                                               DR_SET_O2T_ONLY));
     if (ex == 0)
         *dirty |= 1u << f->assembly;
@@ -468,14 +474,21 @@ int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
     for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
         if (map[area][a].kind == SL_NONE)
             return GW_EX_ILLEGAL_ADDRESS;
-    /* Work on a copy: the unit changes only if every value passes. */
+    /* Work on copies: the unit and the robot's images change only if
+     * every value passes; of the robot, only the O->T images written. */
+    gw_robot_t img = *u->robot;
     gw_unit_t tmp = *u;
+    tmp.robot = &img;
     unsigned d = 0;
     for (uint16_t i = 0; i < count; i++) {
         int ex = write_slot(&tmp, area, addr, &i, count, values, &d);
         if (ex != 0)
             return ex;
     }
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (d & (1u << a))
+            memcpy(u->robot->img[a], img.img[a], sizeof img.img[a]);
+    tmp.robot = u->robot;
     *u = tmp;
     *dirty |= d;
     return 0;

@@ -21,10 +21,10 @@
 
 #include "drgate/codec.h"
 #include "config.h"
+#include "robot.h"
 
 #define GW_MAP_LAYOUT_VERSION 1
 #define GW_AREA_SIZE 2048 /* addresses per area */
-#define GW_MAX_CONN_STATUS 10
 
 typedef enum { GW_COILS = 0, GW_DISCRETE, GW_HOLDING, GW_INPUT, GW_AREAS } gw_area_t;
 
@@ -37,33 +37,31 @@ enum {
     GW_EX_TARGET_FAILED = 0x0B
 };
 
-/* Values of the status block, kept by the daemon. */
+/* Modbus's part of the status block (the rest is the robot's: link
+ * state, freshness, counters, errors, connection states, heartbeat,
+ * uptime and generation, from gw_robot_t). Refreshed ten times a second
+ * by the Modbus side (north_modbus.c), but write_fault, which the request
+ * handler and the watchdog change when it happens. */
 typedef struct {
-    uint16_t link_state;      /* 0 down, 1 connecting, 2 up */
-    bool fresh;               /* robot data younger than the timeout */
-    uint32_t age_ms;          /* age of the last robot data */
-    uint16_t heartbeat;       /* +1 every second while the loop runs */
-    uint16_t rpi_ms;          /* API in use */
-    uint32_t rx_packets, lost_packets;
-    uint32_t exceptions;      /* Modbus exceptions sent */
-    uint16_t last_error;      /* CIP extended status or drgate code */
-    uint16_t last_cip_general; /* CIP general status of last_error, 0: not CIP */
+    uint32_t exceptions;      /* Modbus exceptions sent, TCP and RTU */
     uint16_t clients;
-    uint32_t uptime_s;
-    uint16_t conn_state[GW_MAX_CONN_STATUS]; /* dr_conn_state_t per connection */
     bool write_fault;         /* single writer's watchdog expired (latched) */
     bool writer_present;
-    uint16_t config_generation;
     /* Modbus RTU lines of this robot: frames dropped (bad CRC, short,
      * long, cut by t3.5) and frames for other slave addresses (IR 40-43). */
     uint32_t rtu_dropped, rtu_other;
 } gw_status_t;
 
-/* One robot as Modbus sees it. */
+/* One robot as Modbus sees it: the robot (its images and link facts,
+ * robot.h: the daemon's, shared with every side) and the [modbus] rules
+ * and state that are Modbus's alone. The Modbus side keeps one per robot
+ * position and carries it over a reload by the robot's serial. */
 typedef struct {
-    uint8_t img[DR_ASM_COUNT][DR_ASM_MAX_SIZE]; /* wire images, both ways */
+    gw_robot_t *robot;
     gw_word_order_t order;
-    gw_link_loss_t on_loss;
+    gw_link_loss_t on_loss; /* exception: 0x0B while the link is not up (hold
+                             * and zero read the images: zero is applied to
+                             * them, robot.h) */
     gw_unmapped_read_t unmapped; /* reserved addresses: read 0 or 0x02 */
     gw_status_t status;
     /* O->T bits driven by GPIO inputs (from the configuration): they
@@ -71,11 +69,6 @@ typedef struct {
      * refused (0x02). */
     dr_ref_t gpio_in[GW_MAX_GPIO];
     unsigned gpio_in_count;
-    char name[GW_NAME_MAX];   /* the robot's, for FC 43 device identification */
-    /* O->T assemblies the connection plan gives no owner connection (set
-     * by the link): nothing would carry a write to the robot, so writes
-     * are refused (0x02) rather than kept where nobody reads them. */
-    unsigned o2t_unsent;
     uint16_t watchdog;        /* last value written to the watchdog register */
     bool fault_reset;         /* set when a client wrote the reset register */
 } gw_unit_t;
