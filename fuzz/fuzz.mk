@@ -29,12 +29,12 @@ FUZZ_REPLAY_BIN    := $(FUZZ_TARGETS:%=$(B)/fuzz-replay/fuzz_%)
 # (FUZZ_HDR_T), compiler flags (FUZZ_CFLAGS_T) and libraries (FUZZ_LIBS_T).
 # Flags and libraries are expanded when the recipe runs: the variables
 # they use come from mk/*.mk, included after this file.
-FUZZ_SRC_modbus      := gateway/mbproto.c gateway/regmap.c
-FUZZ_HDR_modbus      := gateway/mbproto.h gateway/regmap.h gateway/config.h
+FUZZ_SRC_modbus      := gateway/mbproto.c gateway/regmap.c gateway/robot.c
+FUZZ_HDR_modbus      := gateway/mbproto.h gateway/regmap.h gateway/robot.h gateway/config.h
 FUZZ_CFLAGS_modbus    = $(MODBUS_CFLAGS)
 FUZZ_LIBS_modbus      = $(MODBUS_LIBS)
-FUZZ_SRC_rtu         := gateway/mbproto.c gateway/regmap.c
-FUZZ_HDR_rtu         := gateway/mbproto.h gateway/regmap.h gateway/config.h
+FUZZ_SRC_rtu         := gateway/mbproto.c gateway/regmap.c gateway/robot.c
+FUZZ_HDR_rtu         := gateway/mbproto.h gateway/regmap.h gateway/robot.h gateway/config.h
 FUZZ_CFLAGS_rtu       = $(MODBUS_CFLAGS)
 FUZZ_LIBS_rtu         = $(MODBUS_LIBS)
 FUZZ_SRC_config      := gateway/config.c

@@ -27,6 +27,7 @@
 #include "fuzz.h"
 
 static gw_unit_t units[2];
+static gw_robot_t robots[2]; /* units[i].robot */
 static bool read_only;
 
 static gw_unit_t *unit_for(void *user, uint8_t id)
@@ -96,8 +97,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     gw_regmap_init();
     memset(units, 0, sizeof units);
+    memset(robots, 0, sizeof robots);
     for (unsigned i = 0; i < 2; i++) {
-        units[i].status.link_state = (data[0] & 1u) ? 2 : 0;
+        units[i].robot = &robots[i];
+        robots[i].link.link_state = (data[0] & 1u) ? 2 : 0;
         units[i].order = (gw_word_order_t)((data[0] >> 2) & 3u);
     }
     read_only = (data[0] & 2u) != 0;

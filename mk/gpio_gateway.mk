@@ -24,12 +24,12 @@ CHECK_STEPS += check-gpio-gateway
 # gateway/gpiomap.c on the fake GPIO backend and a fake event loop: no
 # kernel, no libgpiod, no epoll (the test defines gw_loop_watch & co.).
 $(GPIO_GW_TEST): $(GPIO_GW_DIR)/test_gpiomap.c gateway/gpiomap.c gateway/gpiomap.h \
-        gateway/log.c tests/gpio/gpio_fake.c tests/gpio/gpio_fake.h $(GPIO_CORE_SRC) \
-        $(GPIO_HDR) $(LIB_A) $(LIB_HDR)
+        gateway/log.c gateway/robot.c gateway/robot.h tests/gpio/gpio_fake.c \
+        tests/gpio/gpio_fake.h $(GPIO_CORE_SRC) $(GPIO_HDR) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) -Itests/gpio $(CMOCKA_CFLAGS) $(ALL_CFLAGS) \
-	    $(ALL_LDFLAGS) -o $@ $< gateway/gpiomap.c gateway/log.c tests/gpio/gpio_fake.c \
-	    $(GPIO_CORE_SRC) $(LIB_A) $(CMOCKA_LIBS) -lm
+	    $(ALL_LDFLAGS) -o $@ $< gateway/gpiomap.c gateway/log.c gateway/robot.c \
+	    tests/gpio/gpio_fake.c $(GPIO_CORE_SRC) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 # Plain, then under ASan+UBSan (the Makefile's SAN_FLAGS) in $(B)/asan.
 check-gpio-gateway-unit: $(GPIO_GW_TEST)

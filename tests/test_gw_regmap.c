@@ -4,7 +4,7 @@
  * cannot set up cheaply: bits owned by GPIO inputs (which need a GPIO
  * chip there; tests/gpio/gateway covers them in a guest with a real one),
  * the two policies for reserved addresses, on every table, and the status
- * block's 32-bit counters in every word order. The units
+ * block's 32-bit counters in every word order. The unit and its robot
  * here are plain structs, as the daemon's are; nothing is faked.
  */
 #include <stdarg.h>
@@ -17,13 +17,16 @@
 #include "regmap.h"
 
 static gw_unit_t U;
+static gw_robot_t R; /* U's robot */
 
 static int setup(void **state)
 {
     (void)state;
     gw_regmap_init();
     memset(&U, 0, sizeof U);
-    U.status.link_state = 2;
+    memset(&R, 0, sizeof R);
+    U.robot = &R;
+    R.link.link_state = 2;
     return 0;
 }
 
@@ -44,7 +47,7 @@ static uint64_t get(const char *path)
     dr_ref_t r = ref(path);
     dr_value_t v;
     const dr_asm_info_t *info = dr_asm_info((dr_asm_t)r.field->assembly);
-    assert_int_equal(dr_field_get(U.img[r.field->assembly], info->size, r, &v), DR_OK);
+    assert_int_equal(dr_field_get(R.img[r.field->assembly], info->size, r, &v), DR_OK);
     return v.u;
 }
 
@@ -85,7 +88,7 @@ static void test_gpio_owned_bits(void **state)
     assert_int_equal(get("bit_in[2]"), 0); /* the word was written whole */
     /* the input itself (gpiomap sets the image) may change it: a write
      * that keeps the new value is accepted */
-    U.img[DR_ASM_BIT_IN][0] |= 0x08;
+    R.img[DR_ASM_BIT_IN][0] |= 0x08;
     assert_int_equal(write1(GW_HOLDING, 200, 0x0108), 0);
     assert_int_equal(write1(GW_COILS, 203, 0), GW_EX_ILLEGAL_ADDRESS);
     /* another field's owned bit, as a coil and in its packed register */
@@ -143,7 +146,7 @@ static void test_status_counters(void **state)
                                              GW_WORD_DCBA};
     U.status.rtu_dropped = 0x00010203u;
     U.status.rtu_other = 0x80000101u;
-    U.status.rx_packets = 0x12345678u;
+    R.link.rx_packets = 0x12345678u;
     U.unmapped = GW_UNMAPPED_EXCEPTION;
     for (unsigned i = 0; i < 4; i++) {
         uint16_t v[44];

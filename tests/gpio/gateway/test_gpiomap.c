@@ -74,7 +74,7 @@ static void fire_all(void)
 /* ---- fixtures ------------------------------------------------------------- */
 
 static gw_config_t cfg;
-static gw_unit_t units[GW_MAX_ROBOTS];
+static gw_robot_t robots[GW_MAX_ROBOTS];
 static unsigned input_calls, input_dirty;
 
 static void on_input(void *user, unsigned robot, unsigned dirty)
@@ -125,7 +125,7 @@ static int setup(void **state)
     fake_reset();
     nwatched = 0;
     input_calls = input_dirty = 0;
-    memset(units, 0, sizeof units);
+    memset(robots, 0, sizeof robots);
     memset(&cfg, 0, sizeof cfg);
     cfg.robot_count = 1;
     snprintf(cfg.robot[0].name, sizeof cfg.robot[0].name, "arm");
@@ -144,7 +144,7 @@ static void set_bit(dr_asm_t a, const char *path, int v)
     dr_ref_t ref;
     dr_value_t val = dr_value_uint((uint64_t)v);
     assert_int_equal(dr_path_parse(path, &ref), DR_OK);
-    assert_int_equal(dr_field_set(units[0].img[a], dr_asm_info(a)->size, ref, &val, 0), DR_OK);
+    assert_int_equal(dr_field_set(robots[0].img[a], dr_asm_info(a)->size, ref, &val, 0), DR_OK);
 }
 
 static int get_bit(dr_asm_t a, const char *path)
@@ -152,7 +152,7 @@ static int get_bit(dr_asm_t a, const char *path)
     dr_ref_t ref;
     dr_value_t val;
     assert_int_equal(dr_path_parse(path, &ref), DR_OK);
-    assert_int_equal(dr_field_get(units[0].img[a], dr_asm_info(a)->size, ref, &val), DR_OK);
+    assert_int_equal(dr_field_get(robots[0].img[a], dr_asm_info(a)->size, ref, &val), DR_OK);
     return (int)val.u;
 }
 
@@ -172,7 +172,7 @@ static const char *writes(unsigned offset, size_t from)
 static gw_gpiomap_t *new_map(void)
 {
     char err[512] = "";
-    gw_gpiomap_t *m = gw_gpiomap_new(&cfg, units, 3, &hooks, err, sizeof err);
+    gw_gpiomap_t *m = gw_gpiomap_new(&cfg, robots, 3, &hooks, err, sizeof err);
     if (m == NULL)
         fail_msg("gw_gpiomap_new: %s", err);
     return m;
@@ -339,7 +339,7 @@ static void test_same_line_twice(void **state)
      * the loader cannot see it, the map must. */
     add_gpio("again", "/dev/gpiochip0", "3", GW_GPIO_OUTPUT, "bit_out[5]");
     char err[512];
-    assert_null(gw_gpiomap_new(&cfg, units, 3, &hooks, err, sizeof err));
+    assert_null(gw_gpiomap_new(&cfg, robots, 3, &hooks, err, sizeof err));
     assert_string_equal(err, "gpio again: line 3 of gpiochip0 is already used by gpio 'button'");
     assert_int_equal(fake.open_chips, 0);
     for (unsigned o = 0; o < 4; o++)
@@ -351,13 +351,13 @@ static void test_errors(void **state)
     (void)state;
     char err[512];
     snprintf(gpio_named("button")->line_name, sizeof cfg.gpio[0].line_name, "NOPE");
-    assert_null(gw_gpiomap_new(&cfg, units, 3, &hooks, err, sizeof err));
+    assert_null(gw_gpiomap_new(&cfg, robots, 3, &hooks, err, sizeof err));
     assert_non_null(strstr(err, "gpio button: "));
     assert_non_null(strstr(err, "NOPE"));
     assert_int_equal(fake.open_chips, 0);
     setup(NULL);
     fake.busy[2] = true;
-    assert_null(gw_gpiomap_new(&cfg, units, 3, &hooks, err, sizeof err));
+    assert_null(gw_gpiomap_new(&cfg, robots, 3, &hooks, err, sizeof err));
     assert_non_null(strstr(err, "gpio lamp: "));
     assert_non_null(strstr(err, "used by \"other\""));
     assert_int_equal(fake.open_chips, 0);
@@ -383,7 +383,7 @@ static void test_reload_same(void **state)
     gw_gpiomap_t *m = running(), *n;
     size_t mark = fake.nlog, rel = fake.releases;
     char err[512];
-    assert_int_equal(gw_gpiomap_reload(m, &cfg, units, 3, &hooks, &n, err, sizeof err),
+    assert_int_equal(gw_gpiomap_reload(m, &cfg, robots, 3, &hooks, &n, err, sizeof err),
                      GW_GPIOMAP_OK);
     gw_gpiomap_link(n, 0, true);
     gw_gpiomap_fault(n, 0, false);
@@ -418,7 +418,7 @@ static void test_reload_changes(void **state)
     gw_gpio_config_t *door = gpio_named("door");
     *door = cfg.gpio[--cfg.gpio_count]; /* the relay takes the door's place */
     add_gpio("new", "gpiochip0", "4", GW_GPIO_OUTPUT, "bit_out[0]");
-    assert_int_equal(gw_gpiomap_reload(m, &cfg, units, 3, &hooks, &n, err, sizeof err),
+    assert_int_equal(gw_gpiomap_reload(m, &cfg, robots, 3, &hooks, &n, err, sizeof err),
                      GW_GPIOMAP_OK);
     gw_gpiomap_link(n, 0, true);
     gw_gpiomap_fault(n, 0, false);
@@ -445,7 +445,7 @@ static void test_reload_refused(void **state)
     add_gpio("busy", "gpiochip0", "5", GW_GPIO_OUTPUT, "bit_out[0]");
     fake.busy[5] = true;
     size_t mark = fake.nlog;
-    assert_int_equal(gw_gpiomap_reload(m, &cfg, units, 3, &hooks, &n, err, sizeof err),
+    assert_int_equal(gw_gpiomap_reload(m, &cfg, robots, 3, &hooks, &n, err, sizeof err),
                      GW_GPIOMAP_REFUSED);
     assert_null(n);
     assert_non_null(strstr(err, "gpio busy: "));
@@ -477,7 +477,7 @@ static void test_reload_refused_moved(void **state)
     add_gpio("busy", "gpiochip0", "6", GW_GPIO_OUTPUT, "bit_out[0]");
     fake.busy[6] = true;
     size_t mark = fake.nlog, rel = fake.releases;
-    assert_int_equal(gw_gpiomap_reload(m, &cfg, units, 3, &hooks, &n, err, sizeof err),
+    assert_int_equal(gw_gpiomap_reload(m, &cfg, robots, 3, &hooks, &n, err, sizeof err),
                      GW_GPIOMAP_REFUSED);
     assert_true(fake.requested[0]);
     assert_true(fake.requested[2]);
