@@ -13,6 +13,9 @@
 #                        a sanitizer report in any log is a failure
 #   check-regmap-docs    docs/register-map.md equals --print-map --markdown
 #                        (the rule is in mk/gw_daemon.mk)
+#   check-gw-boundary    the robot (gateway/robot.[ch]) and its link know
+#                        nothing of Modbus, GPIO and MQTT read gw_robot_t
+#                        only (mk/gw-boundary.sh; check-gateway runs it first)
 #   check-gateway-unit   gateway/drgatewayd.service as systemd-analyze
 #                        verify reads it: any complaint is a failure
 #                        (skipped loudly where systemd-analyze is missing)
@@ -37,9 +40,13 @@ GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus' 2>/dev/null; 
                        echo "0 1 $(1) (no pytest/pymodbus: make deps)" >> $(RESULTS); \
                        exit 1; fi
 
-.PHONY: check-gateway check-gateway-asan check-gateway-unit regmap-docs
+.PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs
+
+check-gw-boundary:
+	@CC="$(CC)" sh mk/gw-boundary.sh "$(RESULTS)"
 
 check-gateway: $(GW_BIN) $(SIM_BIN)
+	@CC="$(CC)" sh mk/gw-boundary.sh "$(RESULTS)"
 	@$(call GW_TEST_PEERS,drgatewayd end to end)
 	@$(call GW_TEST_RUN,$(B),drgatewayd end to end (tests/gateway))
 

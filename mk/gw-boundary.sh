@@ -1,0 +1,51 @@
+#!/bin/sh
+# SPDX-License-Identifier: MIT
+# The gateway's robot boundary (docs/gateway.md, issue 13): the robot
+# (gateway/robot.[ch]) and its link (gateway/link.[ch]) know nothing of
+# Modbus, and the other northbound sides (GPIO, MQTT) read the robot
+# (gw_robot_t), not Modbus's units. Fails if one of those files includes a
+# Modbus header or names a Modbus-side symbol outside its comments
+# (stripped by the preprocessor first, so a comment may say why).
+# usage: gw-boundary.sh RESULTS [TOP]   (TOP: the tree to check, default .)
+results=$1; top=${2:-.}
+label="gateway robot boundary (no Modbus in robot, link, GPIO, MQTT)"
+mkdir -p "$(dirname "$results")"
+cc=${CC:-cc}
+inc='#[[:space:]]*include[[:space:]]*[<"]((modbus/)?modbus|regmap|mbproto|mbserver|mbrtu)\.h[>"]'
+# Modbus's types, functions, constants and [modbus] settings.
+mbsym='gw_unit_t|gw_status_t|gw_regmap_|gw_mb_|gw_mbs_|gw_mbap_|gw_rtu_|GW_EX_|GW_HR_|GW_LOSS_|GW_UNMAPPED_|GW_WORD_|modbus_|on_link_loss|on_loss|unmapped_read|word_order|single_writer'
+fail=0
+# FILE RULES: `inc` (no Modbus header) and, for the robot and the link, `sym`
+# (no Modbus-side symbol, nor the [modbus] section: ->modbus / .modbus).
+check() {
+    f=$top/$1
+    if [ ! -f "$f" ]; then echo "$label: $1 missing"; fail=1; return; fi
+    # comments out, includes kept as written (-fpreprocessed -dD: no expansion)
+    code=$("$cc" -fpreprocessed -dD -E -P -x c "$f" 2>/dev/null) || {
+        echo "$label: cannot read $1"; fail=1; return; }
+    hit=$(printf '%s\n' "$code" | grep -nE "$inc")
+    if [ -n "$hit" ]; then echo "$label: $1 includes a Modbus header:"; echo "$hit"; fail=1; fi
+    case $2 in *sym*)
+        hit=$(printf '%s\n' "$code" | grep -nE "$mbsym|(->|\.)modbus\b")
+        if [ -n "$hit" ]; then echo "$label: $1 names Modbus:"; echo "$hit"; fail=1; fi
+    esac
+    case $2 in *unit*)
+        hit=$(printf '%s\n' "$code" | grep -nE 'gw_unit_t|gw_status_t|gw_regmap_|gw_mb_')
+        if [ -n "$hit" ]; then echo "$label: $1 reads Modbus's units:"; echo "$hit"; fail=1; fi
+    esac
+}
+check gateway/robot.h inc,sym
+check gateway/robot.c inc,sym
+check gateway/link.h inc,sym
+check gateway/link.c inc,sym
+check gateway/gpiomap.h inc,unit
+check gateway/gpiomap.c inc,unit
+check gateway/north_gpio.c inc,unit
+check gateway/north_mqtt.c inc,unit
+check gateway/north.h inc,unit
+check gateway/north.c inc,unit
+if [ "$fail" -eq 0 ]; then
+    echo "$label: clean"; echo "1 0 $label" >> "$results"
+else
+    echo "0 1 $label" >> "$results"; exit 1
+fi

@@ -1,0 +1,124 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * gw_robot_t's own logic (gateway/robot.c): a robot starts empty with its
+ * name and serial; a failure is recorded as the status block shows it
+ * (CIP extended status, or the general one when there is none, and the
+ * general status apart; anything else as its code); clear_while_down
+ * clears the T->O images only, and only with it, and drops data while
+ * the link is down; fields read from the images. The link and the sides
+ * using it are covered end to end (tests/gateway).
+ */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <stdint.h>
+#include <string.h>
+#include <cmocka.h>
+
+#include "robot.h"
+
+static gw_robot_t R;
+
+static int setup(void **state)
+{
+    (void)state;
+    memset(&R, 0xA5, sizeof R); /* gw_robot_init must clear all of it */
+    gw_robot_init(&R, "arm", 7);
+    return 0;
+}
+
+static void fill(uint8_t v)
+{
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        memset(R.img[a], v, DR_ASM_MAX_SIZE);
+}
+
+static void test_init(void **state)
+{
+    (void)state;
+    assert_string_equal(R.name, "arm");
+    assert_int_equal(R.serial, 7);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        for (unsigned i = 0; i < DR_ASM_MAX_SIZE; i++)
+            assert_int_equal(R.img[a][i], 0);
+    assert_int_equal(R.link.link_state, 0);
+    assert_int_equal(R.link.rx_packets, 0);
+    assert_int_equal(R.link.last_error, 0);
+    assert_false(R.clear_while_down);
+    assert_false(R.fault);
+    assert_int_equal(R.o2t_unsent, 0);
+    assert_int_equal(R.heartbeat, 0);
+    /* a name longer than the field is cut, and terminated */
+    gw_robot_init(&R, "a-robot-name-that-is-much-longer-than-32", 8);
+    assert_int_equal(strlen(R.name), GW_NAME_MAX - 1);
+    gw_robot_init(&R, NULL, 9);
+    assert_string_equal(R.name, "");
+}
+
+static void test_record_error(void **state)
+{
+    (void)state;
+    gw_robot_record_error(&R, DR_CIP(0x01, 0x0129));
+    assert_int_equal(R.link.last_error, 0x0129);
+    assert_int_equal(R.link.last_cip_general, 0x01);
+    /* no extended status: the general one stands in */
+    gw_robot_record_error(&R, DR_CIP(0x05, 0));
+    assert_int_equal(R.link.last_error, 0x05);
+    assert_int_equal(R.link.last_cip_general, 0x05);
+    /* not CIP: the code, general 0 */
+    gw_robot_record_error(&R, DR_ETIMEDOUT);
+    assert_int_equal(R.link.last_error, DR_ETIMEDOUT);
+    assert_int_equal(R.link.last_cip_general, 0);
+    /* DR_OK records nothing */
+    gw_robot_record_error(&R, DR_OK);
+    assert_int_equal(R.link.last_error, DR_ETIMEDOUT);
+}
+
+static void test_clear_while_down(void **state)
+{
+    (void)state;
+    /* hold (the default): images stay, data is taken in any state */
+    fill(0x5A);
+    gw_robot_link_down(&R);
+    assert_int_equal(R.img[DR_ASM_IO_STATE][0], 0x5A);
+    assert_true(gw_robot_takes_data(&R, false));
+    assert_true(gw_robot_takes_data(&R, true));
+    /* clear_while_down: T->O images to 0, O->T images stay */
+    R.clear_while_down = true;
+    gw_robot_link_down(&R);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        uint8_t want = dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O ? 0 : 0x5A;
+        for (unsigned i = 0; i < DR_ASM_MAX_SIZE; i++)
+            assert_int_equal(R.img[a][i], want);
+    }
+    assert_false(gw_robot_takes_data(&R, false));
+    assert_true(gw_robot_takes_data(&R, true));
+}
+
+static void test_get(void **state)
+{
+    (void)state;
+    dr_ref_t ref;
+    dr_value_t v, one = dr_value_uint(1);
+    assert_int_equal(dr_path_parse("bit_out[5]", &ref), DR_OK);
+    dr_asm_t a = (dr_asm_t)ref.field->assembly;
+    assert_int_equal(dr_field_set(R.img[a], dr_asm_info(a)->size, ref, &one, 0), DR_OK);
+    assert_int_equal(gw_robot_get(&R, ref, &v), DR_OK);
+    assert_int_equal(v.u, 1);
+    assert_int_equal(dr_path_parse("bit_out[4]", &ref), DR_OK);
+    assert_int_equal(gw_robot_get(&R, ref, &v), DR_OK);
+    assert_int_equal(v.u, 0);
+    ref.field = NULL;
+    assert_int_equal(gw_robot_get(&R, ref, &v), DR_EINVAL);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup(test_init, setup),
+        cmocka_unit_test_setup(test_record_error, setup),
+        cmocka_unit_test_setup(test_clear_while_down, setup),
+        cmocka_unit_test_setup(test_get, setup),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
