@@ -10,7 +10,8 @@
 results=$1; top=${2:-.}
 label="gateway robot boundary (no Modbus in robot, link, GPIO, MQTT)"
 mkdir -p "$(dirname "$results")"
-cc=${CC:-cc}
+# GNU cpp strips the comments and keeps the rest as written (not clang)
+cc=${GW_BOUNDARY_CC:-gcc}
 inc='#[[:space:]]*include[[:space:]]*[<"]((modbus/)?modbus|regmap|mbproto|mbserver|mbrtu)\.h[>"]'
 # Modbus's types, functions, constants and [modbus] settings.
 mbsym='gw_unit_t|gw_status_t|gw_regmap_|gw_mb_|gw_mbs_|gw_mbap_|gw_rtu_|GW_EX_|GW_HR_|GW_LOSS_|GW_UNMAPPED_|GW_WORD_|modbus_|on_link_loss|on_loss|unmapped_read|word_order|single_writer'

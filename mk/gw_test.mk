@@ -43,10 +43,10 @@ GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus' 2>/dev/null; 
 .PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs
 
 check-gw-boundary:
-	@CC="$(CC)" sh mk/gw-boundary.sh "$(RESULTS)"
+	@sh mk/gw-boundary.sh "$(RESULTS)"
 
 check-gateway: $(GW_BIN) $(SIM_BIN)
-	@CC="$(CC)" sh mk/gw-boundary.sh "$(RESULTS)"
+	@sh mk/gw-boundary.sh "$(RESULTS)"
 	@$(call GW_TEST_PEERS,drgatewayd end to end)
 	@$(call GW_TEST_RUN,$(B),drgatewayd end to end (tests/gateway))
 
