@@ -4,7 +4,7 @@
  * T->O images live (Class 1 connections, or cyclic Get_Attribute_Single in
  * explicit mode), sends its O->T images, keeps its link facts, and reports
  * link changes. It knows the robot (robot.h) and nothing of the sides that
- * serve it: no Modbus header, no [modbus] setting (mk/gw_robot.mk checks).
+ * serve it: no Modbus header, no [modbus] setting (mk/gw-boundary.sh).
  */
 #ifndef DRGATE_GW_LINK_H
 #define DRGATE_GW_LINK_H

@@ -11,8 +11,9 @@
  * Modbus rules (word order, on_link_loss = exception, unmapped reads, the
  * single writer, GPIO-owned bits, the status block's layout) are the
  * Modbus side's own, in its unit (regmap.h) that points at a gw_robot_t.
- * This header must not include a Modbus header; make check-unit checks it
- * (mk/gw_robot.mk).
+ * Neither this file nor robot.c nor the link may include a Modbus header
+ * or name a Modbus symbol: make check-gw-boundary (mk/gw-boundary.sh,
+ * also run by check-gateway) fails if they do.
  */
 #ifndef DRGATE_GW_ROBOT_H
 #define DRGATE_GW_ROBOT_H

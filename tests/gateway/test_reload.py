@@ -239,3 +239,41 @@ def test_reload_reindexing_keeps_explicit_polls():
         g.kill()
         for s in sims:
             s.kill()
+
+
+def test_reload_moves_modbus_state_with_the_robot():
+    """Issue 13: the Modbus unit (its rules and state: here the watchdog
+    register, HR 0, which reads back the last value written) is the Modbus
+    side's, kept by robot position and carried over a reload by the
+    robot's serial. A reload removes the first robot (a) and adds a new
+    one (c): b moves from position 1 to 0 and keeps its unit's state; c,
+    new at position 1, starts afresh (not with what b had at that
+    position, nor with a's)."""
+    from gwlib import Drsim, Gateway
+    sims = [Drsim("mvunit-a").start(), Drsim("mvunit-b").start(), Drsim("mvunit-c").start()]
+    g = Gateway("mvunit", sims[:2], unit_ids=[1, 2])
+    try:
+        g.start()
+        with g.raw() as m:
+            m.write_reg(0, 0x1111, unit=1)
+            m.write_reg(0, 0x2222, unit=2)
+            assert m.read(3, 0, 1, unit=1) == [0x1111]
+            assert m.read(3, 0, 1, unit=2) == [0x2222]
+        text = g.config_text()
+        head, sec_a, sec_b = text.split("\n[robot ")
+        sec_c = ("r2]\nhost = 127.0.0.2\ntcp_port = %d\nudp_port = %d\nlocal_address = %s\n"
+                 "local_udp_port = %d\nunit_id = 3\ntimeout_multiplier = 4\n"
+                 % (sims[2].tcp, sims[2].udp, GW_ADDR, free_port(GW_ADDR, tcp=False)))
+        g.write_config("\n[robot ".join([head, sec_b, sec_c]))
+        g.signal(signal.SIGHUP)
+        wait_for(lambda: g.status(2)[29] == 1, 10, "unit 2 serving generation 1")
+        g.wait_link(True, unit=3)
+        with g.raw() as m:
+            assert m.read(3, 0, 1, unit=2) == [0x2222]
+            assert m.read(3, 0, 1, unit=3) == [0]
+            assert m.exception(bytes([3, 0, 0, 0, 1]), unit=1) == 0x0A
+        assert g.status(2)[1] == 2
+    finally:
+        g.kill()
+        for s in sims:
+            s.kill()
