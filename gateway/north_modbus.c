@@ -59,6 +59,7 @@ struct mb {
     const gw_north_env_t *env;
     gw_unit_t unit[GW_MAX_ROBOTS];   /* by robot position */
     uint32_t serial[GW_MAX_ROBOTS];  /* whose unit it is (prepare: before the move) */
+    gw_unit_t moving[GW_MAX_ROBOTS]; /* units_move's copy of the old ones */
     tcp_t tcp;
     rtu_t rtu;
 };
@@ -109,8 +110,8 @@ static void unit_policy(mb_t *m, unsigned r)
  * recorded at prepare), a new robot's afresh. */
 static void units_move(mb_t *m)
 {
-    static gw_unit_t old[GW_MAX_ROBOTS];
-    memcpy(old, m->unit, sizeof old);
+    gw_unit_t *old = m->moving;
+    memcpy(old, m->unit, sizeof m->unit);
     memset(m->unit, 0, sizeof m->unit);
     const gw_north_env_t *env = m->env;
     for (unsigned r = 0; r < env->cfg->robot_count; r++)
@@ -409,7 +410,6 @@ static gw_north_reload_t mb_prepare(void *self, const gw_config_t *next,
     return GW_NORTH_OK;
 }
 
-/* cppcheck-suppress constParameter ; the signature is gw_north_ops_t's */
 static void mb_abort(void *self, void *out)
 {
     mb_t *m = self;
