@@ -45,21 +45,33 @@ typedef struct {
 
 /* The Class 1 UDP socket. Every client has one of its own, unless the
  * application shares one between clients (several robots, one port 2222):
- * datagrams are then handed to the client whose connection ID they carry. */
+ * datagrams are then handed to the client whose connection ID they carry.
+ *
+ * Finding that connection costs no scan: the T->O connection IDs are ours
+ * to choose (point-to-point), and each one says where its connection
+ * lives, cid % CID_SLOTS = client slot on the port * MAX_CONNS + connection
+ * slot, with a per-client counter above that, so that a reopened
+ * connection gets a new ID. A client keeps its slot on the port for its
+ * life. Only a target that answers with a T->O ID of its own (allowed for
+ * multicast) makes the port scan, and only while such a connection is
+ * established (`foreign`). */
 #define UDP_PORT_MAX_CLIENTS DR_UDP_PORT_MAX_CLIENTS
+#define CID_SLOTS ((uint32_t)UDP_PORT_MAX_CLIENTS * DR_CLIENT_MAX_CONNS)
 struct dr_udp_port {
     dr_transport_t tp;
     int h;
     dr_sockaddr_t local;
     bool shared;
-    dr_client_t *clients[UDP_PORT_MAX_CLIENTS];
-    unsigned nclients;
+    dr_client_t *clients[UDP_PORT_MAX_CLIENTS]; /* by slot; NULL: free */
+    unsigned nclients; /* slots in use */
+    unsigned foreign;  /* established connections with a target-chosen T->O ID */
     uint8_t rx[RX_BATCH][UDP_BUF]; /* receive buffers for one batch */
 };
 
 struct dr_conn {
     dr_client_t *client;
     bool used;
+    bool foreign_cid; /* the target chose the T->O connection ID */
     dr_conn_config_t cfg;
     dr_conn_state_t state;
     dr_conn_stats_t stats;
@@ -106,7 +118,13 @@ struct dr_client {
     req_t reqs[MAX_REQS];
     uint64_t next_context;
     uint16_t next_serial;
-    uint32_t next_t2o_cid;
+    uint32_t cid_gen;  /* the counter part of our T->O connection IDs */
+    unsigned port_slot; /* this client's slot on its UDP port */
+    /* dr_client_next_deadline, kept until something that can move it
+     * happens (next_dl_stale): the daemon asks at every turn of its loop
+     * for every robot, and the answer is a scan of every slot. */
+    uint64_t next_dl;
+    bool next_dl_stale;
     uint64_t armed;
     uint64_t epoch; /* O->T deadlines of equal APIs fall on one grid */
     bool timer_polled; /* the caller polls our timer fd: keep it armed */
@@ -133,10 +151,25 @@ static uint32_t min_u32(uint32_t a, uint32_t b)
     return a < b ? a : b;
 }
 
+/* Something that can move dr_client_next_deadline happened: it is
+ * computed again when next asked. Marked after the change (a callback in
+ * the middle of it may already have asked). */
+static void deadline_moved(dr_client_t *c)
+{
+    c->next_dl_stale = true;
+}
+
 static void conn_set_state(dr_conn_t *cn, dr_conn_state_t s, dr_status_t why)
 {
     if (cn->state == s)
         return;
+    /* The port scans for target-chosen IDs only while one is in use. */
+    if (cn->foreign_cid && (cn->state == DR_CONN_ESTABLISHED) != (s == DR_CONN_ESTABLISHED)) {
+        if (s == DR_CONN_ESTABLISHED)
+            cn->client->udp->foreign++;
+        else
+            cn->client->udp->foreign--;
+    }
     cn->state = s;
     if (cn->cfg.on_state != NULL)
         cn->cfg.on_state(cn, s, why, cn->cfg.user);
@@ -233,14 +266,16 @@ dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t
     c->own_udp.clients[0] = c;
     c->own_udp.nclients = 1;
     c->udp = &c->own_udp;
+    c->next_dl_stale = true;
     uint64_t t = now_us(c);
     c->epoch = t;
     if (c->cfg.serial == 0)
         c->cfg.serial = (uint32_t)(t ^ (t >> 32)) | 1u;
     c->next_serial = (uint16_t)(t >> 4);
-    /* Connection IDs must differ between clients sharing a UDP port. */
-    static uint32_t salt;
-    c->next_t2o_cid = ((uint32_t)(t << 8) | 0x01000000u) + (++salt << 20);
+    /* Connection IDs differ between clients sharing a UDP port by their
+     * slot (see struct dr_udp_port); the counter starts from the clock so
+     * that a restarted originator does not reuse the last run's IDs. */
+    c->cid_gen = (uint32_t)(t ^ (t >> 20));
     c->backoff_ms = c->cfg.backoff_min_ms;
     c->step = "";
     dr_status_t st;
@@ -256,7 +291,12 @@ dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t
             close_handle(c, &c->timer);
             return init_fail(err, DR_EFULL);
         }
-        p->clients[p->nclients++] = c;
+        unsigned slot = 0;
+        while (p->clients[slot] != NULL)
+            slot++;
+        p->clients[slot] = c;
+        p->nclients++;
+        c->port_slot = slot;
         c->udp = p;
     }
     if (err != NULL)
@@ -281,10 +321,8 @@ void dr_client_deinit(dr_client_t *c)
     dr_client_close(c);
     close_handle(c, &c->timer);
     if (c->udp != &c->own_udp) {
-        dr_udp_port_t *p = c->udp;
-        for (unsigned i = 0; i < p->nclients; i++)
-            if (p->clients[i] == c)
-                p->clients[i] = p->clients[--p->nclients];
+        c->udp->clients[c->port_slot] = NULL; /* the others keep their slots */
+        c->udp->nclients--;
     }
 }
 
@@ -369,6 +407,7 @@ static req_t *req_alloc(dr_client_t *c, req_kind_t kind)
             r->kind = kind;
             r->context = ++c->next_context;
             r->deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
+            deadline_moved(c);
             return r;
         }
     }
@@ -491,6 +530,7 @@ static void session_fail(dr_client_t *c, dr_status_t st)
         c->backoff_ms = min_u32(c->backoff_ms * 2u, c->cfg.backoff_max_ms);
     }
     (void)was;
+    deadline_moved(c);
 }
 
 static dr_status_t ensure_udp(dr_client_t *c)
@@ -522,6 +562,7 @@ static dr_status_t begin_session(dr_client_t *c)
     }
     c->state = S_CONNECTING;
     c->sess_deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
+    deadline_moved(c);
     return DR_OK;
 }
 
@@ -552,6 +593,7 @@ dr_status_t dr_client_start(dr_client_t *c)
         }
     if (c->state == S_IDLE || c->state == S_BACKOFF)
         (void)begin_session(c); /* a failure is retried with backoff */
+    deadline_moved(c);
     return DR_OK;
 }
 
@@ -580,6 +622,18 @@ static size_t conn_path(const dr_conn_t *cn, uint8_t *buf, size_t cap)
                               c->cfg.instance[cn->cfg.t2o_asm]);
 }
 
+/* A fresh T->O connection ID that says where the connection lives (see
+ * struct dr_udp_port): generation * CID_SLOTS + slot, never 0, and never
+ * wrapping past 2^32, so that cid % CID_SLOTS is the slot for any bounds. */
+static uint32_t next_t2o_cid(const dr_conn_t *cn)
+{
+    dr_client_t *c = cn->client;
+    uint32_t gens = UINT32_MAX / CID_SLOTS; /* generations that fit */
+    uint32_t gen = 1u + c->cid_gen++ % (gens - 1u);
+    uint32_t slot = (uint32_t)c->port_slot * DR_CLIENT_MAX_CONNS + (uint32_t)(cn - c->conns);
+    return gen * CID_SLOTS + slot;
+}
+
 static void send_forward_open(dr_conn_t *cn)
 {
     dr_client_t *c = cn->client;
@@ -602,7 +656,8 @@ static void send_forward_open(dr_conn_t *cn)
     fo.priority_tick = 0x0A;
     fo.timeout_ticks = 0x05;
     fo.o2t_cid = 0; /* the target chooses for point-to-point */
-    fo.t2o_cid = c->next_t2o_cid++;
+    fo.t2o_cid = next_t2o_cid(cn);
+    cn->foreign_cid = false; /* not established: no port count to move */
     cn->conn_serial = c->next_serial++; /* fresh on every attempt */
     fo.conn_serial = cn->conn_serial;
     fo.vendor = c->cfg.vendor_id;
@@ -686,6 +741,7 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
     dr_client_t *c = cn->client;
     uint64_t t = now_us(c);
     cn->stats.o2t_cid = rp->o2t_cid;
+    cn->foreign_cid = rp->t2o_cid != cn->stats.t2o_cid; /* counted by conn_set_state */
     cn->stats.t2o_cid = rp->t2o_cid;
     cn->stats.o2t_api_us = rp->o2t_api_us ? rp->o2t_api_us : cn->cfg.rpi_us;
     cn->stats.t2o_api_us = rp->t2o_api_us ? rp->t2o_api_us : cn->cfg.rpi_us;
@@ -767,6 +823,7 @@ dr_conn_t *dr_client_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
     cn->backoff_ms = c->cfg.backoff_min_ms;
     cn->state = DR_CONN_IDLE;
     cn->retry_us = 0; /* open as soon as the session is up */
+    deadline_moved(c);
     st = DR_OK;
 out:
     if (err != NULL)
@@ -786,6 +843,7 @@ void dr_conn_remove(dr_conn_t *cn)
         if (cn->client->reqs[i].conn == cn)
             cn->client->reqs[i].conn = NULL;
     cn->used = false;
+    deadline_moved(cn->client);
 }
 
 dr_status_t dr_conn_set_output(dr_conn_t *cn, const uint8_t *data, size_t len)
@@ -858,32 +916,60 @@ static void conn_produce(dr_conn_t *cn, uint64_t t)
         cn->next_tx_us = grid_after(c, t, api);
 }
 
-/* Send the O->T frames queued by conn_produce, in one call if the
- * transport can. */
-static void flush_io(dr_client_t *c)
+/* Send n O->T frames on port p (who[i]: whose frame m[i] is), in one
+ * call if the transport can. */
+static void send_frames(dr_udp_port_t *p, const dr_udp_msg_t *m, dr_conn_t *const *who,
+                        unsigned n)
 {
     unsigned sent = 0;
-    if (c->tx_n == 0 || c->udp->h < 0) {
-        c->tx_n = 0;
+    if (p->h < 0)
         return;
-    }
-    if (c->tp.ops->udp_send_batch != NULL) {
-        while (sent < c->tx_n) {
+    if (p->tp.ops->udp_send_batch != NULL) {
+        while (sent < n) {
             unsigned k = 0;
-            if (c->tp.ops->udp_send_batch(c->tp.ctx, c->udp->h, &c->tx_batch[sent],
-                                          c->tx_n - sent, &k) != DR_OK || k == 0)
+            if (p->tp.ops->udp_send_batch(p->tp.ctx, p->h, &m[sent], n - sent, &k) != DR_OK ||
+                k == 0)
                 break; /* dropped, like a datagram the network loses */
             for (unsigned i = sent; i < sent + k; i++)
-                c->tx_conn[i]->stats.tx_packets++;
+                who[i]->stats.tx_packets++;
             sent += k;
         }
     } else {
-        for (unsigned i = 0; i < c->tx_n; i++)
-            if (c->tp.ops->udp_send(c->tp.ctx, c->udp->h, c->tx_batch[i].buf,
-                                    c->tx_batch[i].len, c->tx_batch[i].addr) == DR_OK)
-                c->tx_conn[i]->stats.tx_packets++;
+        for (unsigned i = 0; i < n; i++)
+            if (p->tp.ops->udp_send(p->tp.ctx, p->h, m[i].buf, m[i].len, m[i].addr) == DR_OK)
+                who[i]->stats.tx_packets++;
     }
+}
+
+/* Send the O->T frames queued by conn_produce. */
+static void flush_io(dr_client_t *c)
+{
+    send_frames(c->udp, c->tx_batch, c->tx_conn, c->tx_n);
     c->tx_n = 0;
+}
+
+/* The frames every client of a shared port queued while the port was
+ * read (o2t_follow_us), together: one batch call for all the robots whose
+ * packets came in the same read, instead of one per robot. The frames
+ * stay in their clients' buffers; only the descriptors are gathered. */
+#define PORT_TX_BATCH 16 /* the POSIX transport's sendmmsg batch */
+static void flush_port(dr_udp_port_t *p)
+{
+    dr_udp_msg_t m[PORT_TX_BATCH];
+    dr_conn_t *who[PORT_TX_BATCH];
+    unsigned n = 0;
+    for (unsigned k = 0; k < UDP_PORT_MAX_CLIENTS; k++) {
+        dr_client_t *c = p->clients[k];
+        for (unsigned i = 0; c != NULL && i < c->tx_n; i++) {
+            m[n] = c->tx_batch[i];
+            who[n++] = c->tx_conn[i];
+            if (n == PORT_TX_BATCH) {
+                send_frames(p, m, who, n);
+                n = 0;
+            }
+        }
+    }
+    send_frames(p, m, who, n);
 }
 
 /* cfg.o2t_follow_us: an O->T packet due within the window is produced
@@ -1061,25 +1147,49 @@ static void read_tcp(dr_client_t *c)
     }
 }
 
-static dr_conn_t *conn_by_t2o_cid(dr_client_t *c, uint32_t cid)
+static bool conn_has_t2o_cid(const dr_conn_t *cn, uint32_t cid)
 {
-    for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
-        if (c->conns[i].used && c->conns[i].state == DR_CONN_ESTABLISHED &&
-            c->conns[i].stats.t2o_cid == cid)
-            return &c->conns[i];
+    return cn->used && cn->state == DR_CONN_ESTABLISHED && cn->stats.t2o_cid == cid;
+}
+
+/* The established connection a T->O packet belongs to: where its ID says
+ * (see struct dr_udp_port), else, only while some target chose its own
+ * ID, wherever it is. */
+static dr_conn_t *conn_by_t2o_cid(dr_udp_port_t *p, uint32_t cid)
+{
+    uint32_t slot = cid % CID_SLOTS;
+    dr_client_t *c = p->clients[slot / DR_CLIENT_MAX_CONNS];
+    if (c != NULL && conn_has_t2o_cid(&c->conns[slot % DR_CLIENT_MAX_CONNS], cid))
+        return &c->conns[slot % DR_CLIENT_MAX_CONNS];
+    for (unsigned k = 0; p->foreign > 0 && k < UDP_PORT_MAX_CLIENTS; k++)
+        for (unsigned i = 0; p->clients[k] != NULL && i < DR_CLIENT_MAX_CONNS; i++)
+            if (conn_has_t2o_cid(&p->clients[k]->conns[i], cid))
+                return &p->clients[k]->conns[i];
     return NULL;
 }
+
+static void conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
+                          dr_io_frame_t *f, uint64_t t);
 
 static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64_t t)
 {
     dr_io_frame_t f;
     if (dr_io_frame_parse(buf, len, false, &f) != DR_OK)
         return;
-    dr_conn_t *cn = NULL;
-    for (unsigned i = 0; i < p->nclients && cn == NULL; i++)
-        cn = conn_by_t2o_cid(p->clients[i], f.cid);
+    dr_conn_t *cn = conn_by_t2o_cid(p, f.cid);
     if (cn == NULL)
         return;
+    dr_client_t *c = cn->client;
+    conn_datagram(cn, buf, len, &f, t);
+    deadline_moved(c); /* its timeout, maybe its O->T deadline (follow) */
+}
+
+/* A packet for connection cn (f: parsed without a run/idle header): check
+ * it, take it, keep the connection alive. */
+static void conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
+                          dr_io_frame_t *fp, uint64_t t)
+{
+    dr_io_frame_t f = *fp;
     if (cn->cfg.t2o_run_idle && dr_io_frame_parse(buf, len, true, &f) != DR_OK) {
         cn->stats.rx_bad++;
         return;
@@ -1220,11 +1330,13 @@ dr_status_t dr_udp_port_process(dr_udp_port_t *p)
     /* O->T produced on arrival (o2t_follow_us) goes now, and the timers
      * move past the deadlines it served; a client that produced nothing
      * has nothing to send and no deadline that moved earlier. */
-    for (unsigned i = 0; i < p->nclients; i++) {
-        if (p->clients[i]->tx_n == 0)
+    flush_port(p);
+    for (unsigned k = 0; k < UDP_PORT_MAX_CLIENTS; k++) {
+        dr_client_t *c = p->clients[k];
+        if (c == NULL || c->tx_n == 0)
             continue;
-        flush_io(p->clients[i]);
-        rearm(p->clients[i]);
+        c->tx_n = 0;
+        rearm(c);
     }
     return DR_OK;
 }
@@ -1253,7 +1365,9 @@ static void session_timers(dr_client_t *c, uint64_t t)
     }
 }
 
-uint64_t dr_client_next_deadline(const dr_client_t *c)
+/* Every deadline of the client: a scan of its request and connection
+ * slots, which dr_client_next_deadline keeps until one may have moved. */
+static uint64_t compute_deadline(const dr_client_t *c)
 {
     uint64_t d = c->closing != CL_NONE ? c->close_deadline : UINT64_MAX;
     if (c->state == S_CONNECTING || c->state == S_REGISTERING)
@@ -1271,6 +1385,20 @@ uint64_t dr_client_next_deadline(const dr_client_t *c)
             d = cd;
     }
     return d;
+}
+
+uint64_t dr_client_next_deadline(const dr_client_t *c)
+{
+    if (c->next_dl_stale) {
+        /* The cache is no part of what the caller sees as the client's
+         * state, and the client is never a const object (it lives in the
+         * caller's writable storage): writing it through this pointer is
+         * fine. */
+        dr_client_t *m = (dr_client_t *)(uintptr_t)c;
+        m->next_dl = compute_deadline(c);
+        m->next_dl_stale = false;
+    }
+    return c->next_dl;
 }
 
 static void close_step(dr_client_t *c, uint64_t t);
@@ -1292,6 +1420,7 @@ static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
     flush_io(c);
     if (c->closing != CL_NONE)
         close_step(c, t);
+    deadline_moved(c);
     rearm(c);
 }
 
@@ -1445,6 +1574,7 @@ static dr_status_t start_call(dr_client_t *c, req_kind_t kind, uint8_t service,
     dr_status_t st = send_rr(c, r, msg, w.len, false);
     if (st == DR_OK && !r->active)
         st = c->sess_error != DR_OK ? c->sess_error : DR_ECLOSED;
+    deadline_moved(c);
     if (st != DR_OK) {
         r->active = false;
         return st;
@@ -1580,6 +1710,7 @@ dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id)
     r->cap = sizeof tmp;
     c->step = "list identity";
     dr_status_t st = send_encap(c, DR_ENCAP_LIST_IDENTITY, r->context, NULL, 0);
+    deadline_moved(c);
     if (st != DR_OK) {
         r->active = false;
         return st;
@@ -1613,6 +1744,7 @@ static void close_finish(dr_client_t *c)
     c->state = S_IDLE;
     c->closing = CL_NONE;
     c->tx_len = c->rx_len = 0;
+    deadline_moved(c);
 }
 
 /* One step of a close, from the loop: every phase ends when its work is
@@ -1659,6 +1791,7 @@ void dr_client_close_start(dr_client_t *c)
     c->closing = CL_FWD;
     c->close_deadline = now_us(c) + (uint64_t)c->cfg.timeout_ms * 1000u;
     close_step(c, now_us(c));
+    deadline_moved(c);
 }
 
 bool dr_client_closed(const dr_client_t *c)

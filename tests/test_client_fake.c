@@ -51,6 +51,7 @@ struct fake {
     cip_fn cip;
     size_t get_len;           /* Get_Attribute_Single data bytes */
     bool trailing_item;       /* SendRRData replies carry an undeclared 0x8001 item */
+    bool fo_own_t2o;          /* the Forward Open reply sets a T->O ID of the peer's */
     uint8_t fo_general;       /* Forward Open refused with this general status */
     uint16_t fo_ext;
     unsigned rr, fwd_open, fwd_close, unregister, list_identity, closes;
@@ -114,6 +115,8 @@ static bool cip_default(fake_t *f, const dr_cip_req_t *req, uint8_t *rsp, size_t
                              data, d.len);
             break;
         }
+        if (f->fo_own_t2o) /* allowed for multicast: the target's choice */
+            fo.t2o_cid = 0x7000u + f->fwd_open;
         f->t2o_cid = fo.t2o_cid;
         f->o2t_cid = 0x5000u + f->fwd_open;
         dr_fwd_open_reply_t rp = {f->o2t_cid, fo.t2o_cid, fo.conn_serial, fo.vendor,
@@ -837,6 +840,7 @@ typedef struct {
     unsigned data, states;
     dr_conn_state_t last;
     dr_status_t why;
+    dr_client_t *ask; /* on_state asks it for its next deadline */
 } conn_log_t;
 
 static void on_data(dr_conn_t *cn, const uint8_t *data, size_t len, void *user)
@@ -853,6 +857,8 @@ static void on_state(dr_conn_t *cn, dr_conn_state_t s, dr_status_t why, void *us
     l->states++;
     l->last = s;
     l->why = why;
+    if (l->ask != NULL) /* in the middle of a change: must not stick */
+        (void)dr_client_next_deadline(l->ask);
 }
 
 static dr_conn_config_t conn_config(conn_log_t *log)
@@ -910,6 +916,7 @@ static void test_conn_add_refuses(void **state)
 {
     (void)state;
     conn_log_t log;
+    memset(&log, 0, sizeof log);
     dr_status_t err = DR_OK;
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log);
@@ -1504,6 +1511,222 @@ static void test_close_start_silent_peer(void **state)
     dr_client_free(c);
 }
 
+/* T->O packets on a shared port find their connection by the ID alone
+ * (lib/client.c, struct dr_udp_port): every one reaches its own among many
+ * clients and connections, a closed connection's ID matches nothing, a
+ * freed client's slot is taken again by a new client, IDs nobody owns are
+ * dropped, and a target that chose its own T->O ID is still served. */
+#define CID_CLIENTS 20
+#define CID_CONNS 3
+static void establish_on(dr_client_t *c, dr_conn_t **cn, unsigned n, conn_log_t *log)
+{
+    dr_conn_config_t cc = conn_config(log);
+    for (unsigned i = 0; i < n; i++)
+        assert_non_null(cn[i] = dr_client_conn_add(c, &cc, NULL));
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    assert_int_equal(dr_client_start(c), DR_OK);
+    for (unsigned i = 0; i < n; i++)
+        wait_established(c, cn[i]);
+}
+
+static void test_cid_lookup(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_transport_t tp = {&fake_batch_ops, &F};
+    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
+    assert_non_null(p);
+    dr_client_config_t cfg = config(&fake_batch_ops);
+    cfg.shared_udp = p;
+    dr_client_t *c[CID_CLIENTS];
+    dr_conn_t *cn[CID_CLIENTS][CID_CONNS];
+    for (unsigned k = 0; k < CID_CLIENTS; k++) {
+        assert_non_null(c[k] = dr_client_new(&cfg));
+        establish_on(c[k], cn[k], CID_CONNS, &log);
+    }
+    /* every connection has its own ID; a packet for each, in an order
+     * unlike the clients', reaches exactly that connection */
+    for (unsigned k = 0; k < CID_CLIENTS; k++)
+        for (unsigned i = 0; i < CID_CONNS; i++)
+            for (unsigned k2 = 0; k2 < CID_CLIENTS; k2++)
+                for (unsigned i2 = 0; i2 < CID_CONNS; i2++)
+                    if (k2 != k || i2 != i)
+                        assert_int_not_equal(dr_conn_stats(cn[k][i])->t2o_cid,
+                                             dr_conn_stats(cn[k2][i2])->t2o_cid);
+    for (unsigned j = 0; j < CID_CLIENTS * CID_CONNS; j++) {
+        unsigned k = CID_CLIENTS - 1u - j % CID_CLIENTS, i = j / CID_CLIENTS;
+        push_t2o(dr_conn_stats(cn[k][i])->t2o_cid, (uint16_t)(100 + k), 96);
+        if (F.udp_in_n == MAX_UDP_IN || j + 1 == CID_CLIENTS * CID_CONNS)
+            assert_int_equal(dr_udp_port_process(p), DR_OK);
+    }
+    for (unsigned k = 0; k < CID_CLIENTS; k++)
+        for (unsigned i = 0; i < CID_CONNS; i++) {
+            size_t len = 0;
+            assert_int_equal(dr_conn_stats(cn[k][i])->rx_packets, 1);
+            assert_int_equal(dr_conn_input(cn[k][i], &len)[0], (uint8_t)(100 + k));
+        }
+    /* IDs nobody owns: near ours (the next slot, the next generation) or
+     * anything; dropped, counted by no connection */
+    uint32_t mine = dr_conn_stats(cn[4][1])->t2o_cid;
+    push_t2o(mine + 1u, 200, 96);
+    push_t2o(mine + 20000u, 200, 96);
+    push_t2o(0xFFFFFFFFu, 200, 96);
+    push_t2o(0, 200, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(F.udp_in_n, 0);
+    for (unsigned k = 0; k < CID_CLIENTS; k++)
+        for (unsigned i = 0; i < CID_CONNS; i++) {
+            assert_int_equal(dr_conn_stats(cn[k][i])->rx_packets, 1);
+            assert_int_equal(dr_conn_stats(cn[k][i])->rx_bad, 0);
+        }
+    /* a removed connection's ID matches nothing, also when its slot is
+     * used again: the new connection has a new ID */
+    uint32_t gone = dr_conn_stats(cn[7][2])->t2o_cid;
+    dr_conn_remove(cn[7][2]);
+    push_t2o(gone, 300, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_conn_config_t cc = conn_config(&log);
+    dr_conn_t *again = dr_client_conn_add(c[7], &cc, NULL);
+    assert_ptr_equal(again, cn[7][2]); /* the same slot */
+    wait_established(c[7], again);
+    assert_int_not_equal(dr_conn_stats(again)->t2o_cid, gone);
+    push_t2o(gone, 301, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(dr_conn_stats(again)->rx_packets, 0);
+    push_t2o(dr_conn_stats(again)->t2o_cid, 302, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(dr_conn_stats(again)->rx_packets, 1);
+    /* a freed client's slot goes to the next client; the old IDs of that
+     * slot reach nobody, the new ones their connections */
+    uint32_t old[CID_CONNS];
+    for (unsigned i = 0; i < CID_CONNS; i++)
+        old[i] = dr_conn_stats(cn[3][i])->t2o_cid;
+    dr_client_free(c[3]);
+    assert_non_null(c[3] = dr_client_new(&cfg));
+    establish_on(c[3], cn[3], CID_CONNS, &log);
+    for (unsigned i = 0; i < CID_CONNS; i++) {
+        assert_int_equal(dr_conn_stats(cn[3][i])->t2o_cid % (DR_UDP_PORT_MAX_CLIENTS * DR_CLIENT_MAX_CONNS),
+                         old[i] % (DR_UDP_PORT_MAX_CLIENTS * DR_CLIENT_MAX_CONNS));
+        assert_int_not_equal(dr_conn_stats(cn[3][i])->t2o_cid, old[i]);
+        push_t2o(old[i], 400, 96);
+        push_t2o(dr_conn_stats(cn[3][i])->t2o_cid, 401, 96);
+    }
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    for (unsigned i = 0; i < CID_CONNS; i++) {
+        size_t len = 0;
+        assert_int_equal(dr_conn_stats(cn[3][i])->rx_packets, 1);
+        assert_int_equal(dr_conn_input(cn[3][i], &len)[0], (uint8_t)401);
+    }
+    /* a target that answers with a T->O ID of its own choosing */
+    F.fo_own_t2o = true;
+    dr_client_free(c[9]);
+    assert_non_null(c[9] = dr_client_new(&cfg));
+    establish_on(c[9], cn[9], 1, &log);
+    uint32_t theirs = dr_conn_stats(cn[9][0])->t2o_cid;
+    assert_int_equal(theirs & 0xF000u, 0x7000u);
+    push_t2o(theirs, 500, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(dr_conn_stats(cn[9][0])->rx_packets, 1);
+    /* once it is closed, its ID reaches nobody */
+    dr_conn_remove(cn[9][0]);
+    push_t2o(theirs, 501, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(dr_conn_stats(cn[9][0])->rx_packets, 1);
+    for (unsigned k = 0; k < CID_CLIENTS; k++)
+        dr_client_free(c[k]);
+    dr_udp_port_free(p);
+}
+
+/* dr_client_next_deadline is kept between calls (lib/client.c): after each
+ * event that moves it, it is the new one at once, also when a state
+ * callback asked in the middle of the change. Shared port, O->T on
+ * arrival (o2t_follow_us), RPI 10 ms, timeout 40 ms, backoff 10 ms,
+ * request timeout 100 ms. */
+static void test_deadline_cache(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_transport_t tp = {&fake_batch_ops, &F};
+    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
+    assert_non_null(p);
+    dr_client_config_t cfg = config(&fake_batch_ops);
+    cfg.shared_udp = p;
+    uint64_t epoch = F.now;
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    log.ask = c;
+    assert_int_equal(dr_client_next_deadline(c), UINT64_MAX);
+    assert_int_equal(dr_client_connect_sync(c), DR_OK);
+    assert_int_equal(dr_client_next_deadline(c), UINT64_MAX);
+    /* a connection added to a ready session is due at once */
+    dr_conn_config_t cc = conn_config(&log);
+    cc.o2t_follow_us = 2500;
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_int_equal(dr_client_next_deadline(c), 0);
+    /* its Forward Open is out: the request's timeout */
+    F.cip = cip_silent;
+    dr_client_process(c);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_OPENING);
+    assert_int_equal(dr_client_next_deadline(c), F.now + 100000u);
+    /* unanswered: the backoff, 10 ms after the timeout */
+    F.now += 100000u;
+    dr_client_process(c);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_RECONNECTING);
+    assert_int_equal(dr_client_next_deadline(c), F.now + 10000u);
+    /* opened: the first O->T deadline on the client's grid */
+    F.cip = NULL;
+    F.now += 10000u;
+    dr_client_process(c); /* Forward Open sent */
+    dr_client_process(c); /* and answered */
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    uint64_t grid = epoch + ((F.now - epoch) / 10000u + 1u) * 10000u;
+    assert_int_equal(dr_client_next_deadline(c), grid);
+    /* new outputs do not move it */
+    uint8_t out[96] = {1};
+    assert_int_equal(dr_conn_set_output(cn, out, sizeof out), DR_OK);
+    assert_int_equal(dr_client_next_deadline(c), grid);
+    /* a T->O packet 1 ms before it, read by the port alone: the O->T
+     * packet goes with it and the deadline is the next grid point */
+    F.now = grid - 1000u;
+    unsigned sent = F.udp_sent;
+    push_t2o(F.t2o_cid, 1, 96);
+    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    assert_int_equal(F.udp_sent, sent + 1);
+    assert_int_equal(dr_client_next_deadline(c), grid + 10000u);
+    /* the deadline itself: one packet, the next grid point */
+    F.now = grid + 10000u;
+    dr_client_process(c);
+    assert_int_equal(F.udp_sent, sent + 2);
+    assert_int_equal(dr_client_next_deadline(c), grid + 20000u);
+    /* silence until the timeout (40 ms after the packet): timed out, a
+     * Forward Close out and a new open after the backoff */
+    uint64_t rx = grid - 1000u;
+    while (F.now < rx + 40000u) {
+        F.now = dr_client_next_deadline(c);
+        dr_client_process(c);
+    }
+    assert_int_equal(dr_conn_state(cn), DR_CONN_RECONNECTING);
+    assert_int_equal(dr_client_next_deadline(c), F.now + 10000u);
+    /* removed: nothing left but the Forward Close's reply wait */
+    wait_established(c, cn);
+    uint64_t t = F.now;
+    dr_conn_remove(cn);
+    assert_int_equal(dr_client_next_deadline(c), t + 100000u);
+    dr_client_process(c); /* the reply */
+    assert_int_equal(dr_client_next_deadline(c), UINT64_MAX);
+    /* close: the Forward Close's timeout bounds the wait */
+    assert_non_null(cn = dr_client_conn_add(c, &cc, NULL));
+    wait_established(c, cn);
+    F.cip = cip_silent;
+    t = F.now;
+    dr_client_close_start(c);
+    assert_int_equal(dr_client_next_deadline(c), t + 100000u);
+    dr_client_free(c);
+    dr_udp_port_free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1527,6 +1750,8 @@ int main(void)
         cmocka_unit_test_setup(test_init_static, setup),
         cmocka_unit_test_setup(test_no_descriptors, setup),
         cmocka_unit_test_setup(test_close_start_silent_peer, setup),
+        cmocka_unit_test_setup(test_cid_lookup, setup),
+        cmocka_unit_test_setup(test_deadline_cache, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
