@@ -13,5 +13,8 @@
 struct epoll_event;
 int gw_bench_epoll_wait(int epfd, struct epoll_event *events, int maxevents, int timeout);
 #define epoll_wait gw_bench_epoll_wait
+/* The same for the loop's epoll_pwait2, which is a syscall() in main.c. */
+void gw_bench_woke(void);
+#define GW_BENCH_WOKE() gw_bench_woke()
 
 #endif

@@ -84,7 +84,30 @@ typedef struct shared_port {
  * the daemon (see link.h). */
 struct gw_link_ports {
     shared_port_t port[GW_MAX_ROBOTS];
+    bool loop_timer; /* gw_link_ports_loop_timer */
 };
+
+void gw_link_ports_loop_timer(gw_link_ports_t *p, bool on)
+{
+    p->loop_timer = on;
+}
+
+/* The clients' transport: POSIX, without timers when the loop keeps the
+ * time (a client then has no timerfd to re-arm every RPI: with N robots,
+ * N timerfd_settime per RPI fewer). */
+static dr_transport_ops_t untimed_ops;
+static dr_transport_t client_transport(const gw_link_ports_t *p)
+{
+    dr_transport_t t = {NULL, NULL}; /* the default: POSIX, with timers */
+    if (!p->loop_timer)
+        return t;
+    t = dr_transport_posix();
+    untimed_ops = *t.ops;
+    untimed_ops.timer_open = NULL;
+    untimed_ops.timer_arm = NULL;
+    t.ops = &untimed_ops;
+    return t;
+}
 
 gw_link_ports_t *gw_link_ports_new(void)
 {
@@ -206,6 +229,12 @@ int gw_bench_epoll_wait(int epfd, struct epoll_event *events, int maxevents, int
     int n = epoll_pwait(epfd, events, maxevents, timeout, NULL);
     lat_wake_ns = realtime_ns();
     return n;
+}
+
+/* The loop woke up from epoll_pwait2 (gateway/main.c, GW_BENCH_WOKE). */
+void gw_bench_woke(void)
+{
+    lat_wake_ns = realtime_ns();
 }
 
 static void lat_dump(void)
@@ -577,6 +606,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     cc.local_addr = rc->local_addr[0] ? rc->local_addr : NULL;
     cc.local_udp_port = rc->local_udp_port;
     cc.timeout_ms = rc->timeout_ms;
+    cc.transport = client_transport(ports);
     memcpy(cc.instance, rc->instance, sizeof cc.instance);
     if (rc->mode == GW_MODE_IMPLICIT) {
         l->port = port_get(ports, rc, epfd);

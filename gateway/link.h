@@ -23,6 +23,11 @@ typedef struct gw_link gw_link_t;
 typedef struct gw_link_ports gw_link_ports_t;
 gw_link_ports_t *gw_link_ports_new(void);
 void gw_link_ports_free(gw_link_ports_t *p);
+/* The daemon's loop wakes up at gw_link_next_deadline() to the microsecond
+ * (epoll_pwait2): links made from now on run their clients without a
+ * timer descriptor of their own. Off by default (each client's timerfd,
+ * for a loop whose timeout is whole milliseconds). */
+void gw_link_ports_loop_timer(gw_link_ports_t *p, bool on);
 
 typedef struct {
     /* The link came up (true) or went down (false). */

@@ -12,8 +12,11 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/epoll.h>
+#include <sys/prctl.h>
 #include <sys/signalfd.h>
+#include <sys/syscall.h>
 #include <systemd/sd-daemon.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "config.h"
@@ -46,6 +49,7 @@ typedef struct {
     uint64_t start_us, next_tick_us, next_beat_us;
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
     uint64_t last_notify_us;
+    bool pwait2; /* epoll_pwait2 works: the loop's timeout is to the us */
     uint16_t generation;
     uint32_t serial; /* the last robot's (gw_robot_t serial) */
     int exit_status; /* 0 after a signal, 1 after a failure */
@@ -138,6 +142,56 @@ static uint64_t next_deadline(const gw_t *g)
             d = x;
     }
     return d;
+}
+
+/* ---- the wait ---------------------------------------------------------------------- */
+
+/* epoll_pwait2 (Linux 5.11) takes its timeout to the nanosecond, so the
+ * loop can wake up at the robots' O->T deadlines itself and their clients
+ * need no timer descriptor each (gw_link_ports_loop_timer): one
+ * timerfd_settime per robot per RPI fewer. It is called through syscall():
+ * glibc has a wrapper only since 2.35. Where the kernel (or valgrind 3.19)
+ * does not know it, the timeout is whole milliseconds and every client
+ * keeps its own timer, as before. */
+#ifdef SYS_epoll_pwait2
+#define SIGSET_BYTES 8 /* the kernel's sigset_t (_NSIG / 8); no mask is passed */
+static int pwait2(int epfd, struct epoll_event *evs, int max, uint64_t wait_us)
+{
+    struct timespec ts = {(time_t)(wait_us / 1000000u), (long)(wait_us % 1000000u) * 1000L};
+    return (int)syscall(SYS_epoll_pwait2, epfd, evs, max, &ts, NULL, SIGSET_BYTES);
+}
+#endif
+
+static bool probe_pwait2(int epfd)
+{
+#ifdef SYS_epoll_pwait2
+    struct epoll_event ev;
+    /* The kernel's timer slack (50 us by default) would make every O->T
+     * packet on the loop's timeout that much late; a timerfd had none. */
+    if (pwait2(epfd, &ev, 1, 0) >= 0 && prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0) == 0)
+        return true;
+#else
+    (void)epfd;
+#endif
+    return false;
+}
+
+/* Wait for events until d at the latest (capped at 1 s). */
+static int loop_wait(gw_t *g, struct epoll_event *evs, int max, uint64_t now, uint64_t d)
+{
+    uint64_t wait = d <= now ? 0 : d - now;
+    if (wait > 1000000u)
+        wait = 1000000u;
+#ifdef SYS_epoll_pwait2
+    if (g->pwait2) {
+        int n = pwait2(g->epfd, evs, max, wait);
+#ifdef GW_BENCH_WOKE
+        GW_BENCH_WOKE();
+#endif
+        return n;
+    }
+#endif
+    return epoll_wait(g->epfd, evs, max, (int)((wait + 999u) / 1000u));
 }
 
 /* Tell systemd we are alive, but only while the loop keeps its timing. */
@@ -378,6 +432,8 @@ static int run(gw_t *g)
         gw_log(GW_LOG_ERROR, "out of memory");
         return close_loop(g, 1);
     }
+    g->pwait2 = probe_pwait2(g->epfd);
+    gw_link_ports_loop_timer(g->ports, g->pwait2);
     init_robots(g);
     if (!start_sides(g))
         return close_loop(g, 1);
@@ -395,10 +451,7 @@ static int run(gw_t *g)
     struct epoll_event evs[32];
     while (!g->stop) {
         uint64_t now = gw_now_us(), d = next_deadline(g);
-        int timeout = d <= now ? 0 : (int)((d - now + 999u) / 1000u);
-        if (timeout > 1000)
-            timeout = 1000;
-        int n = epoll_wait(g->epfd, evs, 32, timeout);
+        int n = loop_wait(g, evs, 32, now, d);
         if (n < 0 && errno != EINTR) {
             gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
             g->exit_status = 1;

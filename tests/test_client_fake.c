@@ -1727,6 +1727,68 @@ static void test_deadline_cache(void **state)
     dr_udp_port_free(p);
 }
 
+/* drgatewayd's set-up (gateway/link.c): a shared port and a transport
+ * with descriptors but no timer, the daemon's loop waking at
+ * dr_client_next_deadline. The client still sends one O->T packet per RPI
+ * on its own deadlines (strict timing), and still times out a connection
+ * whose T->O packets stop, at exactly the timeout. */
+static const dr_transport_ops_t fake_untimed_ops = {
+    f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
+    f_udp_open, f_udp_send,    f_udp_recv,   NULL,         NULL,       f_close,
+    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch};
+
+static void test_loop_timer(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_transport_t tp = {&fake_untimed_ops, &F};
+    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
+    assert_non_null(p);
+    dr_client_config_t cfg = config(&fake_untimed_ops);
+    cfg.shared_udp = p;
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    dr_conn_t *cn[1];
+    establish_on(c, cn, 1, &log);
+    /* only the TCP socket to poll: no timer, the shared port is the
+     * application's */
+    dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
+    assert_int_equal(dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS), 1);
+    assert_int_equal(fds[0].fd, FD_OF(TCP_H));
+    /* 100 RPIs: a T->O packet in the middle of each, the loop waking at
+     * the deadline: exactly one O->T packet per RPI, each at its deadline */
+    unsigned sent = F.udp_sent;
+    uint64_t d = dr_client_next_deadline(c), first = d;
+    for (unsigned i = 0; i < 100; i++) {
+        F.now = d - 5000u;
+        push_t2o(F.t2o_cid, (uint16_t)(i + 1), 96);
+        assert_int_equal(dr_udp_port_process(p), DR_OK);
+        assert_int_equal(dr_client_next_deadline(c), d); /* strict: unmoved */
+        assert_int_equal(F.udp_sent, sent + i);
+        F.now = d;
+        dr_client_process_ready(c, NULL, 0); /* the timers only */
+        assert_int_equal(F.udp_sent, sent + i + 1);
+        d = dr_client_next_deadline(c);
+        assert_int_equal(d, first + (i + 1u) * 10000u);
+    }
+    assert_int_equal(dr_conn_stats(cn[0])->rx_packets, 100);
+    /* silence: O->T goes on at the RPI until the timeout, 40 ms after the
+     * last packet, then the connection times out, at that instant */
+    uint64_t last_rx = F.now - 5000u, out = F.udp_sent;
+    while (dr_conn_state(cn[0]) == DR_CONN_ESTABLISHED) {
+        F.now = dr_client_next_deadline(c);
+        assert_true(F.now <= last_rx + 40000u);
+        dr_client_process_ready(c, NULL, 0);
+    }
+    assert_int_equal(F.now, last_rx + 40000u);
+    assert_int_equal(log.last, DR_CONN_RECONNECTING);
+    assert_int_equal(dr_conn_stats(cn[0])->timeouts, 1);
+    assert_int_equal(F.udp_sent - out, 3); /* at 15, 25 and 35 ms after it */
+    dr_client_free(c);
+    dr_udp_port_free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1752,6 +1814,7 @@ int main(void)
         cmocka_unit_test_setup(test_close_start_silent_peer, setup),
         cmocka_unit_test_setup(test_cid_lookup, setup),
         cmocka_unit_test_setup(test_deadline_cache, setup),
+        cmocka_unit_test_setup(test_loop_timer, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
