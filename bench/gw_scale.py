@@ -10,8 +10,9 @@ drgatewayd against N simulated robots, N = 1, 2, 4, 8, 16, 32, at RPI
   (no connection, no packets) while they are not used;
 - for every point a fresh daemon with N [robot] sections (unit IDs 1..N,
   six Class 1 connections each); the robots share one local Class 1 UDP
-  port on 127.0.15.1, in groups of at most 16 (the library's limit per
-  shared port, UDP_PORT_MAX_CLIENTS in lib/client.c);
+  port on 127.0.15.1, as every robot's default local_udp_port (2222) makes
+  them share it in a plant (up to 32 on one port, DR_UDP_PORT_MAX_CLIENTS
+  in lib/include/drgate/config.h, as many as the daemon's robots);
 - a light Modbus load, as a PLC polling every robot: one TCP client in this
   process reads, every 100 ms and for every unit, the status block (IR 0-25)
   and 125 input registers of robot data (IR 200-324).
@@ -66,7 +67,7 @@ GW_ADDR = NET + "1"
 COUNTS = (1, 2, 4, 8, 16, 32)
 RPIS = (10, 2)
 CONNS = 6                  # Class 1 connections per robot
-ROBOTS_PER_PORT = 16       # UDP_PORT_MAX_CLIENTS, lib/client.c
+ROBOTS_PER_PORT = 32       # DR_UDP_PORT_MAX_CLIENTS: all robots on one port
 WINDOWS = 5                # the daemon's CPU share: median of this many windows
 POLL_S = 0.1               # the light Modbus load: every unit every 100 ms
 DATA_WINDOW = (200, 125)   # IR 200-324: joint_state and the start of task_state
