@@ -1,0 +1,39 @@
+#!/bin/sh
+# SPDX-License-Identifier: MIT
+# The daemon's system calls, counted (docs/performance.md, "Robots per
+# core", "What each change bought"): N drsims on 127.0.16.2 onwards, a
+# drgatewayd on 127.0.16.1 with one [robot] per drsim, all on one local
+# Class 1 port, no Modbus load; after 3 s, `strace -c -f` on the daemon
+# for 5 s. Counts, not timings: valid on a busy machine.
+#
+# usage: bench/gw_syscalls.sh DRGATEWAYD DRSIM N RPI_MS
+# needs strace; prints strace's table and how many links came up.
+set -eu
+GW=$1 SIM=$2 N=$3 RPI=$4
+D=$(mktemp -d "${TMPDIR:-/tmp}/gw-syscalls.XXXXXX")
+SIMS=""
+cleanup() {
+    [ -n "${G:-}" ] && kill "$G" 2>/dev/null || true
+    for p in $SIMS; do kill "$p" 2>/dev/null || true; done
+    wait 2>/dev/null || true
+    rm -rf "$D"
+}
+trap cleanup EXIT INT TERM
+printf '[daemon]\nlog_level = info\n\n[modbus]\nlisten = 127.0.16.1\nport = 15502\n' > "$D/gw.ini"
+i=1
+while [ "$i" -le "$N" ]; do
+    a=127.0.16.$((i + 1))
+    "$SIM" --address "$a" --tcp-port 44818 --udp-port 2222 --seed "$i" > "$D/sim$i.log" 2>&1 &
+    SIMS="$SIMS $!"
+    printf '\n[robot r%02d]\nhost = %s\nlocal_address = 127.0.16.1\nlocal_udp_port = 2300\nunit_id = %d\nrpi_ms = %d\n' \
+        "$i" "$a" "$i" "$RPI" >> "$D/gw.ini"
+    i=$((i + 1))
+done
+sleep 0.5
+"$GW" -c "$D/gw.ini" > "$D/gw.log" 2>&1 &
+G=$!
+sleep 3
+echo "links up: $(grep -c 'link up' "$D/gw.log") of $N"
+timeout -s INT 5 strace -c -f -p "$G" -o "$D/strace.txt" 2>/dev/null || true
+sleep 0.2
+cat "$D/strace.txt"
