@@ -60,6 +60,8 @@ struct gw_link {
     poll_ctx_t poll_ctx[DR_ASM_COUNT];
     gw_log_limit_t log_limit;
     const char *closing; /* gw_link_free's reason: a planned link down */
+    uint64_t status_us;      /* update_status last ran (implicit mode) */
+    bool status_now;         /* the link went up or down: update at once */
     unsigned t2o_planned;    /* T->O assemblies the plan opens (explicit: polls) */
     unsigned o2t_planned;    /* O->T assemblies with an owner connection */
 };
@@ -131,6 +133,7 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
     if (l->up == up)
         return;
     l->up = up;
+    l->status_now = true;
     /* Explicit mode sends an O->T image only when it changed: the robot
      * may come back without it (a restart), so all of them go again. */
     if (!up && l->cfg.mode == GW_MODE_EXPLICIT)
@@ -672,11 +675,24 @@ void gw_link_outputs_changed(gw_link_t *l, unsigned dirty)
     }
 }
 
-/* The robot's link facts derived from the connections. */
+/* The robot's link facts derived from the connections. They count
+ * milliseconds (age_ms) and packets: refreshed at most once a millisecond,
+ * and at once when the link goes up or down. The loop turns many times a
+ * millisecond with many robots (a wake-up per robot's burst, a turn per
+ * Modbus request), and refreshing every robot at every turn grew like N^2.
+ * Explicit mode is refreshed at every turn: it also notices a silent robot
+ * here. */
+#define STATUS_US 1000u
+
 static void update_status(gw_link_t *l, uint64_t now)
 {
     gw_robot_link_t *st = &l->data->link;
     uint64_t oldest = UINT64_MAX;
+    if (l->cfg.mode == GW_MODE_IMPLICIT && !l->status_now && now >= l->status_us &&
+        now - l->status_us < STATUS_US)
+        return;
+    l->status_us = now;
+    l->status_now = false;
     /* A packet that repeats the last data (same CIP sequence count) calls
      * no on_data, yet says the data is current: age goes by the last
      * packet the connection took, which is on the same monotonic clock. */
