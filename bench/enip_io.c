@@ -19,9 +19,11 @@
  * the interval and of its deviation from the period; CPU shares come from
  * getrusage over the window.
  *
- * usage: enip_io [SECONDS [CONNECTIONS [RPI_US [FOLLOW_US]]]]  (10, 6, 1000, 0)
+ * usage: enip_io [SECONDS [CONNECTIONS [RPI_US [FOLLOW_US [loop]]]]]  (10, 6, 1000, 0)
  * FOLLOW_US is the connections' o2t_follow_us (0: O->T on the client's own
- * timer only).
+ * timer only). "loop": the client runs on a transport without timer calls
+ * and the loop waits with ppoll until dr_client_next_deadline(), to the
+ * microsecond (as drgatewayd does), instead of polling the client's timerfd.
  * prints lines starting with "io" (parsed by bench/bench_enip.py).
  */
 #define _GNU_SOURCE
@@ -556,6 +558,21 @@ static int bare_timer(int ctl, int out, uint16_t port, uint32_t period_ns, doubl
 
 /* ---- the client ------------------------------------------------------------------ */
 
+static bool loop_timer; /* "loop": no timerfd, ppoll to the deadline */
+
+static struct timespec wait_for(dr_client_t *c, uint64_t until_ns)
+{
+    uint64_t now = now_ns(), end = until_ns;
+    if (end > now + 100000000u)
+        end = now + 100000000u;
+    uint64_t d = dr_client_next_deadline(c); /* us, the same clock */
+    if (loop_timer && d != UINT64_MAX && d * 1000u < end)
+        end = d * 1000u;
+    uint64_t w = end > now ? end - now : 0;
+    struct timespec ts = {(time_t)(w / 1000000000u), (long)(w % 1000000000u)};
+    return ts;
+}
+
 static void run_client(dr_client_t *c, uint64_t until_ns, int extra_fd)
 {
     while (now_ns() < until_ns) {
@@ -574,8 +591,13 @@ static void run_client(dr_client_t *c, uint64_t until_ns, int extra_fd)
             p[n].revents = 0;
         }
         int np = n + (extra_fd >= 0);
-        uint64_t left = (until_ns - now_ns()) / 1000000u;
-        (void)poll(p, (nfds_t)np, left > 100 ? 100 : (int)left + 1);
+        if (loop_timer) {
+            struct timespec ts = wait_for(c, until_ns);
+            (void)ppoll(p, (nfds_t)np, &ts, NULL);
+        } else {
+            uint64_t left = (until_ns - now_ns()) / 1000000u;
+            (void)poll(p, (nfds_t)np, left > 100 ? 100 : (int)left + 1);
+        }
         for (int i = 0; i < n; i++)
             dfd[i].revents = p[i].revents;
         dr_client_process_ready(c, dfd, n);
@@ -620,10 +642,11 @@ int main(int argc, char **argv)
     unsigned nconn = argc > 2 ? (unsigned)strtoul(argv[2], NULL, 10) : 6u;
     uint32_t rpi = argc > 3 ? (uint32_t)strtoul(argv[3], NULL, 10) : 1000u;
     uint32_t follow = argc > 4 ? (uint32_t)strtoul(argv[4], NULL, 10) : 0u;
+    loop_timer = argc > 5 && strcmp(argv[5], "loop") == 0;
     if (!(secs > 0.0 && secs <= 60.0) || nconn < 1 || nconn > 16 || rpi < 1000u ||
-        rpi > 1000000u || follow > rpi) {
+        rpi > 1000000u || follow > rpi || (argc > 5 && !loop_timer)) {
         fprintf(stderr, "usage: enip_io [SECONDS (<= 60) [CONNECTIONS (1..16) [RPI_US (>= 1000)"
-                        " [FOLLOW_US (<= RPI_US)]]]]\n");
+                        " [FOLLOW_US (<= RPI_US) [loop]]]]]\n");
         return 2;
     }
     signal(SIGPIPE, SIG_IGN);
@@ -659,6 +682,17 @@ int main(int argc, char **argv)
     cfg.local_addr = "127.0.0.1";
     cfg.local_udp_port = local_udp;
     cfg.timeout_ms = 2000;
+    static dr_transport_ops_t untimed;
+    if (loop_timer) {
+        /* ppoll's timeout has the task's timer slack (50 us by default);
+         * a timerfd has none */
+        (void)prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);
+        cfg.transport = dr_transport_posix();
+        untimed = *cfg.transport.ops;
+        untimed.timer_open = NULL;
+        untimed.timer_arm = NULL;
+        cfg.transport.ops = &untimed;
+    }
     dr_client_t *c = dr_client_new(&cfg);
     static const struct { int o2t; dr_asm_t t2o; } pairs[] = {
         {DR_ASM_IO_CONTROL, DR_ASM_IO_STATE}, {DR_ASM_BIT_IN, DR_ASM_BIT_OUT},
