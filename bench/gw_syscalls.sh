@@ -6,10 +6,11 @@
 # Class 1 port, no Modbus load; after 3 s, `strace -c -f` on the daemon
 # for 5 s. Counts, not timings: valid on a busy machine.
 #
-# usage: bench/gw_syscalls.sh DRGATEWAYD DRSIM N RPI_MS
+# usage: bench/gw_syscalls.sh DRGATEWAYD DRSIM N RPI_MS [ROBOT_LINE]
+# ROBOT_LINE: one more line for every [robot], e.g. "o2t_timing = strict".
 # needs strace; prints strace's table and how many links came up.
 set -eu
-GW=$1 SIM=$2 N=$3 RPI=$4
+GW=$1 SIM=$2 N=$3 RPI=$4 EXTRA=${5:-}
 D=$(mktemp -d "${TMPDIR:-/tmp}/gw-syscalls.XXXXXX")
 SIMS=""
 cleanup() {
@@ -25,8 +26,8 @@ while [ "$i" -le "$N" ]; do
     a=127.0.16.$((i + 1))
     "$SIM" --address "$a" --tcp-port 44818 --udp-port 2222 --seed "$i" > "$D/sim$i.log" 2>&1 &
     SIMS="$SIMS $!"
-    printf '\n[robot r%02d]\nhost = %s\nlocal_address = 127.0.16.1\nlocal_udp_port = 2300\nunit_id = %d\nrpi_ms = %d\n' \
-        "$i" "$a" "$i" "$RPI" >> "$D/gw.ini"
+    printf '\n[robot r%02d]\nhost = %s\nlocal_address = 127.0.16.1\nlocal_udp_port = 2300\nunit_id = %d\nrpi_ms = %d\n%s\n' \
+        "$i" "$a" "$i" "$RPI" "$EXTRA" >> "$D/gw.ini"
     i=$((i + 1))
 done
 sleep 0.5

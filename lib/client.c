@@ -65,6 +65,7 @@ struct dr_udp_port {
     dr_client_t *clients[UDP_PORT_MAX_CLIENTS]; /* by slot; NULL: free */
     unsigned nclients; /* slots in use */
     unsigned foreign;  /* established connections with a target-chosen T->O ID */
+    uint64_t epoch;    /* the O->T time grid of every client on the port */
     uint8_t rx[RX_BATCH][UDP_BUF]; /* receive buffers for one batch */
 };
 
@@ -126,7 +127,9 @@ struct dr_client {
     uint64_t next_dl;
     bool next_dl_stale;
     uint64_t armed;
-    uint64_t epoch; /* O->T deadlines of equal APIs fall on one grid */
+    uint64_t epoch; /* O->T deadlines of equal APIs fall on one grid; on a
+                       shared port, the port's: one wake-up of the
+                       application's loop then serves every robot */
     bool timer_polled; /* the caller polls our timer fd: keep it armed */
     /* O->T frames due at one instant, sent together at the end of a
      * process call (one system call for all connections). */
@@ -298,6 +301,7 @@ dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t
         p->nclients++;
         c->port_slot = slot;
         c->udp = p;
+        c->epoch = p->epoch;
     }
     if (err != NULL)
         *err = DR_OK;
@@ -1279,6 +1283,7 @@ dr_udp_port_t *dr_udp_port_init(void *storage, size_t size, const char *local_ad
     p->tp = tp;
     p->h = -1;
     p->shared = true;
+    p->epoch = tp.ops->now_us(tp.ctx);
     p->local.port = port != 0 ? port : DR_ENIP_UDP_PORT;
     if (local_addr != NULL &&
         (st = p->tp.ops->resolve(p->tp.ctx, local_addr, &p->local.addr)) != DR_OK)

@@ -1789,6 +1789,49 @@ static void test_loop_timer(void **state)
     dr_udp_port_free(p);
 }
 
+/* Clients on one shared port produce on the port's time grid: robots
+ * connected at different moments are due at the same instants, so the
+ * application's loop wakes up once per RPI for all of them (strict
+ * timing). A client with a port of its own keeps its own grid. */
+static void test_shared_grid(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_transport_t tp = {&fake_untimed_ops, &F};
+    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
+    assert_non_null(p);
+    uint64_t epoch = F.now;
+    dr_client_config_t cfg = config(&fake_untimed_ops);
+    cfg.shared_udp = p;
+    dr_client_t *c[3];
+    dr_conn_t *cn[3][1];
+    for (unsigned k = 0; k < 3; k++) {
+        F.now += 3333u * (k + 1u); /* not on any grid point */
+        assert_non_null(c[k] = dr_client_new(&cfg));
+        establish_on(c[k], cn[k], 1, &log);
+    }
+    uint64_t d = dr_client_next_deadline(c[2]);
+    assert_int_equal((d - epoch) % 10000u, 0);
+    for (unsigned k = 0; k < 2; k++) {
+        uint64_t dk = dr_client_next_deadline(c[k]);
+        assert_int_equal((dk - epoch) % 10000u, 0);
+        assert_true(dk <= d);
+    }
+    /* at d, all three are due together */
+    F.now = d;
+    unsigned sent = F.udp_sent;
+    for (unsigned k = 0; k < 3; k++) {
+        F.now = d; /* each process call at the same instant */
+        dr_client_process_ready(c[k], NULL, 0);
+        assert_int_equal(dr_client_next_deadline(c[k]), d + 10000u);
+    }
+    assert_int_equal(F.udp_sent, sent + 3);
+    for (unsigned k = 0; k < 3; k++)
+        dr_client_free(c[k]);
+    dr_udp_port_free(p);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1815,6 +1858,7 @@ int main(void)
         cmocka_unit_test_setup(test_cid_lookup, setup),
         cmocka_unit_test_setup(test_deadline_cache, setup),
         cmocka_unit_test_setup(test_loop_timer, setup),
+        cmocka_unit_test_setup(test_shared_grid, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
