@@ -94,6 +94,13 @@ void gw_link_ports_loop_timer(gw_link_ports_t *p, bool on)
     p->loop_timer = on;
 }
 
+void gw_link_ports_flush(gw_link_ports_t *p)
+{
+    for (unsigned i = 0; i < GW_MAX_ROBOTS; i++)
+        if (p->port[i].refs > 0)
+            dr_udp_port_flush(p->port[i].port);
+}
+
 /* The clients' transport: POSIX, without timers when the loop keeps the
  * time (a client then has no timerfd to re-arm every RPI: with N robots,
  * N timerfd_settime per RPI fewer). */
@@ -518,6 +525,9 @@ static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *
     snprintf(free_slot->addr, sizeof free_slot->addr, "%s", rc->local_addr);
     free_slot->num = num;
     free_slot->refs = 1;
+    /* Robots due at the same instant (they share the port's time grid)
+     * go out in one sendmmsg: the loop flushes at the end of its turn. */
+    dr_udp_port_hold(free_slot->port, true);
     free_slot->ev.fn = on_port;
     free_slot->ev.obj = free_slot;
     free_slot->ev.fd = -1;

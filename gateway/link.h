@@ -28,6 +28,10 @@ void gw_link_ports_free(gw_link_ports_t *p);
  * timer descriptor of their own. Off by default (each client's timerfd,
  * for a loop whose timeout is whole milliseconds). */
 void gw_link_ports_loop_timer(gw_link_ports_t *p, bool on);
+/* The O->T packets the links produced in this turn of the loop, of every
+ * robot on a port in one batch (the ports hold them: dr_udp_port_hold).
+ * Call at the end of every turn. */
+void gw_link_ports_flush(gw_link_ports_t *p);
 
 typedef struct {
     /* The link came up (true) or went down (false). */

@@ -466,6 +466,7 @@ static int run(gw_t *g)
         notify_watchdog(g, now);
         if (g->reload)
             reload(g);
+        gw_link_ports_flush(g->ports);
     }
     shutdown_all(g);
     return close_loop(g, g->exit_status);

@@ -66,6 +66,7 @@ struct dr_udp_port {
     unsigned nclients; /* slots in use */
     unsigned foreign;  /* established connections with a target-chosen T->O ID */
     uint64_t epoch;    /* the O->T time grid of every client on the port */
+    bool hold;         /* dr_udp_port_hold: O->T frames wait for a flush */
     uint8_t rx[RX_BATCH][UDP_BUF]; /* receive buffers for one batch */
 };
 
@@ -889,6 +890,8 @@ const uint8_t *dr_conn_input(const dr_conn_t *cn, size_t *len)
     return cn->in;
 }
 
+static void flush_io(dr_client_t *c);
+
 static void conn_produce(dr_conn_t *cn, uint64_t t)
 {
     dr_client_t *c = cn->client;
@@ -903,8 +906,9 @@ static void conn_produce(dr_conn_t *cn, uint64_t t)
     f.run_idle = cn->run ? 1u : 0u;
     f.data = cn->out;
     f.data_len = cn->o2t_size;
-    if (c->tx_n < DR_CLIENT_MAX_CONNS &&
-        dr_io_frame_write(c->tx_frames[c->tx_n], UDP_BUF, &f, &len) == DR_OK) {
+    if (c->tx_n == DR_CLIENT_MAX_CONNS)
+        flush_io(c); /* held (dr_udp_port_hold) and full: no frame is lost */
+    if (dr_io_frame_write(c->tx_frames[c->tx_n], UDP_BUF, &f, &len) == DR_OK) {
         dr_udp_msg_t *m = &c->tx_batch[c->tx_n];
         m->buf = c->tx_frames[c->tx_n];
         m->len = len;
@@ -956,7 +960,10 @@ static void flush_io(dr_client_t *c)
  * read (o2t_follow_us), together: one batch call for all the robots whose
  * packets came in the same read, instead of one per robot. The frames
  * stay in their clients' buffers; only the descriptors are gathered. */
-#define PORT_TX_BATCH 16 /* the POSIX transport's sendmmsg batch */
+/* Frames per batch call: every frame of up to 10 robots of six connections
+ * (the POSIX transport's sendmmsg takes 64), bounded by what the port can
+ * hold at all, which keeps it small in firmware builds (stack). */
+#define PORT_TX_BATCH (CID_SLOTS < 64u ? CID_SLOTS : 64u)
 static void flush_port(dr_udp_port_t *p)
 {
     dr_udp_msg_t m[PORT_TX_BATCH];
@@ -1346,6 +1353,21 @@ dr_status_t dr_udp_port_process(dr_udp_port_t *p)
     return DR_OK;
 }
 
+void dr_udp_port_hold(dr_udp_port_t *p, bool hold)
+{
+    if (p->hold && !hold)
+        dr_udp_port_flush(p);
+    p->hold = hold;
+}
+
+void dr_udp_port_flush(dr_udp_port_t *p)
+{
+    flush_port(p);
+    for (unsigned k = 0; k < UDP_PORT_MAX_CLIENTS; k++)
+        if (p->clients[k] != NULL)
+            p->clients[k]->tx_n = 0;
+}
+
 /* ---- the loop -------------------------------------------------------------- */
 
 static void session_timers(dr_client_t *c, uint64_t t)
@@ -1408,7 +1430,10 @@ uint64_t dr_client_next_deadline(const dr_client_t *c)
 
 static void close_step(dr_client_t *c, uint64_t t);
 
-static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
+/* may_hold: the O->T frames produced may wait for dr_udp_port_flush (a
+ * held port, and the application's loop calling); the blocking calls
+ * send them at once, as nobody flushes while they wait. */
+static void process(dr_client_t *c, bool tcp_ready, bool udp_ready, bool may_hold)
 {
     uint64_t t = now_us(c);
     if (c->tcp >= 0 && c->state != S_CONNECTING && tcp_ready) {
@@ -1422,7 +1447,8 @@ static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
     for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS; i++)
         if (c->conns[i].used)
             conn_timers(&c->conns[i], t);
-    flush_io(c);
+    if (!may_hold || !c->udp->hold)
+        flush_io(c);
     if (c->closing != CL_NONE)
         close_step(c, t);
     deadline_moved(c);
@@ -1431,7 +1457,7 @@ static void process(dr_client_t *c, bool tcp_ready, bool udp_ready)
 
 dr_status_t dr_client_process(dr_client_t *c)
 {
-    process(c, true, true);
+    process(c, true, true, true);
     return DR_OK;
 }
 
@@ -1447,7 +1473,7 @@ dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int 
         else if (fds[i].fd == udp_fd)
             udp = true;
     }
-    process(c, tcp, udp);
+    process(c, tcp, udp, true);
     return DR_OK;
 }
 
@@ -1511,7 +1537,9 @@ static void wait_and_process(dr_client_t *c, uint64_t deadline)
     if (deadline < d)
         d = deadline;
     c->tp.ops->wait(c->tp.ctx, h, out, n, d);
-    dr_client_process(c);
+    process(c, true, true, false);
+    if (c->udp->hold)
+        dr_udp_port_flush(c->udp); /* what other clients held meanwhile */
 }
 
 dr_status_t dr_client_run_once(dr_client_t *c, int timeout_ms)

@@ -1827,6 +1827,42 @@ static void test_shared_grid(void **state)
         assert_int_equal(dr_client_next_deadline(c[k]), d + 10000u);
     }
     assert_int_equal(F.udp_sent, sent + 3);
+    /* held: the process calls queue, one flush sends all three in one
+     * batch call, and nothing twice */
+    dr_udp_port_hold(p, true);
+    sent = F.udp_sent;
+    unsigned batches = F.udp_batches;
+    uint64_t tx[3];
+    for (unsigned k = 0; k < 3; k++)
+        tx[k] = dr_conn_stats(cn[k][0])->tx_packets;
+    for (unsigned k = 0; k < 3; k++) {
+        F.now = d + 10000u;
+        dr_client_process_ready(c[k], NULL, 0);
+    }
+    assert_int_equal(F.udp_sent, sent);
+    dr_udp_port_flush(p);
+    assert_int_equal(F.udp_sent, sent + 3);
+    assert_int_equal(F.udp_batches, batches + 1);
+    dr_udp_port_flush(p);
+    assert_int_equal(F.udp_sent, sent + 3);
+    for (unsigned k = 0; k < 3; k++)
+        assert_int_equal(dr_conn_stats(cn[k][0])->tx_packets, tx[k] + 1);
+    /* a blocking call of a held client sends at once, and what the other
+     * clients held with it */
+    F.now = d + 20000u;
+    dr_client_process_ready(c[0], NULL, 0);
+    dr_client_process_ready(c[1], NULL, 0);
+    assert_int_equal(F.udp_sent, sent + 3); /* held */
+    uint8_t buf[64];
+    size_t len = 0;
+    assert_int_equal(dr_client_get_attr_sync(c[2], 4, 101, 3, buf, sizeof buf, &len), DR_OK);
+    assert_true(F.udp_sent >= sent + 6); /* all three, without a flush */
+    /* clearing hold flushes */
+    F.now = d + 40000u;
+    dr_client_process_ready(c[0], NULL, 0);
+    unsigned before = F.udp_sent;
+    dr_udp_port_hold(p, false);
+    assert_int_equal(F.udp_sent, before + 1);
     for (unsigned k = 0; k < 3; k++)
         dr_client_free(c[k]);
     dr_udp_port_free(p);

@@ -144,6 +144,16 @@ void dr_udp_port_free(dr_udp_port_t *p);
 int dr_udp_port_fd(const dr_udp_port_t *p);
 dr_status_t dr_udp_port_process(dr_udp_port_t *p);
 
+/* The clients of one port produce their O->T packets at the same instants
+ * (they share the port's time grid). With hold set, the packets a client's
+ * dr_client_process / _process_ready produces wait in the client, and
+ * dr_udp_port_flush() sends those of every client in one batch call:
+ * call it at the end of every turn of the loop (dr_udp_port_process sends
+ * them too). The blocking *_sync calls send at once. Clearing hold
+ * flushes. Off by default. */
+void dr_udp_port_hold(dr_udp_port_t *p, bool hold);
+void dr_udp_port_flush(dr_udp_port_t *p);
+
 /* Sets up a client in `size` bytes at `storage` (a dr_client_storage_t, or
  * at least dr_client_size() bytes aligned like it), which must stay in
  * place until dr_client_deinit. Nothing is sent yet. NULL with *err:
