@@ -3,8 +3,10 @@
 # The daemon's system calls, counted (docs/performance.md, "Robots per
 # core", "What each change bought"): N drsims on 127.0.16.2 onwards, a
 # drgatewayd on 127.0.16.1 with one [robot] per drsim, all on one local
-# Class 1 port, no Modbus load; after 3 s, `strace -c -f` on the daemon
-# for 5 s. Counts, not timings: valid on a busy machine.
+# Class 1 port, no Modbus load; after 3 s, its wake-ups over 5 s, then
+# `strace -c -f` on the daemon for 5 s. Counts, not timings: valid on a
+# busy machine (the wake-ups less so: a daemon kept off the CPU finds more
+# events per wake-up).
 #
 # usage: bench/gw_syscalls.sh DRGATEWAYD DRSIM N RPI_MS [ROBOT_LINE]
 # ROBOT_LINE: one more line for every [robot], e.g. "o2t_timing = strict".
@@ -35,6 +37,11 @@ sleep 0.5
 G=$!
 sleep 3
 echo "links up: $(grep -c 'link up' "$D/gw.log") of $N"
+# Wake-ups without strace (which slows the daemon and so changes how many
+# events each wake-up finds): voluntary context switches over 5 s.
+cs() { awk '/^voluntary_ctxt_switches/ {print $2}' "/proc/$G/status"; }
+c0=$(cs); sleep 5; c1=$(cs)
+echo "wake-ups (voluntary context switches) in 5 s without strace: $((c1 - c0))"
 timeout -s INT 5 strace -c -f -p "$G" -o "$D/strace.txt" 2>/dev/null || true
 sleep 0.2
 cat "$D/strace.txt"
