@@ -401,6 +401,7 @@ static void shutdown_all(gw_t *g)
     for (unsigned r = 0; r < g->cfg.robot_count; r++)
         gw_link_free(g->links[r], "gateway stopping"); /* Forward Close, UnRegisterSession */
     free_sides(g);
+    gw_log_flush(UINT64_MAX); /* suppressed counts before the last line */
     gw_log(GW_LOG_INFO, "stopped");
 }
 
