@@ -14,9 +14,13 @@ one SECONDS slice each, the order rotating), so that a busy neighbour hits
 all three alike; each round gives two ratios, and the medians of the ratios
 are compared with the goals (>= 0.7x the ping-pong, >= 1.5x pycomm3).
 
-Class 1: bench/enip_io.c, six connections at RPI 1 ms for 10 s, with a bare
-timerfd loop alongside; goals: p99 deviation from the RPI <= 1.5x the
-timer's, client CPU < 5 % of one core. Then, for information, the same
+Class 1: bench/enip_io.c, six connections at RPI 1 ms, with a bare
+timerfd loop alongside, in IO_ROUNDS runs of IO_SECONDS each; goals, on
+the medians of the runs: p99 deviation from the RPI <= 1.5x the timer's
+(the ratio of each run, since the two streams share the run's noise),
+client CPU < 5 % of one core. One long run judged the timing on whichever
+stream the VM happened to disturb: on a quiet host both p99 deviations are
+10 to 60 us and each moves by 3x from run to run. Then, for information, the same
 with o2t_follow_us (O->T sent with the T->O arrivals, drgatewayd's
 default), and with the loop keeping the client's time (no timerfd, ppoll
 to dr_client_next_deadline(), as drgatewayd's loop does).
@@ -36,7 +40,8 @@ import peers  # noqa: E402
 
 ROUNDS = int(os.environ.get("BENCH_ROUNDS", "15"))
 SECONDS = float(os.environ.get("BENCH_SECONDS", "0.4"))
-IO_SECONDS = float(os.environ.get("BENCH_IO_SECONDS", "10"))
+IO_SECONDS = float(os.environ.get("BENCH_IO_SECONDS", "3"))
+IO_ROUNDS = int(os.environ.get("BENCH_IO_ROUNDS", "5"))
 GOALS = {
     "gets_vs_pingpong": (">=", 0.7),
     "gets_vs_pycomm3": (">=", 1.5),
@@ -190,17 +195,27 @@ def main():
     ex = explicit(build)
     print("  frames %d / %d bytes; medians: ping-pong %.0f/s, ours %.0f/s, pycomm3 %.0f/s"
           % (ex["frame_sizes"] + (ex["pingpong_per_s"], ex["gets_per_s"], ex["pycomm3_per_s"])))
-    print("class 1: 6 connections at RPI 1 ms for %g s, a bare timerfd loop alongside" % IO_SECONDS)
-    io = implicit(build)
-    for line in io["lines"]:
-        print("  " + line)
-    c, t = io["client"], io["timerfd"]
-    print("  interval (us)        p50      p99      max   dev p99")
-    print("  client pooled   %8.1f %8.1f %8.1f %8.1f" % (c["p50"], c["p99"], c["max"], c["dev_p99"]))
-    print("  bare timerfd    %8.1f %8.1f %8.1f %8.1f" % (t["p50"], t["p99"], t["max"], t["dev_p99"]))
-    if io.get("timeouts"):
-        print("  NOTE: %d connection timeout(s) in the window: the machine stalled for more "
-              "than 128 ms; the figures are of a disturbed run" % io["timeouts"])
+    print("class 1: 6 connections at RPI 1 ms, %d runs of %g s, a bare timerfd loop alongside"
+          % (IO_ROUNDS, IO_SECONDS))
+    runs = []
+    for k in range(IO_ROUNDS):
+        io = implicit(build)
+        runs.append(io)
+        if k == 0:
+            for line in io["lines"]:
+                print("  " + line)
+    print("  run  interval (us)     p50      p99      max   dev p99   ratio  client CPU %")
+    for k, io in enumerate(runs):
+        c, t = io["client"], io["timerfd"]
+        print("  %d    client pooled %8.1f %8.1f %8.1f %8.1f %7.2f %8.2f"
+              % (k + 1, c["p50"], c["p99"], c["max"], c["dev_p99"], io["io_p99dev_vs_timerfd"],
+                 io["io_client_cpu_pct"]))
+        print("       bare timerfd  %8.1f %8.1f %8.1f %8.1f" % (t["p50"], t["p99"], t["max"], t["dev_p99"]))
+        if io.get("timeouts"):
+            print("  NOTE: %d connection timeout(s) in run %d: the machine stalled for more "
+                  "than 128 ms; the figures are of a disturbed run" % (io["timeouts"], k + 1))
+    io = {"io_p99dev_vs_timerfd": statistics.median(r["io_p99dev_vs_timerfd"] for r in runs),
+          "io_client_cpu_pct": statistics.median(r["io_client_cpu_pct"] for r in runs)}
     # The same with o2t_follow_us (drgatewayd's default): for information,
     # the trade it makes (fewer wake-ups, O->T timing that follows the
     # T->O arrivals); the goals are judged on the client's default above.
