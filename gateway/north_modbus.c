@@ -64,13 +64,17 @@ struct mb {
     rtu_t rtu;
 };
 
+static void unit_refresh(mb_t *m, unsigned r);
+
 static gw_unit_t *unit_for(void *user, uint8_t unit_id)
 {
     const mb_ctx_t *c = user;
     const gw_config_t *cfg = c->mb->env->cfg;
     for (unsigned i = 0; i < cfg->robot_count; i++)
-        if (cfg->robot[i].unit_id == unit_id)
+        if (cfg->robot[i].unit_id == unit_id) {
+            unit_refresh(c->mb, i);
             return &c->mb->unit[i];
+        }
     return NULL;
 }
 
@@ -465,28 +469,34 @@ static void mb_on_fault(void *self, unsigned robot, bool latched)
 
 /* Modbus's part of the status block: clients, exceptions (TCP and every
  * RTU line), the writer, and IR 40-43: the frames dropped and the frames
- * for other slaves of the lines this robot is on. */
+ * for other slaves of the lines this robot is on. unit_for also calls it
+ * for the unit a request addresses, so that a client reading the block
+ * finds itself counted: a 10 Hz snapshot would often have been taken
+ * before it connected (or after its predecessor left). */
+static void unit_refresh(mb_t *m, unsigned r)
+{
+    gw_status_t *st = &m->unit[r].status;
+    uint8_t unit_id = m->env->cfg->robot[r].unit_id;
+    st->clients = (uint16_t)gw_mbs_client_count(m->tcp.mbs);
+    st->exceptions = gw_mbs_exceptions(m->tcp.mbs);
+    st->writer_present = gw_mbs_writer_present(m->tcp.mbs);
+    st->rtu_dropped = 0;
+    st->rtu_other = 0;
+    for (unsigned i = 0; i < m->rtu.count; i++) {
+        const gw_rtu_counters_t *n = gw_rtu_counters(m->rtu.line[i]);
+        st->exceptions += n->exceptions;
+        if (!gw_rtu_serves(m->rtu.line[i], unit_id))
+            continue;
+        st->rtu_dropped += n->crc_errors;
+        st->rtu_other += n->other;
+    }
+}
+
 static void mb_refresh(void *self)
 {
     mb_t *m = self;
-    const gw_config_t *cfg = m->env->cfg;
-    for (unsigned r = 0; r < cfg->robot_count; r++) {
-        gw_status_t *st = &m->unit[r].status;
-        uint8_t unit_id = cfg->robot[r].unit_id;
-        st->clients = (uint16_t)gw_mbs_client_count(m->tcp.mbs);
-        st->exceptions = gw_mbs_exceptions(m->tcp.mbs);
-        st->writer_present = gw_mbs_writer_present(m->tcp.mbs);
-        st->rtu_dropped = 0;
-        st->rtu_other = 0;
-        for (unsigned i = 0; i < m->rtu.count; i++) {
-            const gw_rtu_counters_t *n = gw_rtu_counters(m->rtu.line[i]);
-            st->exceptions += n->exceptions;
-            if (!gw_rtu_serves(m->rtu.line[i], unit_id))
-                continue;
-            st->rtu_dropped += n->crc_errors;
-            st->rtu_other += n->other;
-        }
-    }
+    for (unsigned r = 0; r < m->env->cfg->robot_count; r++)
+        unit_refresh(m, r);
 }
 
 static void mb_safe(void *self)

@@ -74,6 +74,16 @@ def test_silent_client_does_not_stall_others(gw):
         silent.close()
 
 
+def test_a_client_finds_itself_counted(gw):
+    """status.clients (IR 13) counts the client reading it: the Modbus part
+    of the status block is refreshed for the unit a request addresses, not
+    only ten times a second (a snapshot mostly taken while no short-lived
+    client was connected read 0, and test_trickling_clients... waited for
+    a 1 that came by chance)."""
+    for _ in range(30):
+        assert connected(gw) >= 1
+
+
 def test_half_frame_does_not_block_others(gw):
     a = raw_sock(gw)
     try:
