@@ -1180,7 +1180,7 @@ static dr_conn_t *conn_by_t2o_cid(dr_udp_port_t *p, uint32_t cid)
 }
 
 static void conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
-                          dr_io_frame_t *f, uint64_t t);
+                          const dr_io_frame_t *f, uint64_t t);
 
 static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64_t t)
 {
@@ -1198,7 +1198,7 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
 /* A packet for connection cn (f: parsed without a run/idle header): check
  * it, take it, keep the connection alive. */
 static void conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
-                          dr_io_frame_t *fp, uint64_t t)
+                          const dr_io_frame_t *fp, uint64_t t)
 {
     dr_io_frame_t f = *fp;
     if (cn->cfg.t2o_run_idle && dr_io_frame_parse(buf, len, true, &f) != DR_OK) {
