@@ -1414,16 +1414,11 @@ static uint64_t compute_deadline(const dr_client_t *c)
     return d;
 }
 
-uint64_t dr_client_next_deadline(const dr_client_t *c)
+uint64_t dr_client_next_deadline(dr_client_t *c)
 {
     if (c->next_dl_stale) {
-        /* The cache is no part of what the caller sees as the client's
-         * state, and the client is never a const object (it lives in the
-         * caller's writable storage): writing it through this pointer is
-         * fine. */
-        dr_client_t *m = (dr_client_t *)(uintptr_t)c;
-        m->next_dl = compute_deadline(c);
-        m->next_dl_stale = false;
+        c->next_dl = compute_deadline(c);
+        c->next_dl_stale = false;
     }
     return c->next_dl;
 }

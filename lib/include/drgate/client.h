@@ -384,8 +384,10 @@ typedef struct {
 int dr_client_pollfds(dr_client_t *c, dr_pollfd_t *fds, int max);
 
 /* Monotonic microseconds (the transport's now_us) of the next timer
- * (UINT64_MAX if none): call dr_client_process() by then. */
-uint64_t dr_client_next_deadline(const dr_client_t *c);
+ * (UINT64_MAX if none): call dr_client_process() by then. Not const: the
+ * client keeps the answer until something moves it, so that a loop may
+ * ask at every turn for the cost of a compare. */
+uint64_t dr_client_next_deadline(dr_client_t *c);
 
 /* Do all that is due: read every socket until it would block, run timers
  * (O->T production, timeouts, reconnects, request timeouts). Never blocks.
