@@ -449,6 +449,18 @@ static dr_client_config_t config(const dr_transport_ops_t *ops)
     return cfg;
 }
 
+/* A shared UDP port on the fake transport, and *cfg a client configuration
+ * that uses it (as drgatewayd's robots share one port). */
+static dr_udp_port_t *shared_port(const dr_transport_ops_t *ops, dr_client_config_t *cfg)
+{
+    dr_transport_t tp = {ops, &F};
+    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
+    assert_non_null(p);
+    *cfg = config(ops);
+    cfg->shared_udp = p;
+    return p;
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -1241,11 +1253,8 @@ static void test_class1_follow(void **state)
     (void)state;
     conn_log_t log;
     memset(&log, 0, sizeof log);
-    dr_transport_t tp = {&fake_batch_ops, &F};
-    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
-    assert_non_null(p);
-    dr_client_config_t cfg = config(&fake_batch_ops);
-    cfg.shared_udp = p;
+    dr_client_config_t cfg;
+    dr_udp_port_t *p = shared_port(&fake_batch_ops, &cfg);
     dr_client_t *c = dr_client_new(&cfg);
     assert_non_null(c);
     dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms */
@@ -1534,11 +1543,8 @@ static void test_cid_lookup(void **state)
     (void)state;
     conn_log_t log;
     memset(&log, 0, sizeof log);
-    dr_transport_t tp = {&fake_batch_ops, &F};
-    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
-    assert_non_null(p);
-    dr_client_config_t cfg = config(&fake_batch_ops);
-    cfg.shared_udp = p;
+    dr_client_config_t cfg;
+    dr_udp_port_t *p = shared_port(&fake_batch_ops, &cfg);
     dr_client_t *c[CID_CLIENTS];
     dr_conn_t *cn[CID_CLIENTS][CID_CONNS];
     for (unsigned k = 0; k < CID_CLIENTS; k++) {
@@ -1648,11 +1654,8 @@ static void test_deadline_cache(void **state)
     (void)state;
     conn_log_t log;
     memset(&log, 0, sizeof log);
-    dr_transport_t tp = {&fake_batch_ops, &F};
-    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
-    assert_non_null(p);
-    dr_client_config_t cfg = config(&fake_batch_ops);
-    cfg.shared_udp = p;
+    dr_client_config_t cfg;
+    dr_udp_port_t *p = shared_port(&fake_batch_ops, &cfg);
     uint64_t epoch = F.now;
     dr_client_t *c = dr_client_new(&cfg);
     assert_non_null(c);
@@ -1742,11 +1745,8 @@ static void test_loop_timer(void **state)
     (void)state;
     conn_log_t log;
     memset(&log, 0, sizeof log);
-    dr_transport_t tp = {&fake_untimed_ops, &F};
-    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
-    assert_non_null(p);
-    dr_client_config_t cfg = config(&fake_untimed_ops);
-    cfg.shared_udp = p;
+    dr_client_config_t cfg;
+    dr_udp_port_t *p = shared_port(&fake_untimed_ops, &cfg);
     dr_client_t *c = dr_client_new(&cfg);
     assert_non_null(c);
     dr_conn_t *cn[1];
@@ -1798,12 +1798,9 @@ static void test_shared_grid(void **state)
     (void)state;
     conn_log_t log;
     memset(&log, 0, sizeof log);
-    dr_transport_t tp = {&fake_untimed_ops, &F};
-    dr_udp_port_t *p = dr_udp_port_new(NULL, 0, tp, NULL);
-    assert_non_null(p);
+    dr_client_config_t cfg;
+    dr_udp_port_t *p = shared_port(&fake_untimed_ops, &cfg);
     uint64_t epoch = F.now;
-    dr_client_config_t cfg = config(&fake_untimed_ops);
-    cfg.shared_udp = p;
     dr_client_t *c[3];
     dr_conn_t *cn[3][1];
     for (unsigned k = 0; k < 3; k++) {
