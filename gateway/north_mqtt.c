@@ -35,6 +35,7 @@
 #include "drgate/text.h"
 #include "log.h"
 #include "loop.h"
+#include "mqtt_lib.h"
 #include "north.h"
 
 #define MQ_BACKOFF_MIN_US 500000u    /* first reconnect after 0.5 s ... */
@@ -87,6 +88,10 @@ typedef struct {
 } mq_t;
 
 static unsigned lib_users; /* mosquitto_lib_init/cleanup around the sides */
+/* libmosquitto's functions (mqtt_lib.h): loaded by the first enabled
+ * side's mq_new, then kept for the life of the process; every call below
+ * is made by an enabled side, so after the load. */
+static const gw_mqttlib_t *ml;
 
 /* ---- JSON, written by hand: keys are canonical paths (fixed identifiers),
  * strings from outside are escaped ----------------------------------------------- */
@@ -160,16 +165,16 @@ static void topic(const mq_t *t, char *out, size_t size, int robot, const char *
  * its queue holds nothing but this), and the in-flight bound. */
 static bool room(const mq_t *t)
 {
-    return t->connected && !mosquitto_want_write(t->mosq) &&
+    return t->connected && !ml->want_write(t->mosq) &&
            (t->cfg.qos == 0 || t->inflight < MQ_MAX_INFLIGHT);
 }
 
 static bool publish(mq_t *t, const char *top, const void *payload, size_t len, bool retain)
 {
     int mid = 0;
-    int rc = mosquitto_publish(t->mosq, &mid, top, (int)len, payload, (int)t->cfg.qos, retain);
+    int rc = ml->publish(t->mosq, &mid, top, (int)len, payload, (int)t->cfg.qos, retain);
     if (rc != MOSQ_ERR_SUCCESS) {
-        gw_log(GW_LOG_DEBUG, "mqtt: publish %s: %s", top, mosquitto_strerror(rc));
+        gw_log(GW_LOG_DEBUG, "mqtt: publish %s: %s", top, ml->strerror(rc));
         return false;
     }
     if (t->cfg.qos > 0)
@@ -290,7 +295,7 @@ static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, c
      * what is published instead of writing it: each refusal of a burst
      * gets its reply, up to a bound; a flood of bad writes cannot grow
      * the queue (the refusal is still logged). */
-    if (!mosquitto_want_write(t->mosq) && (t->cfg.qos == 0 || t->inflight < MQ_MAX_INFLIGHT))
+    if (!ml->want_write(t->mosq) && (t->cfg.qos == 0 || t->inflight < MQ_MAX_INFLIGHT))
         t->err_queued = 0;
     if (!t->connected || t->err_queued >= MQ_ERR_QUEUE ||
         (t->cfg.qos > 0 && t->inflight >= MQ_MAX_INFLIGHT + MQ_ERR_QUEUE)) {
@@ -407,7 +412,7 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     t->connecting = false;
     if (rc != 0) {
         gw_log(GW_LOG_WARNING, "mqtt: broker %s:%u refused the connection: %s", t->cfg.host,
-               t->cfg.port, mosquitto_connack_string(rc));
+               t->cfg.port, ml->connack_string(rc));
         return; /* libmosquitto closes; tick() retries */
     }
     gw_log(GW_LOG_INFO, "mqtt: connected to %s:%u", t->cfg.host, t->cfg.port);
@@ -421,9 +426,9 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
         if (t->cfg.writes) {
             char top[256];
             topic(t, top, sizeof top, (int)r, "set/#");
-            int e = mosquitto_subscribe(t->mosq, NULL, top, (int)t->cfg.qos);
+            int e = ml->subscribe(t->mosq, NULL, top, (int)t->cfg.qos);
             if (e != MOSQ_ERR_SUCCESS)
-                gw_log(GW_LOG_WARNING, "mqtt: subscribe %s: %s", top, mosquitto_strerror(e));
+                gw_log(GW_LOG_WARNING, "mqtt: subscribe %s: %s", top, ml->strerror(e));
         }
     }
 }
@@ -434,7 +439,7 @@ static void on_disconnect(struct mosquitto *mosq, void *obj, int rc)
     (void)mosq;
     if (t->connected)
         gw_log(GW_LOG_WARNING, "mqtt: connection to %s:%u lost (%s)", t->cfg.host, t->cfg.port,
-               rc == 0 ? "closed" : mosquitto_strerror(rc));
+               rc == 0 ? "closed" : ml->strerror(rc));
     t->connected = false;
 }
 
@@ -452,7 +457,7 @@ static void on_ready(void *obj, uint32_t events);
  * went away schedules the next attempt. */
 static void sync_watch(mq_t *t, uint64_t now)
 {
-    int fd = mosquitto_socket(t->mosq);
+    int fd = ml->socket(t->mosq);
     if (fd < 0) {
         gw_loop_unwatch(t->env->epfd, &t->ev);
         if (t->connected || t->connecting) {
@@ -467,7 +472,7 @@ static void sync_watch(mq_t *t, uint64_t now)
         }
         return;
     }
-    uint32_t ev = EPOLLIN | (mosquitto_want_write(t->mosq) ? (uint32_t)EPOLLOUT : 0u);
+    uint32_t ev = EPOLLIN | (ml->want_write(t->mosq) ? (uint32_t)EPOLLOUT : 0u);
     if (!gw_loop_watch(t->env->epfd, &t->ev, fd, ev))
         gw_log(GW_LOG_ERROR, "mqtt: epoll: %s", strerror(errno));
 }
@@ -475,7 +480,7 @@ static void sync_watch(mq_t *t, uint64_t now)
 static void drop_connection(mq_t *t, uint64_t now)
 {
     gw_loop_unwatch(t->env->epfd, &t->ev);
-    (void)mosquitto_disconnect(t->mosq); /* closes the socket */
+    (void)ml->disconnect(t->mosq); /* closes the socket */
     t->connected = t->connecting = false;
     t->retry_us = 0;
     sync_watch(t, now);
@@ -487,10 +492,10 @@ static void try_connect(mq_t *t, uint64_t now)
     gw_loop_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
     /* Non-blocking connect; the host name (if not an address) is resolved
      * here, the one blocking step (docs/mqtt.md). */
-    int rc = mosquitto_connect_async(t->mosq, t->cfg.host, t->cfg.port, (int)t->cfg.keepalive_s);
+    int rc = ml->connect_async(t->mosq, t->cfg.host, t->cfg.port, (int)t->cfg.keepalive_s);
     if (rc != MOSQ_ERR_SUCCESS) {
         gw_log(GW_LOG_DEBUG, "mqtt: connect %s:%u: %s", t->cfg.host, t->cfg.port,
-               rc == MOSQ_ERR_ERRNO ? strerror(errno) : mosquitto_strerror(rc));
+               rc == MOSQ_ERR_ERRNO ? strerror(errno) : ml->strerror(rc));
         t->connecting = true; /* logged by sync_watch */
     } else {
         t->connecting = true;
@@ -506,15 +511,15 @@ static void on_ready(void *obj, uint32_t events)
     if (events & (EPOLLIN | EPOLLERR | EPOLLHUP)) {
         /* libmosquitto reads a few packets per call; TLS may hold more
          * than the socket shows: read until it would block. */
-        for (int i = 0; i < MQ_READS_PER_EVENT && mosquitto_socket(t->mosq) >= 0; i++) {
+        for (int i = 0; i < MQ_READS_PER_EVENT && ml->socket(t->mosq) >= 0; i++) {
             errno = 0;
-            if (mosquitto_loop_read(t->mosq, 1) != MOSQ_ERR_SUCCESS || errno == EAGAIN ||
+            if (ml->loop_read(t->mosq, 1) != MOSQ_ERR_SUCCESS || errno == EAGAIN ||
                 errno == EWOULDBLOCK)
                 break;
         }
     }
-    if ((events & EPOLLOUT) && mosquitto_socket(t->mosq) >= 0)
-        (void)mosquitto_loop_write(t->mosq, 1);
+    if ((events & EPOLLOUT) && ml->socket(t->mosq) >= 0)
+        (void)ml->loop_write(t->mosq, 1);
     sync_watch(t, now);
 }
 
@@ -557,8 +562,12 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
     t->backoff_us = MQ_BACKOFF_MIN_US;
     if (!q->enabled)
         return t;
+    if ((ml = gw_mqttlib_load(err, errlen)) == NULL) {
+        free(t);
+        return NULL;
+    }
     if (lib_users++ == 0)
-        mosquitto_lib_init();
+        ml->lib_init();
     char host[64] = "localhost";
     if (gethostname(host, sizeof host) != 0)
         snprintf(host, sizeof host, "localhost");
@@ -589,7 +598,7 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
         mq_free(t);
         return NULL;
     }
-    t->mosq = mosquitto_new(t->client_id, true, t);
+    t->mosq = ml->new(t->client_id, true, t);
     if (t->mosq == NULL) {
         snprintf(err, errlen, "mqtt: cannot create the client: %s", strerror(errno));
         mq_free(t);
@@ -597,28 +606,28 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
     }
     char will[200];
     snprintf(will, sizeof will, "%s/status", t->prefix);
-    int rc = mosquitto_will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
+    int rc = ml->will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
     if (rc == MOSQ_ERR_SUCCESS && q->username[0] != '\0')
-        rc = mosquitto_username_pw_set(t->mosq, q->username,
+        rc = ml->username_pw_set(t->mosq, q->username,
                                        q->password_file[0] ? t->password : NULL);
     const char *what = "client settings";
     if (rc == MOSQ_ERR_SUCCESS && q->ca_file[0] != '\0') {
         what = "TLS (ca_file, cert_file, key_file)";
-        rc = mosquitto_tls_set(t->mosq, q->ca_file, NULL, q->cert_file[0] ? q->cert_file : NULL,
+        rc = ml->tls_set(t->mosq, q->ca_file, NULL, q->cert_file[0] ? q->cert_file : NULL,
                                q->key_file[0] ? q->key_file : NULL, NULL);
     }
     if (rc == MOSQ_ERR_SUCCESS)
-        rc = mosquitto_max_inflight_messages_set(t->mosq, MQ_MAX_INFLIGHT);
+        rc = ml->max_inflight_messages_set(t->mosq, MQ_MAX_INFLIGHT);
     if (rc != MOSQ_ERR_SUCCESS) {
         snprintf(err, errlen, "mqtt: %s: %s", what,
-                 rc == MOSQ_ERR_ERRNO ? strerror(errno) : mosquitto_strerror(rc));
+                 rc == MOSQ_ERR_ERRNO ? strerror(errno) : ml->strerror(rc));
         mq_free(t);
         return NULL;
     }
-    mosquitto_connect_callback_set(t->mosq, on_connect);
-    mosquitto_disconnect_callback_set(t->mosq, on_disconnect);
-    mosquitto_publish_callback_set(t->mosq, on_publish);
-    mosquitto_message_callback_set(t->mosq, on_message);
+    ml->connect_callback_set(t->mosq, on_connect);
+    ml->disconnect_callback_set(t->mosq, on_disconnect);
+    ml->publish_callback_set(t->mosq, on_publish);
+    ml->message_callback_set(t->mosq, on_message);
     return t;
 }
 
@@ -646,17 +655,17 @@ static void mq_goodbye(mq_t *t)
     if (!t->connected)
         return;
     (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
-    (void)mosquitto_disconnect(t->mosq);
+    (void)ml->disconnect(t->mosq);
     uint64_t end = gw_now_us() + 1000000u;
     int fd;
-    while ((fd = mosquitto_socket(t->mosq)) >= 0 && mosquitto_want_write(t->mosq)) {
+    while ((fd = ml->socket(t->mosq)) >= 0 && ml->want_write(t->mosq)) {
         uint64_t now = gw_now_us();
         if (now >= end)
             break;
         struct pollfd p = {fd, POLLOUT, 0};
         if (poll(&p, 1, (int)((end - now) / 1000u) + 1) <= 0)
             break;
-        if (mosquitto_loop_write(t->mosq, 1) != MOSQ_ERR_SUCCESS)
+        if (ml->loop_write(t->mosq, 1) != MOSQ_ERR_SUCCESS)
             break;
     }
     t->connected = false;
@@ -669,13 +678,13 @@ static void mq_free(mq_t *t)
     if (t->env != NULL)
         gw_loop_unwatch(t->env->epfd, &t->ev);
     if (t->mosq != NULL)
-        mosquitto_destroy(t->mosq);
+        ml->destroy(t->mosq);
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         free(t->last[r]);
     free(t->pick);
     free(t->pick_v);
     if (t->cfg.enabled && --lib_users == 0)
-        mosquitto_lib_cleanup();
+        ml->lib_cleanup();
     free(t);
 }
 
@@ -766,7 +775,7 @@ static void mq_tick(void *self, uint64_t now)
         drop_connection(t, now);
         return;
     }
-    (void)mosquitto_loop_misc(t->mosq); /* keepalive: PINGREQ, or a dead broker */
+    (void)ml->loop_misc(t->mosq); /* keepalive: PINGREQ, or a dead broker */
     if (t->status_due && room(t))
         t->status_due = !publish_text(t, -1, "status", "online", t->cfg.retain);
     const gw_config_t *cfg = t->env->cfg;

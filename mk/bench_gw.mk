@@ -39,7 +39,7 @@ $(B)/bench/drgatewayd-lat: gateway/main.c $$(GW_LIB_SRC) $$(GPIO_A) $(LIB_A) $$(
 	    -DDRGATE_VERSION='"$(VERSION)"' \
 	    $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS) -fPIE -pie \
 	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
-	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(MQTT_LIBS) -lm
+	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
 
 bench-gw: $$(GW_BIN) $(SIM_BIN) $(GW_BENCH_BIN)
 	@if [ ! -x $(GW_BENCH_PY) ]; then \

@@ -27,7 +27,7 @@ $(SCALE_GW): gateway/main.c $$(GW_LIB_SRC) $$(GPIO_A) $(LIB_A) $$(GW_HDR) $(LIB_
 	$(CC) $(ALL_CPPFLAGS) -Igateway -DGW_MAX_ROBOTS=32 -DDRGATE_VERSION='"$(VERSION)"' \
 	    $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS) -fPIE -pie \
 	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
-	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(MQTT_LIBS) -lm
+	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
 
 # `make bench` passes GW_BENCH_ARGS=--write-doc to every step: the results
 # go into docs/performance.md then too.
