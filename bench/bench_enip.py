@@ -204,7 +204,7 @@ def main():
         if k == 0:
             for line in io["lines"]:
                 print("  " + line)
-    print("  run  interval (us)     p50      p99      max   dev p99   ratio  client CPU %")
+    print("  run  interval (us)     p50      p99      max   dev p99  x timer  client CPU %")
     for k, io in enumerate(runs):
         c, t = io["client"], io["timerfd"]
         print("  %d    client pooled %8.1f %8.1f %8.1f %8.1f %7.2f %8.2f"
