@@ -17,46 +17,48 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The functions of the table (mqtt_lib.h), once: X(name) for each. */
+#define MQL_EACH(X) \
+    X(lib_init) \
+    X(lib_cleanup) \
+    X(strerror) \
+    X(connack_string) \
+    X(new) \
+    X(destroy) \
+    X(will_set) \
+    X(username_pw_set) \
+    X(tls_set) \
+    X(max_inflight_messages_set) \
+    X(connect_callback_set) \
+    X(disconnect_callback_set) \
+    X(publish_callback_set) \
+    X(message_callback_set) \
+    X(connect_async) \
+    X(disconnect) \
+    X(publish) \
+    X(subscribe) \
+    X(socket) \
+    X(want_write) \
+    X(loop_read) \
+    X(loop_write) \
+    X(loop_misc)
+
 /* Every member's type is that of the header's function: the assignments
  * are only type-checked (sizeof does not evaluate them, so nothing here
  * references libmosquitto at link time). A prototype that differs from
  * <mosquitto.h> is a compile error under -Werror. */
-#define MQL_CHECK(m) (void)sizeof(mql_probe.m = mosquitto_##m)
+#define MQL_CHECK(m) (void)sizeof(mql_probe.m = mosquitto_##m);
 static gw_mqttlib_t mql_probe;
 
 static gw_mqttlib_t mql;
 static bool mql_loaded;
 
 /* name and place of each member, for dlsym */
-#define MQL_FN(m) {"mosquitto_" #m, offsetof(gw_mqttlib_t, m)}
+#define MQL_FN(m) {"mosquitto_" #m, offsetof(gw_mqttlib_t, m)},
 static const struct {
     const char *sym;
     size_t off;
-} mql_fns[] = {
-    MQL_FN(lib_init),
-    MQL_FN(lib_cleanup),
-    MQL_FN(strerror),
-    MQL_FN(connack_string),
-    MQL_FN(new),
-    MQL_FN(destroy),
-    MQL_FN(will_set),
-    MQL_FN(username_pw_set),
-    MQL_FN(tls_set),
-    MQL_FN(max_inflight_messages_set),
-    MQL_FN(connect_callback_set),
-    MQL_FN(disconnect_callback_set),
-    MQL_FN(publish_callback_set),
-    MQL_FN(message_callback_set),
-    MQL_FN(connect_async),
-    MQL_FN(disconnect),
-    MQL_FN(publish),
-    MQL_FN(subscribe),
-    MQL_FN(socket),
-    MQL_FN(want_write),
-    MQL_FN(loop_read),
-    MQL_FN(loop_write),
-    MQL_FN(loop_misc),
-};
+} mql_fns[] = {MQL_EACH(MQL_FN)};
 
 /* The table holds function pointers only, each filled from mql_fns, and
  * one is the size of dlsym's void * (memcpy below). */
@@ -68,29 +70,7 @@ typedef char mql_all_named[sizeof mql_fns / sizeof mql_fns[0] * sizeof(void *) =
 
 static void mql_check_prototypes(void)
 {
-    MQL_CHECK(lib_init);
-    MQL_CHECK(lib_cleanup);
-    MQL_CHECK(strerror);
-    MQL_CHECK(connack_string);
-    MQL_CHECK(new);
-    MQL_CHECK(destroy);
-    MQL_CHECK(will_set);
-    MQL_CHECK(username_pw_set);
-    MQL_CHECK(tls_set);
-    MQL_CHECK(max_inflight_messages_set);
-    MQL_CHECK(connect_callback_set);
-    MQL_CHECK(disconnect_callback_set);
-    MQL_CHECK(publish_callback_set);
-    MQL_CHECK(message_callback_set);
-    MQL_CHECK(connect_async);
-    MQL_CHECK(disconnect);
-    MQL_CHECK(publish);
-    MQL_CHECK(subscribe);
-    MQL_CHECK(socket);
-    MQL_CHECK(want_write);
-    MQL_CHECK(loop_read);
-    MQL_CHECK(loop_write);
-    MQL_CHECK(loop_misc);
+    MQL_EACH(MQL_CHECK)
 }
 
 const gw_mqttlib_t *gw_mqttlib_load(char *err, size_t errlen)
