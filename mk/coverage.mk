@@ -18,9 +18,6 @@
 # 5.2), installed by `make deps`. The sanitizer reruns of check-cli-net and
 # check-gpio are left out (CLI_NET_NO_ASAN, GPIO_NO_ASAN): they add time,
 # not coverage.
-#
-# Named so it is included before mk/gw_daemon.mk: targets of later
-# fragments are named by path here, not by their variables.
 
 CHECK_STEPS += check-coverage
 
@@ -28,7 +25,7 @@ GCOVR      ?= gcovr
 COV_B      := $(B)/cov
 COV_FLOORS ?= lib=90 gateway=80 cli=80
 COV_STEPS  ?= check-unit check-cli check-cli-net check-gpio check-gpio-gateway-unit \
-              $(if $(wildcard mk/gw_test.mk),check-gateway)
+              check-gateway
 COV_MAKE    = GW_COVERAGE=1 $(MAKE) --no-print-directory B=$(COV_B) CFLAGS="-O0 -g --coverage" \
               LDFLAGS=--coverage HARDEN= CLI_NET_NO_ASAN=1 GPIO_NO_ASAN=1 \
               RESULTS=$(abspath $(COV_B))/test-results
@@ -43,7 +40,7 @@ coverage:
 	@if ! command -v $(GCOVR) >/dev/null 2>&1; then \
 	    echo "coverage: no $(GCOVR) (make deps installs Debian's gcovr)"; exit 1; fi
 	@t0=$$(date +%s); \
-	$(COV_MAKE) all $(COV_B)/drgatewayd || exit 1; \
+	$(COV_MAKE) all || exit 1; \
 	find $(COV_B) -name '*.gcda' -delete; \
 	rm -rf $(COV_B)/test-results $(COV_B)/html; mkdir -p $(COV_B)/html; \
 	for step in $(COV_STEPS); do \

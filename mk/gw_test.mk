@@ -12,7 +12,9 @@
 #                        Makefile's SAN_FLAGS, in $(B)/asan as check-asan);
 #                        a sanitizer report in any log is a failure
 #   check-regmap-docs    docs/register-map.md equals --print-map --markdown
-#                        (the rule is in mk/gw_daemon.mk)
+#   check-gateway-config drgatewayd's command line and configuration errors
+#                        only (tests/gateway/test_config.py: FILE:LINE, exit
+#                        codes), for check-quick
 #   check-gw-boundary    the robot (gateway/robot.[ch]) and its link know
 #                        nothing of Modbus, GPIO and MQTT read gw_robot_t
 #                        only (mk/gw-boundary.sh; check-gateway runs it first)
@@ -29,8 +31,10 @@ CHECK_STEPS += check-gateway check-gateway-asan check-regmap-docs check-gateway-
 GW_TEST_PY      ?= .venv/bin/python
 GW_TEST_TIMEOUT ?= 1800
 GW_PYTEST_ARGS  ?=
-GW_PYTEST        = $(GW_TEST_PY) -m pytest -q -p no:cacheprovider $(GW_PYTEST_ARGS) tests/gateway
-# $(1): build directory, $(2): label, $(3): extra environment
+GW_PYTEST        = $(GW_TEST_PY) -m pytest -q -p no:cacheprovider $(GW_PYTEST_ARGS) \
+                   $(or $(4),tests/gateway)
+# $(1): build directory, $(2): label, $(3): extra environment, $(4): the
+# test files (default: all of tests/gateway)
 GW_TEST_RUN      = PYTHONDONTWRITEBYTECODE=1 GW_RESULTS=$(abspath $(RESULTS)) \
                    GW_BUILD=$(abspath $(1)) DRGATEWAYD=$(abspath $(1))/drgatewayd \
                    DRSIM=$(abspath $(1))/drsim GW_LOGDIR=$(abspath $(1))/tests/gateway \
@@ -40,7 +44,8 @@ GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus' 2>/dev/null; 
                        echo "0 1 $(1) (no pytest/pymodbus: make deps)" >> $(RESULTS); \
                        exit 1; fi
 
-.PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs
+.PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs \
+        check-regmap-docs check-gateway-config
 
 check-gw-boundary:
 	@sh mk/gw-boundary.sh "$(RESULTS)"
@@ -77,7 +82,16 @@ check-gateway-unit: $(GW_BIN)
 	    echo "0 1 $(GW_UNIT_LABEL)" >> $(RESULTS); exit 1; \
 	fi
 
+# The register map in the docs is printed by the daemon from the field table.
+check-regmap-docs: $(GW_BIN)
+	@sh mk/gen-regmap-doc.sh --check $(GW_BIN) "$(RESULTS)"
+
 regmap-docs: $(GW_BIN)
 	@sh mk/gen-regmap-doc.sh --write $(GW_BIN)
+
+check-gateway-config: $(GW_BIN) $(SIM_BIN)
+	@$(call GW_TEST_PEERS,drgatewayd configuration errors)
+	@$(call GW_TEST_RUN,$(B),drgatewayd configuration errors (tests/gateway/test_config.py),,\
+	    tests/gateway/test_config.py)
 
 docs: regmap-docs
