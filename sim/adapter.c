@@ -1104,7 +1104,15 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
 
 void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
 {
-    /* Packets first, the model after: its step would only delay them. */
+    /* The model first, the packets after: a packet due at the same moment
+     * as a model step carries that step, as an explicit Get right after
+     * it does (produced before, Class 1 data was one step behind Get). */
+    if (now_ns >= s->next_model_ns) {
+        drsim_robot_update(&s->robot, now_ns, &s->img);
+        s->next_model_ns += DRSIM_MODEL_PERIOD_NS;
+        if (s->next_model_ns <= now_ns)
+            s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
+    }
     for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++) {
         drsim_conn_t *c = &s->conn[i];
         if (!c->used)
@@ -1115,12 +1123,6 @@ void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
         }
         if (!c->stopped && now_ns >= c->next_produce_ns)
             produce(s, c, now_ns, send, ctx);
-    }
-    if (now_ns >= s->next_model_ns) {
-        drsim_robot_update(&s->robot, now_ns, &s->img);
-        s->next_model_ns += DRSIM_MODEL_PERIOD_NS;
-        if (s->next_model_ns <= now_ns)
-            s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
     }
 }
 
