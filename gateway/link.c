@@ -62,6 +62,9 @@ struct gw_link {
     const char *closing; /* gw_link_free's reason: a planned link down */
     uint64_t status_us;      /* update_status last ran (implicit mode) */
     bool status_now;         /* the link went up or down: update at once */
+    /* The robot's packet counters when this link started (carried over a
+     * reload that changed the robot): the connections count from 0 */
+    uint32_t rx_base, lost_base;
     unsigned t2o_planned;    /* T->O assemblies the plan opens (explicit: polls) */
     unsigned o2t_planned;    /* O->T assemblies with an owner connection */
 };
@@ -602,6 +605,8 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         l->ev[i].ev.fd = -1;
     }
     gw_link_set_robot(l, robot, data);
+    l->rx_base = data->link.rx_packets;
+    l->lost_base = data->link.lost_packets;
     data->o2t_unsent = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T && !(l->o2t_planned & (1u << a)))
@@ -724,7 +729,7 @@ static void update_status(gw_link_t *l, uint64_t now)
     st->age_ms = (uint32_t)(age / 1000u > UINT32_MAX ? UINT32_MAX : age / 1000u);
     uint64_t limit;
     if (l->cfg.mode == GW_MODE_IMPLICIT) {
-        uint32_t rx = 0, lost = 0, api = 0;
+        uint32_t rx = l->rx_base, lost = l->lost_base, api = 0;
         for (unsigned i = 0; i < NPAIRS; i++) {
             if (l->conn[i] == NULL)
                 continue;
