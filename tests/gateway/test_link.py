@@ -113,6 +113,9 @@ def test_timeout_detection_without_fin(pair, regmap):
     try:
         g.wait_link(False)
         print("silent robot noticed after %.3f s" % (time.monotonic() - t0))
+        # what timed out, said once ("timed out: timed out" before)
+        g.log_wait("): timed out: no packet from the robot for 40 ms")
+        assert "timed out: timed out" not in g.log()
     finally:
         g.sim.proc.send_signal(signal.SIGCONT)
     g.wait_link(True, seconds=60)
@@ -245,6 +248,34 @@ def test_session_loss_alone_keeps_the_data(regmap):
         # the same six connections all along
         assert g.sim.log().count("connection open") == 6
         assert "link down" not in g.log()
+
+
+def test_refusals_summed_up_before_link_up():
+    """Forward Opens refused for a while, then the robot takes them: the
+    count of refusals the rate limit held back is printed before "link up",
+    not up to 10 s after it, where it read like a fault of the link that
+    had just come up. The robot first refuses every Forward Open (six
+    connections: one line and five held back), then is restarted as a
+    robot that takes them."""
+    sim = Drsim("log-refusals-sim", "--refuse-forward-open", "0x0113").start()
+    g = Gateway("log-refusals", sim)
+    try:
+        g.start(wait_link=False)
+        g.log_wait("Forward Open refused: CIP 0x01/0x0113")
+        time.sleep(0.5)  # all six refused by now, the retries too
+        sim.kill()
+        sim.extra = []
+        sim.start(same_ports=True)
+        g.wait_link(True, seconds=30)
+        lines = g.log().splitlines()
+        up = [i for i, l in enumerate(lines) if "link up" in l][0]
+        before = [l for l in lines[:up] if "similar message" in l]
+        assert before and before[-1].endswith("suppressed until now, the last shown]"), lines[:up + 1]
+        assert "0x0113" in before[-1]
+        assert not any("similar message" in l for l in g.log().splitlines()[up:])
+    finally:
+        g.kill()
+        sim.kill()
 
 
 @pytest.mark.parametrize("timing", ["follow", "strict"])
