@@ -10,7 +10,8 @@
 FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
                       sim_request cli
 FUZZ_SECONDS       ?= 60
-# make check runs every harness this long: 10 x 7 s keeps check-fuzz,
+# make check runs every harness this long: 10 x 7 s, two at a time
+# (FUZZ_JOBS, fuzz/run-fuzz.sh), keeps check-fuzz,
 # builds included, well under two minutes.
 FUZZ_CHECK_SECONDS ?= 7
 FUZZ_CC            ?= clang
