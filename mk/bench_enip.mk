@@ -8,7 +8,8 @@
 #     and vs pycomm3 doing the same Gets;
 #   6 Class 1 connections at RPI 1 ms, 5 runs of 3 s (bench/enip_io.c):
 #     produced-packet intervals and p99 deviation vs a bare timerfd loop,
-#     client CPU; the goals are judged on the medians of the runs.
+#     client CPU vs the same loop's, wake-ups per RPI of both; the goals are
+#     judged on the medians of the per-run ratios.
 # Exit status 1 if a goal is missed. BENCH_ROUNDS, BENCH_SECONDS,
 # BENCH_IO_ROUNDS and BENCH_IO_SECONDS (environment) shorten or lengthen it.
 

@@ -2,7 +2,8 @@
 # drgatewayd's benchmark (issue 5, "Done when"), run by `make bench` through
 # BENCH_STEPS, or alone with `make bench-gw`: Modbus throughput against a
 # plain select-loop libmodbus server and a pymodbus 3.8 server, the latency
-# from a robot packet's arrival to Modbus visibility, RSS and CPU share.
+# from a robot packet's arrival to Modbus visibility, RSS, and the CPU
+# share against drsim's (the other end of the same connections).
 # The results go to docs/performance.md ("Gateway" section) with
 # `make bench-gw GW_BENCH_ARGS=--write-doc`. See bench/gw_bench.py.
 

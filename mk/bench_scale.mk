@@ -3,7 +3,8 @@
 # 2, 4, 8, 16, 32; one drsim each, on its own 127.0.15.x address) with six
 # Class 1 connections each at RPI 10 ms and 2 ms and a light Modbus poll:
 # the daemon's CPU per robot, whether it grows linearly, and the goal (RPI
-# 10 ms: 32 robots under 25 % of a core, no connection timeout). Run by
+# 10 ms: 32 robots with no connection timeout, the daemon at most the 32
+# drsims' CPU in the same window). Run by
 # `make bench` through BENCH_STEPS, or alone with `make bench-scale`;
 # `make bench-scale SCALE_BENCH_ARGS=--quick` measures N = 1, 2, 4 only.
 # Method and results in docs/performance.md ("Robots per core").
