@@ -269,12 +269,14 @@ CHECK_TIMES := $(B)/check-times
 
 # make check: every step (mk/*.mk add theirs to CHECK_STEPS), each run
 # even if an earlier one failed (mk/check-steps.sh), then the time per
-# step and the closing line "check: N passed, M failed".
+# step and the closing line "check: N passed, M failed". check-deps comes
+# last, when every file of the run has been built.
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
                check-asan check-fuzz
 check: deps
 	@rm -f $(RESULTS) $(CHECK_TIMES)
-	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) all $(CHECK_STEPS) || true
+	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
+	    all $(CHECK_STEPS) check-deps || true
 	@$(MAKE) --no-print-directory check-summary
 
 check-summary:
