@@ -73,7 +73,8 @@ typedef struct {
     uint32_t timeout_ms;      /* explicit request timeout; 0: 2000 */
     uint16_t instance[DR_ASM_COUNT]; /* 0: default 101..110 */
     uint16_t vendor_id;       /* originator vendor ID (0: 0xFFFE) */
-    uint32_t serial;          /* originator serial number (0: from clock) */
+    uint32_t serial;          /* originator serial number; 0: from the
+                                 clock, see "Originator serial" below */
     bool route;               /* wrap requests in Unconnected Send */
     uint32_t backoff_min_ms;  /* reconnect backoff: 0: 100 ms */
     uint32_t backoff_max_ms;  /* 0: 5000 ms */
@@ -82,6 +83,38 @@ typedef struct {
     dr_udp_port_t *shared_udp; /* NULL: the client opens its own UDP socket
                                   at local_addr:local_udp_port */
 } dr_client_config_t;
+
+/* ---- originator serial --------------------------------------------------- */
+
+/* The vendor ID and originator serial number name the originator in every
+ * Forward Open and Forward Close. An adapter keeps an exclusive-owner
+ * connection whose originator went silent (a crash, a power cut, a cable)
+ * in a timed-out state, and lets only the same vendor ID + originator
+ * serial take it over; anyone else is refused with 0x01/0x0106 (ownership
+ * conflict) for as long as the adapter holds it, which for some adapters
+ * is until they restart. A restarted originator must therefore come back
+ * with the serial it had, as a PLC does: pass a stable one in
+ * dr_client_config_t.serial.
+ *
+ * Left 0, the library takes one from the clock, different at every start:
+ * unique, but a restarted application is locked out of the connections of
+ * its previous run. The library cannot do better by itself (in firmware
+ * it knows nothing stable about its host); drgatewayd and drcli always
+ * pass a stable serial (dr_originator_serial_local). Firmware should
+ * derive one from something unique to the device, e.g. its MAC address:
+ * dr_originator_serial(mac_text, robot_name). */
+
+/* FNV-1a (32 bits) over the bytes of host_id, one 0 byte, and the bytes of
+ * name; 1 if that is 0 (0 means "not set"). Pure: the same arguments give
+ * the same serial on every machine and every run. */
+uint32_t dr_originator_serial(const char *host_id, const char *name);
+
+/* POSIX (lib/client_posix.c): dr_originator_serial(host_id, name), host_id
+ * the first line of /etc/machine-id, or the host name (gethostname) when
+ * that file is missing or empty, or "" when neither is known. Stable for
+ * one installation of the machine and one name (drgatewayd: the robot's
+ * section name; drcli: the robot's address as given). */
+uint32_t dr_originator_serial_local(const char *name);
 
 /* ---- a Class 1 UDP port shared by several clients --------------------- */
 
@@ -323,7 +356,13 @@ void dr_conn_set_run(dr_conn_t *conn, bool run);
 /* T->O sequence handling: a packet whose 32-bit encapsulation sequence
  * number is not newer (wrap-safe) than the last one taken is a duplicate
  * or late: dropped (rx_dropped_seq), and it does not keep the connection
- * alive. Every newer packet does (rx_packets, last_rx_us, the timeout).
+ * alive. Every newer packet does (rx_packets, last_rx_us, the timeout),
+ * as long as it is at most max(8, (4 << timeout_mult) / 2) ahead: a
+ * number further ahead than a live producer can have gone is a corrupted
+ * one (a bit flipped in a datagram without a UDP checksum) and is dropped
+ * too, so that it cannot make the real packets after it look old. Three
+ * such numbers in a row that follow each other within that window are
+ * believed: the producer jumped, and is followed from there (rx_resyncs).
  * Whether it carries new data goes by the 16-bit CIP sequence count: the
  * same count as the last new data is a repeat (rx_repeats: no copy, no
  * on_data), as producers may send while their data is unchanged; any
@@ -341,6 +380,8 @@ typedef struct {
     uint32_t o2t_cid, t2o_cid;
     uint32_t opens, timeouts;
     uint16_t size_wanted; /* from a 0x0109 refusal: the target's size */
+    uint64_t rx_resyncs;  /* encapsulation sequence numbers followed after
+                             a jump too far ahead (see above) */
 } dr_conn_stats_t;
 
 dr_conn_state_t dr_conn_state(const dr_conn_t *conn);
