@@ -86,7 +86,14 @@ static void usage(FILE *f)
 "      --trailing-item       Forward Open replies (success and error) carry\n"
 "                            one CPF item more than their item count says\n"
 "                            (an echo of the request's 0x8001 item)\n"
-"\n"
+"      --owner-hold SECONDS  free an exclusive owner whose O->T stopped after\n"
+"                            this long (default: never, as OpENer). Until\n"
+"                            then it is held: only the same vendor ID and\n"
+"                            originator serial may take it over, others get\n"
+"                            0x01/0x0106\n"
+"\n", f);
+    /* two strings: C99 promises 4095 characters in one */
+    fputs(
 "Connection points (what a controller's EDS decides):\n"
 "      --config-instance N   accept only configuration instance N in a\n"
 "                            Forward Open; others are refused with 0x01/0x0129\n"
@@ -198,7 +205,8 @@ enum {
     OPT_NO_ECHO = 256, OPT_SEED, OPT_DROP, OPT_DELAY, OPT_STOP_PRODUCING,
     OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO,
     OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
-    OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM
+    OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM,
+    OPT_OWNER_HOLD
 };
 
 static const struct option long_options[] = {
@@ -223,6 +231,7 @@ static const struct option long_options[] = {
     {"tick", required_argument, NULL, OPT_TICK},
     {"api-report", required_argument, NULL, OPT_API_REPORT},
     {"trailing-item", no_argument, NULL, OPT_TRAILING_ITEM},
+    {"owner-hold", required_argument, NULL, OPT_OWNER_HOLD},
     {"verbose", no_argument, NULL, 'v'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
@@ -334,6 +343,10 @@ static int parse_options(int argc, char **argv, options_t *o)
             break;
         case OPT_TRAILING_ITEM:
             o->cfg.trailing_item = true;
+            break;
+        case OPT_OWNER_HOLD:
+            if (parse_seconds(optarg, &o->cfg.owner_hold_ns) != 0)
+                return bad("--owner-hold", optarg);
             break;
         case 'v':
             drsim_verbose++;
