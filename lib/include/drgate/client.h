@@ -339,7 +339,17 @@ typedef struct {
 
 /* Add a connection; it opens once the session is up, and reopens after a
  * failure with capped exponential backoff. NULL if the pool is full or the
- * config is invalid (DR_EINVAL in *err if err is not NULL). */
+ * config is invalid (DR_EINVAL in *err if err is not NULL).
+ *
+ * Forward Opens nobody waits for must never open a connection the adapter
+ * then holds as an owner (refusing the next opens with 0x0106): a Forward
+ * Open that gets no answer within the request timeout resets the session
+ * (the transport's tcp_abort drops what TCP still holds, the session
+ * comes back after its backoff); one that ended without an answer is
+ * closed by its triad (Forward Close) just before that connection's next
+ * open; and a success that comes for a connection removed or closed
+ * meanwhile is closed at once. dr_client_close_start waits for the
+ * answers of the opens still out, as for its Forward Closes. */
 dr_conn_t *dr_client_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
                               dr_status_t *err);
 
