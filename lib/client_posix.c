@@ -21,7 +21,7 @@ static void host_identity(char *out, size_t size)
     if (f != NULL) {
         if (fgets(out, (int)size, f) == NULL)
             out[0] = '\0';
-        fclose(f);
+        (void)fclose(f); /* read-only: nothing to lose */
         out[strcspn(out, " \t\r\n")] = '\0';
     }
     if (out[0] == '\0' && gethostname(out, size) != 0)
