@@ -21,6 +21,9 @@ ESTABLISHED = 2
 CONN_OPEN = "connection open:"
 HELD = "held, "
 TAKEN_OVER = "closed (taken over by its originator)"
+# x256: 2.56 s at RPI 10 ms, so that a stall of a loaded machine (ASan)
+# never times a connection out by itself and every count below is exact
+ROBOT = "timeout_multiplier = 6\n"
 
 
 def conn_states(st):
@@ -48,11 +51,11 @@ def crash(g):
     g.proc.wait()
     wait_for(lambda: sim.log()[mark:].count(HELD) == 4 and
              sim.log()[mark:].count("closed (O->T timeout)") == 2,
-             10, "drsim to hold the four owners and close the input-only connections")
+             20, "drsim to hold the four owners and close the input-only connections")
 
 
 def test_killed_gateway_takes_its_connections_back():
-    with running("owner_restart") as g:
+    with running("owner_restart", robot=ROBOT) as g:
         wait_for(lambda: all_up(g), 20, "every connection up")
         crash(g)
         sim_mark, gw_mark = len(g.sim.log()), len(g.log())
@@ -72,14 +75,14 @@ def test_killed_gateway_takes_its_connections_back():
 
 
 def test_other_originator_is_refused():
-    with running("owner_other") as g:
+    with running("owner_other", robot=ROBOT) as g:
         wait_for(lambda: all_up(g), 20, "every connection up")
         mine = serials(g.log())[0]
         crash(g)
         sim_mark = len(g.sim.log())
         # another originator (a replaced PC, a copied configuration): the
         # held owners stay held, refused with 0x0106; input-only opens
-        g.robot_extra = "originator_serial = 0x5EED0001\n"
+        g.robot_extra = ROBOT + "originator_serial = 0x5EED0001\n"
         g.start(wait_link=False)
 
         def refused():
@@ -97,7 +100,7 @@ def test_other_originator_is_refused():
         # the rightful originator comes back and takes them over
         g.kill()
         sim_mark = len(g.sim.log())
-        g.robot_extra = ""
+        g.robot_extra = ROBOT
         g.start(wait_link=False)
         wait_for(lambda: all_up(g), 10, "every connection up with the first serial")
         assert g.sim.log()[sim_mark:].count(TAKEN_OVER) == 4
