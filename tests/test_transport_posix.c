@@ -130,8 +130,8 @@ static void test_udp(void **state)
     /* the same port twice cannot be had, and says so (drgatewayd tells
      * the user to change local_address or local_udp_port) */
     assert_int_equal(OPS->udp_open(CTX, to, &c), DR_EADDRINUSE);
-    /* an address that is not this host's (TEST-NET-1) */
-    dr_sockaddr_t foreign = {0xC0000201u, 0};
+    /* an address that is not this host's (class E: never assigned) */
+    dr_sockaddr_t foreign = {0xF0000001u, 0};
     assert_int_equal(OPS->udp_open(CTX, foreign, &c), DR_EADDRNOTAVAIL);
 
     uint8_t big[100], buf[50];
