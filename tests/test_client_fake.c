@@ -645,6 +645,8 @@ typedef struct {
     unsigned n;
 } sess_log_t;
 
+static sess_log_t S_LOG; /* file scope: the callback changes it behind the calls */
+
 static void on_session_log(dr_client_t *c, dr_status_t why, void *user)
 {
     sess_log_t *log = user;
@@ -657,50 +659,49 @@ static void on_session_log(dr_client_t *c, dr_status_t why, void *user)
 static void test_session_callback(void **state)
 {
     (void)state;
-    sess_log_t log;
-    memset(&log, 0, sizeof log);
+    memset(&S_LOG, 0, sizeof S_LOG);
     dr_client_config_t cfg = config(&fake_ops);
     cfg.on_session = on_session_log;
-    cfg.session_user = &log;
+    cfg.session_user = &S_LOG;
     dr_client_t *c = dr_client_new(&cfg);
     assert_non_null(c);
     /* refused at once: told from the first attempt, and from each retry */
     F.connect_st = DR_ECONNREFUSED;
     assert_int_equal(dr_client_start(c), DR_OK);
-    assert_int_equal(log.n, 1);
-    assert_int_equal(log.why[0], DR_ECONNREFUSED);
+    assert_int_equal(S_LOG.n, 1);
+    assert_int_equal(S_LOG.why[0], DR_ECONNREFUSED);
     run_for(c, 25); /* backoff 10 ms, then 20 ms */
-    assert_true(log.n >= 2);
-    assert_int_equal(log.why[log.n - 1], DR_ECONNREFUSED);
+    assert_true(S_LOG.n >= 2);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_ECONNREFUSED);
     /* the TCP connect never completes: no answer at the 100 ms timeout */
     F.connect_st = DR_OK;
     F.finish_st = DR_EAGAIN;
-    unsigned n = log.n;
+    unsigned n = S_LOG.n;
     run_for(c, 200);
-    assert_true(log.n > n);
-    assert_int_equal(log.why[n], DR_ENOANSWER);
+    assert_true(S_LOG.n > n);
+    assert_int_equal(S_LOG.why[n], DR_ENOANSWER);
     /* connected, RegisterSession never answered */
     F.finish_st = DR_OK;
     F.reg_silent = true;
-    n = log.n;
+    n = S_LOG.n;
     run_for(c, 200);
-    assert_true(log.n > n);
-    assert_int_equal(log.why[log.n - 1], DR_ENOREGISTER);
+    assert_true(S_LOG.n > n);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_ENOREGISTER);
     /* registered, then closed by the peer, then registered again */
     F.reg_silent = false;
     run_for(c, 300); /* the attempt under way times out, the next one works */
-    assert_true(log.n < 16);
-    assert_int_equal(log.why[log.n - 1], DR_OK);
-    n = log.n - 1;
+    assert_true(S_LOG.n < 16);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_OK);
+    n = S_LOG.n - 1;
     F.eof_st = DR_ECLOSED;
     run_for(c, 100);
-    assert_true(log.n >= n + 3);
-    assert_int_equal(log.why[n + 1], DR_ECLOSED);
-    assert_int_equal(log.why[n + 2], DR_OK);
+    assert_true(S_LOG.n >= n + 3);
+    assert_int_equal(S_LOG.why[n + 1], DR_ECLOSED);
+    assert_int_equal(S_LOG.why[n + 2], DR_OK);
     /* closing (the peer closes after UnRegisterSession): not told */
-    n = log.n;
+    n = S_LOG.n;
     dr_client_free(c);
-    assert_int_equal(log.n, n);
+    assert_int_equal(S_LOG.n, n);
 }
 
 /* A frame longer than any the protocol allows: the stream is given up. */
