@@ -12,6 +12,13 @@ void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial)
     r->serial = serial;
 }
 
+void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old)
+{
+    r->heartbeat = old->heartbeat;
+    r->link.rx_packets = old->link.rx_packets;
+    r->link.lost_packets = old->link.lost_packets;
+}
+
 uint16_t gw_robot_error_code(dr_status_t why, uint16_t *general)
 {
     *general = 0;

@@ -83,6 +83,12 @@ typedef struct {
  * name and serial set. */
 void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial);
 
+/* r replaces `old`, the same robot before a reload changed its section:
+ * what a PLC watches for liveness and progress goes on from where it was
+ * (the heartbeat and the packet counters never go backwards; the
+ * generation register says that a reload happened). */
+void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old);
+
 /* Why the link last failed (DR_OK: nothing to record), in last_status and
  * as gw_robot_error_code() in last_error and last_cip_general. */
 void gw_robot_record_error(gw_robot_t *r, dr_status_t why);
