@@ -1754,6 +1754,25 @@ static bool check_point(ctx_t *c, const gw_robot_config_t *r, const robot_lines_
     return true;
 }
 
+/* The configuration point equal to a heartbeat point the plan uses (key
+ * hb): a Forward Open would name one instance as both, which the robot
+ * refuses at run time (the defaults invite it: listen_only_heartbeat is
+ * 199, and 199 is a common configuration instance). False after
+ * reporting it. */
+static bool check_config_point(ctx_t *c, const gw_robot_config_t *r, const robot_lines_t *rl,
+                               int hb, uint16_t inst)
+{
+    if (r->config_instance != inst)
+        return true;
+    unsigned lc = line_or(rl->key[RK_CONFIG_INSTANCE], r->line), lh = line_or(rl->key[hb], r->line);
+    fail(c, lc > lh ? lc : lh,
+         "robot '%s': config_instance %u is also %s (%sthe robot refuses a Forward Open that "
+         "names one instance as both: set %s to another point of its EDS)", r->name,
+         (unsigned)inst, robot_keys[hb].name, rl->key[hb] != 0 ? "" : "its default; ",
+         robot_keys[hb].name);
+    return false;
+}
+
 /* The connection plan: every O->T assembly has at most one owner, at
  * least one connection is opened, the instances it uses are distinct. */
 static bool check_plan(ctx_t *c, const gw_robot_config_t *r, const robot_lines_t *rl)
@@ -1801,6 +1820,14 @@ static bool check_plan(ctx_t *c, const gw_robot_config_t *r, const robot_lines_t
              "tells the two kinds apart by it)", r->name, (unsigned)r->input_only_heartbeat);
         return false;
     }
+    /* explicit mode opens no connection: its points are not used */
+    bool implicit = r->mode == GW_MODE_IMPLICIT;
+    if (implicit && input_only &&
+        !check_config_point(c, r, rl, RK_INPUT_ONLY_HEARTBEAT, r->input_only_heartbeat))
+        return false;
+    if (implicit && listen_only &&
+        !check_config_point(c, r, rl, RK_LISTEN_ONLY_HEARTBEAT, r->listen_only_heartbeat))
+        return false;
     return check_point(c, r, rl, RK_CONFIG_INSTANCE, r->config_instance) &&
            (!input_only || check_point(c, r, rl, RK_INPUT_ONLY_HEARTBEAT, r->input_only_heartbeat)) &&
            (!listen_only || check_point(c, r, rl, RK_LISTEN_ONLY_HEARTBEAT, r->listen_only_heartbeat));

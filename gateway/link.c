@@ -59,9 +59,16 @@ struct gw_link {
     unsigned dirty;          /* O->T images still to send */
     poll_ctx_t poll_ctx[DR_ASM_COUNT];
     gw_log_limit_t log_limit;
+    gw_log_limit_t sess_limit; /* the session's failures: a kind of their own */
+    gw_log_limit_t sess_end_limit; /* sessions that end under a live link */
+    bool sess_ready;           /* the client said its session is registered */
+    dr_status_t sess_why;      /* why the last session attempt failed or ended */
     const char *closing; /* gw_link_free's reason: a planned link down */
     uint64_t status_us;      /* update_status last ran (implicit mode) */
     bool status_now;         /* the link went up or down: update at once */
+    /* The robot's packet counters when this link started (carried over a
+     * reload that changed the robot): the connections count from 0 */
+    uint32_t rx_base, lost_base;
     unsigned t2o_planned;    /* T->O assemblies the plan opens (explicit: polls) */
     unsigned o2t_planned;    /* O->T assemblies with an owner connection */
 };
@@ -152,11 +159,44 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
     /* Closed on purpose (SIGTERM, reload): not a fault, and the reason is
      * ours, not what the closing connections report. */
     const char *reason = l->closing != NULL ? l->closing : why != DR_OK ? dr_strerror(why) : "";
+    if (up)
+        gw_log_limit_end(&l->log_limit); /* the refusals before it are past */
     gw_log(up || l->closing != NULL ? GW_LOG_INFO : GW_LOG_WARNING,
            "robot %s (%s): link %s%s%s", l->cfg.name, l->cfg.host, up ? "up" : "down",
            reason[0] != '\0' ? ": " : "", reason);
     if (l->hooks.on_link != NULL)
         l->hooks.on_link(l->hooks.user, l->robot, up, why);
+}
+
+/* The session's news (dr_session_cb). A failed attempt (resolve, connect,
+ * register) is why the link cannot come up: recorded and logged from the
+ * first one, with the cause in words ("connection refused", "no route to
+ * host", "no answer: TCP connection timed out", ...), so that a wrong
+ * address, a robot switched off and an adapter that is disabled can be
+ * told apart. A registered session that ends while the Class 1
+ * connections still deliver is no link failure (they outlive it): info
+ * only, and the client registers again by itself. */
+static void on_session(dr_client_t *c, dr_status_t why, void *user)
+{
+    gw_link_t *l = user;
+    bool was_ready = l->sess_ready;
+    l->sess_ready = why == DR_OK;
+    l->sess_why = why;
+    l->status_now = true;
+    if (why == DR_OK)
+        return;
+    char cause[160];
+    gw_robot_error_text(why, cause, sizeof cause);
+    if (was_ready && l->up && l->cfg.mode == GW_MODE_IMPLICIT) {
+        gw_log_limited(GW_LOG_INFO, &l->sess_end_limit,
+                       "robot %s: %s:%u: session ended: %s (the Class 1 connections go on)",
+                       l->cfg.name, l->cfg.host, (unsigned)l->cfg.tcp_port, cause);
+        return;
+    }
+    link_record_error(l, why);
+    gw_log_limited(GW_LOG_WARNING, &l->sess_limit, "robot %s: %s:%u: %s: %s", l->cfg.name,
+                   l->cfg.host, (unsigned)l->cfg.tcp_port,
+                   was_ready ? "session lost" : dr_client_last_step(c), cause);
 }
 
 /* ---- descriptors ----------------------------------------------------------- */
@@ -330,9 +370,22 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
     }
 }
 
+/* The T->O silence after which conn timed out: its API (as the robot
+ * granted it) x (4 << timeout_multiplier). */
+static unsigned conn_timeout_ms(const gw_link_t *l, const dr_conn_t *conn)
+{
+    uint64_t api = dr_conn_stats(conn)->t2o_api_us;
+    if (api == 0)
+        api = (uint64_t)l->cfg.rpi_ms * 1000u;
+    return (unsigned)(api * (4u << l->cfg.timeout_mult) / 1000u);
+}
+
 /* "robot R: io_state (owner io_control): reconnecting: Forward Open refused:
- * CIP 0x01/0x0129 invalid configuration application path", at most as often
- * as the link's rate limit lets through. */
+ * CIP 0x01/0x0129 invalid configuration application path (path: config 1,
+ * O->T 107, T->O 101)", at most as often as the link's rate limit lets
+ * through. The path's instances are named because adapters answer the
+ * same wrong point with different statuses (a wrong configuration
+ * instance: 0x0315 from one, 0x0129 from another). */
 static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr_status_t why)
 {
     dr_asm_t a = DR_ASM_IO_STATE;
@@ -341,16 +394,30 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
             a = slot_t2o[i];
     const gw_open_t *o = &l->cfg.open[a];
     char how[48];
-    if (o->kind == GW_OPEN_OWNER)
+    unsigned o2t;
+    if (o->kind == GW_OPEN_OWNER) {
         snprintf(how, sizeof how, "owner %s", dr_asm_info((dr_asm_t)o->o2t)->name);
-    else
-        snprintf(how, sizeof how, "%s", o->kind == GW_OPEN_LISTEN_ONLY ? "listen-only" : "input-only");
+        o2t = l->cfg.instance[o->o2t];
+    } else if (o->kind == GW_OPEN_LISTEN_ONLY) {
+        snprintf(how, sizeof how, "listen-only");
+        o2t = l->cfg.listen_only_heartbeat;
+    } else {
+        snprintf(how, sizeof how, "input-only");
+        o2t = l->cfg.input_only_heartbeat;
+    }
     if (DR_IS_CIP(why))
         gw_log_limited(GW_LOG_WARNING, &l->log_limit,
-                       "robot %s: %s (%s): %s: Forward Open refused: CIP 0x%02X/0x%04X %s",
+                       "robot %s: %s (%s): %s: Forward Open refused: CIP 0x%02X/0x%04X %s "
+                       "(path: config %u, O->T %u, T->O %u)",
                        l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
                        (unsigned)DR_CIP_GENERAL(why), (unsigned)DR_CIP_EXTENDED(why),
-                       dr_strerror(why));
+                       dr_strerror(why), (unsigned)l->cfg.config_instance, o2t,
+                       (unsigned)l->cfg.instance[a]);
+    else if (st == DR_CONN_TIMED_OUT && why == DR_ETIMEDOUT)
+        /* not "timed out: timed out": say what timed out */
+        gw_log_limited(GW_LOG_WARNING, &l->log_limit,
+                       "robot %s: %s (%s): timed out: no packet from the robot for %u ms",
+                       l->cfg.name, dr_asm_info(a)->name, how, conn_timeout_ms(l, conn));
     else
         gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s (%s): %s: %s",
                        l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
@@ -518,8 +585,16 @@ static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *
     dr_transport_t tp = port_transport();
     free_slot->port = dr_udp_port_new(rc->local_addr[0] ? rc->local_addr : NULL, num, tp, &err);
     if (free_slot->port == NULL) {
-        gw_log(GW_LOG_ERROR, "robot %s: cannot open UDP %s:%u for Class 1 I/O: %s", rc->name,
-               rc->local_addr[0] ? rc->local_addr : "0.0.0.0", num, dr_strerror(err));
+        /* what to change, for the two causes a configuration fixes */
+        const char *fix = err == DR_EADDRINUSE
+                              ? " (another program has it, e.g. a second gateway or a PLC "
+                                "runtime: set local_address to another address of this host, "
+                                "or local_udp_port to a free port)"
+                          : err == DR_EADDRNOTAVAIL ? " (local_address must be an address of "
+                                                      "this host)"
+                                                    : "";
+        gw_log(GW_LOG_ERROR, "robot %s: cannot open UDP %s:%u for Class 1 I/O: %s%s", rc->name,
+               rc->local_addr[0] ? rc->local_addr : "0.0.0.0", num, dr_strerror(err), fix);
         return NULL;
     }
     snprintf(free_slot->addr, sizeof free_slot->addr, "%s", rc->local_addr);
@@ -602,6 +677,8 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         l->ev[i].ev.fd = -1;
     }
     gw_link_set_robot(l, robot, data);
+    l->rx_base = data->link.rx_packets;
+    l->lost_base = data->link.lost_packets;
     data->o2t_unsent = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T && !(l->o2t_planned & (1u << a)))
@@ -625,6 +702,8 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     cc.serial = rc->originator_serial != 0 ? rc->originator_serial
                                            : dr_originator_serial_local(rc->name);
     cc.transport = client_transport(ports);
+    cc.on_session = on_session;
+    cc.session_user = l;
     memcpy(cc.instance, rc->instance, sizeof cc.instance);
     if (rc->mode == GW_MODE_IMPLICIT) {
         l->port = port_get(ports, rc, epfd);
@@ -644,14 +723,15 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     l->dirty = (1u << DR_ASM_COUNT) - 1u;
     l->data->link.link_state = 1;
     l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
-    dr_client_start(l->client);
-    process(l);
+    /* Before the start, whose first attempt may fail (and say so) at once. */
     bool named = strcmp(ip, rc->host) != 0; /* a host name: show its address too */
     gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s, RPI %u ms, unit ID %u, "
            "originator serial 0x%08lX)",
            rc->name, rc->host, named ? " (" : "", named ? ip : "", named ? ")" : "",
            rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms, rc->unit_id,
            (unsigned long)cc.serial);
+    dr_client_start(l->client);
+    process(l);
     return l;
 }
 
@@ -731,7 +811,7 @@ static void update_status(gw_link_t *l, uint64_t now)
     st->age_ms = (uint32_t)(age / 1000u > UINT32_MAX ? UINT32_MAX : age / 1000u);
     uint64_t limit;
     if (l->cfg.mode == GW_MODE_IMPLICIT) {
-        uint32_t rx = 0, lost = 0, api = 0;
+        uint32_t rx = l->rx_base, lost = l->lost_base, api = 0;
         for (unsigned i = 0; i < NPAIRS; i++) {
             if (l->conn[i] == NULL)
                 continue;
@@ -760,8 +840,8 @@ void gw_link_tick(gw_link_t *l, uint64_t now, bool busy)
 {
     if (l->cfg.mode == GW_MODE_EXPLICIT) {
         explicit_poll(l, now);
-        if (!dr_client_ready(l->client))
-            link_set_up(l, false, DR_ESESSION);
+        if (!dr_client_ready(l->client)) /* why the session failed, if it did */
+            link_set_up(l, false, l->sess_why != DR_OK ? l->sess_why : DR_ESESSION);
         process(l);
     } else if (now >= dr_client_next_deadline(l->client)) {
         dr_client_process_ready(l->client, NULL, 0); /* timers; no socket is ready */

@@ -664,12 +664,20 @@ static void test_connect_failures(void **state)
     /* the connect itself fails after a while */
     F.finish_st = DR_ECONNREFUSED;
     assert_int_equal(dr_client_connect_sync(c), DR_ECONNREFUSED);
-    /* or never finishes: the session times out */
+    /* or never finishes: no answer (TCP's, not a request timeout) */
     F.finish_st = DR_EAGAIN;
     uint64_t t0 = F.now;
-    assert_int_equal(dr_client_connect_sync(c), DR_ETIMEDOUT);
+    assert_int_equal(dr_client_connect_sync(c), DR_ENOANSWER);
     assert_true(F.now - t0 >= 100000u);
+    assert_string_equal(dr_client_last_step(c), "connect");
     F.finish_st = DR_OK;
+    /* connected, but RegisterSession is never answered */
+    F.reg_silent = true;
+    t0 = F.now;
+    assert_int_equal(dr_client_connect_sync(c), DR_ENOREGISTER);
+    assert_true(F.now - t0 >= 100000u);
+    assert_string_equal(dr_client_last_step(c), "register session");
+    F.reg_silent = false;
     /* RegisterSession refused, or answered with session handle 0 */
     F.reg_status = 0x0069;
     assert_int_equal(dr_client_connect_sync(c), DR_ENCAP(0x0069));
@@ -689,6 +697,73 @@ static void test_connect_failures(void **state)
     assert_int_equal(F.rr, rr);
     dr_client_free(c);
     assert_int_equal(F.unregister, 1);
+}
+
+/* What dr_session_cb reports to an event loop that lets the client
+ * reconnect by itself: every failed attempt with its cause, the session
+ * registered, the session ended by the peer; nothing while it closes. */
+typedef struct {
+    dr_status_t why[16];
+    unsigned n;
+} sess_log_t;
+
+static sess_log_t S_LOG; /* file scope: the callback changes it behind the calls */
+
+static void on_session_log(dr_client_t *c, dr_status_t why, void *user)
+{
+    sess_log_t *log = user;
+    assert_true(dr_client_ready(c) == (why == DR_OK));
+    if (log->n < 16)
+        log->why[log->n] = why;
+    log->n++;
+}
+
+static void test_session_callback(void **state)
+{
+    (void)state;
+    memset(&S_LOG, 0, sizeof S_LOG);
+    dr_client_config_t cfg = config(&fake_ops);
+    cfg.on_session = on_session_log;
+    cfg.session_user = &S_LOG;
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    /* refused at once: told from the first attempt, and from each retry */
+    F.connect_st = DR_ECONNREFUSED;
+    assert_int_equal(dr_client_start(c), DR_OK);
+    assert_int_equal(S_LOG.n, 1);
+    assert_int_equal(S_LOG.why[0], DR_ECONNREFUSED);
+    run_for(c, 25); /* backoff 10 ms, then 20 ms */
+    assert_true(S_LOG.n >= 2);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_ECONNREFUSED);
+    /* the TCP connect never completes: no answer at the 100 ms timeout */
+    F.connect_st = DR_OK;
+    F.finish_st = DR_EAGAIN;
+    unsigned n = S_LOG.n;
+    run_for(c, 200);
+    assert_true(S_LOG.n > n);
+    assert_int_equal(S_LOG.why[n], DR_ENOANSWER);
+    /* connected, RegisterSession never answered */
+    F.finish_st = DR_OK;
+    F.reg_silent = true;
+    n = S_LOG.n;
+    run_for(c, 200);
+    assert_true(S_LOG.n > n);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_ENOREGISTER);
+    /* registered, then closed by the peer, then registered again */
+    F.reg_silent = false;
+    run_for(c, 300); /* the attempt under way times out, the next one works */
+    assert_true(S_LOG.n < 16);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_OK);
+    n = S_LOG.n - 1;
+    F.eof_st = DR_ECLOSED;
+    run_for(c, 100);
+    assert_true(S_LOG.n >= n + 3);
+    assert_int_equal(S_LOG.why[n + 1], DR_ECLOSED);
+    assert_int_equal(S_LOG.why[n + 2], DR_OK);
+    /* closing (the peer closes after UnRegisterSession): not told */
+    n = S_LOG.n;
+    dr_client_free(c);
+    assert_int_equal(S_LOG.n, n);
 }
 
 /* A frame longer than any the protocol allows: the stream is given up. */
@@ -1513,7 +1588,8 @@ static void test_class1_trailing_item(void **state)
 /* o2t_follow_us: an O->T packet due within the window goes out with the
  * arriving T->O packet (one wake-up for both), on the shared port the
  * gateway uses; arrivals outside the window move the O->T schedule after
- * three in a row; with no window, arrivals never send. */
+ * three in a row, later, without sending; with no window, arrivals never
+ * send. */
 static void test_class1_follow(void **state)
 {
     (void)state;
@@ -1563,12 +1639,15 @@ static void test_class1_follow(void **state)
         assert_int_equal(F.udp_sent, sent + 1);
         d += 10000u;
     }
+    /* The third: nothing goes now (the last packet left only 4 ms ago),
+     * the deadline moves later, to half a window after the next arrival:
+     * one interval of 15.25 ms. */
     sent = F.udp_sent;
     uint64_t t = d - 6000u;
     F.now = t;
     push_t2o(F.t2o_cid, seq++, 96);
     dr_udp_port_process(p);
-    assert_int_equal(F.udp_sent, sent + 1);
+    assert_int_equal(F.udp_sent, sent);
     assert_int_equal(dr_client_next_deadline(c), t + 10000u + 1250u);
     /* from now on each arrival sends, half a window before the deadline */
     for (int i = 1; i <= 3; i++) {
@@ -1910,6 +1989,102 @@ static void test_cid_lookup(void **state)
     dr_udp_port_free(p);
 }
 
+/* follow_case: T->O arrivals every `period` us (an adapter whose clock
+ * runs slow or fast against ours), each moved by a jitter of up to
+ * `jitter` us, the first `phase` us after our first O->T deadline. */
+typedef struct {
+    const char *what;
+    uint32_t period, jitter;
+    int32_t phase;
+} follow_case_t;
+
+/* One connection at RPI 10 ms with a 2.5 ms follow window against the
+ * arrivals of fc for 20 s of virtual time: the O->T packets, as sent. */
+static void follow_run(const follow_case_t *fc)
+{
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_config_t cfg;
+    dr_udp_port_t *p = shared_port(&fake_batch_ops, &cfg);
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    dr_conn_config_t cc = conn_config(&log);
+    cc.o2t_follow_us = 2500;
+    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    assert_int_equal(dr_client_start(c), DR_OK);
+    for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++) {
+        F.now += 1000u;
+        dr_client_process(c);
+    }
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    uint64_t start = dr_client_next_deadline(c), end = start + 20000000u;
+    uint64_t nominal = (uint64_t)((int64_t)start + fc->phase), arrival = nominal;
+    uint64_t rng = 0x9E3779B97F4A7C15ull, first = 0, last = 0, min_gap = UINT64_MAX;
+    unsigned n = 0, on_arrival = 0, arrivals = 0;
+    uint16_t seq = 1;
+    while (F.now < end) {
+        uint64_t d = dr_client_next_deadline(c);
+        unsigned before = F.udp_sent;
+        bool arrived = arrival <= d;
+        if (arrived) {
+            F.now = arrival > F.now ? arrival : F.now;
+            push_t2o(F.t2o_cid, seq++, 96);
+            assert_int_equal(dr_udp_port_process(p), DR_OK);
+            arrivals++;
+            /* the next one: nominal time, jittered by up to +-jitter */
+            nominal += fc->period;
+            rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+            arrival = nominal + (rng >> 33) % (2u * fc->jitter + 1u) - fc->jitter;
+        } else {
+            F.now = d;
+            dr_client_process_ready(c, NULL, 0);
+        }
+        for (unsigned k = before; k < F.udp_sent; k++, n++) {
+            if (n > 0 && F.now - last < min_gap)
+                min_gap = F.now - last;
+            if (n == 0)
+                first = F.now;
+            last = F.now;
+            on_arrival += arrived;
+        }
+    }
+    print_message("%s: %u O->T packets in %.3f s (%u on arrival), shortest gap %.3f ms\n",
+                  fc->what, n, (double)(last - first) / 1e6, on_arrival, (double)min_gap / 1e3);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED); /* never timed out */
+    /* never closer than API - window (10 ms - 2.5 ms) */
+    assert_true(min_gap >= 7500u);
+    /* never more than one per API: n - 1 intervals fit in the span, give
+     * or take the window the first one may leave early */
+    assert_true((uint64_t)(n - 1u) * 10000u <= last - first + 2500u);
+    /* and it still follows: most packets leave with an arrival */
+    assert_true(on_arrival * 2u >= n);
+    assert_true(n * 10u >= arrivals * 9u && arrivals > 1900u);
+    dr_client_free(c);
+    dr_udp_port_free(p);
+}
+
+/* o2t_follow_us keeps the promises of docs/configuration.md whatever the
+ * adapter's clock: an adapter 1.1 % slow (98.9 packets/s, as measured on a
+ * real one: the old code then sent 104.7/s, with a timer packet and an
+ * arrival's packet 0.02 ms apart), 1.1 % fast, and one on our clock whose
+ * packets arrive just after our deadlines, jittered to either side. */
+static void test_class1_follow_spacing(void **state)
+{
+    (void)state;
+    static const follow_case_t cases[] = {
+        {"adapter 1.1 % slow", 10111u, 0u, 100},
+        {"adapter 1.1 % fast", 9891u, 0u, 100},
+        {"same clock, jitter", 10000u, 150u, 100},
+        {"same clock, just early", 10000u, 0u, -100},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        unsigned fo = F.fwd_open;
+        follow_run(&cases[i]);
+        assert_int_equal(F.fwd_open, fo + 1u);
+    }
+}
+
 /* dr_client_next_deadline is kept between calls (lib/client.c): after each
  * event that moves it, it is the new one at once, also when a state
  * callback asked in the middle of the change. Shared port, O->T on
@@ -2142,6 +2317,7 @@ int main(void)
         cmocka_unit_test_setup(test_new_refuses, setup),
         cmocka_unit_test_setup(test_shared_port_limits, setup),
         cmocka_unit_test_setup(test_connect_failures, setup),
+        cmocka_unit_test_setup(test_session_callback, setup),
         cmocka_unit_test_setup(test_overlong_frame, setup),
         cmocka_unit_test_setup(test_reply_sizes, setup),
         cmocka_unit_test_setup(test_bad_replies, setup),
@@ -2153,6 +2329,7 @@ int main(void)
         cmocka_unit_test_setup(test_class1_io, setup),
         cmocka_unit_test_setup(test_class1_refused_and_batch, setup),
         cmocka_unit_test_setup(test_class1_follow, setup),
+        cmocka_unit_test_setup(test_class1_follow_spacing, setup),
         cmocka_unit_test_setup(test_class1_seq_repeat, setup),
         cmocka_unit_test_setup(test_class1_seq_forged, setup),
         cmocka_unit_test_setup(test_class1_open_timeout_resets, setup),
