@@ -130,6 +130,10 @@ int cli_net_config(const char *cmd, const cli_net_opts_t *o,
         if (!parse_instance(cmd, o->instance.v[i], cfg))
             return CLI_EXIT_USAGE;
     cfg->route = o->route;
+    /* drcli sends no Forward Open (explicit messaging only), where the
+     * originator serial would count; it still passes a stable one, as
+     * drgatewayd does, rather than the library's clock fallback. */
+    cfg->serial = dr_originator_serial_local(cfg->host);
     return CLI_EXIT_OK;
 }
 
@@ -152,7 +156,7 @@ int cli_net_fail(cli_net_t *net, dr_status_t st, const char *what)
     else if (DR_IS_ENCAP(st))
         snprintf(detail, sizeof detail, " (encapsulation status 0x%04x)",
                  (unsigned)(st & 0xFFFF));
-    else if (st == DR_ETIMEDOUT)
+    else if (st == DR_ETIMEDOUT || st == DR_ENOANSWER || st == DR_ENOREGISTER)
         snprintf(detail, sizeof detail, " after %" PRIu32 " ms", net->timeout_ms);
     return cli_error(cli_net_exit_code(st), net->cmd, "%s: %s%s%s: %s%s",
                      net->where, step[0] != '\0' ? step : "request",

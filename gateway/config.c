@@ -101,6 +101,7 @@ enum {
     RK_CONFIG_INSTANCE,
     RK_INPUT_ONLY_HEARTBEAT,
     RK_LISTEN_ONLY_HEARTBEAT,
+    RK_ORIGINATOR_SERIAL,
     RK_COUNT
 };
 static const key_desc_t robot_keys[RK_COUNT] = {
@@ -119,6 +120,7 @@ static const key_desc_t robot_keys[RK_COUNT] = {
     [RK_CONFIG_INSTANCE] = { "config_instance", "1..65535" },
     [RK_INPUT_ONLY_HEARTBEAT] = { "input_only_heartbeat", "1..65535" },
     [RK_LISTEN_ONLY_HEARTBEAT] = { "listen_only_heartbeat", "1..65535" },
+    [RK_ORIGINATOR_SERIAL] = { "originator_serial", "1..4294967295, or 0x1..0xFFFFFFFF" },
 };
 #define INSTANCE_PREFIX "instance."
 #define OPEN_PREFIX "open."
@@ -408,6 +410,27 @@ static bool get_uint(ctx_t *c, const char *key, const char *v, unsigned long lo,
         return false;
     }
     *out = x;
+    return true;
+}
+
+/* An originator serial number: decimal as get_uint, or 0x and 1 to 8 hex
+ * digits; never 0 (the robot's default, see gw_robot_config_t). */
+static bool get_serial(ctx_t *c, const char *key, const char *v, unsigned long *out)
+{
+    if (v[0] != '0' || (v[1] != 'x' && v[1] != 'X'))
+        return get_uint(c, key, v, 1, 4294967295ul, out);
+    size_t n = strspn(v + 2, "0123456789abcdefABCDEF");
+    if (n == 0 || n > 8 || v[2 + n] != '\0') {
+        fail(c, c->lineno, "%s '%s' invalid: not a 32-bit hex number (allowed: "
+             "1..4294967295, or 0x1..0xFFFFFFFF)", key, v);
+        return false;
+    }
+    *out = strtoul(v + 2, NULL, 16);
+    if (*out == 0) {
+        fail(c, c->lineno, "%s %s out of range (allowed: 1..4294967295, or 0x1..0xFFFFFFFF)",
+             key, v);
+        return false;
+    }
     return true;
 }
 
@@ -1079,6 +1102,10 @@ static void robot_key(ctx_t *c, const char *name, const char *v)
     case RK_LISTEN_ONLY_HEARTBEAT:
         if (get_uint(c, name, v, 1, 65535, &n))
             r->listen_only_heartbeat = (uint16_t)n;
+        break;
+    case RK_ORIGINATOR_SERIAL: /* often written in hex, as tools show it */
+        if (get_serial(c, name, v, &n))
+            r->originator_serial = (uint32_t)n;
         break;
     default: break;
     }
@@ -2225,7 +2252,8 @@ bool gw_robot_config_same_link(const gw_robot_config_t *a,
            memcmp(a->instance, b->instance, sizeof a->instance) == 0 &&
            a->config_instance == b->config_instance &&
            a->input_only_heartbeat == b->input_only_heartbeat &&
-           a->listen_only_heartbeat == b->listen_only_heartbeat && same_plan(a, b);
+           a->listen_only_heartbeat == b->listen_only_heartbeat &&
+           a->originator_serial == b->originator_serial && same_plan(a, b);
 }
 
 const char *gw_word_order_name(gw_word_order_t w)

@@ -29,7 +29,9 @@ static dr_status_t errno_status(int e)
     case EINTR:
         return DR_EAGAIN;
     case ECONNREFUSED: return DR_ECONNREFUSED;
-    case ETIMEDOUT: return DR_ETIMEDOUT;
+    case ETIMEDOUT: return DR_ENOANSWER; /* TCP's: not a request timeout */
+    case EHOSTUNREACH: return DR_EHOSTUNREACH; /* lwIP's ERR_RTE: no route */
+    case EADDRINUSE: return DR_EADDRINUSE;
     case EPIPE:
     case ENOTCONN:
     case ECONNRESET:
@@ -139,8 +141,9 @@ static dr_status_t lw_udp_open(void *ctx, dr_sockaddr_t local, int *h)
     (void)lwip_setsockopt(s, SOL_SOCKET, SO_BROADCAST, &one, sizeof one);
     struct sockaddr_in sin = to_sin(local);
     if (lwip_bind(s, (struct sockaddr *)&sin, sizeof sin) < 0) {
+        dr_status_t st = errno_status(errno); /* DR_EADDRINUSE */
         lwip_close(s);
-        return DR_EIO;
+        return st == DR_EAGAIN ? DR_EIO : st;
     }
     *h = s;
     return DR_OK;
@@ -221,11 +224,26 @@ static dr_status_t lw_wait(void *ctx, const int *h, const bool *want_out, int n,
 #define LW_WAIT NULL /* the application drives the client */
 #endif
 
+#if LWIP_SO_LINGER
+/* Linger 0: lwIP aborts the connection (a reset) and drops unsent data. */
+static void lw_tcp_abort(void *ctx, int h)
+{
+    struct linger lg = {1, 0};
+    if (h >= 0)
+        (void)lwip_setsockopt(h, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
+    lw_close(ctx, h);
+}
+#define LW_TCP_ABORT lw_tcp_abort
+#else
+#define LW_TCP_ABORT NULL /* close: queued requests may still go out */
+#endif
+
 static const dr_transport_ops_t lwip_ops = {
     lw_resolve,  lw_tcp_connect, lw_tcp_finish, lw_tcp_send,
     lw_tcp_recv, lw_udp_open,    lw_udp_send,   lw_udp_recv,
     NULL,        NULL,           lw_close,      lw_now_us,
     NULL,        LW_WAIT,        NULL,          NULL,
+    LW_TCP_ABORT,
 };
 
 dr_transport_t dr_transport_lwip(dr_lwip_t *lw)
