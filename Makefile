@@ -50,7 +50,7 @@ pc = $(shell $(PKG_CONFIG) $(1) $(2) 2>/dev/null)
 # the headers it read (-MMD) next to it, with an empty rule per header
 # (-MP: a header deleted later does not break the build); the lists are
 # read at the end of this file. So touching any header rebuilds exactly
-# what includes it. mk/check-deps.sh (make check-deps, in check-quick)
+# what includes it. mk/check-deps.py (make check-deps, in check-quick)
 # checks that this holds for every header of the tree.
 #
 # Each compile rule also names its list as a prerequisite: a file whose
