@@ -40,7 +40,8 @@ WARN    := -std=c99 -Wall -Wextra -Wpedantic $(WERROR) -Wshadow \
 HARDEN  ?= -fstack-protector-strong -D_FORTIFY_SOURCE=2
 PIE_CFLAGS  ?= -fPIE
 PIE_LDFLAGS ?= -pie
-ALL_CPPFLAGS := -Ilib/include -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
+# -I.: the programs include what they share as "common/NAME.h".
+ALL_CPPFLAGS := -Ilib/include -I. -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
 ALL_CFLAGS   := $(WARN) $(HARDEN) $(PIE_CFLAGS) $(CFLAGS)
 ALL_LDFLAGS  := $(PIE_LDFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 
@@ -60,6 +61,11 @@ LIB_SO        := $(B)/libdrgate.so.$(VERSION)
 LIB_HDR       := $(wildcard lib/include/drgate/*.h)
 
 # ---- programs --------------------------------------------------------------
+# What drsim and drgatewayd share (Linux only, so not in the library): the
+# event loop.
+COMMON_SRC  := $(sort $(wildcard common/*.c))
+COMMON_HDR  := $(wildcard common/*.h)
+COMMON_OBJ  := $(COMMON_SRC:%.c=$(B)/%.o)
 JSON_CFLAGS := $(call pc,--cflags,jansson)
 JSON_LIBS   := $(call pc,--libs,jansson)
 CLI_SRC     := $(sort $(wildcard cli/*.c))
@@ -91,6 +97,8 @@ $(B)/%.o: %.c $(LIB_HDR)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC -c $< -o $@
 
+$(COMMON_OBJ): $(COMMON_HDR)
+
 $(LIB_A): $(LIB_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
@@ -106,9 +114,9 @@ $(CLI_BIN): $(CLI_SRC) $(CLI_HDR) $(LIB_A) $(LIB_HDR)
 	    $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
 	    -o $@ $(CLI_SRC) $(LIB_A) $(JSON_LIBS) -lm
 
-$(SIM_BIN): sim/main.c $(SIM_LIB_SRC) $(SIM_HDR) $(LIB_A) $(LIB_HDR)
+$(SIM_BIN): sim/main.c $(SIM_LIB_SRC) $(SIM_HDR) $(COMMON_SRC) $(COMMON_HDR) $(LIB_A) $(LIB_HDR)
 	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
-	    -o $@ sim/main.c $(SIM_LIB_SRC) $(LIB_A) -lm
+	    -o $@ sim/main.c $(SIM_LIB_SRC) $(COMMON_SRC) $(LIB_A) -lm
 
 $(B)/tests/test_sim_%: tests/test_sim_%.c $(SIM_LIB_SRC) $(SIM_HDR) $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)

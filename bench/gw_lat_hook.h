@@ -13,8 +13,9 @@
 struct epoll_event;
 int gw_bench_epoll_wait(int epfd, struct epoll_event *events, int maxevents, int timeout);
 #define epoll_wait gw_bench_epoll_wait
-/* The same for the loop's epoll_pwait2, which is a syscall() in main.c. */
+/* The same for the loop's epoll_pwait2, which is a syscall() in
+ * common/ev.c. */
 void gw_bench_woke(void);
-#define GW_BENCH_WOKE() gw_bench_woke()
+#define EV_BENCH_WOKE() gw_bench_woke()
 
 #endif

@@ -8,10 +8,10 @@
 #include <sys/epoll.h>
 #include <sys/socket.h>
 
+#include "common/ev.h"
 #include "drgate/client.h"
 #include "link.h"
 #include "log.h"
-#include "loop.h"
 
 /* One Class 1 connection per T->O assembly, as the configuration's plan
  * opens it (gw_robot_config_t.open; by default the four O->T assemblies
@@ -26,7 +26,7 @@ static const dr_asm_t slot_t2o[] = {
 
 /* A descriptor of the client in the loop, and whose it is. */
 typedef struct {
-    gw_ev_t ev;
+    ev_t ev;
     struct gw_link *link;
 } link_ev_t;
 
@@ -76,7 +76,7 @@ typedef struct shared_port {
     char addr[64];
     uint16_t num;
     unsigned refs;
-    gw_ev_t ev;
+    ev_t ev;
     uint64_t read_us; /* when it was last read to the end */
 } shared_port_t;
 
@@ -180,11 +180,11 @@ static void sync_fds(gw_link_t *l)
             /* A slot whose fd moved must leave epoll before another takes it. */
             for (int j = 0; j < DR_CLIENT_MAX_FDS; j++)
                 if (j != i && l->ev[j].ev.fd == fds[i].fd)
-                    gw_loop_unwatch(l->epfd, &l->ev[j].ev);
-            if (!gw_loop_watch(l->epfd, &l->ev[i].ev, fds[i].fd, ev))
+                    ev_unwatch(l->epfd, &l->ev[j].ev);
+            if (!ev_watch(l->epfd, &l->ev[i].ev, fds[i].fd, ev))
                 gw_log_limited(GW_LOG_ERROR, &l->log_limit, "robot %s: epoll failed", l->cfg.name);
         } else {
-            gw_loop_unwatch(l->epfd, &l->ev[i].ev);
+            ev_unwatch(l->epfd, &l->ev[i].ev);
         }
     }
 }
@@ -246,7 +246,7 @@ int gw_bench_epoll_wait(int epfd, struct epoll_event *events, int maxevents, int
     return n;
 }
 
-/* The loop woke up from epoll_pwait2 (gateway/main.c, GW_BENCH_WOKE). */
+/* The loop woke up from epoll_pwait2 (common/ev.c, EV_BENCH_WOKE). */
 void gw_bench_woke(void)
 {
     lat_wake_ns = realtime_ns();
@@ -325,7 +325,7 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
         if (l->conn[i] != conn)
             continue;
         dr_asm_t a = slot_t2o[i];
-        l->last_rx_us[a] = gw_now_us();
+        l->last_rx_us[a] = ev_now_us();
         if (data_withheld(l))
             continue;
         memcpy(l->data->img[a], data, len);
@@ -477,7 +477,7 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
         return;
     }
     if (info->dir == DR_DIR_T2O) {
-        l->last_rx_us[pc->a] = gw_now_us(); /* the link's health: counted anyway */
+        l->last_rx_us[pc->a] = ev_now_us(); /* the link's health: counted anyway */
         l->data->link.rx_packets++;
         if (!data_withheld(l)) {
             memcpy(l->data->img[pc->a], data, len);
@@ -528,7 +528,7 @@ static void on_port(void *obj, uint32_t events)
     shared_port_t *sp = obj;
     (void)events;
     dr_udp_port_process(sp->port);
-    sp->read_us = gw_now_us();
+    sp->read_us = ev_now_us();
 }
 
 static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *rc, int epfd)
@@ -563,7 +563,7 @@ static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *
     free_slot->ev.fn = on_port;
     free_slot->ev.obj = free_slot;
     free_slot->ev.fd = -1;
-    if (!gw_loop_watch(epfd, &free_slot->ev, dr_udp_port_fd(free_slot->port), EPOLLIN))
+    if (!ev_watch(epfd, &free_slot->ev, dr_udp_port_fd(free_slot->port), EPOLLIN))
         gw_log(GW_LOG_ERROR, "robot %s: epoll failed for the UDP port", rc->name);
     return free_slot;
 }
@@ -572,7 +572,7 @@ static void port_put(shared_port_t *sp, int epfd)
 {
     if (sp == NULL || --sp->refs > 0)
         return;
-    gw_loop_unwatch(epfd, &sp->ev);
+    ev_unwatch(epfd, &sp->ev);
     dr_udp_port_free(sp->port);
     sp->port = NULL;
 }
@@ -669,7 +669,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         gw_link_free(l, NULL);
         return NULL;
     }
-    l->start_us = gw_now_us();
+    l->start_us = ev_now_us();
     l->dirty = (1u << DR_ASM_COUNT) - 1u;
     l->data->link.link_state = 1;
     l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
@@ -688,7 +688,7 @@ void gw_link_free(gw_link_t *l, const char *why)
         return;
     l->closing = why != NULL ? why : "closed";
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++)
-        gw_loop_unwatch(l->epfd, &l->ev[i].ev);
+        ev_unwatch(l->epfd, &l->ev[i].ev);
     /* SIGTERM must end within a second even with a slow robot: the
      * Forward Close replies get a short wait. */
     if (l->client != NULL)

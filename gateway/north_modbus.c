@@ -18,8 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/ev.h"
 #include "log.h"
-#include "loop.h"
 #include "mbrtu.h"
 #include "mbserver.h"
 #include "north.h"
@@ -136,7 +136,7 @@ static void writer_wrote(void *side)
     tcp_t *t = side;
     if (t->ctx.mb->env->cfg->modbus.single_writer && !t->writer_seen) {
         t->writer_seen = true;
-        t->watchdog_change_us = gw_now_us();
+        t->watchdog_change_us = ev_now_us();
     }
 }
 

@@ -32,13 +32,13 @@ $(B)/bench/gw_plain_server: bench/gw_plain_server.c gateway/regmap.h $(LIB_HDR)
 # The daemon with the latency instrumentation (gateway/link.c,
 # GW_BENCH_LATENCY; bench/gw_lat_hook.h notes when the loop wakes up); the
 # throughput, RSS and CPU figures use the real one.
-$(B)/bench/drgatewayd-lat: gateway/main.c $$(GW_LIB_SRC) $$(GPIO_A) $(LIB_A) $$(GW_HDR) \
-                           $(LIB_HDR) bench/gw_lat_hook.h
+$(B)/bench/drgatewayd-lat: gateway/main.c $$(GW_LIB_SRC) $(COMMON_SRC) $$(GPIO_A) $(LIB_A) \
+                           $$(GW_HDR) $(COMMON_HDR) $(LIB_HDR) bench/gw_lat_hook.h
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) -Igateway -DGW_BENCH_LATENCY -include bench/gw_lat_hook.h \
 	    -DDRGATE_VERSION='"$(VERSION)"' \
 	    $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS) -fPIE -pie \
-	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
+	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(COMMON_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
 	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
 
 bench-gw: $$(GW_BIN) $(SIM_BIN) $(GW_BENCH_BIN)
