@@ -10,7 +10,9 @@
 #   tool   the program argument's name in the usage line
 # calls doc_args "$@" (sets mode and bin from --write BIN | --check BIN
 # RESULTS), generates the text, and calls doc_between MODE GENERATED
-# [RESULTS].
+# [RESULTS]. A document with a second generated block renders the first
+# one into a copy with doc_render, points `doc` at that copy and `target`
+# at the document, and calls doc_between for the second one.
 
 doc_args() {
     if [ $# -lt 2 ] || { [ "$1" != --write ] && [ "$1" != --check ]; } ||
@@ -43,6 +45,7 @@ doc_render() {
 # --write: replace the document if it changed. --check: compare, and add
 # "1 0 LABEL" or "0 1 LABEL" to RESULTS. Exits 1 on a failure.
 doc_between() {
+    target=${target:-$doc}
     rendered=$(mktemp)
     if ! doc_render "$2" >"$rendered"; then
         rm -f "$rendered"
@@ -51,22 +54,22 @@ doc_between() {
     fi
     case $1 in
     --write)
-        if cmp -s "$rendered" "$doc"; then
-            echo "$label: $doc is up to date"
+        if cmp -s "$rendered" "$target"; then
+            echo "$label: $target is up to date"
         else
-            cp "$rendered" "$doc"
-            echo "$label: regenerated the tables in $doc"
+            cp "$rendered" "$target"
+            echo "$label: regenerated the tables in $target"
         fi
         ;;
     --check)
         mkdir -p "$(dirname "$3")"
-        if cmp -s "$rendered" "$doc"; then
-            echo "$label: $doc matches $source"
+        if cmp -s "$rendered" "$target"; then
+            echo "$label: $target matches $source"
             echo "1 0 $label" >>"$3"
         else
-            echo "$label: FAIL: $doc differs from what $source gives" >&2
+            echo "$label: FAIL: $target differs from what $source gives" >&2
             echo "$label: (- is the document, + is the generated text)" >&2
-            diff -u "$doc" "$rendered" | sed 's/^/    /' >&2 || true
+            diff -u "$target" "$rendered" | sed 's/^/    /' >&2 || true
             echo "0 1 $label" >>"$3"
             rm -f "$rendered"
             exit 1
