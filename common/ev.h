@@ -73,7 +73,8 @@ bool ev_signals(ev_loop_t *L, const int *signals, size_t n, ev_signal_fn fn, voi
  * if the wait itself failed. */
 int ev_run(ev_loop_t *L, uint64_t deadline_ns);
 
-/* Register, change or remove ev->fd in the set `epfd` (events 0 removes).
+/* Register ev->fd in the set `epfd` for `events`, or change what it waits
+ * for (another fd replaces the one registered); ev_unwatch removes it.
  * Asking again for what is registered costs no system call. Returns false
  * on an epoll error. */
 bool ev_watch(int epfd, ev_t *ev, int fd, uint32_t events);
