@@ -486,7 +486,7 @@ void gw_cfg_key(gw_cfg_ctx_t *c, const char *name, const char *v)
     if (c->side == NULL) {
         gw_cfg_fail(c, c->lineno,
                     "key '%s' outside any section (allowed sections: %s)", name,
-                    gw_cfg_sections_allowed());
+                    gw_config_sections());
         return;
     }
     int ki = find_key(c->side, name);
@@ -521,7 +521,7 @@ void gw_cfg_key(gw_cfg_ctx_t *c, const char *name, const char *v)
 
 /* ---- sections -------------------------------------------------------------- */
 
-const char *gw_cfg_sections_allowed(void)
+const char *gw_config_sections(void)
 {
     static char text[160];
     size_t len = 0;
@@ -544,10 +544,10 @@ static void unknown_section(gw_cfg_ctx_t *c, const char *kw, const char *rest)
     if (g.best[0] != '\0')
         gw_cfg_fail(c, c->lineno,
                     "unknown section [%s] (did you mean [%s%s]? allowed: %s)",
-                    c->sec_text, g.best, rest, gw_cfg_sections_allowed());
+                    c->sec_text, g.best, rest, gw_config_sections());
     else
         gw_cfg_fail(c, c->lineno, "unknown section [%s] (allowed: %s)",
-                    c->sec_text, gw_cfg_sections_allowed());
+                    c->sec_text, gw_config_sections());
 }
 
 /* Keys now go to section idx of s. */

@@ -203,6 +203,9 @@ void gw_config_defaults(gw_config_t *cfg);
  * an unchanged robot keeps its connection). */
 bool gw_robot_config_same_link(const gw_robot_config_t *a, const gw_robot_config_t *b);
 
+/* "[daemon], [modbus], [robot NAME], ...": every section, for messages. */
+const char *gw_config_sections(void);
+
 /* The keys of [section] ("robot", "modbus", ...: the keyword) as a
  * Markdown table: key, default, allowed, meaning (the tables of
  * docs/configuration.md). False for an unknown section. */

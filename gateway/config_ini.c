@@ -173,7 +173,7 @@ bool gw_cfg_ini_read(gw_cfg_ctx_t *c, char *err, size_t errlen)
         if ((unsigned)ret == c->bad_header_line)
             gw_cfg_fail(c, (unsigned)ret,
                         "section header without a closing ']' (allowed: %s)",
-                        gw_cfg_sections_allowed());
+                        gw_config_sections());
         else
             gw_cfg_fail(c, (unsigned)ret,
                         "syntax error (allowed: [section], key = value, or a "

@@ -207,8 +207,6 @@ void *gw_cfg_scratch(gw_cfg_ctx_t *c, const gw_cfg_side_t *s, unsigned i);
 /* Every GW_CFG_REQUIRED key of section i is set; false after the
  * message. */
 bool gw_cfg_require(gw_cfg_ctx_t *c, const gw_cfg_side_t *s, unsigned i);
-/* "[daemon], [modbus], [robot NAME], ..." */
-const char *gw_cfg_sections_allowed(void);
 
 /* The reader (config_ini.c) calls these two. */
 void gw_cfg_begin_section(gw_cfg_ctx_t *c, const char *raw);
