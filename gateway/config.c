@@ -181,15 +181,14 @@ bool gw_cfg_get_uint(gw_cfg_ctx_t *c, const char *key, const char *v,
 static bool get_enum(gw_cfg_ctx_t *c, const char *key, const char *v,
                      const char *const *names, unsigned *out)
 {
-    size_t n = count_names(names);
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = 0; names[i] != NULL; i++) {
         if (strcmp(v, names[i]) == 0) {
             *out = (unsigned)i;
             return true;
         }
     }
     char allowed[128];
-    gw_cfg_join(names, n, allowed, sizeof allowed);
+    gw_cfg_join(names, count_names(names), allowed, sizeof allowed);
     gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", key, v,
                 allowed);
     return false;

@@ -72,9 +72,9 @@ static size_t split_words(char *buf, char **word, size_t n)
 static bool allow_prefix(gw_cfg_ctx_t *c, const char *v, const char *p,
                          unsigned long *prefix)
 {
-    char *end;
-    *prefix = gw_cfg_is_digit(*p) ? strtoul(p, &end, 10) : 99;
-    if (!gw_cfg_is_digit(*p) || *end != '\0' || *prefix > 32) {
+    size_t digits = strspn(p, "0123456789");
+    *prefix = digits > 0 ? strtoul(p, NULL, 10) : 99;
+    if (digits == 0 || p[digits] != '\0' || *prefix > 32) {
         gw_cfg_fail(c, c->lineno,
                     "allow '%s' invalid: prefix length '%s' (allowed: 0..32)", v,
                     p);

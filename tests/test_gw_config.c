@@ -1220,36 +1220,37 @@ static size_t names_in(const char *const *names)
 static void check_key(const gw_cfg_side_t *s, const gw_cfg_key_t *k)
 {
     size_t n = names_in(k->names);
+    const char *name = k->name != NULL ? k->name : "";
     bool integer = k->type == GW_CFG_UINT || k->type == GW_CFG_ENUM ||
                    k->type == GW_CFG_BOOL;
-    if (k->name == NULL || k->name[0] == '\0' || k->help == NULL || k->help[0] == '\0')
-        fail_msg("[%s] key %s: no name or no help", s->kw, k->name ? k->name : "?");
+    if (name[0] == '\0' || k->help == NULL || k->help[0] == '\0')
+        fail_msg("[%s] key '%s': no name or no help", s->kw, name);
     if (integer && k->size != 1 && k->size != 2 && k->size != 4)
-        fail_msg("[%s] %s: a %zu-byte integer", s->kw, k->name, k->size);
+        fail_msg("[%s] %s: a %zu-byte integer", s->kw, name, k->size);
     if (k->type == GW_CFG_BOOL && k->size != sizeof(bool))
-        fail_msg("[%s] %s: not a bool", s->kw, k->name);
+        fail_msg("[%s] %s: not a bool", s->kw, name);
     if (k->type == GW_CFG_UINT &&
         (k->lo > k->hi || k->def < k->lo || k->def > k->hi ||
          (k->size < 4 && k->hi >= 1ul << (8 * k->size)) || k->hi > 0xFFFFFFFFul))
         fail_msg("[%s] %s: range %lu..%lu, default %lu in %zu bytes", s->kw,
-                 k->name, k->lo, k->hi, k->def, k->size);
+                 name, k->lo, k->hi, k->def, k->size);
     if ((k->type == GW_CFG_ENUM || k->type == GW_CFG_WORD) &&
         (n == 0 || (k->type == GW_CFG_ENUM && k->def >= n)))
-        fail_msg("[%s] %s: %zu names, default %lu", s->kw, k->name, n, k->def);
+        fail_msg("[%s] %s: %zu names, default %lu", s->kw, name, n, k->def);
     for (size_t i = 0; k->type == GW_CFG_WORD && i < n; i++)
         if (strlen(k->names[i]) >= k->size)
-            fail_msg("[%s] %s: '%s' does not fit", s->kw, k->name, k->names[i]);
+            fail_msg("[%s] %s: '%s' does not fit", s->kw, name, k->names[i]);
     if (k->def_text != NULL && strlen(k->def_text) >= k->size)
-        fail_msg("[%s] %s: default '%s' does not fit", s->kw, k->name, k->def_text);
+        fail_msg("[%s] %s: default '%s' does not fit", s->kw, name, k->def_text);
     if ((k->type == GW_CFG_HOOK || k->type == GW_CFG_PREFIX) && k->parse == NULL)
-        fail_msg("[%s] %s: no parse hook", s->kw, k->name);
-    if (k->type == GW_CFG_PREFIX && (k->item == NULL || strchr(k->name, '<') == NULL))
-        fail_msg("[%s] %s: a family without items or '<'", s->kw, k->name);
+        fail_msg("[%s] %s: no parse hook", s->kw, name);
+    if (k->type == GW_CFG_PREFIX && (k->item == NULL || strchr(name, '<') == NULL))
+        fail_msg("[%s] %s: a family without items or '<'", s->kw, name);
     if ((k->type == GW_CFG_TEXT || k->type == GW_CFG_IPV4 || k->type == GW_CFG_HOST ||
          k->type == GW_CFG_HOOK) && k->allowed == NULL)
-        fail_msg("[%s] %s: no allowed text for messages", s->kw, k->name);
+        fail_msg("[%s] %s: no allowed text for messages", s->kw, name);
     if ((k->flags & GW_CFG_LINK) && s != &gw_cfg_robot)
-        fail_msg("[%s] %s: only robot keys reconnect a link", s->kw, k->name);
+        fail_msg("[%s] %s: only robot keys reconnect a link", s->kw, name);
 }
 
 static void test_key_tables(void **state)
@@ -1286,8 +1287,10 @@ static void test_print_keys(void **state)
             char cell[80];
             snprintf(cell, sizeof cell, "\n| `%s` |", s->keys[k].name);
             const char *q = strstr(p, cell);
-            if (q == NULL)
+            if (q == NULL) {
                 fail_msg("[%s]: %s missing or out of order", s->kw, s->keys[k].name);
+                return;
+            }
             p = q + 1;
         }
     }
