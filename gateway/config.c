@@ -40,8 +40,7 @@ const gw_cfg_side_t gw_cfg_daemon = {
     .kw = "daemon",
     .name_off = GW_CFG_NONE,
     .line_off = GW_CFG_NONE,
-    .keys = daemon_keys,
-    .nkeys = GW_CFG_COUNT(daemon_keys),
+    GW_CFG_KEYS(daemon_keys),
 };
 
 /* ---- messages ------------------------------------------------------------ */
@@ -113,6 +112,15 @@ void gw_cfg_guess(gw_cfg_guess_t *g, const char *cand)
         g->dist = d;
         snprintf(g->best, sizeof g->best, "%s", cand);
     }
+}
+
+const char *gw_cfg_did_you_mean(const gw_cfg_guess_t *g, const char *open,
+                                const char *close, char *buf, size_t size)
+{
+    if (g->best[0] == '\0')
+        return "";
+    snprintf(buf, size, "did you mean %s%s%s? ", open, g->best, close);
+    return buf;
 }
 
 void gw_cfg_join(const char *const *names, size_t n, char *buf, size_t size)
@@ -194,13 +202,18 @@ static bool get_enum(gw_cfg_ctx_t *c, const char *key, const char *v,
     return false;
 }
 
+static bool valid_ipv4(const char *v)
+{
+    struct in_addr a;
+    return inet_pton(AF_INET, v, &a) == 1;
+}
+
 /* An IPv4 address, or a DNS name (letters, digits, '-', dot-separated
  * labels). All digits and dots but not an address is a typo ("10.0.0.256"),
  * not a name to look up. */
 static bool valid_host(const char *h)
 {
-    struct in_addr a;
-    if (inet_pton(AF_INET, h, &a) == 1)
+    if (valid_ipv4(h))
         return true;
     bool numeric = true;
     for (const char *p = h; *p; p++)
@@ -222,6 +235,28 @@ static bool valid_host(const char *h)
             return false;
         }
     }
+}
+
+/* Whether a TEXT, IPV4 or HOST value passes its check, and what a
+ * refused one is told is allowed (NULL: no check). */
+static bool text_valid(const gw_cfg_key_t *k, const char *v)
+{
+    if (k->type == GW_CFG_IPV4)
+        return valid_ipv4(v);
+    if (k->type == GW_CFG_HOST)
+        return valid_host(v);
+    return k->valid == NULL || k->valid(v);
+}
+
+static const char *text_allowed(const gw_cfg_key_t *k)
+{
+    if (k->type == GW_CFG_IPV4)
+        return "an IPv4 address such as 192.168.1.10";
+    if (k->type == GW_CFG_HOST)
+        return "an IPv4 address or a host name";
+    if (k->valid == NULL)
+        return NULL;
+    return k->invalid != NULL ? k->invalid : k->allowed;
 }
 
 /* x into an integer of `size` bytes (a UINT's or ENUM's value, or a
@@ -410,15 +445,11 @@ static void unknown_key(gw_cfg_ctx_t *c, const char *name)
             gw_cfg_guess(&g, member);
         }
     }
-    char allowed[400];
+    char allowed[400], hint[96];
     gw_cfg_join(names, n, allowed, sizeof allowed);
-    if (g.best[0] != '\0')
-        gw_cfg_fail(c, c->lineno,
-                    "unknown key '%s' in [%s] (did you mean '%s'? allowed: %s)",
-                    name, c->sec_text, g.best, allowed);
-    else
-        gw_cfg_fail(c, c->lineno, "unknown key '%s' in [%s] (allowed: %s)",
-                    name, c->sec_text, allowed);
+    gw_cfg_fail(c, c->lineno, "unknown key '%s' in [%s] (%sallowed: %s)", name,
+                c->sec_text, gw_cfg_did_you_mean(&g, "'", "'", hint, sizeof hint),
+                allowed);
 }
 
 /* The value by the key's type (a key with a parse hook has no call). */
@@ -447,32 +478,16 @@ static void parse_value(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
             gw_cfg_copy(c, name, k->names[i], dst, k->size);
         break;
     case GW_CFG_TEXT:
-        if (k->valid != NULL && !k->valid(v))
+    case GW_CFG_IPV4:
+    case GW_CFG_HOST: {
+        const char *allowed = text_allowed(k);
+        if (allowed != NULL && !text_valid(k, v))
             gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v,
-                        k->invalid != NULL ? k->invalid : k->allowed);
-        else
-            gw_cfg_copy(c, name, v, dst, k->size);
-        break;
-    case GW_CFG_IPV4: {
-        struct in_addr a;
-        if (inet_pton(AF_INET, v, &a) != 1)
-            gw_cfg_fail(c, c->lineno,
-                        "%s '%s' invalid (allowed: an IPv4 address such as "
-                        "192.168.1.10)",
-                        name, v);
+                        allowed);
         else
             gw_cfg_copy(c, name, v, dst, k->size);
         break;
     }
-    case GW_CFG_HOST:
-        if (!valid_host(v))
-            gw_cfg_fail(c, c->lineno,
-                        "%s '%s' invalid (allowed: an IPv4 address or a host "
-                        "name)",
-                        name, v);
-        else
-            gw_cfg_copy(c, name, v, dst, k->size);
-        break;
     case GW_CFG_HOOK:
     case GW_CFG_PREFIX:
         gw_cfg_fail(c, c->lineno, "internal error: %s has no parser", name);
@@ -540,13 +555,11 @@ static void unknown_section(gw_cfg_ctx_t *c, const char *kw, const char *rest)
     gw_cfg_guess_t g = GW_CFG_GUESS(kw);
     for (unsigned j = 0; j < GW_CFG_COUNT(sides); j++)
         gw_cfg_guess(&g, sides[j]->kw);
-    if (g.best[0] != '\0')
-        gw_cfg_fail(c, c->lineno,
-                    "unknown section [%s] (did you mean [%s%s]? allowed: %s)",
-                    c->sec_text, g.best, rest, gw_config_sections());
-    else
-        gw_cfg_fail(c, c->lineno, "unknown section [%s] (allowed: %s)",
-                    c->sec_text, gw_config_sections());
+    char close[80], hint[160];
+    snprintf(close, sizeof close, "%s]", rest); /* [robto arm1]: [robot arm1] */
+    gw_cfg_fail(c, c->lineno, "unknown section [%s] (%sallowed: %s)",
+                c->sec_text, gw_cfg_did_you_mean(&g, "[", close, hint, sizeof hint),
+                gw_config_sections());
 }
 
 /* Keys now go to section idx of s. */

@@ -36,15 +36,8 @@ static void gpio_defaults(void *sec)
 
 const gw_cfg_side_t gw_cfg_gpio = {
     .kw = "gpio",
-    .named = true,
-    .max = GW_MAX_GPIO,
-    .base = offsetof(gw_config_t, gpio),
-    .stride = sizeof(gw_gpio_config_t),
-    .count_off = offsetof(gw_config_t, gpio_count),
-    .name_off = offsetof(gw_gpio_config_t, name),
-    .line_off = offsetof(gw_gpio_config_t, line),
-    .keys = gpio_keys,
-    .nkeys = GW_CFG_COUNT(gpio_keys),
+    GW_CFG_NAMED(gpio, gpio_count, gw_gpio_config_t),
+    GW_CFG_KEYS(gpio_keys),
     .defaults = gpio_defaults,
     .check = gw_cfg_check_gpio,
 };

@@ -117,6 +117,16 @@ struct gw_cfg_side {
     void (*check)(gw_cfg_ctx_t *c); /* once the whole file is read */
 };
 
+/* The place in gw_config_t of a named side: array `arr` of T (members
+ * name and line), counted by `count`. */
+#define GW_CFG_NAMED(arr, count, T)                                           \
+    .named = true, .max = sizeof(((gw_config_t *)0)->arr) / sizeof(T),         \
+    .base = offsetof(gw_config_t, arr), .stride = sizeof(T),                  \
+    .count_off = offsetof(gw_config_t, count), .name_off = offsetof(T, name), \
+    .line_off = offsetof(T, line)
+/* A side's key table. */
+#define GW_CFG_KEYS(table) .keys = (table), .nkeys = GW_CFG_COUNT(table)
+
 extern const gw_cfg_side_t gw_cfg_daemon, gw_cfg_modbus, gw_cfg_robot,
     gw_cfg_gpio, gw_cfg_rtu, gw_cfg_mqtt;
 
@@ -175,6 +185,10 @@ typedef struct {
 } gw_cfg_guess_t;
 #define GW_CFG_GUESS(typed) { (typed), "", ~0u }
 void gw_cfg_guess(gw_cfg_guess_t *g, const char *cand);
+
+/* "did you mean <open>best<close>? " into buf, or "" without a best. */
+const char *gw_cfg_did_you_mean(const gw_cfg_guess_t *g, const char *open,
+                                const char *close, char *buf, size_t size);
 
 /* "a, b, c" into buf (cut if it does not fit; messages only). */
 void gw_cfg_join(const char *const *names, size_t n, char *buf, size_t size);

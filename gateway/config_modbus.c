@@ -44,8 +44,7 @@ const gw_cfg_side_t gw_cfg_modbus = {
     .base = offsetof(gw_config_t, modbus),
     .name_off = GW_CFG_NONE,
     .line_off = GW_CFG_NONE,
-    .keys = modbus_keys,
-    .nkeys = GW_CFG_COUNT(modbus_keys),
+    GW_CFG_KEYS(modbus_keys),
     .scratch = sizeof(modbus_lines_t),
 };
 
@@ -206,15 +205,8 @@ static const gw_cfg_key_t rtu_keys[] = {
 
 const gw_cfg_side_t gw_cfg_rtu = {
     .kw = "modbus_rtu",
-    .named = true,
-    .max = GW_MAX_RTU,
-    .base = offsetof(gw_config_t, rtu),
-    .stride = sizeof(gw_rtu_config_t),
-    .count_off = offsetof(gw_config_t, rtu_count),
-    .name_off = offsetof(gw_rtu_config_t, name),
-    .line_off = offsetof(gw_rtu_config_t, line),
-    .keys = rtu_keys,
-    .nkeys = GW_CFG_COUNT(rtu_keys),
+    GW_CFG_NAMED(rtu, rtu_count, gw_rtu_config_t),
+    GW_CFG_KEYS(rtu_keys),
     .scratch = sizeof(gw_cfg_rtu_robots_t),
     .check = gw_cfg_check_rtu,
 };

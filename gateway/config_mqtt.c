@@ -45,8 +45,7 @@ const gw_cfg_side_t gw_cfg_mqtt = {
     .base = offsetof(gw_config_t, mqtt),
     .name_off = GW_CFG_NONE,
     .line_off = offsetof(gw_mqtt_config_t, line),
-    .keys = mqtt_keys,
-    .nkeys = GW_CFG_COUNT(mqtt_keys),
+    GW_CFG_KEYS(mqtt_keys),
     .begin = mqtt_begin,
     .check = mqtt_check,
 };

@@ -51,16 +51,9 @@ static void robot_defaults(void *sec);
 
 const gw_cfg_side_t gw_cfg_robot = {
     .kw = "robot",
-    .named = true,
-    .max = GW_MAX_ROBOTS,
+    GW_CFG_NAMED(robot, robot_count, gw_robot_config_t),
     .lone_name = "robot",
-    .base = offsetof(gw_config_t, robot),
-    .stride = sizeof(gw_robot_config_t),
-    .count_off = offsetof(gw_config_t, robot_count),
-    .name_off = offsetof(gw_robot_config_t, name),
-    .line_off = offsetof(gw_robot_config_t, line),
-    .keys = robot_keys,
-    .nkeys = GW_CFG_COUNT(robot_keys),
+    GW_CFG_KEYS(robot_keys),
     .scratch = sizeof(robot_lines_t),
     .defaults = robot_defaults,
     .check = gw_cfg_check_robots,
@@ -91,17 +84,12 @@ static bool key_assembly(gw_cfg_ctx_t *c, const char *name,
         names[i] = asm_item(i);
         gw_cfg_guess(&g, names[i]);
     }
-    char allowed[200];
+    char allowed[200], hint[96];
     gw_cfg_join(names, DR_ASM_COUNT, allowed, sizeof allowed);
-    if (g.best[0] != '\0')
-        gw_cfg_fail(c, c->lineno,
-                    "unknown assembly '%s' in '%s' (did you mean '%s'? "
-                    "allowed: %s, or dr1..dr10)",
-                    asm_name, name, g.best, allowed);
-    else
-        gw_cfg_fail(c, c->lineno,
-                    "unknown assembly '%s' in '%s' (allowed: %s, or dr1..dr10)",
-                    asm_name, name, allowed);
+    gw_cfg_fail(c, c->lineno,
+                "unknown assembly '%s' in '%s' (%sallowed: %s, or dr1..dr10)",
+                asm_name, name,
+                gw_cfg_did_you_mean(&g, "'", "'", hint, sizeof hint), allowed);
     return false;
 }
 
@@ -114,6 +102,23 @@ static void join_dir(dr_dir_t dir, char *buf, size_t size)
         if (dr_asm_info((dr_asm_t)i)->dir == dir)
             names[n++] = asm_item(i);
     gw_cfg_join(names, n, buf, size);
+}
+
+/* key_assembly, of direction dir: else "SUBJECT invalid: ASSEMBLY WHY
+ * (allowed: the assemblies of dir)". False after the message. */
+static bool assembly_of(gw_cfg_ctx_t *c, const char *name, const char *asm_name,
+                        dr_dir_t dir, const char *subject, const char *why,
+                        dr_asm_t *a)
+{
+    if (!key_assembly(c, name, asm_name, a))
+        return false;
+    if (dr_asm_info(*a)->dir == dir)
+        return true;
+    char allowed[120];
+    join_dir(dir, allowed, sizeof allowed);
+    gw_cfg_fail(c, c->lineno, "%s invalid: %s %s (allowed: %s)", subject,
+                asm_item(*a), why, allowed);
+    return false;
 }
 
 /* A family key's assembly set once: instance.io_state and instance.dr1
@@ -172,30 +177,21 @@ static void open_value(gw_cfg_ctx_t *c, const char *name, const char *v,
     }
     if (n != strlen(kinds[0]) || strncmp(v, kinds[0], n) != 0 || v[n] != ':') {
         gw_cfg_guess_t g = GW_CFG_GUESS(v);
+        char hint[96];
         for (unsigned k = 0; k < GW_CFG_COUNT(kinds); k++)
             gw_cfg_guess(&g, kinds[k]);
-        if (g.best[0] != '\0')
-            gw_cfg_fail(c, c->lineno,
-                        "%s '%s' invalid (did you mean '%s'? allowed: " OPEN_ALLOWED
-                        ")",
-                        name, v, g.best);
-        else
-            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: " OPEN_ALLOWED ")",
-                        name, v);
+        gw_cfg_fail(c, c->lineno, "%s '%s' invalid (%sallowed: " OPEN_ALLOWED ")",
+                    name, v, gw_cfg_did_you_mean(&g, "'", "'", hint, sizeof hint));
         return;
     }
+    char subject[300];
+    snprintf(subject, sizeof subject, "%s '%s'", name, v);
     dr_asm_t p;
-    if (!key_assembly(c, name, v + n + 1, &p))
+    if (!assembly_of(c, name, v + n + 1, DR_DIR_O2T, subject,
+                     "is produced by the robot (T->O), an owner's partner must "
+                     "be an O->T assembly",
+                     &p))
         return;
-    if (dr_asm_info(p)->dir != DR_DIR_O2T) {
-        char allowed[120];
-        join_dir(DR_DIR_O2T, allowed, sizeof allowed);
-        gw_cfg_fail(c, c->lineno,
-                    "%s '%s' invalid: %s is produced by the robot (T->O), an "
-                    "owner's partner must be an O->T assembly (allowed: %s)",
-                    name, v, dr_asm_info(p)->name, allowed);
-        return;
-    }
     o->kind = GW_OPEN_OWNER;
     o->o2t = (int)p;
 }
@@ -206,18 +202,13 @@ static void robot_open(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     gw_robot_config_t *r = sec;
     dr_asm_t a;
     (void)k;
-    if (!key_assembly(c, name, name + strlen("open."), &a))
+    char subject[300];
+    snprintf(subject, sizeof subject, "key '%s'", name);
+    if (!assembly_of(c, name, name + strlen("open."), DR_DIR_T2O, subject,
+                     "is consumed by the robot (O->T); open.* names a T->O "
+                     "assembly, which brings its O->T partner with owner:<O->T>",
+                     &a))
         return;
-    if (dr_asm_info(a)->dir != DR_DIR_T2O) {
-        char allowed[120];
-        join_dir(DR_DIR_T2O, allowed, sizeof allowed);
-        gw_cfg_fail(c, c->lineno,
-                    "key '%s' invalid: %s is consumed by the robot (O->T); "
-                    "open.* names a T->O assembly, which brings its O->T "
-                    "partner with owner:<O->T> (allowed: %s)",
-                    name, dr_asm_info(a)->name, allowed);
-        return;
-    }
     if (!first_of_family(c, name, &lines_of(c, c->idx)->open[a], "open", a))
         return;
     open_value(c, name, v, &r->open[a]);
