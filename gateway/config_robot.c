@@ -31,7 +31,7 @@ static const gw_cfg_key_t robot_keys[] = {
     { .name = "timeout_multiplier", .type = GW_CFG_UINT, .flags = LINK, R(timeout_mult), .lo = 0, .hi = 7, .def = 2, .help = "implicit: the connection times out after `rpi_ms × (4 << code)`, that is ×4, ×8, ×16 (default), ×32, ×64, ×128, ×256, ×512" },
     { .name = "timeout_ms", .type = GW_CFG_UINT, .flags = LINK, R(timeout_ms), .lo = 10, .hi = 60000, .def = 1000, .help = "explicit request timeout" },
     { .name = "fallback", .type = GW_CFG_ENUM, R(fallback_hold), GW_CFG_NAMES("zero", "hold"), .help = "O->T image sent when the single writer's watchdog expires: all zeros, or the last values written" },
-    { .name = "o2t_timing", .type = GW_CFG_ENUM, .flags = LINK, R(o2t_strict), GW_CFG_NAMES("follow", "strict"), .help = "implicit: when O->T packets go out. `strict`: on the gateway's own timer, every `rpi_ms`. `follow`: an O->T packet due within a quarter of `rpi_ms` is sent as soon as the robot's T->O packet of that connection arrives, so the gateway wakes up once per RPI instead of twice (about a third less CPU); the rate is the same, a packet leaves at most a quarter RPI early, and when the arrivals drift out of that window the O->T schedule moves to follow them (one shorter interval)" },
+    { .name = "o2t_timing", .type = GW_CFG_ENUM, .flags = LINK, R(o2t_strict), GW_CFG_NAMES("follow", "strict"), .help = "implicit: when O->T packets go out. `strict`: on the gateway's own timer, every `rpi_ms`. `follow`: an O->T packet due within a quarter of `rpi_ms` is sent as soon as the robot's T->O packet of that connection arrives, so the gateway wakes up once per RPI instead of twice (about a third less CPU); a packet leaves at most a quarter RPI before its time, two packets of a connection are never closer than three quarters of an RPI, and the rate never exceeds one packet per RPI; when the arrivals drift out of that window (the robot's clock runs a little slow or fast, as every real clock does) the O->T schedule moves later to follow them (one longer interval, never a shorter one)" },
     { .name = "config_instance", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(config_instance), .lo = 1, .hi = 65535, .def = 1, .help = "configuration instance (connection point) in every Forward Open; see [Connection plan](#connection-plan)" },
     { .name = "input_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(input_only_heartbeat), .lo = 1, .hi = 65535, .def = 198, .help = "O->T connection point of input-only connections" },
     { .name = "listen_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(listen_only_heartbeat), .lo = 1, .hi = 65535, .def = 199, .help = "O->T connection point of listen-only connections" },
@@ -294,6 +294,30 @@ static bool check_point(gw_cfg_ctx_t *c, unsigned i, const char *key,
     return true;
 }
 
+/* The configuration point equal to the heartbeat point `key` the plan
+ * uses: a Forward Open would name one instance as both, which the robot
+ * refuses at run time (the defaults invite it: listen_only_heartbeat is
+ * 199, and 199 is a common configuration instance). False after
+ * reporting it. */
+static bool check_config_point(gw_cfg_ctx_t *c, unsigned i, const char *key,
+                               uint16_t inst)
+{
+    const gw_robot_config_t *r = &c->cfg.robot[i];
+    if (r->config_instance != inst)
+        return true;
+    unsigned hb_line = gw_cfg_line(c, &gw_cfg_robot, i, key);
+    gw_cfg_fail(c,
+                max_line(line_or(gw_cfg_line(c, &gw_cfg_robot, i, "config_instance"),
+                                 r->line),
+                         line_or(hb_line, r->line)),
+                "robot '%s': config_instance %u is also %s (%sthe robot refuses "
+                "a Forward Open that names one instance as both: set %s to "
+                "another point of its EDS)",
+                r->name, (unsigned)inst, key, hb_line != 0 ? "" : "its default; ",
+                key);
+    return false;
+}
+
 /* An O->T assembly with two owners: reported where the second one (in
  * the file) is. */
 static void two_owners(gw_cfg_ctx_t *c, const gw_robot_config_t *r,
@@ -354,6 +378,14 @@ static bool check_plan(gw_cfg_ctx_t *c, unsigned i)
                     r->name, (unsigned)r->input_only_heartbeat);
         return false;
     }
+    /* explicit mode opens no connection: its points are not used */
+    bool implicit = r->mode == GW_MODE_IMPLICIT;
+    if (implicit && input_only &&
+        !check_config_point(c, i, "input_only_heartbeat", r->input_only_heartbeat))
+        return false;
+    if (implicit && listen_only &&
+        !check_config_point(c, i, "listen_only_heartbeat", r->listen_only_heartbeat))
+        return false;
     return check_point(c, i, "config_instance", r->config_instance) &&
            (!input_only ||
             check_point(c, i, "input_only_heartbeat", r->input_only_heartbeat)) &&

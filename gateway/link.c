@@ -62,6 +62,9 @@ struct gw_link {
     const char *closing; /* gw_link_free's reason: a planned link down */
     uint64_t status_us;      /* update_status last ran (implicit mode) */
     bool status_now;         /* the link went up or down: update at once */
+    /* The robot's packet counters when this link started (carried over a
+     * reload that changed the robot): the connections count from 0 */
+    uint32_t rx_base, lost_base;
     unsigned t2o_planned;    /* T->O assemblies the plan opens (explicit: polls) */
     unsigned o2t_planned;    /* O->T assemblies with an owner connection */
 };
@@ -152,6 +155,8 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
     /* Closed on purpose (SIGTERM, reload): not a fault, and the reason is
      * ours, not what the closing connections report. */
     const char *reason = l->closing != NULL ? l->closing : why != DR_OK ? dr_strerror(why) : "";
+    if (up)
+        gw_log_limit_end(&l->log_limit); /* the refusals before it are past */
     gw_log(up || l->closing != NULL ? GW_LOG_INFO : GW_LOG_WARNING,
            "robot %s (%s): link %s%s%s", l->cfg.name, l->cfg.host, up ? "up" : "down",
            reason[0] != '\0' ? ": " : "", reason);
@@ -330,9 +335,22 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
     }
 }
 
+/* The T->O silence after which conn timed out: its API (as the robot
+ * granted it) x (4 << timeout_multiplier). */
+static unsigned conn_timeout_ms(const gw_link_t *l, const dr_conn_t *conn)
+{
+    uint64_t api = dr_conn_stats(conn)->t2o_api_us;
+    if (api == 0)
+        api = (uint64_t)l->cfg.rpi_ms * 1000u;
+    return (unsigned)(api * (4u << l->cfg.timeout_mult) / 1000u);
+}
+
 /* "robot R: io_state (owner io_control): reconnecting: Forward Open refused:
- * CIP 0x01/0x0129 invalid configuration application path", at most as often
- * as the link's rate limit lets through. */
+ * CIP 0x01/0x0129 invalid configuration application path (path: config 1,
+ * O->T 107, T->O 101)", at most as often as the link's rate limit lets
+ * through. The path's instances are named because adapters answer the
+ * same wrong point with different statuses (a wrong configuration
+ * instance: 0x0315 from one, 0x0129 from another). */
 static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr_status_t why)
 {
     dr_asm_t a = DR_ASM_IO_STATE;
@@ -341,16 +359,30 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
             a = slot_t2o[i];
     const gw_open_t *o = &l->cfg.open[a];
     char how[48];
-    if (o->kind == GW_OPEN_OWNER)
+    unsigned o2t;
+    if (o->kind == GW_OPEN_OWNER) {
         snprintf(how, sizeof how, "owner %s", dr_asm_info((dr_asm_t)o->o2t)->name);
-    else
-        snprintf(how, sizeof how, "%s", o->kind == GW_OPEN_LISTEN_ONLY ? "listen-only" : "input-only");
+        o2t = l->cfg.instance[o->o2t];
+    } else if (o->kind == GW_OPEN_LISTEN_ONLY) {
+        snprintf(how, sizeof how, "listen-only");
+        o2t = l->cfg.listen_only_heartbeat;
+    } else {
+        snprintf(how, sizeof how, "input-only");
+        o2t = l->cfg.input_only_heartbeat;
+    }
     if (DR_IS_CIP(why))
         gw_log_limited(GW_LOG_WARNING, &l->log_limit,
-                       "robot %s: %s (%s): %s: Forward Open refused: CIP 0x%02X/0x%04X %s",
+                       "robot %s: %s (%s): %s: Forward Open refused: CIP 0x%02X/0x%04X %s "
+                       "(path: config %u, O->T %u, T->O %u)",
                        l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
                        (unsigned)DR_CIP_GENERAL(why), (unsigned)DR_CIP_EXTENDED(why),
-                       dr_strerror(why));
+                       dr_strerror(why), (unsigned)l->cfg.config_instance, o2t,
+                       (unsigned)l->cfg.instance[a]);
+    else if (st == DR_CONN_TIMED_OUT && why == DR_ETIMEDOUT)
+        /* not "timed out: timed out": say what timed out */
+        gw_log_limited(GW_LOG_WARNING, &l->log_limit,
+                       "robot %s: %s (%s): timed out: no packet from the robot for %u ms",
+                       l->cfg.name, dr_asm_info(a)->name, how, conn_timeout_ms(l, conn));
     else
         gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s (%s): %s: %s",
                        l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
@@ -602,6 +634,8 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         l->ev[i].ev.fd = -1;
     }
     gw_link_set_robot(l, robot, data);
+    l->rx_base = data->link.rx_packets;
+    l->lost_base = data->link.lost_packets;
     data->o2t_unsent = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T && !(l->o2t_planned & (1u << a)))
@@ -724,7 +758,7 @@ static void update_status(gw_link_t *l, uint64_t now)
     st->age_ms = (uint32_t)(age / 1000u > UINT32_MAX ? UINT32_MAX : age / 1000u);
     uint64_t limit;
     if (l->cfg.mode == GW_MODE_IMPLICIT) {
-        uint32_t rx = 0, lost = 0, api = 0;
+        uint32_t rx = l->rx_base, lost = l->lost_base, api = 0;
         for (unsigned i = 0; i < NPAIRS; i++) {
             if (l->conn[i] == NULL)
                 continue;

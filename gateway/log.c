@@ -1,11 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /* Log lines: "<N>" priority prefixes when stderr is the journal (systemd
- * sets JOURNAL_STREAM), a level word otherwise. */
+ * sets JOURNAL_STREAM), which stamps each line itself; otherwise the local
+ * time to the millisecond and a level word, so that a log kept in a file
+ * or read on a terminal says when each thing happened. */
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "log.h"
 #include "loop.h"
@@ -32,16 +35,32 @@ int gw_log_level_parse(const char *name, gw_log_level_t *out)
     return 0;
 }
 
+/* "2025-03-14 09:26:53.589": the wall clock, local time. */
+static const char *time_stamp(char *buf, size_t size)
+{
+    struct timespec ts;
+    struct tm tm;
+    buf[0] = '\0';
+    if (clock_gettime(CLOCK_REALTIME, &ts) != 0 || localtime_r(&ts.tv_sec, &tm) == NULL)
+        return buf;
+    size_t n = strftime(buf, size, "%Y-%m-%d %H:%M:%S", &tm);
+    if (n > 0 && n < size)
+        snprintf(buf + n, size - n, ".%03ld", ts.tv_nsec / 1000000L);
+    return buf;
+}
+
 /* suppressed: a count of the same kind to end the line with (0: none). */
 static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
 {
     static const char *const words[8] = {"", "", "", "error", "warning", "", "info", "debug"};
     if (level > max_level)
         return;
-    if (getenv("JOURNAL_STREAM") != NULL)
+    if (getenv("JOURNAL_STREAM") != NULL) {
         fprintf(stderr, "<%d>", (int)level);
-    else
-        fprintf(stderr, "drgatewayd: %s: ", words[level]);
+    } else {
+        char stamp[32];
+        fprintf(stderr, "%s drgatewayd: %s: ", time_stamp(stamp, sizeof stamp), words[level]);
+    }
     vfprintf(stderr, fmt, ap);
     if (suppressed > 0)
         fprintf(stderr, " [%u similar message%s suppressed]", suppressed,
@@ -105,10 +124,10 @@ static pending_t *pending_new(gw_log_limit_t *limit, uint64_t due_us, gw_log_lev
     return NULL;
 }
 
-static void pending_print(const pending_t *p)
+static void pending_print(const pending_t *p, const char *when)
 {
-    gw_log(p->level, "%s [%u similar message%s suppressed in 10 s, the last shown]", p->text,
-           p->count, p->count == 1 ? "" : "s");
+    gw_log(p->level, "%s [%u similar message%s suppressed %s, the last shown]", p->text,
+           p->count, p->count == 1 ? "" : "s", when);
 }
 
 void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
@@ -154,8 +173,19 @@ void gw_log_flush(uint64_t now)
             p->limit = NULL; /* a quiet window: the kind is free again */
             continue;
         }
-        pending_print(p);
+        pending_print(p, "in 10 s");
         p->count = 0;
         p->due_us = now + LIMIT_US;
     }
+}
+
+void gw_log_limit_end(gw_log_limit_t *limit)
+{
+    pending_t *p = pending_of(limit);
+    if (p != NULL) {
+        if (p->count > 0)
+            pending_print(p, "until now");
+        p->limit = NULL;
+    }
+    limit->last_us = 0; /* the next line of the kind is a new story: shown */
 }

@@ -37,6 +37,13 @@ typedef struct {
 void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
     GW_PRINTF(3, 4);
 
+/* The condition the kind's lines were about is over (a link came up):
+ * what it still holds back is printed now, as "... [N similar messages
+ * suppressed until now, the last shown]", before the caller says what
+ * changed, so that no count of past faults follows it and reads like a
+ * current one; and the kind's next line is shown at once. */
+void gw_log_limit_end(gw_log_limit_t *limit);
+
 /* Prints the counts of the kinds whose 10 s ended by now (gw_now_us()); the
  * daemon's tick calls it. What is still pending at exit is printed then. */
 void gw_log_flush(uint64_t now);

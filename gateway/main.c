@@ -283,6 +283,9 @@ static void reload(gw_t *g)
         /* No data reaches it before the sides have committed (no turn of
          * the loop in between): they set it up then (clear_while_down). */
         gw_robot_init(&robots[n], next.robot[n].name, ++serial);
+        for (unsigned o = 0; o < g->cfg.robot_count; o++)
+            if (!kept[o] && strcmp(next.robot[n].name, g->cfg.robot[o].name) == 0)
+                gw_robot_carry_over(&robots[n], &g->robots[o]); /* a changed one */
         links[n] = gw_link_new(&next.robot[n], n, &robots[n], g->epfd, g->ports, &link_hooks);
         fresh[n] = true;
         if (links[n] == NULL) {

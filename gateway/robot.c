@@ -12,6 +12,13 @@ void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial)
     r->serial = serial;
 }
 
+void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old)
+{
+    r->heartbeat = old->heartbeat;
+    r->link.rx_packets = old->link.rx_packets;
+    r->link.lost_packets = old->link.lost_packets;
+}
+
 /* Kept for every failure, not only the ones that change the link's state:
  * an adapter that refuses every Forward Open never brings the link up. */
 void gw_robot_record_error(gw_robot_t *r, dr_status_t why)

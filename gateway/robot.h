@@ -81,6 +81,12 @@ typedef struct {
  * name and serial set. */
 void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial);
 
+/* r replaces `old`, the same robot before a reload changed its section:
+ * what a PLC watches for liveness and progress goes on from where it was
+ * (the heartbeat and the packet counters never go backwards; the
+ * generation register says that a reload happened). */
+void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old);
+
 /* Why the link last failed (DR_OK: nothing to record): a CIP refusal as
  * its extended status (the general one when it has none) and its general
  * status; anything else as the drgate or encapsulation code, general 0. */

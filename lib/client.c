@@ -87,6 +87,7 @@ struct dr_conn {
     uint32_t t2o_seq32;  /* encapsulation sequence number of the last packet */
     bool have_t2o_seq;
     uint64_t next_tx_us, rx_deadline_us, retry_us;
+    uint64_t last_tx_us; /* when the last O->T packet was produced; 0: none yet */
     uint32_t timeout_us;
     uint32_t backoff_ms;
     unsigned dup_retries;
@@ -764,6 +765,8 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
     }
     cn->have_t2o_seq = false;
     cn->next_tx_us = grid_after(c, t, cn->stats.o2t_api_us);
+    cn->last_tx_us = 0;
+    cn->follow_misses = 0;
     cn->rx_deadline_us = t + cn->timeout_us + FIRST_PACKET_GRACE_US;
     cn->backoff_ms = c->cfg.backoff_min_ms;
     cn->dup_retries = 0;
@@ -892,6 +895,18 @@ const uint8_t *dr_conn_input(const dr_conn_t *cn, size_t *len)
 
 static void flush_io(dr_client_t *c);
 
+/* cfg.o2t_follow_us as it applies to cn: the window (at most half the
+ * API), or 0 when O->T goes by its own timer alone (no window asked for,
+ * or APIs that differ both ways, when the arrivals do not mark our
+ * periods). */
+static uint64_t follow_window(const dr_conn_t *cn)
+{
+    uint64_t api = cn->stats.o2t_api_us, win = cn->cfg.o2t_follow_us;
+    if (win == 0 || api != cn->stats.t2o_api_us)
+        return 0;
+    return win < api / 2u ? win : api / 2u;
+}
+
 static void conn_produce(dr_conn_t *cn, uint64_t t)
 {
     dr_client_t *c = cn->client;
@@ -915,6 +930,7 @@ static void conn_produce(dr_conn_t *cn, uint64_t t)
         m->addr = cn->o2t_to;
         c->tx_conn[c->tx_n++] = cn;
     }
+    cn->last_tx_us = t;
     /* Absolute deadlines: the next packet is due one API after the last
      * deadline, not after now, so the rate does not drift. After a stall
      * of more than one period, start again from now instead of bursting. */
@@ -922,6 +938,12 @@ static void conn_produce(dr_conn_t *cn, uint64_t t)
     cn->next_tx_us += api;
     if (cn->next_tx_us <= t)
         cn->next_tx_us = grid_after(c, t, api);
+    /* Following the arrivals, a packet may leave up to the window before
+     * its deadline; one that left late (a busy loop) must not pull the
+     * next one closer than API - window to it. */
+    uint64_t win = follow_window(cn);
+    if (win != 0 && cn->next_tx_us < t + api - win)
+        cn->next_tx_us = t + api - win;
 }
 
 /* Send n O->T frames on port p (who[i]: whose frame m[i] is), in one
@@ -986,28 +1008,35 @@ static void flush_port(dr_udp_port_t *p)
 /* cfg.o2t_follow_us: an O->T packet due within the window is produced
  * when the connection's T->O packet arrives, so that one wake-up serves
  * both directions instead of one for the arrival and one for our own
- * deadline moments later. The deadlines stay on their grid, so the rate
- * is unchanged; a packet leaves at most the window early. When arrivals
- * keep falling outside the window (the connection has just opened, or the
- * two clocks drift apart) the grid moves: this packet goes now and the
- * next ones are due half a window after the arrivals. Only for equal APIs
- * both ways: otherwise the arrivals do not mark our periods. */
+ * deadline moments later. Two rules keep the adapter's view of our
+ * packets what the Forward Open promised, whatever the arrivals do:
+ *  - two packets are never closer than API - window: an arrival sends
+ *    only that long after the last packet (an arrival moments after a
+ *    packet the timer sent is not the next period's);
+ *  - deadlines only ever move later, never closer than one API apart, so
+ *    the rate never exceeds one packet per API.
+ * When arrivals keep falling outside the window (the connection has just
+ * opened, or the two clocks drift apart, as real adapters' do) the
+ * schedule moves: the next packet is due half a window after the next
+ * expected arrival, which makes one interval longer, never shorter. Only
+ * for equal APIs both ways: otherwise the arrivals do not mark our
+ * periods. */
 #define FOLLOW_MISSES 3u
 
 static void follow_t2o(dr_conn_t *cn, uint64_t t)
 {
-    uint64_t api = cn->stats.o2t_api_us, win = cn->cfg.o2t_follow_us;
-    if (win == 0 || cn->state != DR_CONN_ESTABLISHED || api != cn->stats.t2o_api_us)
+    uint64_t api = cn->stats.o2t_api_us, win = follow_window(cn);
+    if (win == 0 || cn->state != DR_CONN_ESTABLISHED)
         return;
-    if (win > api / 2)
-        win = api / 2;
+    bool spaced = cn->last_tx_us == 0 || t >= cn->last_tx_us + api - win;
     if (cn->next_tx_us <= t + win) {
         cn->follow_misses = 0;
-        conn_produce(cn, t);
+        if (spaced)
+            conn_produce(cn, t);
     } else if (++cn->follow_misses >= FOLLOW_MISSES) {
         cn->follow_misses = 0;
-        conn_produce(cn, t);
-        cn->next_tx_us = t + api + win / 2;
+        if (cn->next_tx_us < t + api + win / 2u)
+            cn->next_tx_us = t + api + win / 2u;
     }
 }
 

@@ -49,7 +49,7 @@ check-gpio-gateway: $(GPIO_GW_BIN) $(SIM_BIN) $(GPIO_GW_TEST)
 	    sh $(GPIO_QEMU) --cache "$(GPIO_CACHE)" --timeout $(GPIO_GW_TIMEOUT) \
 	        --results "$(RESULTS)" --label gpio_gateway \
 	        --bin $(GPIO_GW_BIN) --bin $(SIM_BIN) --bin "$$mbpoll" \
-	        --file $(GPIO_GW_DIR)/gateway.ini:/etc/drgate/gateway.ini \
+	        --file $(GPIO_GW_DIR)/gateway.ini:/etc/drgate/drgatewayd.ini \
 	        --script $(GPIO_GW_DIR)/guest.sh $(GPIO_GW_ARGS) || st=1; \
 	else \
 	    echo "check-gpio-gateway: mbpoll is missing (make deps installs it)" >&2; \
@@ -63,5 +63,5 @@ check-gpio-gateway: $(GPIO_GW_BIN) $(SIM_BIN) $(GPIO_GW_TEST)
 gpio-gateway-shell: $(GPIO_GW_BIN) $(SIM_BIN)
 	@sh $(GPIO_QEMU) --cache "$(GPIO_CACHE)" --interactive \
 	    --bin $(GPIO_GW_BIN) --bin $(SIM_BIN) --bin "$$(command -v mbpoll)" \
-	    --file $(GPIO_GW_DIR)/gateway.ini:/etc/drgate/gateway.ini \
+	    --file $(GPIO_GW_DIR)/gateway.ini:/etc/drgate/drgatewayd.ini \
 	    --script $(GPIO_GW_DIR)/guest.sh

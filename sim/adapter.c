@@ -635,23 +635,33 @@ static void forward_open(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
               (unsigned long long)(c->timeout_ns / 1000000u));
 }
 
+/* The close line ends with the O->T timing: "O->T N in T us, shortest gap
+ * G us, K under 3/4 API" (N packets consumed from the first to the last
+ * arrival, T apart), which tests/gateway/test_link.py reads. */
 static void conn_close(drsim_conn_t *c, const char *why)
 {
+    uint64_t span = c->consumed > 0 ? c->last_rx_ns - c->o2t_first_ns : 0;
+    uint64_t gap = c->consumed > 1 ? c->o2t_min_gap_ns : 0;
     drsim_log(1, "connection 0x%08X closed (%s): %llu produced, %llu consumed,"
-              " %llu applied, %llu stale, %llu/%llu dropped in/out",
+              " %llu applied, %llu stale, %llu/%llu dropped in/out;"
+              " O->T %llu in %llu us, shortest gap %llu us, %llu under 3/4 API",
               (unsigned)c->o2t_cid, why, (unsigned long long)c->produced,
               (unsigned long long)c->consumed, (unsigned long long)c->applied,
               (unsigned long long)c->stale, (unsigned long long)c->rx_dropped,
-              (unsigned long long)c->produce_dropped);
+              (unsigned long long)c->produce_dropped, (unsigned long long)c->consumed,
+              (unsigned long long)(span / 1000u), (unsigned long long)(gap / 1000u),
+              (unsigned long long)c->o2t_short);
     memset(c, 0, sizeof *c);
 }
 
 /* Closes c; when it was the last connection producing its T->O assembly
  * (an owner or input-only one), the listen-only connections on that
- * assembly go with it, as on an ODVA adapter (OpENer closes them when the
- * last master connection of an input point closes, by Forward Close or
- * timeout): they have nothing left to listen to, and their originators
- * see them time out. */
+ * assembly go with it: they have nothing left to listen to, and their
+ * originators see them time out. OpENer does the same only when the
+ * producer is multicast (it closes the listeners when the last master
+ * connection of a multicast input point closes, by Forward Close or
+ * timeout); drsim does it for every producer, the stricter case for an
+ * originator. */
 static void conn_end(drsim_t *s, drsim_conn_t *c, const char *why)
 {
     bool producer = !c->listen_only;
@@ -959,6 +969,21 @@ drsim_action_t drsim_encap_udp(drsim_t *s, const drsim_peer_t *peer,
 
 /* ---- Class 1 I/O ------------------------------------------------------------ */
 
+/* The O->T packet taken at now_ns, in the connection's timing figures. */
+static void o2t_timing(drsim_conn_t *c, uint64_t now_ns)
+{
+    if (!c->o2t_seen) {
+        c->o2t_first_ns = now_ns;
+        c->o2t_min_gap_ns = UINT64_MAX;
+        return;
+    }
+    uint64_t gap = now_ns > c->last_rx_ns ? now_ns - c->last_rx_ns : 0;
+    if (gap < c->o2t_min_gap_ns)
+        c->o2t_min_gap_ns = gap;
+    if (gap * 4u < (uint64_t)c->o2t_api_us * 3000u)
+        c->o2t_short++;
+}
+
 void drsim_io_receive(drsim_t *s, uint64_t now_ns, const dr_sockaddr_t *from,
                       const uint8_t *buf, size_t len)
 {
@@ -996,6 +1021,7 @@ void drsim_io_receive(drsim_t *s, uint64_t now_ns, const dr_sockaddr_t *from,
     bool run = !c->o2t_run_idle || (f.run_idle & 1u);
     if (c->o2t_seen && run != c->run)
         drsim_log(1, "connection 0x%08X: %s", (unsigned)c->o2t_cid, run ? "run" : "idle");
+    o2t_timing(c, now_ns);
     c->o2t_seen = true;
     c->o2t_encap_seq = f.encap_seq;
     c->last_rx_ns = now_ns;
@@ -1020,10 +1046,20 @@ static uint64_t timeout_deadline(const drsim_conn_t *c)
     return c->opened_ns + grace;
 }
 
+/* The T->O production period for an API, on drsim's clock
+ * (cfg.clock_ppm): a clock that runs fast produces more often. */
+static uint64_t production_period_ns(const drsim_t *s, uint32_t api_us)
+{
+    uint64_t ns = (uint64_t)api_us * 1000u;
+    if (s->cfg.clock_ppm == 0)
+        return ns;
+    return ns * 1000000u / (uint64_t)(1000000 + (int64_t)s->cfg.clock_ppm);
+}
+
 static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
                     drsim_send_fn send, void *ctx)
 {
-    uint64_t api_ns = (uint64_t)c->t2o_api_us * 1000u;
+    uint64_t api_ns = production_period_ns(s, c->t2o_api_us);
     if (s->cfg.stop_producing_ns != 0 && now - c->opened_ns >= s->cfg.stop_producing_ns) {
         if (!c->stopped)
             drsim_log(1, "connection 0x%08X: stop producing (fault injection)",
@@ -1068,7 +1104,15 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
 
 void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
 {
-    /* Packets first, the model after: its step would only delay them. */
+    /* The model first, the packets after: a packet due at the same moment
+     * as a model step carries that step, as an explicit Get right after
+     * it does (produced before, Class 1 data was one step behind Get). */
+    if (now_ns >= s->next_model_ns) {
+        drsim_robot_update(&s->robot, now_ns, &s->img);
+        s->next_model_ns += DRSIM_MODEL_PERIOD_NS;
+        if (s->next_model_ns <= now_ns)
+            s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
+    }
     for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++) {
         drsim_conn_t *c = &s->conn[i];
         if (!c->used)
@@ -1079,12 +1123,6 @@ void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
         }
         if (!c->stopped && now_ns >= c->next_produce_ns)
             produce(s, c, now_ns, send, ctx);
-    }
-    if (now_ns >= s->next_model_ns) {
-        drsim_robot_update(&s->robot, now_ns, &s->img);
-        s->next_model_ns += DRSIM_MODEL_PERIOD_NS;
-        if (s->next_model_ns <= now_ns)
-            s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
     }
 }
 

@@ -63,6 +63,10 @@ typedef struct {
                                   0x8001 item) */
     bool still;                /* the robot stands still: no motion, no
                                   noise, so its data stays the same */
+    int32_t clock_ppm;         /* drsim's production clock runs this many
+                                  parts per million fast (negative: slow),
+                                  as a real adapter's crystal does: T->O
+                                  packets every API x 1e6 / (1e6 + ppm) */
     uint64_t seed;             /* noise, drops, serial number, IDs */
     uint32_t address;          /* our IPv4 (host order); 0: any */
     uint16_t tcp_port;         /* encapsulation port, for ListIdentity */
@@ -113,6 +117,10 @@ typedef struct {
     uint8_t last_t2o[DR_ASM_MAX_SIZE]; /* last data produced (seq_on_change) */
     /* counters */
     uint64_t produced, produce_dropped, consumed, applied, stale, rx_dropped;
+    /* O->T timing as consumed, by arrival time (what a strict adapter
+     * checks against the O->T API): first arrival, shortest gap between
+     * two, and how many gaps were shorter than 3/4 of the API */
+    uint64_t o2t_first_ns, o2t_min_gap_ns, o2t_short;
 } drsim_conn_t;
 
 typedef struct {
@@ -167,7 +175,8 @@ size_t drsim_cip(drsim_t *s, const drsim_peer_t *peer, uint64_t now_ns,
 typedef void (*drsim_send_fn)(void *ctx, const dr_sockaddr_t *to,
                               const uint8_t *buf, size_t len);
 
-/* One datagram received on the Class 1 UDP port from `from`. */
+/* One datagram received on the Class 1 UDP port from `from`, at `now_ns`
+ * (its arrival: the event loop passes the kernel's receive time). */
 void drsim_io_receive(drsim_t *s, uint64_t now_ns, const dr_sockaddr_t *from,
                       const uint8_t *buf, size_t len);
 

@@ -86,7 +86,13 @@ static void usage(FILE *f)
 "      --trailing-item       Forward Open replies (success and error) carry\n"
 "                            one CPF item more than their item count says\n"
 "                            (an echo of the request's 0x8001 item)\n"
-"\n"
+"      --clock-ppm PPM       drsim's clock runs PPM parts per million fast\n"
+"                            (negative: slow), -100000..100000: T->O packets\n"
+"                            every API x 1e6 / (1e6 + PPM), as from a real\n"
+"                            adapter's crystal (-11000: 98.9 a second at 10 ms)\n"
+"\n", f);
+    /* two strings: C99 compilers need take only 4095 characters in one */
+    fputs(
 "Connection points (what a controller's EDS decides):\n"
 "      --config-instance N   accept only configuration instance N in a\n"
 "                            Forward Open; others are refused with 0x01/0x0129\n"
@@ -198,7 +204,8 @@ enum {
     OPT_NO_ECHO = 256, OPT_SEED, OPT_DROP, OPT_DELAY, OPT_STOP_PRODUCING,
     OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO,
     OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
-    OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM
+    OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM,
+    OPT_CLOCK_PPM
 };
 
 static const struct option long_options[] = {
@@ -223,6 +230,7 @@ static const struct option long_options[] = {
     {"tick", required_argument, NULL, OPT_TICK},
     {"api-report", required_argument, NULL, OPT_API_REPORT},
     {"trailing-item", no_argument, NULL, OPT_TRAILING_ITEM},
+    {"clock-ppm", required_argument, NULL, OPT_CLOCK_PPM},
     {"verbose", no_argument, NULL, 'v'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
@@ -335,6 +343,15 @@ static int parse_options(int argc, char **argv, options_t *o)
         case OPT_TRAILING_ITEM:
             o->cfg.trailing_item = true;
             break;
+        case OPT_CLOCK_PPM: {
+            char *end;
+            errno = 0;
+            long ppm = strtol(optarg, &end, 10);
+            if (errno != 0 || end == optarg || *end != '\0' || ppm < -100000 || ppm > 100000)
+                return bad("--clock-ppm (want -100000..100000)", optarg);
+            o->cfg.clock_ppm = (int32_t)ppm;
+            break;
+        }
         case 'v':
             drsim_verbose++;
             break;
@@ -689,18 +706,53 @@ static void io_send(void *ctx, const dr_sockaddr_t *to, const uint8_t *buf, size
     udp_send(L->ufd_io, to, buf, len);
 }
 
+/* When the datagram arrived, on the monotonic clock: the kernel stamps it
+ * on arrival (SO_TIMESTAMPNS, CLOCK_REALTIME), so the O->T timing drsim
+ * reports (adapter.c, o2t_timing) is the sender's, not how late this
+ * loop got to the socket on a busy machine. Without a stamp: now. */
+static uint64_t arrival_ns(const struct msghdr *mh)
+{
+    uint64_t mono = now_ns();
+    for (struct cmsghdr *cm = CMSG_FIRSTHDR(mh); cm != NULL;
+         cm = CMSG_NXTHDR((struct msghdr *)mh, cm)) {
+        if (cm->cmsg_level != SOL_SOCKET || cm->cmsg_type != SCM_TIMESTAMPNS)
+            continue;
+        struct timespec at, real;
+        memcpy(&at, CMSG_DATA(cm), sizeof at);
+        clock_gettime(CLOCK_REALTIME, &real);
+        uint64_t at_ns = (uint64_t)at.tv_sec * 1000000000u + (uint64_t)at.tv_nsec;
+        uint64_t real_ns = (uint64_t)real.tv_sec * 1000000000u + (uint64_t)real.tv_nsec;
+        uint64_t ago = real_ns > at_ns ? real_ns - at_ns : 0;
+        /* more than a second: the wall clock was set in between */
+        return ago < 1000000000u && ago < mono ? mono - ago : mono;
+    }
+    return mono;
+}
+
 static void udp_io_readable(loop_t *L)
 {
     uint8_t buf[1500];
+    union {
+        struct cmsghdr align;
+        uint8_t b[CMSG_SPACE(sizeof(struct timespec))];
+    } ctl;
     for (int i = 0; i < UDP_BURST; i++) {
         struct sockaddr_in sa;
-        socklen_t sl = sizeof sa;
         memset(&sa, 0, sizeof sa); /* see accept_clients */
-        ssize_t n = recvfrom(L->ufd_io, buf, sizeof buf, 0, (struct sockaddr *)&sa, &sl);
+        struct iovec iov = {buf, sizeof buf};
+        struct msghdr mh;
+        memset(&mh, 0, sizeof mh);
+        mh.msg_name = &sa;
+        mh.msg_namelen = sizeof sa;
+        mh.msg_iov = &iov;
+        mh.msg_iovlen = 1;
+        mh.msg_control = ctl.b;
+        mh.msg_controllen = sizeof ctl.b;
+        ssize_t n = recvmsg(L->ufd_io, &mh, 0);
         if (n < 0)
             return;
         dr_sockaddr_t from = {ntohl(sa.sin_addr.s_addr), ntohs(sa.sin_port)};
-        drsim_io_receive(&L->sim, now_ns(), &from, buf, (size_t)n);
+        drsim_io_receive(&L->sim, arrival_ns(&mh), &from, buf, (size_t)n);
     }
 }
 
@@ -840,6 +892,8 @@ static int setup(loop_t *L)
     L->ufd_io = open_socket(SOCK_DGRAM, cfg->address, cfg->udp_port);
     if (L->lfd < 0 || L->ufd_encap < 0 || L->ufd_io < 0)
         return -1;
+    int one = 1; /* arrival stamps for the O->T timing (arrival_ns) */
+    (void)setsockopt(L->ufd_io, SOL_SOCKET, SO_TIMESTAMPNS, &one, sizeof one);
     if (L->opt.delay_ns > 0) {
         L->dq.q = calloc(DELAY_QUEUE_LEN, sizeof *L->dq.q);
         if (L->dq.q == NULL)

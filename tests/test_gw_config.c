@@ -780,6 +780,16 @@ static const err_case_t err_cases[] = {
     { ROBOT "input_only_heartbeat = 199\nopen.task_state = listen_only\n",
       "3: robot 'a': input_only_heartbeat and listen_only_heartbeat are both "
       "199 (the robot tells the two kinds apart by it)" },
+    /* the docs' example configuration instance and the default
+     * listen-only heartbeat: the robot would refuse it at run time */
+    { ROBOT "config_instance = 199\nopen.task_state = listen_only\n",
+      "3: robot 'a': config_instance 199 is also listen_only_heartbeat (its "
+      "default; the robot refuses a Forward Open that names one instance as "
+      "both: set listen_only_heartbeat to another point of its EDS)" },
+    { ROBOT "input_only_heartbeat = 7\nconfig_instance = 7\n",
+      "4: robot 'a': config_instance 7 is also input_only_heartbeat (the robot "
+      "refuses a Forward Open that names one instance as both: set "
+      "input_only_heartbeat to another point of its EDS)" },
     { ROBOT "open.task_state = listen_only\ninstance.float_in = 199\n",
       "4: robot 'a': listen_only_heartbeat 199 is also the instance of "
       "float_in (a connection point names one thing)" },
@@ -1174,6 +1184,13 @@ static void test_connection_plan(void **state)
     assert_int_equal(r->open[DR_ASM_INT_OUT].kind, GW_OPEN_NONE);
     assert_int_equal(r->open[DR_ASM_TASK_STATE].kind, GW_OPEN_LISTEN_ONLY);
     assert_int_equal(r->open[DR_ASM_JOINT_STATE].kind, GW_OPEN_INPUT_ONLY);
+    /* config 199 beside the default listen-only heartbeat 199 is fine
+     * while nothing is opened listen-only, and in explicit mode, which
+     * opens no connection */
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nconfig_instance = 199\n", &c, err,
+                          sizeof err));
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nconfig_instance = 199\nmode = explicit\n"
+                          "open.task_state = listen_only\n", &c, err, sizeof err));
     /* A plan change is a link change (SIGHUP reconnects). */
     gw_config_t d;
     gw_config_defaults(&d);

@@ -55,6 +55,27 @@ static void test_init(void **state)
     assert_string_equal(R.name, "");
 }
 
+/* A robot a reload changed starts anew (new serial, images and link facts
+ * zero) but keeps its heartbeat and packet counters: they never go back. */
+static void test_carry_over(void **state)
+{
+    (void)state;
+    R.heartbeat = 41;
+    R.link.rx_packets = 123456u;
+    R.link.lost_packets = 7u;
+    R.link.last_error = 0x0106;
+    R.img[DR_ASM_IO_STATE][0] = 1;
+    static gw_robot_t next;
+    gw_robot_init(&next, "arm", 8);
+    gw_robot_carry_over(&next, &R);
+    assert_int_equal(next.serial, 8);
+    assert_int_equal(next.heartbeat, 41);
+    assert_int_equal(next.link.rx_packets, 123456u);
+    assert_int_equal(next.link.lost_packets, 7u);
+    assert_int_equal(next.link.last_error, 0);
+    assert_int_equal(next.img[DR_ASM_IO_STATE][0], 0);
+}
+
 static void test_record_error(void **state)
 {
     (void)state;
@@ -116,6 +137,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_init, setup),
+        cmocka_unit_test_setup(test_carry_over, setup),
         cmocka_unit_test_setup(test_record_error, setup),
         cmocka_unit_test_setup(test_clear_while_down, setup),
         cmocka_unit_test_setup(test_get, setup),

@@ -539,6 +539,40 @@ static void test_produce_grid(void **state)
     assert_int_equal(f.sent, 3);
 }
 
+/* Class 1 data is the model's step at the moment it is produced: at
+ * every 10 ms step for 4 s (through STANDBY into OPERATING, the arm
+ * moving), the joint_state packet drsim_run sends equals an explicit Get
+ * right after it. Before, the packet went out before the step and was one
+ * step behind the Get. */
+static void test_produce_after_model_step(void **state)
+{
+    (void)state;
+    static fx_t f;
+    fx_init(&f, NULL);
+    fx_register(&f);
+    uint8_t path[16], last[DR_ASM_MAX_SIZE];
+    dr_fwd_open_t fo = fo_make(DRSIM_HB_INPUT_ONLY, 102, 6, 144 + 2, 10000, path, sizeof path);
+    fo.timeout_mult = 7; /* no O->T heartbeat here: 5.12 s */
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    drsim_run(&f.sim, T0, fx_capture, &f);
+    unsigned changed = 0;
+    memset(last, 0, sizeof last);
+    for (unsigned k = 1; k <= 400; k++) {
+        unsigned before = f.sent;
+        drsim_run(&f.sim, T0 + k * 10 * MS, fx_capture, &f);
+        assert_int_equal(f.sent, before + 1);
+        dr_io_frame_t io;
+        assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+        assert_int_equal(io.data_len, 144);
+        assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 102, 3, NULL, 0), DR_OK);
+        assert_int_equal(f.rsp.data_len, 144);
+        assert_memory_equal(io.data, f.rsp.data, 144);
+        changed += memcmp(last, io.data, 144) != 0;
+        memcpy(last, io.data, 144);
+    }
+    assert_true(changed > 300); /* the data moved: the comparison meant something */
+}
+
 /* The CIP sequence count of the packet drsim_run sends at `t`. */
 static uint16_t produced_at(fx_t *f, uint64_t t)
 {
@@ -707,6 +741,7 @@ int main(void)
         cmocka_unit_test(test_timeouts),
         cmocka_unit_test(test_drop_and_stop),
         cmocka_unit_test(test_produce_grid),
+        cmocka_unit_test(test_produce_after_model_step),
         cmocka_unit_test(test_seq_on_change),
         cmocka_unit_test(test_tick_and_api_report),
         cmocka_unit_test(test_trailing_item),

@@ -29,6 +29,10 @@ BAD = {
                        "field = io_state.cb_do[3]\n", 7, ["input cannot drive"]),
     "indented": (ROBOT + "  port = 5\n", 3, ["whitespace"]),
     "no_robot": ("[modbus]\nport = 5020\n", 2, ["no robot section"]),
+    # the docs' example config_instance and the default listen-only heartbeat
+    "config_is_heartbeat": (ROBOT + "config_instance = 199\nopen.task_state = listen_only\n", 3,
+                            ["config_instance 199 is also listen_only_heartbeat",
+                             "its default", "set listen_only_heartbeat"]),
     "allow_shadowed": ("[modbus]\nallow = 127.0.0.0/8 ro\nallow = 127.0.0.1 rw\n" + ROBOT, 3,
                        ["never matches", "line 2"]),
     "allow_host_bits": ("[modbus]\nallow = 127.0.0.1/8\n" + ROBOT, 2, ["127.0.0.0/8"]),
@@ -185,3 +189,20 @@ def test_log_level_from_config():
         assert "info:" not in g.log()
         rc, _ = g.stop()
         assert rc == 0
+
+
+def test_docs_name_the_default_config_path():
+    """The configuration file the docs, the manual pages and the README
+    name is the one the daemon reads by default and the systemd unit
+    passes (docs/configuration.md once said /etc/drgate/gateway.ini)."""
+    import re
+    usage = subprocess.run([str(DRGATEWAYD), "--help"], capture_output=True, text=True).stdout
+    default = re.search(r"\(default (/\S+\.ini)\)", usage).group(1)
+    unit = (TOP / "gateway" / "drgatewayd.service").read_text()
+    assert re.search(r"^ExecStart=\S+ -c (\S+)$", unit, re.M).group(1) == default
+    texts = sorted((TOP / "docs").glob("*.md")) + sorted((TOP / "man").glob("*.[18]")) + \
+        [TOP / "README.md"]
+    named = {(t.name, p) for t in texts for p in re.findall(r"/etc/drgate/[\w.-]+\.ini",
+                                                          t.read_text())}
+    assert ("configuration.md", default) in named, named
+    assert all(p == default for _, p in named), sorted(named)

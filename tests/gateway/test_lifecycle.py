@@ -110,3 +110,26 @@ def test_systemd_notify(pair):
     finally:
         s.close()
         os.unlink(path)
+
+
+@pytest.mark.parametrize("journal", [False, True], ids=["stderr", "journal"])
+def test_log_line_prefix(pair, journal):
+    """Written to a file or a terminal (JOURNAL_STREAM unset), every line
+    starts with the local time to the millisecond, then drgatewayd and the
+    level; under systemd's journal, which stamps lines itself, with the
+    "<N>" priority only."""
+    import re
+    g = pair
+    env = {k: v for k, v in os.environ.items() if k != "JOURNAL_STREAM"}
+    if journal:
+        env["JOURNAL_STREAM"] = "8:12345"
+    g.start(env=env)
+    g.stop()
+    lines = [l for l in g.log().splitlines() if l.strip()]
+    assert len(lines) >= 3 and any("link up" in l for l in lines), lines
+    if journal:
+        bad = [l for l in lines if not re.match(r"<[3467]>\S", l)]
+    else:
+        stamp = r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d{3} drgatewayd: (error|warning|info|debug): \S"
+        bad = [l for l in lines if not re.match(stamp, l)]
+    assert not bad, bad

@@ -113,6 +113,9 @@ def test_timeout_detection_without_fin(pair, regmap):
     try:
         g.wait_link(False)
         print("silent robot noticed after %.3f s" % (time.monotonic() - t0))
+        # what timed out, said once ("timed out: timed out" before)
+        g.log_wait("): timed out: no packet from the robot for 40 ms")
+        assert "timed out: timed out" not in g.log()
     finally:
         g.sim.proc.send_signal(signal.SIGCONT)
     g.wait_link(True, seconds=60)
@@ -247,6 +250,34 @@ def test_session_loss_alone_keeps_the_data(regmap):
         assert "link down" not in g.log()
 
 
+def test_refusals_summed_up_before_link_up():
+    """Forward Opens refused for a while, then the robot takes them: the
+    count of refusals the rate limit held back is printed before "link up",
+    not up to 10 s after it, where it read like a fault of the link that
+    had just come up. The robot first refuses every Forward Open (six
+    connections: one line and five held back), then is restarted as a
+    robot that takes them."""
+    sim = Drsim("log-refusals-sim", "--refuse-forward-open", "0x0113").start()
+    g = Gateway("log-refusals", sim)
+    try:
+        g.start(wait_link=False)
+        g.log_wait("Forward Open refused: CIP 0x01/0x0113")
+        time.sleep(0.5)  # all six refused by now, the retries too
+        sim.kill()
+        sim.extra = []
+        sim.start(same_ports=True)
+        g.wait_link(True, seconds=30)
+        lines = g.log().splitlines()
+        up = [i for i, l in enumerate(lines) if "link up" in l][0]
+        before = [l for l in lines[:up] if "similar message" in l]
+        assert before and before[-1].endswith("suppressed until now, the last shown]"), lines[:up + 1]
+        assert "0x0113" in before[-1]
+        assert not any("similar message" in l for l in g.log().splitlines()[up:])
+    finally:
+        g.kill()
+        sim.kill()
+
+
 @pytest.mark.parametrize("timing", ["follow", "strict"])
 def test_o2t_timing(timing, regmap):
     """Both O->T timings keep the robot's connections fed at the RPI: over
@@ -280,6 +311,34 @@ def test_o2t_timing(timing, regmap):
             p, c = int(produced), int(consumed)
             assert why == "forward close" and p > 500, (why, p, c)
             assert 0.9 * p <= c <= 1.1 * p, (timing, p, c)
+
+
+@pytest.mark.parametrize("ppm", [-11000, 11000])
+def test_o2t_follow_spacing(ppm):
+    """o2t_timing = follow (the default) against a robot whose clock runs
+    1.1 % slow (98.9 packets a second at RPI 10 ms, as a real adapter was
+    measured) or 1.1 % fast (drsim --clock-ppm): over six seconds no
+    connection sends O->T faster than one packet per RPI, and no two of its
+    packets come closer than half an RPI (the bound is three quarters; the
+    rest is room for a loaded machine). drsim times the arrivals by the
+    kernel's receive stamp and reports them per connection at the Forward
+    Close. Before the fix: 104.7 packets a second, gaps of 0.02 ms."""
+    import re
+    with running("o2t-spacing-%+d" % ppm, sim_args=("--clock-ppm", str(ppm))) as g:
+        time.sleep(6.0)
+        rc, _ = g.stop()
+        assert rc == 0
+        wait_for(lambda: g.sim.log().count("closed (forward close)") == 6, 10,
+                 "six Forward Closes in drsim's log")
+        closes = re.findall(r"closed \(([^)]*)\): .* O->T (\d+) in (\d+) us, shortest gap (\d+) us",
+                            g.sim.log())
+        assert len(closes) == 6, closes
+        for why, n, span_us, gap_us in closes:
+            n, span_us, gap_us = int(n), int(span_us), int(gap_us)
+            assert why == "forward close" and n > 400, (why, n, span_us)
+            # n - 1 intervals of at least one RPI, give or take one packet
+            assert (n - 1) * 10000 <= span_us + 10000, (ppm, n, span_us)
+            assert gap_us >= 5000, (ppm, n, gap_us)
 
 
 @pytest.mark.parametrize("policy", ["zero", "hold"])

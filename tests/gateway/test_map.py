@@ -422,3 +422,64 @@ def test_print_map_formats_agree(regmap):
     assert regmap.entry("IR", "io_state.cb_di")["type"] == "bits 1-16 packed (bit 0 = [1])"
     assert regmap.entry("HR", "io_control.ao_type.ao0")["type"] == "BOOL (0/1)"
     assert regmap.entry("IR", "io_state.version.major")["type"] == "USINT (0..255)"
+
+
+def test_scaled_view_examples_in_the_docs(regmap):
+    """The worked examples of the scaled INT16 view in the docs name the
+    addresses --print-map gives: "`FIELD` at IR A-B is IR C" means the
+    REAL of FIELD is at A-B and its scaled register at C. (The docs once
+    said "1000 above its REAL", which reads joint 5 for
+    joint_state.position[3]: its REAL is at IR 204, its scaled register at
+    IR 1202.)"""
+    import re
+    from gwlib import TOP
+    pat = re.compile(r"`([\w.\[\]]+)`\s+at\s+(IR|HR)\s+(\d+)-(\d+)\s+is\s+(?:also\s+)?(IR|HR)\s+(\d+)")
+    seen = {}
+    for doc in ("register-map.md", "fuzzing.md"):
+        text = (TOP / "docs" / doc).read_text()
+        examples = pat.findall(text)
+        seen[doc] = len(examples)
+        for name, area, a0, a1, sarea, saddr in examples:
+            real = regmap.entry(area, name)
+            assert real["type"].startswith("REAL"), (doc, name, real)
+            assert (real["address"], real["address"] + real["count"] - 1) == (int(a0), int(a1)), \
+                (doc, name, real)
+            assert sarea == area and regmap.addr(area, name, scaled=True) == int(saddr), \
+                (doc, name, regmap.entry(area, name, scaled=True))
+        assert "1000 above its REAL" not in text, doc
+    assert seen["register-map.md"] >= 5 and seen["fuzzing.md"] >= 1, seen
+    # the rule the page states, for every scaled register
+    starts = {}
+    for e in regmap.entries:
+        if e["type"].startswith("REAL"):
+            starts.setdefault((e["area"], e["address"] // 100), []).append(e["name"])
+    for (area, block), names in starts.items():
+        for n, name in enumerate(names):
+            assert regmap.addr(area, name, scaled=True) == block * 100 + 1000 + n, (area, name)
+
+
+def test_cip_status_names_in_the_docs():
+    """A CIP connection-manager status the docs name in words ("0x0106,
+    ownership conflict", "0x01/0x0129 (invalid configuration application
+    path)") is not given the name of another status of lib/status.c's
+    table (the register map once called 0x0106 "connection in use", which
+    is 0x0100)."""
+    import re
+    from gwlib import TOP
+    src = (TOP / "lib" / "status.c").read_text()
+    table = src.split("cip_connection[] = {")[1].split("};")[0]
+    names = {int(c, 16): t for c, t in re.findall(r'\{0x([0-9A-F]{4}), "([^"]+)"\}', table)}
+    assert names[0x0106] == "ownership conflict" and names[0x0100].startswith("connection in use")
+    pat = re.compile(r"0x(?:01/0x)?([0-9A-F]{4})(?:,| \(|\)? \(| =) ?([a-z][a-z /-]+)")
+    docs = sorted((TOP / "docs").glob("*.md")) + sorted((TOP / "man").glob("*.[18]"))
+    checked = 0
+    for doc in docs:
+        for m in pat.finditer(doc.read_text()):
+            code, words = int(m.group(1), 16), m.group(2).strip()
+            if code not in names or len(words.split()) < 2:
+                continue
+            checked += 1
+            others = [c for c, t in names.items() if c != code and t.startswith(words)]
+            assert not others, "%s: 0x%04X called '%s', the name of 0x%04X (%s)" % (
+                doc.name, code, words, others[0], names[others[0]])
+    assert checked >= 5, checked

@@ -32,14 +32,26 @@ def wait_refusal(g, extended, general=0x01):
     return g.status()
 
 
-@pytest.mark.parametrize("sim_args,extended,words", [
-    (("--config-instance", "199"), 0x0129, "invalid configuration application path"),
-    (("--refuse-forward-open", "0x012F"), 0x012F, "inconsistent application path combination"),
-    (("--input-only-heartbeat", "0"), 0x012A, "invalid consuming application path"),
+# The default plan's connections as (T->O, O->T point) by instance: the
+# owners' O->T assemblies, the input-only heartbeat 198.
+DEFAULT_PATHS = {(101, 107), (104, 108), (105, 109), (106, 110), (102, 198), (103, 198)}
+HEARTBEAT_PATHS = {(102, 198), (103, 198)}
+
+
+@pytest.mark.parametrize("sim_args,extended,words,paths", [
+    (("--config-instance", "199"), 0x0129, "invalid configuration application path",
+     DEFAULT_PATHS),
+    (("--refuse-forward-open", "0x012F"), 0x012F, "inconsistent application path combination",
+     DEFAULT_PATHS),
+    (("--input-only-heartbeat", "0"), 0x012A, "invalid consuming application path",
+     HEARTBEAT_PATHS),
 ])
-def test_refusal_before_the_first_success(sim_args, extended, words):
+def test_refusal_before_the_first_success(sim_args, extended, words, paths):
     """The link never comes up, yet the status block and the log say why
-    (before, IR 12 stayed 0: it was written only when the link changed)."""
+    (before, IR 12 stayed 0: it was written only when the link changed).
+    The log line names the instances of the refused path (config, O->T,
+    T->O): adapters answer a wrong point with different statuses."""
+    import re
     name = "plan-refused-%04x" % extended
     with running(name, sim_args=sim_args, start=False) as g:
         g.start(wait_link=False)
@@ -48,6 +60,11 @@ def test_refusal_before_the_first_success(sim_args, extended, words):
         g.log_wait("robot r0: ")
         g.log_wait("Forward Open refused: CIP 0x01/0x%04X %s" % (extended, words))
         assert "refused: 0x01/0x%04X" % extended in g.sim.log()
+        found = re.findall(r"Forward Open refused: CIP 0x01/0x%04X [^(]*"
+                           r"\(path: config (\d+), O->T (\d+), T->O (\d+)\)" % extended, g.log())
+        assert found, g.log()
+        for config, o2t, t2o in found:
+            assert int(config) == 1 and (int(t2o), int(o2t)) in paths, (config, o2t, t2o)
 
 
 def test_listen_only_needs_an_owner():

@@ -106,6 +106,35 @@ def test_reload_changed_robot_reconnects(pair):
     assert g.sim.log().count("closed (forward close)") == 6
 
 
+def test_reload_changed_robot_keeps_heartbeat_and_counters(pair):
+    """A reload that changes a robot (here its RPI) reconnects it, but what
+    a PLC watches for liveness and progress never goes backwards: the
+    heartbeat (IR 4) and the packet counters (IR 6-9) go on from where
+    they were, sampled all through the reload (before the fix: heartbeat
+    4 -> 1, rx_packets back to 0)."""
+    g = pair
+    wait_for(lambda: g.status()[4] >= 3, 10, "heartbeat 3")
+    with g.raw() as m:
+        before = m.read(4, 0, 30)
+        mark = reload(g, robot="rpi_ms = 20\n")
+        seen = [before]
+        deadline = time.monotonic() + 15
+        while time.monotonic() < deadline:
+            st = m.read(4, 0, 30)
+            seen.append(st)
+            if st[29] == 1 and st[1] == 2 and st[5] == 20:
+                break
+            time.sleep(0.05)
+        assert seen[-1][29] == 1 and seen[-1][1] == 2, seen[-1]
+    g.log_wait("changed or removed", start=mark)  # it did reconnect
+    for a, b in zip(seen, seen[1:]):
+        assert b[4] >= a[4], ("heartbeat went back", a[4], b[4])
+        assert rx(b) >= rx(a), ("rx_packets went back", rx(a), rx(b))
+        lost_a, lost_b = a[8] << 16 | a[9], b[8] << 16 | b[9]
+        assert lost_b >= lost_a, ("lost_packets went back", lost_a, lost_b)
+    assert rx(seen[-1]) > rx(before)
+
+
 def test_reload_unit_id_keeps_connection(pair):
     g = pair
     g.unit_ids = [5]

@@ -298,7 +298,9 @@ typedef struct {
                                  O->T packet due within this window (at most
                                  half the API) is sent when the T->O packet
                                  arrives: one wake-up per period instead of
-                                 two, packets up to the window early */
+                                 two, packets up to the window early, never
+                                 two closer than API - window, never more
+                                 than one per API */
     dr_conn_data_cb on_data;
     dr_conn_state_cb on_state;
     void *user;

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # Guest side of `make check-gpio-gateway` (run by tests/gpio/qemu/run.sh's
 # /init, as root, on a kernel with gpio-mockup): drgatewayd with the
-# [gpio] sections of /etc/drgate/gateway.ini, drsim as the robot on
+# [gpio] sections of /etc/drgate/drgatewayd.ini, drsim as the robot on
 # 127.0.0.2, mbpoll as an independent Modbus client. The far side of every
 # line is debugfs (/sys/kernel/debug/gpio-mockup/gpiochipN/LINE: reading
 # gives the level, writing drives an input) and the kernel's gpio_value
@@ -43,7 +43,7 @@ check() { # STATUS MESSAGE...: ok when STATUS is 0
     if [ "$st" = 0 ]; then ok "$@"; else bad "$@"; fi
 }
 
-CONF0=/etc/drgate/gateway.ini
+CONF0=/etc/drgate/drgatewayd.ini
 CONF=/tmp/gw.ini # what the daemon reads, and reads again on SIGHUP
 LOG=/tmp/gw.log
 MB_PORT=1502
