@@ -425,11 +425,11 @@ static void unknown_key(gw_cfg_ctx_t *c, const char *name)
 {
     const gw_cfg_side_t *s = c->side;
     gw_cfg_guess_t g = GW_CFG_GUESS(name);
-    const char *names[32];
+    const char *names[GW_CFG_MAX_KEYS];
     size_t n = 0;
     for (unsigned k = 0; k < s->nkeys; k++) {
         const gw_cfg_key_t *key = &s->keys[k];
-        if (n < GW_CFG_COUNT(names))
+        if (n < GW_CFG_COUNT(names)) /* test_key_tables: all of them */
             names[n++] = key->name;
         if (key->type != GW_CFG_PREFIX) {
             gw_cfg_guess(&g, key->name);

@@ -99,6 +99,7 @@ struct gw_cfg_key {
 #define GW_CFG_NAMES(...) .names = (const char *const[]){ __VA_ARGS__, NULL }
 #define GW_CFG_NONE ((size_t)-1)
 #define GW_CFG_MAX_SIDES 8
+#define GW_CFG_MAX_KEYS 32 /* per side (what "allowed:" lists can hold) */
 
 struct gw_cfg_side {
     const char *kw;           /* [kw], [kw NAME], [kw.NAME] */

@@ -1275,7 +1275,7 @@ static void test_key_tables(void **state)
     (void)state;
     for (size_t j = 0; j < sizeof all_sides / sizeof all_sides[0]; j++) {
         const gw_cfg_side_t *s = all_sides[j];
-        assert_true(s->nkeys > 0);
+        assert_true(s->nkeys > 0 && s->nkeys <= GW_CFG_MAX_KEYS);
         for (unsigned k = 0; k < s->nkeys; k++) {
             check_key(s, &s->keys[k]);
             for (unsigned l = 0; l < k; l++)
