@@ -152,7 +152,7 @@ int cli_net_fail(cli_net_t *net, dr_status_t st, const char *what)
     else if (DR_IS_ENCAP(st))
         snprintf(detail, sizeof detail, " (encapsulation status 0x%04x)",
                  (unsigned)(st & 0xFFFF));
-    else if (st == DR_ETIMEDOUT)
+    else if (st == DR_ETIMEDOUT || st == DR_ENOANSWER || st == DR_ENOREGISTER)
         snprintf(detail, sizeof detail, " after %" PRIu32 " ms", net->timeout_ms);
     return cli_error(cli_net_exit_code(st), net->cmd, "%s: %s%s%s: %s%s",
                      net->where, step[0] != '\0' ? step : "request",

@@ -22,7 +22,7 @@ static const gw_cfg_key_t robot_keys[] = {
     { .name = "tcp_port", .type = GW_CFG_UINT, .flags = LINK, R(tcp_port), .lo = 1, .hi = 65535, .def = 44818, .help = "EtherNet/IP encapsulation port" },
     { .name = "udp_port", .type = GW_CFG_UINT, .flags = LINK, R(udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "the robot's Class 1 (implicit I/O) UDP port" },
     { .name = "local_address", .type = GW_CFG_IPV4, .flags = LINK, R(local_addr), .allowed = "an IPv4 address", .doc_default = "any", .help = "local address for the Class 1 UDP socket" },
-    { .name = "local_udp_port", .type = GW_CFG_UINT, .flags = LINK, R(local_udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "local Class 1 UDP port" },
+    { .name = "local_udp_port", .type = GW_CFG_UINT, .flags = LINK, R(local_udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "local Class 1 UDP port. If another program has it (`cannot open UDP 0.0.0.0:2222 for Class 1 I/O: address already in use`), set `local_address` to another address of this host or `local_udp_port` to a free port (the robot is told where to send in the Forward Open)" },
     /* 0 is broadcast, 248..255 reserved (Modbus spec 4.1) */
     { .name = "unit_id", .type = GW_CFG_UINT, R(unit_id), .lo = 1, .hi = 247, .def = 1, .doc_allowed = "1..247, unique across robots", .help = "Modbus unit ID under which this robot's registers are served" },
     { .name = "mode", .type = GW_CFG_ENUM, .flags = LINK, R(mode), GW_CFG_NAMES("implicit", "explicit"), .def = GW_MODE_IMPLICIT, .help = "`implicit`: Class 1 connections exchanging data every `rpi_ms`. `explicit`: cyclic Get/Set_Attribute_Single over TCP every `rpi_ms` (for networks that block UDP 2222)" },

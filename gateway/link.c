@@ -59,6 +59,10 @@ struct gw_link {
     unsigned dirty;          /* O->T images still to send */
     poll_ctx_t poll_ctx[DR_ASM_COUNT];
     gw_log_limit_t log_limit;
+    gw_log_limit_t sess_limit; /* the session's failures: a kind of their own */
+    gw_log_limit_t sess_end_limit; /* sessions that end under a live link */
+    bool sess_ready;           /* the client said its session is registered */
+    dr_status_t sess_why;      /* why the last session attempt failed or ended */
     const char *closing; /* gw_link_free's reason: a planned link down */
     uint64_t status_us;      /* update_status last ran (implicit mode) */
     bool status_now;         /* the link went up or down: update at once */
@@ -162,6 +166,37 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
            reason[0] != '\0' ? ": " : "", reason);
     if (l->hooks.on_link != NULL)
         l->hooks.on_link(l->hooks.user, l->robot, up, why);
+}
+
+/* The session's news (dr_session_cb). A failed attempt (resolve, connect,
+ * register) is why the link cannot come up: recorded and logged from the
+ * first one, with the cause in words ("connection refused", "no route to
+ * host", "no answer: TCP connection timed out", ...), so that a wrong
+ * address, a robot switched off and an adapter that is disabled can be
+ * told apart. A registered session that ends while the Class 1
+ * connections still deliver is no link failure (they outlive it): info
+ * only, and the client registers again by itself. */
+static void on_session(dr_client_t *c, dr_status_t why, void *user)
+{
+    gw_link_t *l = user;
+    bool was_ready = l->sess_ready;
+    l->sess_ready = why == DR_OK;
+    l->sess_why = why;
+    l->status_now = true;
+    if (why == DR_OK)
+        return;
+    char cause[160];
+    gw_robot_error_text(why, cause, sizeof cause);
+    if (was_ready && l->up && l->cfg.mode == GW_MODE_IMPLICIT) {
+        gw_log_limited(GW_LOG_INFO, &l->sess_end_limit,
+                       "robot %s: %s:%u: session ended: %s (the Class 1 connections go on)",
+                       l->cfg.name, l->cfg.host, (unsigned)l->cfg.tcp_port, cause);
+        return;
+    }
+    link_record_error(l, why);
+    gw_log_limited(GW_LOG_WARNING, &l->sess_limit, "robot %s: %s:%u: %s: %s", l->cfg.name,
+                   l->cfg.host, (unsigned)l->cfg.tcp_port,
+                   was_ready ? "session lost" : dr_client_last_step(c), cause);
 }
 
 /* ---- descriptors ----------------------------------------------------------- */
@@ -550,8 +585,16 @@ static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *
     dr_transport_t tp = port_transport();
     free_slot->port = dr_udp_port_new(rc->local_addr[0] ? rc->local_addr : NULL, num, tp, &err);
     if (free_slot->port == NULL) {
-        gw_log(GW_LOG_ERROR, "robot %s: cannot open UDP %s:%u for Class 1 I/O: %s", rc->name,
-               rc->local_addr[0] ? rc->local_addr : "0.0.0.0", num, dr_strerror(err));
+        /* what to change, for the two causes a configuration fixes */
+        const char *fix = err == DR_EADDRINUSE
+                              ? " (another program has it, e.g. a second gateway or a PLC "
+                                "runtime: set local_address to another address of this host, "
+                                "or local_udp_port to a free port)"
+                          : err == DR_EADDRNOTAVAIL ? " (local_address must be an address of "
+                                                      "this host)"
+                                                    : "";
+        gw_log(GW_LOG_ERROR, "robot %s: cannot open UDP %s:%u for Class 1 I/O: %s%s", rc->name,
+               rc->local_addr[0] ? rc->local_addr : "0.0.0.0", num, dr_strerror(err), fix);
         return NULL;
     }
     snprintf(free_slot->addr, sizeof free_slot->addr, "%s", rc->local_addr);
@@ -654,6 +697,8 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     cc.local_udp_port = rc->local_udp_port;
     cc.timeout_ms = rc->timeout_ms;
     cc.transport = client_transport(ports);
+    cc.on_session = on_session;
+    cc.session_user = l;
     memcpy(cc.instance, rc->instance, sizeof cc.instance);
     if (rc->mode == GW_MODE_IMPLICIT) {
         l->port = port_get(ports, rc, epfd);
@@ -673,12 +718,13 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     l->dirty = (1u << DR_ASM_COUNT) - 1u;
     l->data->link.link_state = 1;
     l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
-    dr_client_start(l->client);
-    process(l);
+    /* Before the start, whose first attempt may fail (and say so) at once. */
     bool named = strcmp(ip, rc->host) != 0; /* a host name: show its address too */
     gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s, RPI %u ms, unit ID %u)",
            rc->name, rc->host, named ? " (" : "", named ? ip : "", named ? ")" : "",
            rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms, rc->unit_id);
+    dr_client_start(l->client);
+    process(l);
     return l;
 }
 
@@ -787,8 +833,8 @@ void gw_link_tick(gw_link_t *l, uint64_t now, bool busy)
 {
     if (l->cfg.mode == GW_MODE_EXPLICIT) {
         explicit_poll(l, now);
-        if (!dr_client_ready(l->client))
-            link_set_up(l, false, DR_ESESSION);
+        if (!dr_client_ready(l->client)) /* why the session failed, if it did */
+            link_set_up(l, false, l->sess_why != DR_OK ? l->sess_why : DR_ESESSION);
         process(l);
     } else if (now >= dr_client_next_deadline(l->client)) {
         dr_client_process_ready(l->client, NULL, 0); /* timers; no socket is ready */

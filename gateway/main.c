@@ -24,7 +24,7 @@
 #include "log.h"
 #include "loop.h"
 #include "north.h"
-#include "regmap.h" /* --print-map only */
+#include "regmap.h" /* --print-map and --print-errors only */
 #include "robot.h"
 
 #ifndef DRGATE_VERSION
@@ -485,13 +485,16 @@ static void usage(FILE *out)
             "       drgatewayd --check-config FILE\n"
             "       drgatewayd --print-map [--json | --markdown]\n"
             "       drgatewayd --help-config SECTION\n"
+            "       drgatewayd --print-errors [--markdown]\n"
             "Serves Doosan robots' EtherNet/IP assemblies as Modbus TCP registers, as a\n"
             "Modbus RTU slave on serial lines, as GPIO lines, and publishes them to an\n"
             "MQTT broker ([mqtt], docs/mqtt.md).\n\n"
             "  -c, --config FILE      configuration (default " DEFAULT_CONFIG ")\n"
             "      --check-config FILE  validate FILE and exit (0 valid, 78 invalid)\n"
             "      --print-map        print the Modbus register map and exit\n"
-            "      --json, --markdown   format of --print-map\n"
+            "      --print-errors     print every value of the status block's last_error\n"
+            "                         (IR 12, with IR 30) and exit\n"
+            "      --json, --markdown   format of --print-map (--print-errors: --markdown)\n"
             "      --help-config SECTION  print the keys of [SECTION] (its keyword, such as\n"
             "                         robot) as a Markdown table and exit\n"
             "  -v, --verbose          log debug messages\n"
@@ -506,11 +509,12 @@ static void usage(FILE *out)
 
 int main(int argc, char **argv)
 {
-    enum { OPT_CHECK = 256, OPT_MAP, OPT_JSON, OPT_MD, OPT_HELP_CONFIG };
+    enum { OPT_CHECK = 256, OPT_MAP, OPT_ERRORS, OPT_JSON, OPT_MD, OPT_HELP_CONFIG };
     static const struct option opts[] = {
         {"config", required_argument, NULL, 'c'},
         {"check-config", required_argument, NULL, OPT_CHECK},
         {"print-map", no_argument, NULL, OPT_MAP},
+        {"print-errors", no_argument, NULL, OPT_ERRORS},
         {"json", no_argument, NULL, OPT_JSON},
         {"markdown", no_argument, NULL, OPT_MD},
         {"help-config", required_argument, NULL, OPT_HELP_CONFIG},
@@ -520,7 +524,7 @@ int main(int argc, char **argv)
         {NULL, 0, NULL, 0},
     };
     const char *config = DEFAULT_CONFIG, *check = NULL, *help_config = NULL;
-    bool print_map = false, verbose = false;
+    bool print_map = false, print_errors = false, verbose = false;
     gw_print_fmt_t fmt = GW_PRINT_TEXT;
     int c;
     while ((c = getopt_long(argc, argv, "c:vhV", opts, NULL)) != -1) {
@@ -528,6 +532,7 @@ int main(int argc, char **argv)
         case 'c': config = optarg; break;
         case OPT_CHECK: check = optarg; break;
         case OPT_MAP: print_map = true; break;
+        case OPT_ERRORS: print_errors = true; break;
         case OPT_JSON: fmt = GW_PRINT_JSON; break;
         case OPT_MD: fmt = GW_PRINT_MARKDOWN; break;
         case OPT_HELP_CONFIG: help_config = optarg; break;
@@ -547,6 +552,14 @@ int main(int argc, char **argv)
         fprintf(stderr, "drgatewayd: --help-config: no section [%s] (allowed: %s)\n",
                 help_config, gw_config_sections());
         return 2;
+    }
+    if (print_errors) {
+        if (fmt == GW_PRINT_JSON || print_map) {
+            fprintf(stderr, "drgatewayd: --print-errors takes --markdown only, and no --print-map\n");
+            return 2;
+        }
+        gw_regmap_print_errors(stdout, fmt);
+        return 0;
     }
     if (print_map) {
         gw_regmap_print(stdout, fmt);

@@ -14,7 +14,8 @@
  *
  * Topics, under <prefix> = topic_prefix:
  *   <prefix>/status               "online" / "offline" (the Last Will), retained
- *   <prefix>/<robot>/state        "up" / "down": the robot's link, retained
+ *   <prefix>/<robot>/state        "up" / "down" / "down: <cause>": the robot's
+ *                                 link, retained
  *   <prefix>/<robot>/meta         {"path": {"type", "unit", "dir"}, ...}, retained
  *   <prefix>/<robot>/data         {"path": value, ...}: what changed; all
  *                                 fields after a (re)connect or link up
@@ -76,6 +77,7 @@ typedef struct {
     uint16_t *pick;      /* publish_data: the leaves in this message ... */
     double *pick_v;      /* ... and their values */
     bool link[GW_MAX_ROBOTS];
+    dr_status_t state_why[GW_MAX_ROBOTS]; /* the cause in the last state published */
     bool state_due[GW_MAX_ROBOTS], meta_due[GW_MAX_ROBOTS], full_due[GW_MAX_ROBOTS];
     bool status_due;
     bool data_seen[GW_MAX_ROBOTS]; /* new T->O data since the last scan */
@@ -760,6 +762,18 @@ static bool snapshot_ready(const mq_t *t, unsigned r, uint64_t now)
     return (t->asm_seen[r] & all) == all || now >= t->up_us[r] + 1000000u;
 }
 
+/* "up", or "down" with the cause the status block has (last_error), in
+ * the same words as the log: "down: connection refused". */
+static bool publish_state(mq_t *t, unsigned r)
+{
+    char text[200], cause[160];
+    dr_status_t why = t->link[r] ? DR_OK : t->env->robots[r].link.last_status;
+    gw_robot_error_text(why, cause, sizeof cause);
+    snprintf(text, sizeof text, "%s%s%s", t->link[r] ? "up" : "down", cause[0] ? ": " : "", cause);
+    t->state_why[r] = why;
+    return publish_text(t, (int)r, "state", text, t->cfg.retain);
+}
+
 static void mq_tick(void *self, uint64_t now)
 {
     mq_t *t = self;
@@ -780,9 +794,10 @@ static void mq_tick(void *self, uint64_t now)
         t->status_due = !publish_text(t, -1, "status", "online", t->cfg.retain);
     const gw_config_t *cfg = t->env->cfg;
     for (unsigned r = 0; r < cfg->robot_count && !t->status_due; r++) {
+        if (!t->link[r] && t->env->robots[r].link.last_status != t->state_why[r])
+            t->state_due[r] = true; /* down for another cause now */
         if (t->state_due[r] && room(t))
-            t->state_due[r] = !publish_text(t, (int)r, "state", t->link[r] ? "up" : "down",
-                                            t->cfg.retain);
+            t->state_due[r] = !publish_state(t, r);
         if (t->meta_due[r] && room(t))
             t->meta_due[r] = !publish_meta(t, r);
         /* Data only while the link is up (else it is not the robot's) and

@@ -641,3 +641,85 @@ void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
     if (fmt == GW_PRINT_JSON)
         fputs("\n]\n", out);
 }
+
+/* ---- last_error's codes (drgatewayd --print-errors) ------------------------------ */
+
+/* One row: the codes as the registers show them, the cause in words and,
+ * where the daemon knows one, what to check. */
+static void error_row(FILE *out, gw_print_fmt_t fmt, const char *code, const char *general,
+                      const char *cause, const char *hint)
+{
+    if (fmt == GW_PRINT_MARKDOWN)
+        fprintf(out, "| %s | %s | %s | %s |\n", code, general, cause, hint != NULL ? hint : "");
+    else
+        fprintf(out, "%-15s %-11s %s%s%s\n", code, general, cause, hint != NULL ? ": " : "",
+                hint != NULL ? hint : "");
+}
+
+/* A code in hexadecimal and, for PLC programs that show decimal, decimal. */
+static void hex_dec(char *buf, size_t size, unsigned v, int digits)
+{
+    snprintf(buf, size, "0x%0*X (%u)", digits, v, v);
+}
+
+#define ERR_CODE(name, value, text) value,
+static const int plain_codes[] = {DR_STATUS_LIST(ERR_CODE)};
+#undef ERR_CODE
+
+void gw_regmap_print_errors(FILE *out, gw_print_fmt_t fmt)
+{
+    char code[40], gen[24], cause[160];
+    if (fmt == GW_PRINT_MARKDOWN)
+        fputs("| `last_error` (IR 12) | `last_cip_general` (IR 30) | cause | what to check |\n"
+              "|---|---|---|---|\n", out);
+    else
+        fprintf(out, "%-15s %-11s %s\n", "last_error", "cip_general", "cause");
+    error_row(out, fmt, "0", "0", "no failure since the robot's link started", NULL);
+    /* drgate's own codes: the whole list, in its order (1, 2, ...) */
+    for (size_t i = 0; i < sizeof plain_codes / sizeof plain_codes[0]; i++) {
+        dr_status_t st = plain_codes[i];
+        if (st == DR_OK)
+            continue;
+        snprintf(code, sizeof code, "%d", (int)st);
+        error_row(out, fmt, code, "0", dr_strerror(st), gw_robot_error_hint(st));
+    }
+    /* encapsulation statuses, moved above drgate's codes */
+    const char *unknown = dr_strerror(DR_ENCAP(0xFFFF));
+    for (unsigned s = 1; s < GW_ERROR_OTHER - GW_ERROR_ENCAP; s++) {
+        if (strcmp(dr_strerror(DR_ENCAP(s)), unknown) == 0)
+            continue;
+        hex_dec(code, sizeof code, GW_ERROR_ENCAP + s, 4);
+        gw_robot_error_text(DR_ENCAP(s), cause, sizeof cause);
+        error_row(out, fmt, code, "0", cause,
+                  s == 0x69 ? "the robot refused RegisterSession's protocol version" : NULL);
+    }
+    error_row(out, fmt, "0x8000 + s", "0",
+              "any other encapsulation status s from the robot (0x0001-0x7FFE)", NULL);
+    hex_dec(code, sizeof code, GW_ERROR_OTHER, 4);
+    error_row(out, fmt, code, "0", "an encapsulation status above 0x7FFE", NULL);
+    /* CIP: a refused Forward Open's extended status, then replies that
+     * carry a general status alone */
+    for (unsigned x = 1; x <= 0xFFFFu; x++) {
+        dr_status_t st = DR_CIP(0x01, x);
+        if (strcmp(dr_strerror(st), dr_cip_general_text(0x01)) == 0)
+            continue;
+        hex_dec(code, sizeof code, x, 4);
+        hex_dec(gen, sizeof gen, 0x01, 2);
+        gw_robot_error_text(st, cause, sizeof cause);
+        error_row(out, fmt, code, gen, cause, NULL);
+    }
+    const char *unknown_general = dr_cip_general_text(0xFF);
+    for (unsigned g = 1; g <= 0xFFu; g++) {
+        if (strcmp(dr_cip_general_text((uint8_t)g), unknown_general) == 0)
+            continue;
+        hex_dec(code, sizeof code, g, 2);
+        hex_dec(gen, sizeof gen, g, 2);
+        gw_robot_error_text(DR_CIP(g, 0), cause, sizeof cause);
+        snprintf(cause + strlen(cause), sizeof cause - strlen(cause),
+                 " (a reply without extended status)");
+        error_row(out, fmt, code, gen, cause, NULL);
+    }
+    error_row(out, fmt, "x", "g",
+              "any other CIP reply: general status g with extended status x (or x = g "
+              "when it has none)", NULL);
+}

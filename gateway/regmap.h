@@ -109,6 +109,9 @@ unsigned gw_regmap_scale(const dr_field_t *f);
 /* Print the map: plain text, Markdown (docs/register-map.md) or JSON. */
 typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
 void gw_regmap_print(FILE *out, gw_print_fmt_t fmt);
+/* Every value of the status block's last_error (IR 12) with
+ * last_cip_general (IR 30): text or Markdown (docs/register-map.md). */
+void gw_regmap_print_errors(FILE *out, gw_print_fmt_t fmt);
 
 /* 32-bit value <-> two registers in a word order (our own codec, not
  * libmodbus's float helpers). */

@@ -19,6 +19,7 @@
 #define DRGATE_GW_ROBOT_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "config.h"
@@ -38,8 +39,9 @@ typedef struct {
     uint32_t age_ms;           /* age of the oldest T->O data */
     uint16_t rpi_ms;           /* API in use (explicit: the poll period) */
     uint32_t rx_packets, lost_packets;
-    uint16_t last_error;       /* CIP extended status or drgate code */
+    uint16_t last_error;       /* gw_robot_error_code() of last_status */
     uint16_t last_cip_general; /* CIP general status of last_error, 0: not CIP */
+    dr_status_t last_status;   /* why the link last failed, DR_OK: not yet */
     uint16_t conn_state[GW_ROBOT_CONNS]; /* dr_conn_state_t per connection */
 } gw_robot_link_t;
 
@@ -87,10 +89,31 @@ void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial);
  * generation register says that a reload happened). */
 void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old);
 
-/* Why the link last failed (DR_OK: nothing to record): a CIP refusal as
- * its extended status (the general one when it has none) and its general
- * status; anything else as the drgate or encapsulation code, general 0. */
+/* Why the link last failed (DR_OK: nothing to record), in last_status and
+ * as gw_robot_error_code() in last_error and last_cip_general. */
 void gw_robot_record_error(gw_robot_t *r, dr_status_t why);
+
+/* last_error's code space, one number for every cause a PLC may act on:
+ *   general != 0: a CIP reply's status: last_error is its extended status
+ *                 (the general one when the reply had none);
+ *   general == 0: 1..0x7FFF a drgate status code (drgate/status.h, whose
+ *                 numbers never change), GW_ERROR_ENCAP + an encapsulation
+ *                 status (RegisterSession or a request refused by the
+ *                 robot's encapsulation layer), GW_ERROR_OTHER for an
+ *                 encapsulation status above 0x7FFE.
+ * docs/register-map.md's table of them is `drgatewayd --print-errors`. */
+#define GW_ERROR_ENCAP 0x8000u
+#define GW_ERROR_OTHER 0xFFFFu
+uint16_t gw_robot_error_code(dr_status_t why, uint16_t *general);
+
+/* The cause in words, as the log, MQTT's state and drcli say it:
+ * "connection refused", "CIP 0x01/0x0106 ownership conflict",
+ * "encapsulation: unsupported protocol version (0x0069)"; "" for DR_OK. */
+void gw_robot_error_text(dr_status_t why, char *buf, size_t size);
+
+/* What usually causes `why` on a robot link and what to check, for the
+ * documentation's table; NULL when there is nothing to add. */
+const char *gw_robot_error_hint(dr_status_t why);
 
 /* The link went down: with clear_while_down, the T->O images go to 0
  * (the O->T images are the sides' and stay). */

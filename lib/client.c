@@ -515,6 +515,14 @@ static dr_status_t send_rr(dr_client_t *c, req_t *r, const uint8_t *msg,
 
 static void conn_schedule_retry(dr_conn_t *cn, dr_status_t why);
 
+/* Tell the application about the session (dr_session_cb), except while
+ * it closes the client itself. */
+static void session_tell(dr_client_t *c, dr_status_t why)
+{
+    if (c->cfg.on_session != NULL && c->closing == CL_NONE)
+        c->cfg.on_session(c, why, c->cfg.session_user);
+}
+
 static void session_fail(dr_client_t *c, dr_status_t st)
 {
     close_handle(c, &c->tcp);
@@ -537,6 +545,7 @@ static void session_fail(dr_client_t *c, dr_status_t st)
     }
     (void)was;
     deadline_moved(c);
+    session_tell(c, st);
 }
 
 static dr_status_t ensure_udp(dr_client_t *c)
@@ -1133,6 +1142,7 @@ static void on_frame(dr_client_t *c, const uint8_t *frame, size_t len)
         c->state = S_READY;
         c->backoff_ms = c->cfg.backoff_min_ms;
         c->sess_error = DR_OK;
+        session_tell(c, DR_OK);
         return;
     }
     req_t *r = req_find(c, context_of(&h));
@@ -1408,9 +1418,9 @@ static void session_timers(dr_client_t *c, uint64_t t)
         else if (st != DR_EAGAIN)
             session_fail(c, st);
         else if (t >= c->sess_deadline)
-            session_fail(c, DR_ETIMEDOUT);
+            session_fail(c, DR_ENOANSWER); /* TCP's timeout, not a request's */
     } else if (c->state == S_REGISTERING && t >= c->sess_deadline) {
-        session_fail(c, DR_ETIMEDOUT);
+        session_fail(c, DR_ENOREGISTER);
     } else if (c->state == S_BACKOFF && c->started && t >= c->retry_at) {
         (void)begin_session(c);
     }
@@ -1588,7 +1598,7 @@ dr_status_t dr_client_connect_sync(dr_client_t *c)
     uint64_t deadline = now_us(c) + 2u * (uint64_t)c->cfg.timeout_ms * 1000u;
     while (c->state == S_CONNECTING || c->state == S_REGISTERING) {
         if (now_us(c) >= deadline) {
-            session_fail(c, DR_ETIMEDOUT);
+            session_fail(c, c->state == S_CONNECTING ? DR_ENOANSWER : DR_ENOREGISTER);
             break;
         }
         wait_and_process(c, deadline);

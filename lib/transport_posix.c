@@ -32,6 +32,9 @@ static dr_sockaddr_t from_sin(const struct sockaddr_in *sin)
     return a;
 }
 
+/* Each cause a user can act on has its own status: a refused connection
+ * (nothing listens), no route (wrong address or network), TCP's own
+ * timeout (nobody answers), an address in use or not on this host. */
 static dr_status_t errno_status(int e)
 {
     switch (e) {
@@ -42,11 +45,27 @@ static dr_status_t errno_status(int e)
     case EINTR:
         return DR_EAGAIN;
     case ECONNREFUSED: return DR_ECONNREFUSED;
-    case ETIMEDOUT: return DR_ETIMEDOUT;
+    case ETIMEDOUT: return DR_ENOANSWER;
+    case EHOSTUNREACH:
+    case EHOSTDOWN: return DR_EHOSTUNREACH;
+    case ENETUNREACH:
+    case ENETDOWN: return DR_ENETUNREACH;
+    case EADDRINUSE: return DR_EADDRINUSE;
+    case EADDRNOTAVAIL: return DR_EADDRNOTAVAIL;
+    case EACCES:
+    case EPERM: return DR_EACCES;
     case EPIPE:
+    case ECONNABORTED:
     case ECONNRESET: return DR_ECLOSED;
     default: return DR_EIO;
     }
+}
+
+/* A failure of a call that never "would block": EAGAIN there is an error. */
+static dr_status_t fail_status(int e)
+{
+    dr_status_t st = errno_status(e);
+    return st == DR_EAGAIN ? DR_EIO : st;
 }
 
 static dr_status_t px_resolve(void *ctx, const char *host, uint32_t *addr)
@@ -78,9 +97,10 @@ static dr_status_t px_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
     (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     struct sockaddr_in sin = to_sin(to);
     if (connect(fd, (struct sockaddr *)&sin, sizeof sin) < 0 && errno != EINPROGRESS) {
-        dr_status_t st = errno_status(errno);
+        /* EINVAL for a valid IPv4 address: a blackhole route to it */
+        dr_status_t st = errno == EINVAL ? DR_ENETUNREACH : fail_status(errno);
         close(fd);
-        return st == DR_EAGAIN ? DR_EIO : st;
+        return st;
     }
     *h = fd;
     return DR_OK;
@@ -94,7 +114,7 @@ static dr_status_t px_tcp_finish(void *ctx, int h)
     if (getsockopt(h, SOL_SOCKET, SO_ERROR, &err, &len) < 0)
         return DR_EIO;
     if (err != 0)
-        return errno_status(err) == DR_EAGAIN ? DR_EIO : errno_status(err);
+        return fail_status(err);
     struct sockaddr_in peer;
     len = sizeof peer;
     if (getpeername(h, (struct sockaddr *)&peer, &len) < 0)
@@ -136,8 +156,9 @@ static dr_status_t px_udp_open(void *ctx, dr_sockaddr_t local, int *h)
     (void)setsockopt(fd, SOL_SOCKET, SO_BROADCAST, &one, sizeof one);
     struct sockaddr_in sin = to_sin(local);
     if (bind(fd, (struct sockaddr *)&sin, sizeof sin) < 0) {
+        dr_status_t st = fail_status(errno); /* DR_EADDRINUSE, DR_EADDRNOTAVAIL */
         close(fd);
-        return DR_EIO;
+        return st;
     }
     *h = fd;
     return DR_OK;

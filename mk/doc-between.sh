@@ -1,8 +1,8 @@
 # shellcheck shell=sh disable=SC2154,SC2034 # variables shared with the caller
 # SPDX-License-Identifier: MIT
-# Sourced by mk/gen-docs.sh, mk/gen-regmap-doc.sh and mk/gen-config-doc.sh:
-# a document whose text between two marker lines is generated from the
-# code, the prose around it written by hand. The caller sets
+# Sourced by mk/gen-docs.sh, mk/gen-regmap-doc.sh and mk/gen-config-doc.sh: a
+# document whose text between two marker lines is generated from the code, the prose around it
+# written by hand. The caller sets
 #   doc    the document            label  its name in messages and RESULTS
 #   begin  the first marker line   end    the last marker line
 #   blank  1: an empty line after the begin marker (0: the text brings it)
@@ -10,7 +10,9 @@
 #   tool   the program argument's name in the usage line
 # calls doc_args "$@" (sets mode and bin from --write BIN | --check BIN
 # RESULTS), generates the text, and calls doc_between MODE GENERATED
-# [RESULTS] (or doc_render for each part, then doc_finish).
+# [RESULTS]. A document with a second generated block renders the first
+# one into a copy with doc_render, points `doc` at that copy and `target`
+# at the document, and calls doc_between for the second one.
 
 doc_args() {
     if [ $# -lt 2 ] || { [ "$1" != --write ] && [ "$1" != --check ]; } ||
@@ -43,42 +45,36 @@ doc_render() {
 # --write: replace the document if it changed. --check: compare, and add
 # "1 0 LABEL" or "0 1 LABEL" to RESULTS. Exits 1 on a failure.
 doc_between() {
+    target=${target:-$doc}
     rendered=$(mktemp)
     if ! doc_render "$2" >"$rendered"; then
         rm -f "$rendered"
         [ "$1" != --check ] || { mkdir -p "$(dirname "$3")"; echo "0 1 $label" >>"$3"; }
         exit 1
     fi
-    doc_finish "$1" "$rendered" "${3:-}"
-}
-
-# doc_finish MODE RENDERED [RESULTS]: what doc_between does once the whole
-# document is rendered (by one doc_render, or by several in a row for a
-# document with several generated parts); RENDERED is removed.
-doc_finish() {
     case $1 in
     --write)
-        if cmp -s "$2" "$doc"; then
-            echo "$label: $doc is up to date"
+        if cmp -s "$rendered" "$target"; then
+            echo "$label: $target is up to date"
         else
-            cp "$2" "$doc"
-            echo "$label: regenerated the tables in $doc"
+            cp "$rendered" "$target"
+            echo "$label: regenerated the tables in $target"
         fi
         ;;
     --check)
         mkdir -p "$(dirname "$3")"
-        if cmp -s "$2" "$doc"; then
-            echo "$label: $doc matches $source"
+        if cmp -s "$rendered" "$target"; then
+            echo "$label: $target matches $source"
             echo "1 0 $label" >>"$3"
         else
-            echo "$label: FAIL: $doc differs from what $source gives" >&2
+            echo "$label: FAIL: $target differs from what $source gives" >&2
             echo "$label: (- is the document, + is the generated text)" >&2
-            diff -u "$doc" "$2" | sed 's/^/    /' >&2 || true
+            diff -u "$target" "$rendered" | sed 's/^/    /' >&2 || true
             echo "0 1 $label" >>"$3"
-            rm -f "$2"
+            rm -f "$rendered"
             exit 1
         fi
         ;;
     esac
-    rm -f "$2"
+    rm -f "$rendered"
 }

@@ -602,12 +602,20 @@ static void test_connect_failures(void **state)
     /* the connect itself fails after a while */
     F.finish_st = DR_ECONNREFUSED;
     assert_int_equal(dr_client_connect_sync(c), DR_ECONNREFUSED);
-    /* or never finishes: the session times out */
+    /* or never finishes: no answer (TCP's, not a request timeout) */
     F.finish_st = DR_EAGAIN;
     uint64_t t0 = F.now;
-    assert_int_equal(dr_client_connect_sync(c), DR_ETIMEDOUT);
+    assert_int_equal(dr_client_connect_sync(c), DR_ENOANSWER);
     assert_true(F.now - t0 >= 100000u);
+    assert_string_equal(dr_client_last_step(c), "connect");
     F.finish_st = DR_OK;
+    /* connected, but RegisterSession is never answered */
+    F.reg_silent = true;
+    t0 = F.now;
+    assert_int_equal(dr_client_connect_sync(c), DR_ENOREGISTER);
+    assert_true(F.now - t0 >= 100000u);
+    assert_string_equal(dr_client_last_step(c), "register session");
+    F.reg_silent = false;
     /* RegisterSession refused, or answered with session handle 0 */
     F.reg_status = 0x0069;
     assert_int_equal(dr_client_connect_sync(c), DR_ENCAP(0x0069));
@@ -627,6 +635,73 @@ static void test_connect_failures(void **state)
     assert_int_equal(F.rr, rr);
     dr_client_free(c);
     assert_int_equal(F.unregister, 1);
+}
+
+/* What dr_session_cb reports to an event loop that lets the client
+ * reconnect by itself: every failed attempt with its cause, the session
+ * registered, the session ended by the peer; nothing while it closes. */
+typedef struct {
+    dr_status_t why[16];
+    unsigned n;
+} sess_log_t;
+
+static sess_log_t S_LOG; /* file scope: the callback changes it behind the calls */
+
+static void on_session_log(dr_client_t *c, dr_status_t why, void *user)
+{
+    sess_log_t *log = user;
+    assert_true(dr_client_ready(c) == (why == DR_OK));
+    if (log->n < 16)
+        log->why[log->n] = why;
+    log->n++;
+}
+
+static void test_session_callback(void **state)
+{
+    (void)state;
+    memset(&S_LOG, 0, sizeof S_LOG);
+    dr_client_config_t cfg = config(&fake_ops);
+    cfg.on_session = on_session_log;
+    cfg.session_user = &S_LOG;
+    dr_client_t *c = dr_client_new(&cfg);
+    assert_non_null(c);
+    /* refused at once: told from the first attempt, and from each retry */
+    F.connect_st = DR_ECONNREFUSED;
+    assert_int_equal(dr_client_start(c), DR_OK);
+    assert_int_equal(S_LOG.n, 1);
+    assert_int_equal(S_LOG.why[0], DR_ECONNREFUSED);
+    run_for(c, 25); /* backoff 10 ms, then 20 ms */
+    assert_true(S_LOG.n >= 2);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_ECONNREFUSED);
+    /* the TCP connect never completes: no answer at the 100 ms timeout */
+    F.connect_st = DR_OK;
+    F.finish_st = DR_EAGAIN;
+    unsigned n = S_LOG.n;
+    run_for(c, 200);
+    assert_true(S_LOG.n > n);
+    assert_int_equal(S_LOG.why[n], DR_ENOANSWER);
+    /* connected, RegisterSession never answered */
+    F.finish_st = DR_OK;
+    F.reg_silent = true;
+    n = S_LOG.n;
+    run_for(c, 200);
+    assert_true(S_LOG.n > n);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_ENOREGISTER);
+    /* registered, then closed by the peer, then registered again */
+    F.reg_silent = false;
+    run_for(c, 300); /* the attempt under way times out, the next one works */
+    assert_true(S_LOG.n < 16);
+    assert_int_equal(S_LOG.why[S_LOG.n - 1], DR_OK);
+    n = S_LOG.n - 1;
+    F.eof_st = DR_ECLOSED;
+    run_for(c, 100);
+    assert_true(S_LOG.n >= n + 3);
+    assert_int_equal(S_LOG.why[n + 1], DR_ECLOSED);
+    assert_int_equal(S_LOG.why[n + 2], DR_OK);
+    /* closing (the peer closes after UnRegisterSession): not told */
+    n = S_LOG.n;
+    dr_client_free(c);
+    assert_int_equal(S_LOG.n, n);
 }
 
 /* A frame longer than any the protocol allows: the stream is given up. */
@@ -1972,6 +2047,7 @@ int main(void)
         cmocka_unit_test_setup(test_new_refuses, setup),
         cmocka_unit_test_setup(test_shared_port_limits, setup),
         cmocka_unit_test_setup(test_connect_failures, setup),
+        cmocka_unit_test_setup(test_session_callback, setup),
         cmocka_unit_test_setup(test_overlong_frame, setup),
         cmocka_unit_test_setup(test_reply_sizes, setup),
         cmocka_unit_test_setup(test_bad_replies, setup),

@@ -93,6 +93,50 @@ static void test_record_error(void **state)
     /* DR_OK records nothing */
     gw_robot_record_error(&R, DR_OK);
     assert_int_equal(R.link.last_error, DR_ETIMEDOUT);
+    assert_int_equal(R.link.last_status, DR_ETIMEDOUT);
+    /* each cause of an unreachable robot its own code, kept as they are */
+    gw_robot_record_error(&R, DR_ECONNREFUSED);
+    assert_int_equal(R.link.last_error, 15);
+    gw_robot_record_error(&R, DR_EHOSTUNREACH);
+    assert_int_equal(R.link.last_error, 24);
+    gw_robot_record_error(&R, DR_ENOANSWER);
+    assert_int_equal(R.link.last_error, 26);
+    gw_robot_record_error(&R, DR_ENOREGISTER);
+    assert_int_equal(R.link.last_error, 27);
+    assert_int_equal(R.link.last_status, DR_ENOREGISTER);
+    /* encapsulation statuses above drgate's codes (0x0001 is not
+     * DR_EINVAL, 0x0069 not 105), general 0 */
+    gw_robot_record_error(&R, DR_ENCAP(0x0001));
+    assert_int_equal(R.link.last_error, 0x8001);
+    assert_int_equal(R.link.last_cip_general, 0);
+    gw_robot_record_error(&R, DR_ENCAP(0x0069));
+    assert_int_equal(R.link.last_error, 0x8069);
+    gw_robot_record_error(&R, DR_ENCAP(0x7FFE));
+    assert_int_equal(R.link.last_error, 0xFFFE);
+    gw_robot_record_error(&R, DR_ENCAP(0x8000));
+    assert_int_equal(R.link.last_error, 0xFFFF);
+    assert_int_equal(R.link.last_status, DR_ENCAP(0x8000));
+}
+
+static void test_error_text(void **state)
+{
+    (void)state;
+    char t[160];
+    gw_robot_error_text(DR_OK, t, sizeof t);
+    assert_string_equal(t, "");
+    gw_robot_error_text(DR_ECONNREFUSED, t, sizeof t);
+    assert_string_equal(t, "connection refused");
+    gw_robot_error_text(DR_ENOANSWER, t, sizeof t);
+    assert_string_equal(t, "no answer: TCP connection timed out");
+    gw_robot_error_text(DR_CIP(0x01, 0x0106), t, sizeof t);
+    assert_string_equal(t, "CIP 0x01/0x0106 ownership conflict");
+    gw_robot_error_text(DR_CIP(0x05, 0), t, sizeof t);
+    assert_string_equal(t, "CIP 0x05 path destination unknown");
+    gw_robot_error_text(DR_ENCAP(0x0069), t, sizeof t);
+    assert_string_equal(t, "encapsulation: unsupported protocol version (0x0069)");
+    assert_non_null(gw_robot_error_hint(DR_EADDRINUSE));
+    assert_non_null(strstr(gw_robot_error_hint(DR_EADDRINUSE), "local_udp_port"));
+    assert_null(gw_robot_error_hint(DR_ESYNTAX));
 }
 
 static void test_clear_while_down(void **state)
@@ -139,6 +183,7 @@ int main(void)
         cmocka_unit_test_setup(test_init, setup),
         cmocka_unit_test_setup(test_carry_over, setup),
         cmocka_unit_test_setup(test_record_error, setup),
+        cmocka_unit_test_setup(test_error_text, setup),
         cmocka_unit_test_setup(test_clear_while_down, setup),
         cmocka_unit_test_setup(test_get, setup),
     };

@@ -127,8 +127,12 @@ static void test_udp(void **state)
     socklen_t sl = sizeof sin;
     assert_int_equal(getsockname(b, (struct sockaddr *)&sin, &sl), 0);
     dr_sockaddr_t to = {0x7F000001u, ntohs(sin.sin_port)};
-    /* the same port twice cannot be had */
-    assert_int_equal(OPS->udp_open(CTX, to, &c), DR_EIO);
+    /* the same port twice cannot be had, and says so (drgatewayd tells
+     * the user to change local_address or local_udp_port) */
+    assert_int_equal(OPS->udp_open(CTX, to, &c), DR_EADDRINUSE);
+    /* an address that is not this host's (class E: never assigned) */
+    dr_sockaddr_t foreign = {0xF0000001u, 0};
+    assert_int_equal(OPS->udp_open(CTX, foreign, &c), DR_EADDRNOTAVAIL);
 
     uint8_t big[100], buf[50];
     memset(big, 7, sizeof big);

@@ -29,7 +29,9 @@ static dr_status_t errno_status(int e)
     case EINTR:
         return DR_EAGAIN;
     case ECONNREFUSED: return DR_ECONNREFUSED;
-    case ETIMEDOUT: return DR_ETIMEDOUT;
+    case ETIMEDOUT: return DR_ENOANSWER; /* TCP's: not a request timeout */
+    case EHOSTUNREACH: return DR_EHOSTUNREACH; /* lwIP's ERR_RTE: no route */
+    case EADDRINUSE: return DR_EADDRINUSE;
     case EPIPE:
     case ENOTCONN:
     case ECONNRESET:
@@ -139,8 +141,9 @@ static dr_status_t lw_udp_open(void *ctx, dr_sockaddr_t local, int *h)
     (void)lwip_setsockopt(s, SOL_SOCKET, SO_BROADCAST, &one, sizeof one);
     struct sockaddr_in sin = to_sin(local);
     if (lwip_bind(s, (struct sockaddr *)&sin, sizeof sin) < 0) {
+        dr_status_t st = errno_status(errno); /* DR_EADDRINUSE */
         lwip_close(s);
-        return DR_EIO;
+        return st == DR_EAGAIN ? DR_EIO : st;
     }
     *h = s;
     return DR_OK;

@@ -205,6 +205,33 @@ t err_watch_raw  '"$DRCLI" -H 127.0.0.2 watch --raw io_state.robot_state'
 t err_bad_option '"$DRCLI" -H 127.0.0.2 get --verbose io_state.robot_state'
 t err_lead_opt   '"$DRCLI" --verbose get io_state.robot_state'
 
+# ---- unreachable robots: no peer needed ------------------------------------------
+# In a network namespace of the test's own (root, unshare and ip; skipped
+# loudly without): an unreachable route (no route to host), no route at all
+# (network unreachable), and an address on a veth link whose far end has
+# no address, with a static neighbour entry: the SYNs leave and nothing
+# ever answers (no answer, after --timeout). Nothing outside is touched.
+if [ "$(id -u)" = 0 ] && command -v ip >/dev/null 2>&1 && unshare -n true 2>/dev/null; then
+    cat >"$tmp/bin/in_netns" <<'EOF'
+#!/bin/sh
+exec unshare -n sh -c 'set -e
+ip link set lo up
+ip route add unreachable 10.2.0.0/24
+ip link add v0 type veth peer name v1
+ip addr add 10.8.0.1/24 dev v0
+ip link set v0 up
+ip link set v1 up
+ip neigh add 10.8.0.9 lladdr 02:00:00:00:00:09 dev v0 nud permanent
+exec "$@"' sh "$@"
+EOF
+    chmod +x "$tmp/bin/in_netns"
+    t err_no_route    'in_netns "$DRCLI" -H 10.2.0.5 get io_state.robot_state'
+    t err_net_unreach 'in_netns "$DRCLI" -H 10.5.0.5 get io_state.robot_state'
+    t err_no_answer   'in_netns "$DRCLI" -H 10.8.0.9 --timeout 300 get io_state.robot_state'
+elif [ "$update" = 0 ]; then
+    echo "SKIPPED err_no_route err_net_unreach err_no_answer: no network namespace here (needs root, unshare and ip)"
+fi
+
 # ---- drsim ---------------------------------------------------------------------
 if ! start_drsim "$SIMLOG" "$SIM" "$SIM_UDP" -v -v ||
    ! start_drsim "$tmp/slow.log" "$SLOW" "$SLOW_UDP" --delay 1000 -v; then

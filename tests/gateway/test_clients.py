@@ -384,5 +384,7 @@ def test_suppressed_counts_stay_with_their_kind():
             assert ("refused 127.0.0.1:%d:" % ports[-1]) in line and \
                 line.endswith("[5 similar messages suppressed in 10 s, the last shown]"), line
             assert "suppressed" not in refusals[0], refusals
+            # (the robot's refused reconnects are a kind of their own, whose
+            # count may also be 5 in 10 s: not the refusals' count)
             assert all("[5 similar" not in l for l in g.log()[mark:].splitlines()
-                       if "robot r0" in l), g.log()[mark:]
+                       if "robot r0" in l and ": connect: " not in l), g.log()[mark:]

@@ -60,6 +60,18 @@ typedef struct dr_client dr_client_t;
 typedef struct dr_conn dr_conn_t;
 typedef struct dr_udp_port dr_udp_port_t;
 
+/* The session, for event loops (dr_client_start reconnects by itself and
+ * says nothing otherwise): called with DR_OK when a session is registered,
+ * and with the cause each time an attempt fails or a registered session
+ * ends: DR_ENOTFOUND, DR_ECONNREFUSED, DR_EHOSTUNREACH, DR_ENETUNREACH,
+ * DR_ENOANSWER (TCP connect not completed within the timeout),
+ * DR_ENOREGISTER (connected, RegisterSession not answered), DR_ECLOSED
+ * (closed by the peer), DR_ENCAP() (RegisterSession refused), ... The
+ * step it failed in is dr_client_last_step(). Not called while the client
+ * closes (dr_client_close_start). From the callback, call only the
+ * getters (dr_client_ready, dr_client_last_step). */
+typedef void (*dr_session_cb)(dr_client_t *c, dr_status_t why, void *user);
+
 /* The configuration is copied by dr_client_init: `host` into the client
  * (at most DR_CLIENT_HOST_MAX - 1 characters), `local_addr` is resolved
  * there and not kept; neither needs to outlive the call. */
@@ -81,6 +93,8 @@ typedef struct {
                                  takes ops NULL as dr_transport_posix() */
     dr_udp_port_t *shared_udp; /* NULL: the client opens its own UDP socket
                                   at local_addr:local_udp_port */
+    dr_session_cb on_session; /* optional: the session's attempts and ends */
+    void *session_user;       /* passed to on_session */
 } dr_client_config_t;
 
 /* ---- a Class 1 UDP port shared by several clients --------------------- */
@@ -176,7 +190,10 @@ void dr_client_free(dr_client_t *c);
 /* ---- session and explicit messaging -------------------------------- */
 
 /* Connect and register a session, within the timeout.
- * Errors: DR_ENOTFOUND, DR_ECONNREFUSED, DR_ETIMEDOUT, DR_EIO, DR_ENCAP(). */
+ * Errors: DR_ENOTFOUND, DR_ECONNREFUSED, DR_EHOSTUNREACH, DR_ENETUNREACH,
+ * DR_ENOANSWER (the TCP connection not made within the timeout),
+ * DR_ENOREGISTER (made, but RegisterSession not answered), DR_ECLOSED,
+ * DR_EIO, DR_ENCAP() (RegisterSession refused). */
 dr_status_t dr_client_connect_sync(dr_client_t *c);
 
 /* Start the session in the background (for event loops): the client

@@ -8,6 +8,14 @@
  *   - CIP errors: DR_CIP_BAND | general status << 16 | extended status,
  *   - encapsulation errors: DR_ENCAP_BAND | encapsulation status.
  * dr_strerror() turns any of them into a static, human-readable string.
+ *
+ * The plain codes keep their numbers (drgatewayd shows them in its status
+ * registers); new ones are added at the end. Two timeouts are apart:
+ * DR_ETIMEDOUT is the client's own (an EtherNet/IP request, a Class 1
+ * connection, the session as a whole), DR_ENOANSWER is TCP's (a connect
+ * that never completes, or the peer that stopped acknowledging), and
+ * DR_ENOREGISTER a peer that took the TCP connection but never answered
+ * RegisterSession.
  */
 #ifndef DRGATE_STATUS_H
 #define DRGATE_STATUS_H
@@ -45,7 +53,14 @@ typedef int32_t dr_status_t;
     X(DR_ESESSION, 20, "no EtherNet/IP session")                               \
     X(DR_EMISMATCH, 21, "reply does not match the request")                    \
     X(DR_ENOTFOUND, 22, "host not found")                                      \
-    X(DR_EFULL, 23, "no free slot")
+    X(DR_EFULL, 23, "no free slot")                                            \
+    X(DR_EHOSTUNREACH, 24, "no route to host")                                 \
+    X(DR_ENETUNREACH, 25, "network unreachable")                               \
+    X(DR_ENOANSWER, 26, "no answer: TCP connection timed out")                 \
+    X(DR_ENOREGISTER, 27, "connection accepted, but no reply to RegisterSession") \
+    X(DR_EADDRINUSE, 28, "address already in use")                             \
+    X(DR_EADDRNOTAVAIL, 29, "address not available on this host")              \
+    X(DR_EACCES, 30, "not permitted (firewall rule, prohibit route or privileged port)")
 
 enum {
 #define DR_STATUS_ENUM(name, value, text) name = value,
