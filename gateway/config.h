@@ -110,6 +110,11 @@ typedef struct {
      * an arriving T->O packet when due within a quarter RPI ("follow",
      * default): one wake-up per RPI instead of two. */
     bool o2t_strict;
+    /* The originator serial number of its Forward Opens; 0 (default):
+     * dr_originator_serial_local(name), from /etc/machine-id (else the
+     * host name) and the section name, the same at every start, so that
+     * a restarted gateway may take its connections back (issue 19). */
+    uint32_t originator_serial;
     unsigned line;            /* where the section starts, for messages */
 } gw_robot_config_t;
 

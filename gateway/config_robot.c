@@ -6,6 +6,7 @@
  */
 #include "config_internal.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #define R(m) GW_CFG_AT(gw_robot_config_t, m)
@@ -14,7 +15,7 @@
 #define LINK GW_CFG_LINK
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
 
-static gw_cfg_parse_fn robot_instance, robot_open;
+static gw_cfg_parse_fn robot_serial, robot_instance, robot_open;
 static const char *asm_item(unsigned i);
 
 static const gw_cfg_key_t robot_keys[] = {
@@ -35,6 +36,8 @@ static const gw_cfg_key_t robot_keys[] = {
     { .name = "config_instance", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(config_instance), .lo = 1, .hi = 65535, .def = 1, .help = "configuration instance (connection point) in every Forward Open; see [Connection plan](#connection-plan)" },
     { .name = "input_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(input_only_heartbeat), .lo = 1, .hi = 65535, .def = 198, .help = "O->T connection point of input-only connections" },
     { .name = "listen_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(listen_only_heartbeat), .lo = 1, .hi = 65535, .def = 199, .help = "O->T connection point of listen-only connections" },
+    /* often written in hex, as tools show it; 0 (the default): derived at start (link.c) */
+    { .name = "originator_serial", .type = GW_CFG_HOOK, .flags = LINK, R(originator_serial), .parse = robot_serial, .allowed = "1..4294967295, or 0x1..0xFFFFFFFF", .doc_default = "derived from the machine and the robot's name, see [below](#originator_serial)", .help = "the originator serial number of every Forward Open: the robot gives the owner connections of a gateway that stopped uncleanly back only to the same serial" },
     /* the families last: "allowed:" lists them after the plain keys */
     { .name = "instance.<assembly>", .type = GW_CFG_PREFIX, .flags = LINK, R(instance), .parse = robot_instance, .item = asm_item, .doc_default = "see below", .doc_allowed = "1..65535, one per assembly", .help = "assembly instance numbers, if the robot is configured differently" },
     { .name = "open.<T->O assembly>", .type = GW_CFG_PREFIX, .flags = LINK, R(open), .parse = robot_open, .item = asm_item, .doc_default = "see below", .doc_allowed = "`owner:<O->T assembly>`, `input_only`, `listen_only`, `none`", .help = "how the connection for that T->O assembly is opened" },
@@ -67,6 +70,32 @@ static robot_lines_t *lines_of(gw_cfg_ctx_t *c, unsigned i)
 static const char *asm_item(unsigned i)
 {
     return i < DR_ASM_COUNT ? dr_asm_info((dr_asm_t)i)->name : NULL;
+}
+
+/* An originator serial number: decimal as any number, or 0x and 1 to 8
+ * hex digits; never 0 (the default, see gw_robot_config_t). */
+static void robot_serial(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                         const char *name, const char *v)
+{
+    unsigned long n;
+    if (v[0] != '0' || (v[1] != 'x' && v[1] != 'X')) {
+        if (gw_cfg_get_uint(c, name, v, 1, 4294967295ul, &n))
+            gw_cfg_store(c, k, sec, n);
+        return;
+    }
+    size_t digits = strspn(v + 2, "0123456789abcdefABCDEF");
+    if (digits == 0 || digits > 8 || v[2 + digits] != '\0') {
+        gw_cfg_fail(c, c->lineno,
+                    "%s '%s' invalid: not a 32-bit hex number (allowed: %s)",
+                    name, v, k->allowed);
+        return;
+    }
+    n = strtoul(v + 2, NULL, 16);
+    if (n == 0)
+        gw_cfg_fail(c, c->lineno, "%s %s out of range (allowed: %s)", name, v,
+                    k->allowed);
+    else
+        gw_cfg_store(c, k, sec, n);
 }
 
 /* ---- instance.* and open.* ---------------------------------------------- */

@@ -108,6 +108,7 @@ static void test_defaults(void **state)
         assert_int_equal(r->instance[a], 101 + a);
     assert_false(r->fallback_hold);
     assert_false(r->o2t_strict);
+    assert_int_equal(r->originator_serial, 0); /* derived at start, see link.c */
     assert_int_equal(c.gpio[0].offset, -1);
     assert_int_equal(c.gpio[0].bias, GW_BIAS_AS_IS);
 }
@@ -192,6 +193,8 @@ static void test_all_keys(void **state)
     assert_int_equal(r->config_instance, 150);
     assert_int_equal(r->input_only_heartbeat, 151);
     assert_int_equal(r->listen_only_heartbeat, 152);
+    assert_int_equal(r->originator_serial, 0xC0FFEE01u);
+    assert_int_equal(c.robot[1].originator_serial, 3405691582u);
     assert_int_equal(r->open[DR_ASM_IO_STATE].o2t, DR_ASM_BIT_IN);
     assert_int_equal(r->open[DR_ASM_JOINT_STATE].kind, GW_OPEN_OWNER);
     assert_int_equal(r->open[DR_ASM_JOINT_STATE].o2t, DR_ASM_IO_CONTROL);
@@ -396,8 +399,8 @@ typedef struct {
     "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, mode, " \
     "rpi_ms, "                                                                 \
     "timeout_multiplier, timeout_ms, fallback, o2t_timing, config_instance, "  \
-    "input_only_heartbeat, listen_only_heartbeat, instance.<assembly>, "       \
-    "open.<T->O assembly>"
+    "input_only_heartbeat, listen_only_heartbeat, originator_serial, "        \
+    "instance.<assembly>, open.<T->O assembly>"
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
 #define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], [mqtt]"
 #define NOT_A_BIT                                                        \
@@ -517,6 +520,18 @@ static const err_case_t err_cases[] = {
     { ROBOT "rpi_ms = 10001\n",
       "3: rpi_ms 10001 out of range (allowed: 1..10000)" },
     { ROBOT "rpi_ms = 0\n", "3: rpi_ms 0 out of range (allowed: 1..10000)" },
+    { ROBOT "originator_serial = 0\n",
+      "3: originator_serial 0 out of range (allowed: 1..4294967295)" },
+    { ROBOT "originator_serial = 4294967296\n",
+      "3: originator_serial 4294967296 out of range (allowed: 1..4294967295)" },
+    { ROBOT "originator_serial = 0x0\n",
+      "3: originator_serial 0x0 out of range (allowed: 1..4294967295, or 0x1..0xFFFFFFFF)" },
+    { ROBOT "originator_serial = 0x123456789\n",
+      "3: originator_serial '0x123456789' invalid: not a 32-bit hex number (allowed: "
+      "1..4294967295, or 0x1..0xFFFFFFFF)" },
+    { ROBOT "originator_serial = 0xC0FFEEZ\n",
+      "3: originator_serial '0xC0FFEEZ' invalid: not a 32-bit hex number (allowed: "
+      "1..4294967295, or 0x1..0xFFFFFFFF)" },
     { ROBOT "timeout_multiplier = 8\n",
       "3: timeout_multiplier 8 out of range (allowed: 0..7)" },
     { ROBOT "timeout_ms = 1.5\n", "3: timeout_ms '1.5' invalid: trailing '.5' "
@@ -1141,6 +1156,9 @@ static void test_same_link(void **state)
     assert_false(gw_robot_config_same_link(&a, &b));
     b = a;
     b.o2t_strict = true;
+    assert_false(gw_robot_config_same_link(&a, &b));
+    b = a;
+    b.originator_serial = 7;
     assert_false(gw_robot_config_same_link(&a, &b));
 }
 
