@@ -19,6 +19,7 @@ Needs root (network namespaces); skipped, with the banner of tests/skip.sh,
 where they cannot be made (a failure under CI, as skip.sh does).
 """
 import ctypes
+import json
 import os
 import shutil
 import socket
@@ -33,9 +34,9 @@ from gwlib import DRGATEWAYD, DRSIM, LOGDIR, RawModbus, spawn, timeout, wait_for
 GW_IP, SIM_IP = "10.219.0.1", "10.219.0.2"
 MODBUS_PORT = 1502
 OUTAGE_S = 3.0
-# The issue's goal is 2 s; the old code took 11 s. The bound is generous
-# for a loaded 2-core machine, and still far below what the old code did.
-RECOVERY_BOUND_S = 6.0
+# The issue's goal: 2 s (the old code took 11 s; the new one about 0.4 s
+# with the neighbours fixed, so no ARP retry counts in).
+RECOVERY_BOUND_S = 2.0
 CLONE_NEWNET = 0x40000000
 
 
@@ -72,6 +73,13 @@ def hosts():
             ip("-n", ns[who], "addr", "add", addr + "/24", "dev", "veth0")
             ip("-n", ns[who], "link", "set", "veth0", "up")
             ip("-n", ns[who], "link", "set", "lo", "up")
+        # Permanent neighbours: when the link returns, the kernel's ARP
+        # retry (1 s) would otherwise be most of what the test measures.
+        mac = {who: json.loads(ip("-j", "-n", ns[who], "link", "show", "veth0").stdout)[0]["address"]
+               for who in ns}
+        for who, peer, addr in (("gw", "sim", SIM_IP), ("sim", "gw", GW_IP)):
+            ip("-n", ns[who], "neigh", "replace", addr, "lladdr", mac[peer],
+               "dev", "veth0", "nud", "permanent")
     except subprocess.CalledProcessError as e:
         for n in made:
             ip("netns", "del", n, check=False)
