@@ -696,6 +696,11 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     cc.local_addr = rc->local_addr[0] ? rc->local_addr : NULL;
     cc.local_udp_port = rc->local_udp_port;
     cc.timeout_ms = rc->timeout_ms;
+    /* Stable across restarts: the adapter hands the exclusive-owner
+     * connections of a run that ended uncleanly back only to the same
+     * originator (docs/configuration.md, originator_serial). */
+    cc.serial = rc->originator_serial != 0 ? rc->originator_serial
+                                           : dr_originator_serial_local(rc->name);
     cc.transport = client_transport(ports);
     cc.on_session = on_session;
     cc.session_user = l;
@@ -720,9 +725,11 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
     /* Before the start, whose first attempt may fail (and say so) at once. */
     bool named = strcmp(ip, rc->host) != 0; /* a host name: show its address too */
-    gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s, RPI %u ms, unit ID %u)",
+    gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s, RPI %u ms, unit ID %u, "
+           "originator serial 0x%08lX)",
            rc->name, rc->host, named ? " (" : "", named ? ip : "", named ? ")" : "",
-           rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms, rc->unit_id);
+           rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms, rc->unit_id,
+           (unsigned long)cc.serial);
     dr_client_start(l->client);
     process(l);
     return l;

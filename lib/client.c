@@ -19,6 +19,7 @@
 #define RX_BATCH DR_CLIENT_RX_BATCH /* datagrams per receive call */
 #define FO_TIMEOUT_MULT_DEFAULT 2 /* x16 */
 #define FIRST_PACKET_GRACE_US 2000000u /* first T->O may lag the open */
+#define CONN_MAX_STALE 2 /* unanswered Forward Opens kept per connection */
 #define CLOSE_WAIT_US 500000u
 
 typedef enum { S_IDLE, S_CONNECTING, S_REGISTERING, S_READY, S_BACKOFF } sess_t;
@@ -35,6 +36,12 @@ typedef struct {
     uint64_t context;
     uint64_t deadline;
     dr_conn_t *conn;
+    /* Forward Open / Close: the connection serial and the path's instances
+     * (configuration, O->T point, T->O point), so that a connection the
+     * adapter opened for a request nobody waits for any more can be
+     * closed by its triad (close_orphan) even after its slot went. */
+    uint16_t conn_serial;
+    uint16_t path_inst[3];
     dr_call_cb cb;
     void *cb_user;
     dr_status_t status;
@@ -92,6 +99,17 @@ struct dr_conn {
     uint32_t backoff_ms;
     unsigned dup_retries;
     unsigned follow_misses; /* T->O arrivals in a row outside the window */
+    /* Connection serials of Forward Opens that ended without a reply (a
+     * timeout, the session lost): the adapter may have opened them. Each
+     * is closed by its triad before the next Forward Open of this
+     * connection, and forgotten when that Forward Close is answered. */
+    uint16_t stale[CONN_MAX_STALE];
+    unsigned nstale;
+    /* T->O encapsulation sequence numbers too far ahead to believe: the
+     * last one, and how many such came in a row, each a plausible step
+     * after the one before (see t2o_seq_take). */
+    uint32_t resync_seq32;
+    unsigned resync_n;
     bool run, have_in;
     uint8_t out[DR_ASM_MAX_SIZE];
     uint8_t in[DR_ASM_MAX_SIZE];
@@ -193,6 +211,25 @@ const char *dr_conn_state_name(dr_conn_state_t s)
     return "?";
 }
 
+/* ---- originator serial ----------------------------------------------------- */
+
+static uint32_t fnv1a(uint32_t h, const char *s)
+{
+    for (; *s != '\0'; s++) {
+        h ^= (uint8_t)*s;
+        h *= 16777619u; /* the 32-bit FNV prime */
+    }
+    return h;
+}
+
+uint32_t dr_originator_serial(const char *host_id, const char *name)
+{
+    uint32_t h = fnv1a(2166136261u, host_id != NULL ? host_id : ""); /* offset basis */
+    h *= 16777619u; /* the 0 byte between the two: h ^= 0, then the prime */
+    h = fnv1a(h, name != NULL ? name : "");
+    return h != 0 ? h : 1u;
+}
+
 /* ---- lifecycle ----------------------------------------------------------- */
 
 static void close_handle(dr_client_t *c, int *h);
@@ -274,6 +311,7 @@ dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t
     c->next_dl_stale = true;
     uint64_t t = now_us(c);
     c->epoch = t;
+    /* Unique but not stable: see "Originator serial" in client.h. */
     if (c->cfg.serial == 0)
         c->cfg.serial = (uint32_t)(t ^ (t >> 32)) | 1u;
     c->next_serial = (uint16_t)(t >> 4);
@@ -430,6 +468,7 @@ static req_t *req_find(dr_client_t *c, uint64_t context)
 
 static void conn_on_reply(dr_conn_t *cn, req_t *r, const dr_cip_rsp_t *rsp,
                           const dr_cpf_t *cpf);
+static void close_orphan(dr_client_t *c, const req_t *r, const dr_cip_rsp_t *rsp);
 
 /* A request got its answer (or failed): user requests keep the result
  * until the waiting call collects it; connection requests act at once. */
@@ -457,6 +496,8 @@ static void req_finish(dr_client_t *c, req_t *r, dr_status_t st,
     }
     if (r->conn != NULL)
         conn_on_reply(r->conn, r, rsp, cpf);
+    else if (r->kind == R_FWD_OPEN && rsp != NULL && st == DR_OK)
+        close_orphan(c, r, rsp); /* its connection was removed meanwhile */
 }
 
 static void complete_all(dr_client_t *c, dr_status_t st)
@@ -548,6 +589,25 @@ static void session_fail(dr_client_t *c, dr_status_t st)
     session_tell(c, st);
 }
 
+/* A Forward Open went unanswered: the path to the adapter may be down,
+ * with more requests queued in TCP behind it (the retries of this and of
+ * the other connections, Forward Closes). Kept, they would all reach the
+ * adapter when the path returns, which would open a connection for each
+ * Forward Open nobody waits for any more and hold it as an owner until
+ * its grace for a first O->T packet ends (10 s and more), refusing the
+ * fresh Forward Opens with 0x0106 meanwhile. So the session is aborted:
+ * what TCP still holds is dropped (transport tcp_abort; a plain close
+ * would go on sending it), and a new session starts after the backoff.
+ * Requests the adapter did get are dealt with by conn->stale. */
+static void session_reset(dr_client_t *c, dr_status_t st)
+{
+    if (c->tcp >= 0 && c->tp.ops->tcp_abort != NULL) {
+        c->tp.ops->tcp_abort(c->tp.ctx, c->tcp);
+        c->tcp = -1;
+    }
+    session_fail(c, st);
+}
+
 static dr_status_t ensure_udp(dr_client_t *c)
 {
     if (c->udp->h >= 0)
@@ -628,13 +688,22 @@ static void conn_schedule_retry(dr_conn_t *cn, dr_status_t why)
     conn_set_state(cn, DR_CONN_RECONNECTING, why);
 }
 
-static size_t conn_path(const dr_conn_t *cn, uint8_t *buf, size_t cap)
+/* The instances of a connection's path: configuration, O->T point (an
+ * assembly or a heartbeat), T->O point. */
+static void conn_path_inst(const dr_conn_t *cn, uint16_t inst[3])
 {
     const dr_client_t *c = cn->client;
-    uint16_t o2t = cn->cfg.o2t_asm >= 0 ? c->cfg.instance[cn->cfg.o2t_asm]
-                                        : cn->cfg.heartbeat_instance;
-    return dr_conn_path_write(buf, cap, cn->cfg.config_instance, o2t,
-                              c->cfg.instance[cn->cfg.t2o_asm]);
+    inst[0] = cn->cfg.config_instance;
+    inst[1] = cn->cfg.o2t_asm >= 0 ? c->cfg.instance[cn->cfg.o2t_asm]
+                                   : cn->cfg.heartbeat_instance;
+    inst[2] = c->cfg.instance[cn->cfg.t2o_asm];
+}
+
+static size_t conn_path(const dr_conn_t *cn, uint8_t *buf, size_t cap)
+{
+    uint16_t inst[3];
+    conn_path_inst(cn, inst);
+    return dr_conn_path_write(buf, cap, inst[0], inst[1], inst[2]);
 }
 
 /* A fresh T->O connection ID that says where the connection lives (see
@@ -649,6 +718,17 @@ static uint32_t next_t2o_cid(const dr_conn_t *cn)
     return gen * CID_SLOTS + slot;
 }
 
+static bool send_close_triad(dr_client_t *c, dr_conn_t *cn, uint16_t serial,
+                             const uint16_t inst[3]);
+
+static unsigned free_reqs(const dr_client_t *c)
+{
+    unsigned n = 0;
+    for (unsigned i = 0; i < MAX_REQS; i++)
+        n += !c->reqs[i].active;
+    return n;
+}
+
 static void send_forward_open(dr_conn_t *cn)
 {
     dr_client_t *c = cn->client;
@@ -658,11 +738,21 @@ static void send_forward_open(dr_conn_t *cn)
         conn_schedule_retry(cn, ust);
         return;
     }
-    req_t *r = req_alloc(c, R_FWD_OPEN);
-    if (r == NULL) {
+    /* The Forward Closes of its unanswered opens go first, in the same
+     * stream: the adapter handles them before this open, which it would
+     * otherwise refuse (0x0106) while one of those holds the O->T point. */
+    if (free_reqs(c) < cn->nstale + 1u) {
         cn->retry_us = now_us(c) + 10000u; /* request slots busy: soon again */
         return;
     }
+    uint16_t inst[3];
+    conn_path_inst(cn, inst);
+    for (unsigned i = 0; i < cn->nstale; i++)
+        if (!send_close_triad(c, cn, cn->stale[i], inst) || c->state != S_READY) {
+            cn->retry_us = now_us(c) + 10000u; /* no room, or no session */
+            return;
+        }
+    req_t *r = req_alloc(c, R_FWD_OPEN);
     r->conn = cn;
     uint8_t path[32];
     dr_fwd_open_t fo;
@@ -675,6 +765,8 @@ static void send_forward_open(dr_conn_t *cn)
     cn->foreign_cid = false; /* not established: no port count to move */
     cn->conn_serial = c->next_serial++; /* fresh on every attempt */
     fo.conn_serial = cn->conn_serial;
+    r->conn_serial = cn->conn_serial;
+    memcpy(r->path_inst, inst, sizeof inst);
     fo.vendor = c->cfg.vendor_id;
     fo.orig_serial = c->cfg.serial;
     fo.timeout_mult = cn->cfg.timeout_mult;
@@ -713,31 +805,81 @@ static void send_forward_open(dr_conn_t *cn)
     }
 }
 
-static void send_forward_close(dr_conn_t *cn)
+/* Forward Close of the connection with our vendor ID and originator
+ * serial and connection serial `serial`, path instances inst; its reply
+ * goes to cn (NULL: nobody). False if it could not be sent. */
+static bool send_close_triad(dr_client_t *c, dr_conn_t *cn, uint16_t serial,
+                             const uint16_t inst[3])
 {
-    dr_client_t *c = cn->client;
     if (c->state != S_READY)
-        return; /* the target times the connection out by itself */
+        return false; /* the target times the connection out by itself */
     req_t *r = req_alloc(c, R_FWD_CLOSE);
     if (r == NULL)
-        return;
+        return false;
+    r->conn = cn;
+    r->conn_serial = serial;
+    memcpy(r->path_inst, inst, sizeof r->path_inst);
     uint8_t path[32], data[64], msg[96];
     dr_fwd_close_t fc;
     fc.priority_tick = 0x0A;
     fc.timeout_ticks = 0x05;
-    fc.conn_serial = cn->conn_serial;
+    fc.conn_serial = serial;
     fc.vendor = c->cfg.vendor_id;
     fc.orig_serial = c->cfg.serial;
     fc.path = path;
-    fc.path_len = conn_path(cn, path, sizeof path);
+    fc.path_len = dr_conn_path_write(path, sizeof path, inst[0], inst[1], inst[2]);
     dr_wr_t w, m;
     dr_wr_init(&w, data, sizeof data);
     dr_fwd_close_write(&w, &fc);
     static const uint8_t cm_path[] = {0x20, 0x06, 0x24, 0x01};
     dr_wr_init(&m, msg, sizeof msg);
     dr_cip_req_write(&m, DR_CIP_SVC_FORWARD_CLOSE, cm_path, sizeof cm_path, data, w.len);
-    if (send_rr(c, r, msg, m.len, false) != DR_OK)
+    if (send_rr(c, r, msg, m.len, false) != DR_OK) {
         r->active = false;
+        return false;
+    }
+    return true;
+}
+
+static void send_forward_close(dr_conn_t *cn)
+{
+    uint16_t inst[3];
+    conn_path_inst(cn, inst);
+    /* No reply is awaited: a connection that is not closed times out. */
+    (void)send_close_triad(cn->client, NULL, cn->conn_serial, inst);
+}
+
+/* A Forward Open succeeded for a connection that no longer wants it (it
+ * was removed or closed while the request was under way): the adapter has
+ * opened a connection nobody will produce for, and would hold it as an
+ * owner. Closed at once, by the triad of the reply. */
+static void close_orphan(dr_client_t *c, const req_t *r, const dr_cip_rsp_t *rsp)
+{
+    dr_fwd_open_reply_t rp;
+    if (dr_fwd_open_reply_parse(rsp->data, rsp->data_len, &rp) == DR_OK)
+        (void)send_close_triad(c, NULL, rp.conn_serial, r->path_inst);
+}
+
+/* Remember (or forget) a Forward Open that may have opened a connection
+ * we know nothing of: see dr_conn stale. The oldest goes when full. */
+static void stale_add(dr_conn_t *cn, uint16_t serial)
+{
+    if (cn->nstale == CONN_MAX_STALE) {
+        memmove(cn->stale, cn->stale + 1, sizeof cn->stale[0] * (CONN_MAX_STALE - 1));
+        cn->nstale--;
+    }
+    cn->stale[cn->nstale++] = serial;
+}
+
+static void stale_forget(dr_conn_t *cn, uint16_t serial)
+{
+    for (unsigned i = 0; i < cn->nstale; i++)
+        if (cn->stale[i] == serial) {
+            memmove(cn->stale + i, cn->stale + i + 1,
+                    sizeof cn->stale[0] * (cn->nstale - i - 1));
+            cn->nstale--;
+            return;
+        }
 }
 
 /* The first point of the grid epoch + k * api after t. Connections with
@@ -773,6 +915,7 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
             cn->o2t_to.port = sa.port;
     }
     cn->have_t2o_seq = false;
+    cn->resync_n = 0;
     cn->next_tx_us = grid_after(c, t, cn->stats.o2t_api_us);
     cn->last_tx_us = 0;
     cn->follow_misses = 0;
@@ -785,8 +928,20 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
 static void conn_on_reply(dr_conn_t *cn, req_t *r, const dr_cip_rsp_t *rsp,
                           const dr_cpf_t *cpf)
 {
-    if (r->kind == R_FWD_CLOSE || !cn->used || cn->state != DR_CONN_OPENING)
+    if (r->kind == R_FWD_CLOSE) {
+        /* A close of an unanswered open: any CIP answer (success, or
+         * 0x0107 when the open never arrived) settles it. */
+        if (rsp != NULL)
+            stale_forget(cn, r->conn_serial);
         return;
+    }
+    if (rsp == NULL) /* no reply at all: the adapter may have opened it */
+        stale_add(cn, r->conn_serial);
+    if (cn->state != DR_CONN_OPENING) {
+        if (rsp != NULL && r->status == DR_OK) /* closed meanwhile */
+            close_orphan(cn->client, r, rsp);
+        return;
+    }
     dr_status_t st = r->status;
     if (rsp != NULL && st == DR_OK) {
         dr_fwd_open_reply_t rp;
@@ -854,8 +1009,13 @@ void dr_conn_remove(dr_conn_t *cn)
         return;
     if (cn->state == DR_CONN_ESTABLISHED)
         send_forward_close(cn);
+    uint16_t inst[3];
+    conn_path_inst(cn, inst);
+    for (unsigned i = 0; i < cn->nstale; i++)
+        (void)send_close_triad(cn->client, NULL, cn->stale[i], inst);
     conn_set_state(cn, DR_CONN_CLOSED, DR_OK);
-    /* Requests still in flight for it must not call back into the slot. */
+    /* Requests still in flight for it must not call back into the slot
+     * (an open that succeeds after this is closed: close_orphan). */
     for (unsigned i = 0; i < MAX_REQS; i++)
         if (cn->client->reqs[i].conn == cn)
             cn->client->reqs[i].conn = NULL;
@@ -1234,6 +1394,47 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
     deadline_moved(c); /* its timeout, maybe its O->T deadline (follow) */
 }
 
+/* How far ahead of the last packet taken a T->O encapsulation sequence
+ * number may be: half the packets of a timeout (4 << multiplier), at
+ * least 8. A live producer cannot have gone much further (the connection
+ * would have timed out meanwhile), and a number that went further is a
+ * corrupted one, e.g. a bit flipped high in a datagram whose UDP checksum
+ * is zero (IPv4 allows it): taken, it would make every real packet after
+ * it look old until the connection timed out. Within the window, such a
+ * number costs at most the packets up to it, half a timeout. */
+#define SEQ_RESYNC 3u /* packets in a row that agree with each other */
+
+static uint32_t seq_window(const dr_conn_t *cn)
+{
+    uint32_t w = (4u << cn->cfg.timeout_mult) / 2u;
+    return w < 8u ? 8u : w;
+}
+
+/* Whether a T->O packet with encapsulation sequence number seq is newer
+ * than the last one taken. Too far ahead: dropped, unless it is the
+ * SEQ_RESYNC-th in a row of such numbers, each within the window after
+ * the one before: a producer that really jumped (it restarted its count
+ * within the connection), followed from there. */
+static bool t2o_seq_take(dr_conn_t *cn, uint32_t seq)
+{
+    uint32_t win = seq_window(cn);
+    uint32_t ahead = seq - cn->t2o_seq32;
+    if (ahead != 0u && ahead <= win) {
+        cn->resync_n = 0;
+        return true;
+    }
+    if (!dr_seq32_newer(seq, cn->t2o_seq32))
+        return false; /* a duplicate or an older packet */
+    uint32_t step = seq - cn->resync_seq32;
+    cn->resync_n = cn->resync_n > 0 && step != 0u && step <= win ? cn->resync_n + 1u : 1u;
+    cn->resync_seq32 = seq;
+    if (cn->resync_n < SEQ_RESYNC)
+        return false;
+    cn->resync_n = 0;
+    cn->stats.rx_resyncs++;
+    return true;
+}
+
 /* A packet for connection cn (f: parsed without a run/idle header): check
  * it, take it, keep the connection alive. */
 static void conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
@@ -1250,9 +1451,10 @@ static void conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
     }
     /* Liveness goes by the 32-bit encapsulation sequence number, which the
      * producer advances with every packet: one that is not newer than the
-     * last one taken (wrap-safe) is a duplicate or came late, and does not
-     * count as a sign of life. */
-    if (cn->have_t2o_seq && !dr_seq32_newer(f.encap_seq, cn->t2o_seq32)) {
+     * last one taken (wrap-safe) is a duplicate or came late, one too far
+     * ahead is corrupted (t2o_seq_take), and neither counts as a sign of
+     * life. */
+    if (cn->have_t2o_seq && !t2o_seq_take(cn, f.encap_seq)) {
         cn->stats.rx_dropped_seq++;
         return;
     }
@@ -1424,11 +1626,16 @@ static void session_timers(dr_client_t *c, uint64_t t)
     } else if (c->state == S_BACKOFF && c->started && t >= c->retry_at) {
         (void)begin_session(c);
     }
+    bool fo_lost = false;
     for (unsigned i = 0; i < MAX_REQS; i++) {
         req_t *r = &c->reqs[i];
-        if (r->active && !r->done && t >= r->deadline)
+        if (r->active && !r->done && t >= r->deadline) {
+            fo_lost |= r->kind == R_FWD_OPEN;
             req_finish(c, r, DR_ETIMEDOUT, NULL, NULL);
+        }
     }
+    if (fo_lost && c->tcp >= 0)
+        session_reset(c, DR_ETIMEDOUT);
 }
 
 /* Every deadline of the client: a scan of its request and connection
@@ -1791,10 +1998,13 @@ dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id)
 
 /* ---- close -------------------------------------------------------------------- */
 
+/* Forward Closes, and Forward Opens whose success would have to be
+ * closed (close_orphan), still awaiting their replies. */
 static bool fwd_close_pending(const dr_client_t *c)
 {
     for (unsigned i = 0; i < MAX_REQS; i++)
-        if (c->reqs[i].active && !c->reqs[i].done && c->reqs[i].kind == R_FWD_CLOSE)
+        if (c->reqs[i].active && !c->reqs[i].done &&
+            (c->reqs[i].kind == R_FWD_CLOSE || c->reqs[i].kind == R_FWD_OPEN))
             return true;
     return false;
 }

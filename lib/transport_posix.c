@@ -231,6 +231,16 @@ static void px_close(void *ctx, int h)
         close(h);
 }
 
+/* Linger 0: close() drops the unsent data and resets the connection,
+ * instead of going on sending it in the background. */
+static void px_tcp_abort(void *ctx, int h)
+{
+    struct linger lg = {1, 0};
+    if (h >= 0)
+        (void)setsockopt(h, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
+    px_close(ctx, h);
+}
+
 static uint64_t px_now_us(void *ctx)
 {
     (void)ctx;
@@ -327,7 +337,7 @@ static const dr_transport_ops_t posix_ops = {
     px_tcp_recv, px_udp_open,    px_udp_send,   px_udp_recv,
     px_timer_open, px_timer_arm, px_close,      px_now_us,
     px_fd,       px_wait,
-    px_udp_send_batch, px_udp_recv_batch,
+    px_udp_send_batch, px_udp_recv_batch, px_tcp_abort,
 };
 
 dr_transport_t dr_transport_posix(void)

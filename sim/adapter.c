@@ -151,6 +151,7 @@ static bool is_t2o(dr_asm_t a)
     return dr_asm_info(a)->dir == DR_DIR_T2O;
 }
 
+/* Connections in their slots, the held ones too: they still take one. */
 unsigned drsim_conn_count(const drsim_t *s)
 {
     unsigned n = 0;
@@ -174,7 +175,7 @@ uint16_t drsim_identity_status(const drsim_t *s)
     bool owned = false, any = false, run = false;
     for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++) {
         const drsim_conn_t *c = &s->conn[i];
-        if (!c->used)
+        if (!c->used || c->held)
             continue;
         any = true;
         owned |= c->o2t_asm >= 0;
@@ -449,6 +450,11 @@ static uint16_t t2o_wanted(const fo_plan_t *plan)
     return (uint16_t)(dr_asm_info(plan->t2o_asm)->size + 2u);
 }
 
+static bool same_originator(const drsim_conn_t *c, uint16_t vendor, uint32_t orig)
+{
+    return c->vendor == vendor && c->orig_serial == orig;
+}
+
 static drsim_conn_t *conn_by_triad(drsim_t *s, uint16_t serial, uint16_t vendor,
                                    uint32_t orig)
 {
@@ -467,9 +473,34 @@ static drsim_conn_t *conn_by_triad(drsim_t *s, uint16_t serial, uint16_t vendor,
 static bool t2o_produced(const drsim_t *s, dr_asm_t t2o)
 {
     for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++)
-        if (s->conn[i].used && !s->conn[i].listen_only && s->conn[i].t2o_asm == t2o)
+        if (s->conn[i].used && !s->conn[i].listen_only && !s->conn[i].held &&
+            s->conn[i].t2o_asm == t2o)
             return true;
     return false;
+}
+
+/* Exclusive ownership of an O->T assembly, as OpENer decides it
+ * (appcontype.c, GetExclusiveOwnerConnection): an established owner
+ * refuses every other open of it, the same originator's too (0x0106); an
+ * owner that timed out (held) may be taken over by its own originator,
+ * same vendor ID and originator serial, and refuses everyone else.
+ * Returns 0 or CM_OWNERSHIP; *takeover is the held owner to close when
+ * the open succeeds, *owner the one that refused it. */
+static uint16_t ownership(drsim_t *s, const dr_fwd_open_t *fo, int o2t_asm,
+                          drsim_conn_t **takeover, const drsim_conn_t **owner)
+{
+    for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++) {
+        drsim_conn_t *c = &s->conn[i];
+        if (!c->used || c->o2t_asm < 0 || c->o2t_asm != o2t_asm)
+            continue;
+        if (c->held && same_originator(c, fo->vendor, fo->orig_serial)) {
+            *takeover = c;
+            continue;
+        }
+        *owner = c;
+        return CM_OWNERSHIP;
+    }
+    return 0;
 }
 
 static bool rpi_ok(uint32_t us)
@@ -478,9 +509,11 @@ static bool rpi_ok(uint32_t us)
 }
 
 /* Every check a Forward Open must pass, in the order a target makes them.
- * Returns 0 or the extended status; *want is the size for 0x0109. */
-static uint16_t fo_check(drsim_t *s, const dr_fwd_open_t *fo,
-                         fo_plan_t *plan, uint16_t *want)
+ * Returns 0 or the extended status; *want is the size for 0x0109,
+ * *takeover and *owner as ownership() says. */
+static uint16_t fo_check(drsim_t *s, const dr_fwd_open_t *fo, fo_plan_t *plan,
+                         uint16_t *want, drsim_conn_t **takeover,
+                         const drsim_conn_t **owner)
 {
     uint16_t ext = fo_path(s, fo, plan);
     if (s->cfg.refuse_fo != 0) {
@@ -490,7 +523,8 @@ static uint16_t fo_check(drsim_t *s, const dr_fwd_open_t *fo,
     }
     if (ext != 0)
         return ext;
-    if (conn_by_triad(s, fo->conn_serial, fo->vendor, fo->orig_serial))
+    const drsim_conn_t *dup = conn_by_triad(s, fo->conn_serial, fo->vendor, fo->orig_serial);
+    if (dup != NULL && !dup->held) /* a held one's triad: a takeover below */
         return CM_DUPLICATE;
     /* Class 1, cyclic or change-of-state, originator is the client. */
     unsigned cls = fo->transport & 0x0Fu, trig = (fo->transport >> 4) & 0x07u;
@@ -508,13 +542,12 @@ static uint16_t fo_check(drsim_t *s, const dr_fwd_open_t *fo,
         return CM_SIZE;
     if (!rpi_ok(fo->o2t_rpi_us) || !rpi_ok(fo->t2o_rpi_us))
         return CM_RPI;
-    if (plan->o2t_asm >= 0)
-        for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++)
-            if (s->conn[i].used && s->conn[i].o2t_asm == plan->o2t_asm)
-                return CM_OWNERSHIP;
+    if (plan->o2t_asm >= 0 && ownership(s, fo, plan->o2t_asm, takeover, owner) != 0)
+        return CM_OWNERSHIP;
     if (plan->listen_only && !t2o_produced(s, plan->t2o_asm))
         return CM_NOT_LISTEN_ONLY;
-    if (drsim_conn_count(s) >= s->cfg.max_conns)
+    /* the connection taken over gives its slot */
+    if (drsim_conn_count(s) - (*takeover != NULL ? 1u : 0u) >= s->cfg.max_conns)
         return CM_OUT_OF_CONNS;
     return 0;
 }
@@ -584,6 +617,8 @@ static drsim_conn_t *conn_open(req_ctx_t *ctx, const dr_fwd_open_t *fo,
     return c;
 }
 
+static void conn_end(drsim_t *s, drsim_conn_t *c, const char *why);
+
 static void forward_open(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
 {
     bool large = rq->service == DR_CIP_SVC_LARGE_FORWARD_OPEN;
@@ -597,7 +632,11 @@ static void forward_open(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
     fo_plan_t plan;
     memset(&plan, 0, sizeof plan);
     uint16_t want = 0;
-    uint16_t ext = fo_check(ctx->s, &fo, &plan, &want);
+    drsim_conn_t *takeover = NULL;
+    const drsim_conn_t *owner = NULL;
+    uint16_t ext = fo_check(ctx->s, &fo, &plan, &want, &takeover, &owner);
+    if (ext == 0 && takeover != NULL)
+        conn_end(ctx->s, takeover, "taken over by its originator");
     drsim_conn_t *c = ext == 0 ? conn_open(ctx, &fo, &plan) : NULL;
     if (ext == 0 && c == NULL)
         ext = CM_OUT_OF_CONNS;
@@ -610,6 +649,12 @@ static void forward_open(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
                   (unsigned)fo.conn_serial, (unsigned)fo.vendor,
                   (unsigned)fo.orig_serial, (unsigned)ext,
                   dr_strerror(DR_CIP(GS_CONN_FAILURE, ext)));
+        if (owner != NULL)
+            drsim_log(1, "  %s is owned by connection 0x%08X (%s) of originator"
+                      " vendor 0x%04X serial 0x%08X",
+                      dr_asm_info((dr_asm_t)owner->o2t_asm)->name,
+                      (unsigned)owner->o2t_cid, owner->held ? "timed out, held" : "established",
+                      (unsigned)owner->vendor, (unsigned)owner->orig_serial);
         return;
     }
     dr_fwd_open_reply_t r = {
@@ -995,8 +1040,9 @@ void drsim_io_receive(drsim_t *s, uint64_t now_ns, const dr_sockaddr_t *from,
         return;
     }
     drsim_conn_t *c = drsim_conn_by_o2t(s, f.cid);
-    if (c == NULL) {
-        drsim_log(2, "I/O packet for unknown connection 0x%08X", (unsigned)f.cid);
+    if (c == NULL || c->held) { /* a timed-out connection stays so */
+        drsim_log(2, "I/O packet for %s connection 0x%08X", c ? "a timed-out" : "unknown",
+                  (unsigned)f.cid);
         return;
     }
     /* Parse again now that the connection says whether run/idle is there. */
@@ -1037,8 +1083,10 @@ void drsim_io_receive(drsim_t *s, uint64_t now_ns, const dr_sockaddr_t *from,
     }
 }
 
-static uint64_t timeout_deadline(const drsim_conn_t *c)
+static uint64_t timeout_deadline(const drsim_t *s, const drsim_conn_t *c)
 {
+    if (c->held)
+        return s->cfg.owner_hold_ns != 0 ? c->held_ns + s->cfg.owner_hold_ns : UINT64_MAX;
     if (c->o2t_seen)
         return c->last_rx_ns + c->timeout_ns;
     uint64_t grace = c->timeout_ns > DRSIM_FIRST_PACKET_NS ? c->timeout_ns
@@ -1102,6 +1150,37 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
     c->next_produce_ns = next;
 }
 
+/* An exclusive owner whose originator went silent is not freed: like an
+ * ODVA adapter, drsim keeps it timed out, producing nothing, and lets only
+ * its originator take it over (ownership()), for --owner-hold or until it
+ * stops. Input-only and listen-only connections simply close. */
+static void conn_timeout(drsim_t *s, drsim_conn_t *c, uint64_t now)
+{
+    const char *why = c->o2t_seen ? "O->T timeout" : "no O->T packet";
+    if (c->held) {
+        conn_end(s, c, "timed out and held for --owner-hold");
+        return;
+    }
+    if (c->o2t_asm < 0) {
+        conn_end(s, c, why);
+        return;
+    }
+    drsim_log(1, "connection 0x%08X timed out (%s): held, %s may only be taken over by"
+              " its originator, vendor 0x%04X serial 0x%08X; %llu produced, %llu consumed",
+              (unsigned)c->o2t_cid, why, dr_asm_info((dr_asm_t)c->o2t_asm)->name,
+              (unsigned)c->vendor, (unsigned)c->orig_serial,
+              (unsigned long long)c->produced, (unsigned long long)c->consumed);
+    c->held = true;
+    c->held_ns = now;
+    dr_asm_t t2o = c->t2o_asm;
+    if (t2o_produced(s, t2o))
+        return;
+    /* its listeners have nothing left to listen to, as in conn_end */
+    for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++)
+        if (s->conn[i].used && s->conn[i].listen_only && s->conn[i].t2o_asm == t2o)
+            conn_close(&s->conn[i], "its producer closed");
+}
+
 void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
 {
     /* The model first, the packets after: a packet due at the same moment
@@ -1117,11 +1196,11 @@ void drsim_run(drsim_t *s, uint64_t now_ns, drsim_send_fn send, void *ctx)
         drsim_conn_t *c = &s->conn[i];
         if (!c->used)
             continue;
-        if (now_ns >= timeout_deadline(c)) {
-            conn_end(s, c, c->o2t_seen ? "O->T timeout" : "no O->T packet");
+        if (now_ns >= timeout_deadline(s, c)) {
+            conn_timeout(s, c, now_ns);
             continue;
         }
-        if (!c->stopped && now_ns >= c->next_produce_ns)
+        if (!c->stopped && !c->held && now_ns >= c->next_produce_ns)
             produce(s, c, now_ns, send, ctx);
     }
 }
@@ -1133,10 +1212,10 @@ uint64_t drsim_next_deadline(const drsim_t *s)
         const drsim_conn_t *c = &s->conn[i];
         if (!c->used)
             continue;
-        uint64_t d = timeout_deadline(c);
+        uint64_t d = timeout_deadline(s, c);
         if (d < t)
             t = d;
-        if (!c->stopped && c->next_produce_ns < t)
+        if (!c->stopped && !c->held && c->next_produce_ns < t)
             t = c->next_produce_ns;
     }
     return t;

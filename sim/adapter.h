@@ -63,6 +63,9 @@ typedef struct {
                                   0x8001 item) */
     bool still;                /* the robot stands still: no motion, no
                                   noise, so its data stays the same */
+    uint64_t owner_hold_ns;    /* an exclusive owner whose O->T stopped is
+                                  held this long (only its originator may
+                                  take it over); 0: until drsim stops */
     int32_t clock_ppm;         /* drsim's production clock runs this many
                                   parts per million fast (negative: slow),
                                   as a real adapter's crystal does: T->O
@@ -114,6 +117,9 @@ typedef struct {
     uint32_t t2o_encap_seq;
     uint16_t t2o_cip_seq;
     bool stopped;              /* --stop-producing-after has struck */
+    bool held;                 /* an owner that timed out, kept for its
+                                  originator (vendor + orig_serial) */
+    uint64_t held_ns;          /* since when */
     uint8_t last_t2o[DR_ASM_MAX_SIZE]; /* last data produced (seq_on_change) */
     /* counters */
     uint64_t produced, produce_dropped, consumed, applied, stale, rx_dropped;

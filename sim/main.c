@@ -84,6 +84,11 @@ static void usage(FILE *f)
 "      --trailing-item       Forward Open replies (success and error) carry\n"
 "                            one CPF item more than their item count says\n"
 "                            (an echo of the request's 0x8001 item)\n"
+"      --owner-hold SECONDS  free an exclusive owner whose O->T stopped after\n"
+"                            this long (default: never, as OpENer). Until\n"
+"                            then it is held: only the same vendor ID and\n"
+"                            originator serial may take it over, others get\n"
+"                            0x01/0x0106\n"
 "      --clock-ppm PPM       drsim's clock runs PPM parts per million fast\n"
 "                            (negative: slow), -100000..100000: T->O packets\n"
 "                            every API x 1e6 / (1e6 + PPM), as from a real\n"
@@ -203,6 +208,7 @@ enum {
     OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO,
     OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
     OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM,
+    OPT_OWNER_HOLD,
     OPT_CLOCK_PPM
 };
 
@@ -228,6 +234,7 @@ static const struct option long_options[] = {
     {"tick", required_argument, NULL, OPT_TICK},
     {"api-report", required_argument, NULL, OPT_API_REPORT},
     {"trailing-item", no_argument, NULL, OPT_TRAILING_ITEM},
+    {"owner-hold", required_argument, NULL, OPT_OWNER_HOLD},
     {"clock-ppm", required_argument, NULL, OPT_CLOCK_PPM},
     {"verbose", no_argument, NULL, 'v'},
     {"help", no_argument, NULL, 'h'},
@@ -340,6 +347,10 @@ static int parse_options(int argc, char **argv, options_t *o)
             break;
         case OPT_TRAILING_ITEM:
             o->cfg.trailing_item = true;
+            break;
+        case OPT_OWNER_HOLD:
+            if (parse_seconds(optarg, &o->cfg.owner_hold_ns) != 0)
+                return bad("--owner-hold", optarg);
             break;
         case OPT_CLOCK_PPM: {
             char *end;

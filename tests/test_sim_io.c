@@ -461,21 +461,115 @@ static void test_timeouts(void **state)
     static fx_t f;
     fx_init(&f, NULL);
     fx_register(&f);
-    /* No O->T at all: closed after the 10 s grace. */
+    /* No O->T at all: timed out after the 10 s grace (an owner is held
+     * for its originator, see test_owner_takeover). */
     uint32_t cid = open_io(&f, 0);
     drsim_run(&f.sim, T0 + 9999 * MS, fx_capture, &f);
-    assert_non_null(drsim_conn_by_o2t(&f.sim, cid));
+    assert_false(drsim_conn_by_o2t(&f.sim, cid)->held);
     drsim_run(&f.sim, T0 + 10000 * MS, fx_capture, &f);
-    assert_null(drsim_conn_by_o2t(&f.sim, cid));
+    assert_true(drsim_conn_by_o2t(&f.sim, cid)->held);
     /* After O->T: RPI x (4 << 1) = 80 ms of silence. */
-    cid = open_io(&f, 1); /* opened at T0 */
+    uint32_t old = cid;
+    cid = open_io(&f, 1); /* opened at T0, taking the held one over */
+    assert_null(drsim_conn_by_o2t(&f.sim, old));
     send_ctl(&f, cid, 1, 1, true, 0, T0 + 100 * MS);
     drsim_run(&f.sim, T0 + 179 * MS, fx_capture, &f);
-    assert_non_null(drsim_conn_by_o2t(&f.sim, cid));
+    assert_false(drsim_conn_by_o2t(&f.sim, cid)->held);
     assert_true(drsim_next_deadline(&f.sim) <= T0 + 180 * MS);
     drsim_run(&f.sim, T0 + 180 * MS, fx_capture, &f);
+    assert_true(drsim_conn_by_o2t(&f.sim, cid)->held);
+    assert_int_equal(drsim_conn_count(&f.sim), 1);
+    /* An input-only connection is not held: it closes. */
+    uint8_t path[16];
+    dr_fwd_open_t in = fo_make(DRSIM_HB_INPUT_ONLY, 102, 6, 146, 10000, path, sizeof path);
+    uint32_t in_cid = fo_open(&f, &in);
+    drsim_run(&f.sim, T0 + 10000 * MS, fx_capture, &f);
+    assert_null(drsim_conn_by_o2t(&f.sim, in_cid));
+}
+
+/* Issue 19: an exclusive owner whose originator went silent is held, as an
+ * ODVA adapter holds it (OpENer, GetExclusiveOwnerConnection): it produces
+ * nothing and takes nothing, other originators are refused with 0x0106,
+ * and only the same vendor ID + originator serial may take it over (the
+ * held one is closed). An established owner refuses its own originator
+ * too. --owner-hold frees a held one after a while; a Forward Close at
+ * once. */
+static void test_owner_takeover(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.max_conns = 2;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    uint8_t p1[16], p2[16], p3[16];
+    dr_fwd_open_t a = fo_make(107, 101, 18, 38, 10000, p1, sizeof p1);
+    a.timeout_mult = 1; /* 80 ms */
+    uint32_t cid = fo_open(&f, &a);
+    send_ctl(&f, cid, 1, 1, true, 0x0001, T0 + 10 * MS);
+    drsim_run(&f.sim, T0 + 89 * MS, fx_capture, &f);
+    assert_false(drsim_conn_by_o2t(&f.sim, cid)->held);
+    assert_int_equal(drsim_identity_status(&f.sim) & 1u, 1); /* owned */
+    /* the originator vanishes: held, no longer owned, not producing */
+    drsim_run(&f.sim, T0 + 90 * MS, fx_capture, &f);
+    drsim_conn_t *c = drsim_conn_by_o2t(&f.sim, cid);
+    assert_non_null(c);
+    assert_true(c->held);
+    assert_int_equal(drsim_identity_status(&f.sim), 0x30); /* no I/O connection */
+    assert_int_equal(drsim_next_deadline(&f.sim), f.sim.next_model_ns); /* held for good */
+    unsigned sent = f.sent;
+    drsim_run(&f.sim, T0 + 500 * MS, fx_capture, &f);
+    assert_int_equal(f.sent, sent);
+    /* its O->T packets do not bring it back */
+    send_ctl(&f, cid, 2, 2, true, 0x0002, T0 + 510 * MS);
+    assert_true(c->held);
+    assert_int_equal(io_cb_do(&f), 0x0001);
+    /* another originator: refused, by serial or by vendor */
+    dr_fwd_open_t b = fo_make(107, 101, 18, 38, 10000, p2, sizeof p2);
+    b.orig_serial = 0xBEEF;
+    assert_int_equal(fo_send(&f, &b, NULL), DR_CIP(0x01, 0x0106));
+    b = fo_make(107, 103, 18, 98, 10000, p2, sizeof p2);
+    b.vendor = 0x4321;
+    assert_int_equal(fo_send(&f, &b, NULL), DR_CIP(0x01, 0x0106));
+    /* the held one keeps its slot: one more fits (max 2), not two */
+    b = fo_make(DRSIM_HB_INPUT_ONLY, 102, 6, 146, 10000, p2, sizeof p2);
+    b.orig_serial = 0xBEEF;
+    assert_int_equal(fo_send(&f, &b, NULL), DR_OK);
+    b = fo_make(DRSIM_HB_INPUT_ONLY, 103, 6, 98, 10000, p3, sizeof p3);
+    b.orig_serial = 0xBEEF;
+    assert_int_equal(fo_send(&f, &b, NULL), DR_CIP(0x01, 0x0113));
+    /* the same originator, with a new connection serial: taken over, the
+     * held one closed, its slot given to the new one */
+    a = fo_make(107, 101, 18, 38, 10000, p1, sizeof p1);
+    uint32_t cid2 = fo_open(&f, &a);
     assert_null(drsim_conn_by_o2t(&f.sim, cid));
-    assert_int_equal(drsim_conn_count(&f.sim), 0);
+    assert_false(drsim_conn_by_o2t(&f.sim, cid2)->held);
+    assert_int_equal(drsim_conn_count(&f.sim), 2);
+    /* established: even its own originator is refused */
+    dr_fwd_open_t again = fo_make(107, 101, 18, 38, 10000, p3, sizeof p3);
+    assert_int_equal(fo_send(&f, &again, NULL), DR_CIP(0x01, 0x0106));
+    /* a held one closes by Forward Close */
+    drsim_run(&f.sim, T0 + 20000 * MS, fx_capture, &f);
+    assert_true(drsim_conn_by_o2t(&f.sim, cid2)->held);
+    assert_int_equal(fc_send(&f, &a), DR_OK);
+    assert_null(drsim_conn_by_o2t(&f.sim, cid2));
+    /* --owner-hold: freed after it */
+    cfg.owner_hold_ns = 5000 * MS;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    a = fo_make(107, 101, 18, 38, 10000, p1, sizeof p1);
+    cid = fo_open(&f, &a); /* no O->T: held after the 10 s grace */
+    drsim_run(&f.sim, T0 + 10000 * MS, fx_capture, &f);
+    assert_true(drsim_conn_by_o2t(&f.sim, cid)->held);
+    drsim_run(&f.sim, T0 + 14999 * MS, fx_capture, &f);
+    assert_non_null(drsim_conn_by_o2t(&f.sim, cid));
+    assert_true(drsim_next_deadline(&f.sim) <= T0 + 15000 * MS);
+    drsim_run(&f.sim, T0 + 15000 * MS, fx_capture, &f);
+    assert_null(drsim_conn_by_o2t(&f.sim, cid));
+    b = fo_make(107, 101, 18, 38, 10000, p2, sizeof p2);
+    b.orig_serial = 0xBEEF;
+    assert_int_equal(fo_send(&f, &b, NULL), DR_OK);
 }
 
 static void test_drop_and_stop(void **state)
@@ -669,9 +763,9 @@ static void test_tick_and_api_report(void **state)
         /* O->T timeout: 4 x 10 ms after the last packet, not 4 x 5 ms */
         send_ctl(&f, r.o2t_cid, 1, 1, true, 0, T0 + 10 * MS);
         drsim_run(&f.sim, T0 + 39 * MS, fx_capture, &f);
-        assert_int_equal(drsim_conn_count(&f.sim), 1);
+        assert_false(drsim_conn_by_o2t(&f.sim, r.o2t_cid)->held);
         drsim_run(&f.sim, T0 + 50 * MS, fx_capture, &f);
-        assert_int_equal(drsim_conn_count(&f.sim), 0);
+        assert_true(drsim_conn_by_o2t(&f.sim, r.o2t_cid)->held);
     }
     /* an RPI that is a multiple of the tick is kept */
     cfg.api_requested = false;
@@ -739,6 +833,7 @@ int main(void)
         cmocka_unit_test(test_listen_only_follows_its_producer),
         cmocka_unit_test(test_sequence_handling),
         cmocka_unit_test(test_timeouts),
+        cmocka_unit_test(test_owner_takeover),
         cmocka_unit_test(test_drop_and_stop),
         cmocka_unit_test(test_produce_grid),
         cmocka_unit_test(test_produce_after_model_step),

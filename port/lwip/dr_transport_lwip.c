@@ -224,11 +224,26 @@ static dr_status_t lw_wait(void *ctx, const int *h, const bool *want_out, int n,
 #define LW_WAIT NULL /* the application drives the client */
 #endif
 
+#if LWIP_SO_LINGER
+/* Linger 0: lwIP aborts the connection (a reset) and drops unsent data. */
+static void lw_tcp_abort(void *ctx, int h)
+{
+    struct linger lg = {1, 0};
+    if (h >= 0)
+        (void)lwip_setsockopt(h, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
+    lw_close(ctx, h);
+}
+#define LW_TCP_ABORT lw_tcp_abort
+#else
+#define LW_TCP_ABORT NULL /* close: queued requests may still go out */
+#endif
+
 static const dr_transport_ops_t lwip_ops = {
     lw_resolve,  lw_tcp_connect, lw_tcp_finish, lw_tcp_send,
     lw_tcp_recv, lw_udp_open,    lw_udp_send,   lw_udp_recv,
     NULL,        NULL,           lw_close,      lw_now_us,
     NULL,        LW_WAIT,        NULL,          NULL,
+    LW_TCP_ABORT,
 };
 
 dr_transport_t dr_transport_lwip(dr_lwip_t *lw)

@@ -85,7 +85,8 @@ typedef struct {
     uint32_t timeout_ms;      /* explicit request timeout; 0: 2000 */
     uint16_t instance[DR_ASM_COUNT]; /* 0: default 101..110 */
     uint16_t vendor_id;       /* originator vendor ID (0: 0xFFFE) */
-    uint32_t serial;          /* originator serial number (0: from clock) */
+    uint32_t serial;          /* originator serial number; 0: from the
+                                 clock, see "Originator serial" below */
     bool route;               /* wrap requests in Unconnected Send */
     uint32_t backoff_min_ms;  /* reconnect backoff: 0: 100 ms */
     uint32_t backoff_max_ms;  /* 0: 5000 ms */
@@ -96,6 +97,38 @@ typedef struct {
     dr_session_cb on_session; /* optional: the session's attempts and ends */
     void *session_user;       /* passed to on_session */
 } dr_client_config_t;
+
+/* ---- originator serial --------------------------------------------------- */
+
+/* The vendor ID and originator serial number name the originator in every
+ * Forward Open and Forward Close. An adapter keeps an exclusive-owner
+ * connection whose originator went silent (a crash, a power cut, a cable)
+ * in a timed-out state, and lets only the same vendor ID + originator
+ * serial take it over; anyone else is refused with 0x01/0x0106 (ownership
+ * conflict) for as long as the adapter holds it, which for some adapters
+ * is until they restart. A restarted originator must therefore come back
+ * with the serial it had, as a PLC does: pass a stable one in
+ * dr_client_config_t.serial.
+ *
+ * Left 0, the library takes one from the clock, different at every start:
+ * unique, but a restarted application is locked out of the connections of
+ * its previous run. The library cannot do better by itself (in firmware
+ * it knows nothing stable about its host); drgatewayd and drcli always
+ * pass a stable serial (dr_originator_serial_local). Firmware should
+ * derive one from something unique to the device, e.g. its MAC address:
+ * dr_originator_serial(mac_text, robot_name). */
+
+/* FNV-1a (32 bits) over the bytes of host_id, one 0 byte, and the bytes of
+ * name; 1 if that is 0 (0 means "not set"). Pure: the same arguments give
+ * the same serial on every machine and every run. */
+uint32_t dr_originator_serial(const char *host_id, const char *name);
+
+/* POSIX (lib/client_posix.c): dr_originator_serial(host_id, name), host_id
+ * the first line of /etc/machine-id, or the host name (gethostname) when
+ * that file is missing or empty, or "" when neither is known. Stable for
+ * one installation of the machine and one name (drgatewayd: the robot's
+ * section name; drcli: the robot's address as given). */
+uint32_t dr_originator_serial_local(const char *name);
 
 /* ---- a Class 1 UDP port shared by several clients --------------------- */
 
@@ -325,7 +358,17 @@ typedef struct {
 
 /* Add a connection; it opens once the session is up, and reopens after a
  * failure with capped exponential backoff. NULL if the pool is full or the
- * config is invalid (DR_EINVAL in *err if err is not NULL). */
+ * config is invalid (DR_EINVAL in *err if err is not NULL).
+ *
+ * Forward Opens nobody waits for must never open a connection the adapter
+ * then holds as an owner (refusing the next opens with 0x0106): a Forward
+ * Open that gets no answer within the request timeout resets the session
+ * (the transport's tcp_abort drops what TCP still holds, the session
+ * comes back after its backoff); one that ended without an answer is
+ * closed by its triad (Forward Close) just before that connection's next
+ * open; and a success that comes for a connection removed or closed
+ * meanwhile is closed at once. dr_client_close_start waits for the
+ * answers of the opens still out, as for its Forward Closes. */
 dr_conn_t *dr_client_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
                               dr_status_t *err);
 
@@ -342,7 +385,13 @@ void dr_conn_set_run(dr_conn_t *conn, bool run);
 /* T->O sequence handling: a packet whose 32-bit encapsulation sequence
  * number is not newer (wrap-safe) than the last one taken is a duplicate
  * or late: dropped (rx_dropped_seq), and it does not keep the connection
- * alive. Every newer packet does (rx_packets, last_rx_us, the timeout).
+ * alive. Every newer packet does (rx_packets, last_rx_us, the timeout),
+ * as long as it is at most max(8, (4 << timeout_mult) / 2) ahead: a
+ * number further ahead than a live producer can have gone is a corrupted
+ * one (a bit flipped in a datagram without a UDP checksum) and is dropped
+ * too, so that it cannot make the real packets after it look old. Three
+ * such numbers in a row that follow each other within that window are
+ * believed: the producer jumped, and is followed from there (rx_resyncs).
  * Whether it carries new data goes by the 16-bit CIP sequence count: the
  * same count as the last new data is a repeat (rx_repeats: no copy, no
  * on_data), as producers may send while their data is unchanged; any
@@ -360,6 +409,8 @@ typedef struct {
     uint32_t o2t_cid, t2o_cid;
     uint32_t opens, timeouts;
     uint16_t size_wanted; /* from a 0x0109 refusal: the target's size */
+    uint64_t rx_resyncs;  /* encapsulation sequence numbers followed after
+                             a jump too far ahead (see above) */
 } dr_conn_stats_t;
 
 dr_conn_state_t dr_conn_state(const dr_conn_t *conn);

@@ -20,6 +20,8 @@
  *   - timer_open / timer_arm: no timer handle (both or neither); the
  *     application sleeps until dr_client_next_deadline() itself.
  *   - udp_send_batch / udp_recv_batch: one datagram per call instead.
+ *   - tcp_abort: close instead (requests queued in TCP may then still
+ *     reach the peer after the client gave up on them).
  * Calls come only from the thread that drives the client (see client.h).
  */
 #ifndef DRGATE_TRANSPORT_H
@@ -90,6 +92,12 @@ typedef struct {
                                   unsigned n, unsigned *done);
     dr_status_t (*udp_recv_batch)(void *ctx, int h, dr_udp_msg_t *m,
                                   unsigned n, unsigned *done);
+    /* Optional (NULL: close). Close a TCP connection at once, dropping
+     * what it has not yet sent or had acknowledged (POSIX: SO_LINGER 0,
+     * the peer gets a reset): the client resets a session whose Forward
+     * Open went unanswered, and its queued requests must never reach the
+     * adapter later (see session_reset in lib/client.c). */
+    void (*tcp_abort)(void *ctx, int h);
 } dr_transport_ops_t;
 
 typedef struct {
