@@ -2,9 +2,10 @@
 /*
  * Forced into every gateway source of the bench build drgatewayd-lat
  * (gcc -include, mk/bench_gw.mk), never into the real daemon: the event
- * loop's epoll_wait goes through gw_bench_epoll_wait (gateway/link.c,
- * GW_BENCH_LATENCY), which notes when the loop woke up, so the latency of
- * a robot packet can be split into "until the loop ran" and "in the loop".
+ * loop's epoll_wait goes through gw_bench_epoll_wait (bench/gw_lat.c,
+ * linked into that build), which notes when the loop woke up, so the
+ * latency of a robot packet can be split into "until the loop ran" and "in
+ * the loop".
  */
 #ifndef DRGATE_GW_LAT_HOOK_H
 #define DRGATE_GW_LAT_HOOK_H

@@ -89,7 +89,7 @@ static void handle_one(gw_rtu_t *t, uint8_t addr, const uint8_t *pdu, size_t pdu
     if (ex < 0)
         return;
     if (ex == 0 && t->result.write && t->result.dirty != 0)
-        t->hooks.on_write(t->hooks.user, t->unit_of[addr], t->result.dirty);
+        t->hooks.on_write(t->hooks.user, t->result.unit, t->result.dirty);
     if (t->result.reset)
         gw_log(GW_LOG_INFO, "modbus_rtu %s: the master reset the write fault of unit %u",
                t->cfg.name, t->unit_of[addr]);

@@ -237,7 +237,7 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
                s->result.unit_id);
     }
     if (ex == 0 && s->result.write && s->result.dirty != 0)
-        s->hooks.on_write(s->hooks.user, s->result.unit_id, s->result.dirty);
+        s->hooks.on_write(s->hooks.user, s->result.unit, s->result.dirty);
     if (ex != 0)
         s->exceptions++;
     /* All of it or the client is dropped, as libmodbus's send did. */
