@@ -40,7 +40,8 @@ WARN    := -std=c99 -Wall -Wextra -Wpedantic $(WERROR) -Wshadow \
 HARDEN  ?= -fstack-protector-strong -D_FORTIFY_SOURCE=2
 PIE_CFLAGS  ?= -fPIE
 PIE_LDFLAGS ?= -pie
-ALL_CPPFLAGS := -Ilib/include -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
+# -I.: the programs include what they share as "common/NAME.h".
+ALL_CPPFLAGS := -Ilib/include -I. -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
 ALL_CFLAGS   := $(WARN) $(HARDEN) $(PIE_CFLAGS) $(CFLAGS)
 ALL_LDFLAGS  := $(PIE_LDFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 
@@ -78,6 +79,12 @@ LIB_HDR       := $(wildcard lib/include/drgate/*.h)
 # Each program is linked from objects compiled once with its own flags
 # (a static pattern rule per group below); what else links the same code
 # (tests, fuzz replay, benchmarks) links those objects.
+#
+# What drsim and drgatewayd share (Linux only, so not in the library): the
+# event loop, as an archive of its own.
+COMMON_SRC  := $(sort $(wildcard common/*.c))
+COMMON_OBJ  := $(COMMON_SRC:%.c=$(B)/%.o)
+COMMON_A    := $(B)/common/libdrcommon.a
 JSON_CFLAGS := $(call pc,--cflags,jansson)
 JSON_LIBS   := $(call pc,--libs,jansson)
 CLI_SRC     := $(sort $(wildcard cli/*.c))
@@ -139,7 +146,7 @@ GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBU
 # dlopen in libc; -ldl is an empty stub there and keeps older C libraries
 # linking.
 GW_LIBS     := $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
-GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(LIB_A) $(GW_LIBS)
+GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
 
 BINS        := $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
 
@@ -185,7 +192,7 @@ $(CLI_OBJ): $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(CLI_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
 
-$(SIM_OBJ): $(B)/%.o: %.c $(B)/%.d
+$(SIM_OBJ) $(COMMON_OBJ): $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(SIM_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
 
@@ -215,8 +222,12 @@ $(LIB_SO): $(LIB_OBJ)
 $(CLI_BIN): $(CLI_OBJ) $(LIB_A)
 	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(CLI_OBJ) $(LIB_A) $(JSON_LIBS) -lm
 
-$(SIM_BIN): $(SIM_OBJ) $(LIB_A)
-	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(SIM_OBJ) $(LIB_A) -lm
+$(SIM_BIN): $(SIM_OBJ) $(COMMON_A) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(SIM_OBJ) $(COMMON_A) $(LIB_A) -lm
+
+$(COMMON_A): $(COMMON_OBJ)
+	rm -f $@
+	$(AR) rcs $@ $^
 
 $(GW_A): $(GW_LIB_OBJ)
 	rm -f $@
@@ -226,14 +237,15 @@ $(GPIO_A): $(GPIO_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
-$(GW_BIN): $(B)/gateway/main.o $(GW_A) $(GPIO_A) $(LIB_A)
+$(GW_BIN): $(B)/gateway/main.o $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A)
 	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(B)/gateway/main.o $(GW_DEP_LIBS)
 
-# $(call GW_VARIANT,NAME,FLAGS): drgatewayd's sources compiled again with
-# FLAGS into $(B)/bench/NAME/gateway/*.o (the benchmarks' instrumented
-# daemons); the objects, main.o among them, are $(GW_OBJ_NAME).
+# $(call GW_VARIANT,NAME,FLAGS[,SOURCES]): drgatewayd's sources and the
+# event loop's, and SOURCES, compiled again with FLAGS into $(B)/bench/NAME/
+# (the benchmarks' instrumented daemons); the objects, main.o among them,
+# are $(GW_OBJ_NAME).
 define GW_VARIANT
-GW_OBJ_$(1) := $$(GW_SRC:%.c=$$(B)/bench/$(1)/%.o)
+GW_OBJ_$(1) := $$(patsubst %.c,$$(B)/bench/$(1)/%.o,$$(GW_SRC) $$(COMMON_SRC) $(3))
 $$(GW_OBJ_$(1)): $$(B)/bench/$(1)/%.o: %.c $$(B)/bench/$(1)/%.d
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$(GW_CFLAGS) $(2) -fPIE $$(DEPFLAGS) -c $$< -o $$@
@@ -246,15 +258,18 @@ $(SIM_TEST_BIN): $(B)/%: %.c $(B)/%.d $(SIM_LIB_OBJ) $(TEST_SUPPORT_OBJ) $(LIB_A
 	$(CC) $(TEST_CFLAGS) -Isim $(DEPFLAGS) $(ALL_LDFLAGS) \
 	    -o $@ $< $(SIM_LIB_OBJ) $(TEST_SUPPORT_OBJ) $(LIB_A) $(CMOCKA_LIBS) -lm
 
-$(GW_TEST_BIN): $(B)/%: %.c $(B)/%.d $(GW_TEST_FAKE_OBJ) $(GW_A) $(GPIO_A) $(LIB_A)
+$(GW_TEST_BIN): $(B)/%: %.c $(B)/%.d $(GW_TEST_FAKE_OBJ) $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A)
 	@mkdir -p $(dir $@)
 	$(CC) $(GW_TEST_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(GW_TEST_FAKE_OBJ) \
-	    $(GW_A) $(GPIO_A) $(LIB_A) $(GW_TEST_LIBS)
+	    $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_TEST_LIBS)
 
-$(filter-out $(SIM_TEST_BIN) $(GW_TEST_BIN),$(TEST_BIN)): $(B)/%: %.c $(B)/%.d $(TEST_SUPPORT_OBJ) $(LIB_A)
+# (The other tests link the event loop's archive too: tests/test_ev.c
+# needs it, the others take nothing from it.)
+$(filter-out $(SIM_TEST_BIN) $(GW_TEST_BIN),$(TEST_BIN)): $(B)/%: %.c $(B)/%.d $(TEST_SUPPORT_OBJ) \
+        $(COMMON_A) $(LIB_A)
 	@mkdir -p $(dir $@)
 	$(CC) $(TEST_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) \
-	    -o $@ $< $(TEST_SUPPORT_OBJ) $(LIB_A) $(CMOCKA_LIBS) -lm
+	    -o $@ $< $(TEST_SUPPORT_OBJ) $(COMMON_A) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 # ---- dependencies ----------------------------------------------------------
 # Installs missing Debian packages (as root) and the Python test peers

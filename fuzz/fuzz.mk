@@ -33,10 +33,10 @@ FUZZ_SRC_modbus      := gateway/mbproto.c gateway/regmap.c gateway/robot.c
 FUZZ_LIBS_modbus     := $(MODBUS_LIBS)
 FUZZ_SRC_rtu         := gateway/mbproto.c gateway/regmap.c gateway/robot.c
 FUZZ_LIBS_rtu        := $(MODBUS_LIBS)
-FUZZ_SRC_config      := gateway/config.c
+FUZZ_SRC_config      := $(sort $(wildcard gateway/config*.c))
 FUZZ_LIBS_config     := $(INIH_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
-# fuzz_cli.c includes cli/drcli.c itself, renaming its main().
+# All of drcli but its main() (cli/drcli.c, on top of the rest).
 FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
                         $(filter-out $(FUZZ_LIB_SRC),$(LIB_SRC))
 FUZZ_LIBS_cli        := $(JSON_LIBS)

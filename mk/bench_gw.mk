@@ -23,11 +23,12 @@ $(B)/bench/gw_plain_server: bench/gw_plain_server.c $(B)/bench/gw_plain_server.d
 	$(CC) $(ALL_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(WARN) -O2 -g $(DEPFLAGS) \
 	    $(ALL_LDFLAGS) -o $@ $< $(MODBUS_LIBS)
 
-# The daemon with the latency instrumentation (gateway/link.c,
-# GW_BENCH_LATENCY; bench/gw_lat_hook.h notes when the loop wakes up); the
-# throughput, RSS and CPU figures use the real one. (-include is a header
-# the sources do not name: their lists name it all the same.)
-$(eval $(call GW_VARIANT,lat,-DGW_BENCH_LATENCY -include bench/gw_lat_hook.h))
+# The daemon with the latency instrumentation: bench/gw_lat.c, which
+# watches the links through their observer (gateway/link.h), and
+# bench/gw_lat_hook.h, forced into every source (-include: the lists of
+# headers name it all the same), which notes when the loop wakes up; the
+# throughput, RSS and CPU figures use the real one.
+$(eval $(call GW_VARIANT,lat,-include bench/gw_lat_hook.h,bench/gw_lat.c))
 $(B)/bench/drgatewayd-lat: $(GW_OBJ_lat) $(GPIO_A) $(LIB_A)
 	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(GW_OBJ_lat) $(GPIO_A) \
 	    $(LIB_A) $(GW_LIBS)

@@ -33,7 +33,7 @@ LABEL = "build: every header is a prerequisite of what includes it"
 TOP = os.getcwd()
 # Directories a quoted or angled include is looked up in, besides the
 # including file's own (the -I options of the rules).
-SEARCH = ["lib/include", "lib", "gateway", "sim", "cli", "tests", "tests/gpio",
+SEARCH = [".", "lib/include", "lib", "gateway", "sim", "cli", "tests", "tests/gpio",
           "tests/firmware", "port/lwip", "fuzz", "bench"]
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]', re.M)
 COMMENT = re.compile(r"/\*.*?\*/|//[^\n]*", re.S)
@@ -102,6 +102,13 @@ def missing(src, prereqs):
     return lost
 
 
+def stale(target, prereqs):
+    """The target is older than one of its prerequisites: make rebuilds it
+    (and writes its list again) before anything uses it."""
+    t = os.path.getmtime(target)
+    return any(os.path.exists(p) and os.path.getmtime(p) > t for p in prereqs)
+
+
 def database(targets):
     """({target: set of prerequisites}, set of the targets that have a
     recipe) from make -pq."""
@@ -154,7 +161,11 @@ def main():
     checked = 0
     user = {}  # header -> a built file that includes it
     for target, prereqs in sorted(db.items()):
-        if not target.startswith(build + "/") or not os.path.exists(target):
+        # built files of this build only: the lists of the builds nested in
+        # it ($(B)/asan, ...) name files that no rule of this one makes,
+        # and may be older than the sources until that build runs again
+        if not target.startswith(build + "/") or not os.path.exists(target) \
+                or target not in recipe or stale(target, prereqs):
             continue
         srcs = [p for p in prereqs if p.endswith(".c") and tree_file(p)]
         for src in srcs:
@@ -162,8 +173,6 @@ def main():
             for h in missing(src, prereqs):
                 problems.append("%s: make does not know that %s includes %s"
                                 % (target, src, h))
-            if target not in recipe:  # the list of a nested build ($(B)/asan/...)
-                continue
             for cands in includes(src):
                 for h in cands:
                     user.setdefault(h, target)

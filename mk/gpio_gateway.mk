@@ -19,8 +19,8 @@ CHECK_STEPS += check-gpio-gateway
 .PHONY: check-gpio-gateway check-gpio-gateway-unit gpio-gateway-shell
 
 # $(GPIO_GW_TEST) is gateway/gpiomap.c on the fake GPIO backend and a fake
-# event loop: no kernel, no libgpiod, no epoll (the test defines
-# gw_loop_watch & co.). It builds with the Makefile's rule for gateway tests.
+# event loop: no kernel, no libgpiod, no epoll (the test defines ev_watch
+# & co.). It builds with the Makefile's rule for gateway tests.
 
 # Plain, then under ASan+UBSan (the Makefile's SAN_FLAGS) in $(B)/asan.
 check-gpio-gateway-unit: $(GPIO_GW_TEST)

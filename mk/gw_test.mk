@@ -12,6 +12,8 @@
 #                        Makefile's SAN_FLAGS, in $(B)/asan as check-asan);
 #                        a sanitizer report in any log is a failure
 #   check-regmap-docs    docs/register-map.md equals --print-map --markdown
+#   check-config-docs    the key tables of docs/configuration.md equal
+#                        --help-config SECTION
 #   check-gateway-config drgatewayd's command line and configuration errors
 #                        only (tests/gateway/test_config.py: FILE:LINE, exit
 #                        codes), for check-quick
@@ -22,6 +24,8 @@
 #                        verify reads it: any complaint is a failure
 #                        (skipped loudly where systemd-analyze is missing)
 #   regmap-docs          regenerates docs/register-map.md (also `make docs`)
+#   config-docs          regenerates docs/configuration.md's key tables
+#                        (also `make docs`)
 #
 # The suite runs on GW_TEST_JOBS (2) pytest-xdist workers: its tests spend
 # most of their time waiting (a drsim that boots, a link that times out),
@@ -37,7 +41,8 @@
 # and under ASan+UBSan (check-gateway-asan). The -O2 daemon as installed is
 # run end to end by check-soak, check-valgrind and check-gpio-gateway.
 
-CHECK_STEPS += check-gw-boundary check-gateway-asan check-regmap-docs check-gateway-unit
+CHECK_STEPS += check-gw-boundary check-gateway-asan check-regmap-docs check-config-docs \
+               check-gateway-unit
 
 GW_TEST_PY      ?= .venv/bin/python
 GW_TEST_TIMEOUT ?= 1800
@@ -61,7 +66,7 @@ GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus, xdist' 2>/dev
                        exit 1; fi
 
 .PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs \
-        check-regmap-docs check-gateway-config
+        check-regmap-docs check-config-docs config-docs check-gateway-config
 
 check-gw-boundary:
 	@sh mk/gw-boundary.sh "$(RESULTS)"
@@ -105,6 +110,13 @@ check-regmap-docs: $(GW_BIN)
 regmap-docs: $(GW_BIN)
 	@sh mk/gen-regmap-doc.sh --write $(GW_BIN)
 
+# So are the key tables of docs/configuration.md, from the sections' tables.
+check-config-docs: $(GW_BIN)
+	@sh mk/gen-config-doc.sh --check $(GW_BIN) "$(RESULTS)"
+
+config-docs: $(GW_BIN)
+	@sh mk/gen-config-doc.sh --write $(GW_BIN)
+
 # (a second of tests: no workers)
 check-gateway-config: GW_TEST_JOBS = 1
 check-gateway-config: $(GW_BIN) $(SIM_BIN)
@@ -112,4 +124,4 @@ check-gateway-config: $(GW_BIN) $(SIM_BIN)
 	@$(call GW_TEST_RUN,$(B),drgatewayd configuration errors (tests/gateway/test_config.py),,\
 	    tests/gateway/test_config.py)
 
-docs: regmap-docs
+docs: regmap-docs config-docs
