@@ -176,7 +176,8 @@ GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 
 .PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
-        check-summary check-quick check-deps check-gw-config
+        check-summary check-quick check-deps check-gw-config test-deps deps-measure \
+        check-dep-split
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -272,10 +273,29 @@ $(filter-out $(SIM_TEST_BIN) $(GW_TEST_BIN),$(TEST_BIN)): $(B)/%: %.c $(B)/%.d $
 	    -o $@ $< $(TEST_SUPPORT_OBJ) $(COMMON_A) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 # ---- dependencies ----------------------------------------------------------
-# Installs missing Debian packages (as root) and the Python test peers
-# (tests/requirements.txt, pinned) into .venv. Says what it installs.
+# mk/deps.sh installs missing Debian packages (as root) without upgrading
+# any installed one, and says what it installs before it does:
+#   deps           build and run (make, make demo): compiler, -dev libraries,
+#                  mbpoll; no test tool
+#   test-deps      deps + the test toolchain (cross compilers, the s390x
+#                  runtime, qemu, sanitizers, tshark, ...) and the Python
+#                  test peers (tests/requirements.txt, pinned) into .venv;
+#                  make check runs it
+#   deps-measure   what each set installs on a fresh bookworm, in packages
+#                  and bytes (docs/deployment.md quotes it; ~20 s)
+#   check-dep-split  (in make check, ~7 s) the demo set names no test tool
+#                  and plans none, here and on a fresh bookworm
 deps:
-	@sh mk/deps.sh
+	@sh mk/deps.sh demo
+
+test-deps:
+	@sh mk/deps.sh test
+
+deps-measure:
+	@sh mk/deps-measure.sh
+
+check-dep-split:
+	@sh mk/check-dep-split.sh "$(RESULTS)"
 
 # ---- tests -----------------------------------------------------------------
 RESULTS := $(B)/check-results
@@ -287,8 +307,8 @@ CHECK_TIMES := $(B)/check-times
 # step and the closing line "check: N passed, M failed". check-deps comes
 # last, when every file of the run has been built.
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
-               check-asan check-fuzz
-check: deps
+               check-asan check-fuzz check-dep-split
+check: test-deps
 	@rm -f $(RESULTS) $(CHECK_TIMES)
 	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
 	    all $(CHECK_STEPS) check-deps || true

@@ -30,6 +30,6 @@ $(B)/bench/enip_io: bench/enip_io.c $(B)/bench/enip_io.d $(SIM_LIB_OBJ) $(LIB_A)
 
 bench-enip: $(ENIP_BENCH_BIN) $(SIM_BIN)
 	@if [ ! -x "$(ENIP_BENCH_PY)" ]; then \
-	    echo "bench-enip: no $(ENIP_BENCH_PY) (run make deps)"; exit 1; fi
+	    echo "bench-enip: no $(ENIP_BENCH_PY) (run make test-deps)"; exit 1; fi
 	PYTHONDONTWRITEBYTECODE=1 DRSIM=$(abspath $(SIM_BIN)) \
 	    timeout -k 10 600 $(ENIP_BENCH_PY) bench/bench_enip.py $(abspath $(B))

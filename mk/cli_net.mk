@@ -2,7 +2,7 @@
 # drcli's network commands end to end (tests/cli/test_cli_net.sh): golden
 # transcripts of get, dump, set, watch, identity and probe against drsim
 # (started by the script on 127.0.0.2) and against cpppo's EtherNet/IP
-# server (127.0.0.4, from .venv: `make deps`), every error path with its
+# server (127.0.0.4, from .venv: `make test-deps`), every error path with its
 # exit status. Run plain, then again with drcli and drsim built under
 # ASan+UBSan in their own build directory (the Makefile's SAN_FLAGS, as
 # check-asan uses).

@@ -25,7 +25,7 @@
 #
 # tests/, fuzz/ and bench/ are not measured. sim/ (drsim, test
 # infrastructure) is reported without a floor. gcovr is Debian's (bookworm:
-# 5.2), installed by `make deps`. The sanitizer reruns of check-cli-net and
+# 5.2), installed by `make test-deps`. The sanitizer reruns of check-cli-net and
 # check-gpio are left out (CLI_NET_NO_ASAN, GPIO_NO_ASAN): they add time,
 # not coverage.
 
@@ -50,7 +50,7 @@ COV_GCOVR   = $(GCOVR) -r . -j 2 -e 'tests/' -e 'fuzz/' -e 'bench/' \
 
 coverage:
 	@if ! command -v $(GCOVR) >/dev/null 2>&1; then \
-	    echo "coverage: no $(GCOVR) (make deps installs Debian's gcovr)"; exit 1; fi
+	    echo "coverage: no $(GCOVR) (make test-deps installs Debian's gcovr)"; exit 1; fi
 	@t0=$$(date +%s); \
 	$(COV_MAKE) all || exit 1; \
 	find $(COV_B) -name '*.gcda' -delete; \
@@ -68,8 +68,8 @@ coverage:
 
 check-coverage:
 	@if ! command -v $(GCOVR) >/dev/null 2>&1; then \
-	    echo "check-coverage: no $(GCOVR) (make deps)"; \
-	    echo "0 1 coverage (no gcovr: make deps)" >> $(RESULTS); exit 1; fi
+	    echo "check-coverage: no $(GCOVR) (make test-deps)"; \
+	    echo "0 1 coverage (no gcovr: make test-deps)" >> $(RESULTS); exit 1; fi
 	@rm -f $(COV_B)/coverage-summary.json
 	@$(MAKE) --no-print-directory coverage COV_GW_RESULTS=$(RESULTS) || true
 	@if [ ! -f $(COV_B)/coverage-summary.json ]; then \

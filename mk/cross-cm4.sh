@@ -44,7 +44,7 @@ result() { # passed failed
 if ! command -v "${CROSS}gcc" >/dev/null 2>&1; then
     . tests/skip.sh
     skip_name="$name (Cortex-M4 build)" skip_results=$results skip_label=$name
-    skip "${CROSS}gcc not found (install gcc-arm-none-eabi libnewlib-arm-none-eabi: make deps)"
+    skip "${CROSS}gcc not found (install gcc-arm-none-eabi libnewlib-arm-none-eabi: make test-deps)"
 fi
 
 mkdir -p "$out"

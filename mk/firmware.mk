@@ -41,7 +41,7 @@ $(B)/tests/firmware/test_lwip: tests/firmware/test_lwip.c $(B)/tests/firmware/te
 
 check-lwip: $(SIM_BIN)
 	@if [ ! -f $(LWIP_INC)/lwip/sockets.h ]; then \
-	    sh tests/skip.sh check-lwip "no lwIP headers in $(LWIP_INC) (make deps)" \
+	    sh tests/skip.sh check-lwip "no lwIP headers in $(LWIP_INC) (make test-deps)" \
 	        "$(RESULTS)" lwip; \
 	else \
 	    $(MAKE) --no-print-directory $(B)/tests/firmware/test_lwip && \

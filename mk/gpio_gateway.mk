@@ -31,7 +31,7 @@ check-gpio-gateway-unit: $(GPIO_GW_TEST)
 	        RESULTS=$(abspath $(RESULTS)) check-gpio-gateway-unit; fi
 
 # The unit test and the qemu test both run even if one fails. mbpoll
-# (Debian's, from `make deps`) is the independent Modbus client in the
+# (Debian's, from `make test-deps`) is the independent Modbus client in the
 # guest; without it the qemu test cannot run: a failure, not a skip.
 check-gpio-gateway: $(GPIO_GW_BIN) $(SIM_BIN) $(GPIO_GW_TEST)
 	@st=0; \
@@ -43,7 +43,7 @@ check-gpio-gateway: $(GPIO_GW_BIN) $(SIM_BIN) $(GPIO_GW_TEST)
 	        --file $(GPIO_GW_DIR)/gateway.ini:/etc/drgate/drgatewayd.ini \
 	        --script $(GPIO_GW_DIR)/guest.sh $(GPIO_GW_ARGS) || st=1; \
 	else \
-	    echo "check-gpio-gateway: mbpoll is missing (make deps installs it)" >&2; \
+	    echo "check-gpio-gateway: mbpoll is missing (make test-deps installs it)" >&2; \
 	    mkdir -p $(dir $(RESULTS)); echo "0 1 gpio_gateway (no mbpoll)" >> $(RESULTS); \
 	    st=1; \
 	fi; \

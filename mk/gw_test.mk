@@ -4,7 +4,7 @@
 # clients (pymodbus from .venv, Debian's mbpoll, and a framer of the
 # tests' own) and checked against the robot's own view of its assemblies
 # (an EtherNet/IP reader of the tests' own). pytest from .venv
-# (tests/requirements.txt, `make deps`); one "passed failed label" line per
+# (tests/requirements.txt, `make test-deps`); one "passed failed label" line per
 # run goes to $(RESULTS).
 #
 #   check-gateway        the suite against $(B)/drgatewayd and $(B)/drsim
@@ -61,8 +61,8 @@ GW_TEST_RUN      = PYTHONDONTWRITEBYTECODE=1 \
                    DRSIM=$(abspath $(1))/drsim GW_LOGDIR=$(abspath $(1))/tests/gateway \
                    GW_LABEL="$(2)" $(3) timeout -k 10 $(GW_TEST_TIMEOUT) $(GW_PYTEST)
 GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus, xdist' 2>/dev/null; then \
-                       echo "$@: no pytest, pytest-xdist or pymodbus in $(GW_TEST_PY) (run make deps)"; \
-                       echo "0 1 $(1) (no pytest/xdist/pymodbus: make deps)" >> $(RESULTS); \
+                       echo "$@: no pytest, pytest-xdist or pymodbus in $(GW_TEST_PY) (run make test-deps)"; \
+                       echo "0 1 $(1) (no pytest/xdist/pymodbus: make test-deps)" >> $(RESULTS); \
                        exit 1; fi
 
 .PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs \

@@ -6,7 +6,7 @@
 #                          namespaces on the standard ports when root)
 #   our client  -> cpppo   explicit messaging against cpppo's server
 #   tshark      decodes a capture of our client talking to drsim
-# The Python peers come from .venv (make deps, tests/requirements.txt).
+# The Python peers come from .venv (make test-deps, tests/requirements.txt).
 # Each part adds its "passed failed label" line(s) to $(RESULTS).
 # check-interop-asan runs the peers again against drsim and our client built
 # with ASan+UBSan (the Makefile's SAN_FLAGS, in $(B)/asan as check-asan).
@@ -34,8 +34,8 @@ $(B)/tests/interop/enip_session: tests/interop/enip_session.c \
 
 check-interop: $(SIM_BIN) $(INTEROP_BIN)
 	@if [ ! -x "$(INTEROP_PY)" ]; then \
-	    echo "check-interop: no $(INTEROP_PY) (run make deps)"; \
-	    echo "0 1 interop (no Python peers: make deps)" >> $(RESULTS); exit 1; fi
+	    echo "check-interop: no $(INTEROP_PY) (run make test-deps)"; \
+	    echo "0 1 interop (no Python peers: make test-deps)" >> $(RESULTS); exit 1; fi
 	@st=0; \
 	$(INTEROP_RUN) $(INTEROP_PY) tests/interop/pyrun.py $(RESULTS) \
 	    "interop pycomm3 -> drsim" tests/interop/test_pycomm3.py || st=1; \
@@ -54,8 +54,8 @@ INTEROP_ASAN_ENV = PYTHONDONTWRITEBYTECODE=1 DRGATE_BUILD=$(abspath $(INTEROP_AS
 
 check-interop-asan:
 	@if [ ! -x "$(INTEROP_PY)" ]; then \
-	    echo "check-interop-asan: no $(INTEROP_PY) (run make deps)"; \
-	    echo "0 1 interop asan (no Python peers: make deps)" >> $(RESULTS); exit 1; fi
+	    echo "check-interop-asan: no $(INTEROP_PY) (run make test-deps)"; \
+	    echo "0 1 interop asan (no Python peers: make test-deps)" >> $(RESULTS); exit 1; fi
 	$(MAKE) --no-print-directory B=$(INTEROP_ASAN_B) CFLAGS="$(SAN_FLAGS)" \
 	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
 	    $(INTEROP_ASAN_B)/drsim $(INTEROP_ASAN_B)/tests/interop/test_client_cpppo

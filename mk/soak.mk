@@ -31,8 +31,8 @@ SOAK_RUN      = PYTHONDONTWRITEBYTECODE=1 timeout -k 10 $$(( $(1) + 300 )) \
 
 check-soak: $(GW_BIN) $(SIM_BIN) $(CLI_BIN)
 	@if ! $(SOAK_PY) -c 'import pymodbus' 2>/dev/null; then \
-	    echo "check-soak: no pymodbus in $(SOAK_PY) (make deps)"; \
-	    echo "0 1 soak (no pymodbus: make deps)" >> $(RESULTS); exit 1; fi
+	    echo "check-soak: no pymodbus in $(SOAK_PY) (make test-deps)"; \
+	    echo "0 1 soak (no pymodbus: make test-deps)" >> $(RESULTS); exit 1; fi
 	@st=0; \
 	$(call SOAK_RUN,$(SOAK_SECONDS)) --logdir $(SOAK_LOGDIR) || st=1; \
 	if [ "$(SOAK_EXPLICIT_SECONDS)" -gt 0 ]; then \

@@ -23,8 +23,8 @@ VALGRIND_LOGDIR  := $(B)/tests/valgrind
 check-valgrind: $(GW_BIN) $(SIM_BIN) $(CLI_BIN)
 	@if ! command -v valgrind >/dev/null 2>&1 || \
 	    ! $(VALGRIND_PY) -c 'import pymodbus' 2>/dev/null; then \
-	    echo "check-valgrind: needs valgrind and pymodbus in $(VALGRIND_PY) (make deps)"; \
-	    echo "0 1 valgrind (no valgrind or pymodbus: make deps)" >> $(RESULTS); exit 1; fi
+	    echo "check-valgrind: needs valgrind and pymodbus in $(VALGRIND_PY) (make test-deps)"; \
+	    echo "0 1 valgrind (no valgrind or pymodbus: make test-deps)" >> $(RESULTS); exit 1; fi
 	@PYTHONDONTWRITEBYTECODE=1 timeout -k 10 $(VALGRIND_TIMEOUT) \
 	    $(VALGRIND_PY) tests/valgrind/scenario.py $(B) $(abspath $(RESULTS)) \
 	    $(VALGRIND_LOGDIR) tests/valgrind/drgate.supp

@@ -17,7 +17,7 @@
 #        test_cli_net.sh --update DRCLI DRSIM [PYTHON]   (rewrite the golden
 #                                              files; review with git diff)
 # PYTHON is the interpreter with cpppo (default .venv/bin/python, which
-# `make deps` installs from tests/requirements.txt).
+# `make test-deps` installs from tests/requirements.txt).
 set -u
 export LC_ALL=C
 update=0
@@ -326,7 +326,7 @@ t probe_requests 'requests "$DRCLI" -H 127.0.0.2 --port $SIM probe | sed -n "/^-
 # attribute 3) of the assembly's size, all zeros to begin with; instance
 # 111 is 30 bytes, for a device whose assembly has the wrong size.
 if ! "$PYTHON" -c 'import cpppo' 2>/dev/null; then
-    fail "cpppo: not importable by $PYTHON (run make deps)"
+    fail "cpppo: not importable by $PYTHON (run make test-deps)"
     finish
 fi
 tags='' inst=101

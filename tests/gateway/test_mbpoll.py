@@ -12,7 +12,7 @@ import pytest
 from gwlib import GW_ADDR, INSTANCE, EnipReader, running, timeout, wait_for
 
 MBPOLL = shutil.which("mbpoll")
-pytestmark = pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (make deps)")
+pytestmark = pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (make test-deps)")
 
 
 @pytest.fixture(scope="module", params=["abcd", "cdab"])

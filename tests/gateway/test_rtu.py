@@ -25,7 +25,7 @@ from gwlib import (DRGATEWAYD, crc16, GW_ADDR, free_port, EX_ILLEGAL_ADDRESS, EX
 
 SOCAT = shutil.which("socat")
 MBPOLL = shutil.which("mbpoll")
-pytestmark = pytest.mark.skipif(SOCAT is None, reason="socat is not installed (make deps)")
+pytestmark = pytest.mark.skipif(SOCAT is None, reason="socat is not installed (make test-deps)")
 
 BAUD = 9600
 R0, R1 = 5, 2  # slave addresses
@@ -289,7 +289,7 @@ def test_back_to_back_frames_both_answered(gw):
     assert rsp == r1 + crc16(r1) + r2 + crc16(r2)
 
 
-@pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (make deps)")
+@pytest.mark.skipif(MBPOLL is None, reason="mbpoll is not installed (make test-deps)")
 def test_mbpoll_rtu(gw, regmap):
     base = [MBPOLL, "-m", "rtu", "-b", str(BAUD), "-P", "none", "-d", "8", "-s", "2",
             "-0", "-o", "3"]

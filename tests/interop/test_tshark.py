@@ -47,7 +47,7 @@ class TsharkDecodesOurSession(unittest.TestCase):
     def setUpClass(cls):
         for tool in ("tshark", "dumpcap"):
             if shutil.which(tool) is None:
-                raise unittest.SkipTest("%s not installed (make deps installs it)" % tool)
+                raise unittest.SkipTest("%s not installed (make test-deps installs it)" % tool)
         if not os.access(SESSION, os.X_OK):
             raise RuntimeError("no %s (build it first)" % SESSION)
         cls.tmp = tempfile.mkdtemp(prefix="drgate-tshark-")
