@@ -177,7 +177,7 @@ GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 .PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
-        check-dep-split
+        check-dep-split check-demo
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -307,7 +307,7 @@ CHECK_TIMES := $(B)/check-times
 # step and the closing line "check: N passed, M failed". check-deps comes
 # last, when every file of the run has been built.
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
-               check-asan check-fuzz check-dep-split
+               check-asan check-fuzz check-dep-split check-demo
 check: test-deps
 	@rm -f $(RESULTS) $(CHECK_TIMES)
 	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
@@ -425,6 +425,11 @@ $(B)/bench/%: bench/%.c $(B)/bench/%.d $(LIB_A)
 
 demo: deps all
 	@sh mk/demo.sh $(B)
+
+# The commands make demo prints run as printed against its gateway
+# (mk/check-demo.sh; about 5 s, on the demo's fixed ports).
+check-demo: $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
+	@sh mk/check-demo.sh $(B) "$(RESULTS)"
 
 # ---- install ---------------------------------------------------------------
 # Beside the programs: the daemon's systemd unit (ExecStart= pointed at

@@ -5,7 +5,11 @@
 # Class 1 UDP 2222); drgatewayd connects to it with six Class 1
 # connections (its own UDP socket on 127.0.0.1:2222) and serves Modbus TCP
 # on 127.0.0.1:1502; mbpoll, an independent Modbus client, reads and writes.
+# Every command it shows is the one it runs, as printed: a user can paste
+# it (while the demo runs, or with drsim and drgatewayd started as shown).
 # usage: demo.sh BUILD_DIR
+# DEMO_THEN=COMMAND runs COMMAND (sh -c) at the end, while drsim and the
+# gateway still run (mk/check-demo.sh replays the printed commands there).
 set -eu
 cd "$(dirname "$0")/.."
 b=${1:-build}
@@ -25,18 +29,24 @@ trap cleanup EXIT INT TERM
 if [ -t 1 ]; then bold=$(printf '\033[1m') off=$(printf '\033[0m'); else bold= off=; fi
 step() { printf '\n%s== %s%s\n' "$bold" "$*" "$off"; }
 show() { printf '$ %s\n' "$*"; }
-mb() { show "mbpoll $*"; mbpoll -m tcp -p 1502 -0 -1 "$@" 127.0.0.1 | sed -n '/^\[/p'; }
+# The client's fixed part: Modbus TCP on the gateway's port, addresses from
+# 0 (-0: the map's numbering), one poll (-1).
+MB="mbpoll -m tcp -p 1502 -0 -1"
+# mb ARGS: a read; the command shown is the command run
+mb() { cmd="$MB $* 127.0.0.1"; show "$cmd"; $cmd | sed -n '/^\[/p'; }
 # mbw ARGS -- VALUES: a write (mbpoll wants the values after the host)
 mbw() {
     args=; while [ "$1" != -- ]; do args="$args $1"; shift; done; shift
-    show "mbpoll$args $*"
-    # shellcheck disable=SC2086
-    mbpoll -m tcp -p 1502 -0 -1 $args 127.0.0.1 "$@" 2>&1 | grep -E 'Written|failed|rror'
+    cmd="$MB$args 127.0.0.1 $*"
+    show "$cmd"
+    $cmd 2>&1 | grep -E 'Written|failed|rror'
 }
 # Address of a field in the map the gateway prints (never hard-coded here).
 addr() { "$b/drgatewayd" --print-map | awk -v n="$1" '$4 == n { split($2, a, "-"); print a[1]; exit }'; }
 
-cat > "$tmp/demo.ini" <<INI
+# In the build directory, so that the command shown can be pasted.
+ini=$b/demo.ini
+cat > "$ini" <<INI
 [modbus]
 listen = 127.0.0.1
 port = 1502
@@ -49,14 +59,14 @@ rpi_ms = 10
 INI
 
 step "Start the simulated robot and the gateway"
-show "drsim --address 127.0.0.2 &"
+show "$b/drsim --address 127.0.0.2 &"
 "$b/drsim" --address 127.0.0.2 >"$tmp/drsim.log" 2>&1 &
 sim=$!
-show "drgatewayd -c demo.ini &     # six Class 1 connections, RPI 10 ms"
-"$b/drgatewayd" -c "$tmp/demo.ini" >"$tmp/gw.log" 2>&1 &
+show "$b/drgatewayd -c $ini &     # six Class 1 connections, RPI 10 ms"
+"$b/drgatewayd" -c "$ini" >"$tmp/gw.log" 2>&1 &
 gw=$!
 i=0
-until grep -q "link up" "$tmp/gw.log"; do
+until grep -qs "link up" "$tmp/gw.log"; do
     i=$((i + 1))
     if [ $i -gt 50 ] || ! kill -0 "$gw" 2>/dev/null; then
         echo "demo: the gateway did not connect; its log:" >&2
@@ -90,6 +100,8 @@ mb -t 3:int -B -r "$iout" -c 1
 fin=$(addr 'float_in[0]')
 step "Writing NaN to a REAL the robot consumes is refused (exception 0x03)"
 mbw -t 4:hex -r "$fin" -- 0x7FC0 0x0000 || true
+
+if [ -n "${DEMO_THEN:-}" ]; then sh -c "$DEMO_THEN"; fi
 
 printf '\nMore: docs/register-map.md (every address), drgatewayd --print-map,\n'
 printf 'drcli -H 127.0.0.2 dump (talks to drsim directly); all tests: make check\n'
