@@ -12,6 +12,7 @@ INCLUDEDIR   ?= $(PREFIX)/include
 MANDIR       ?= $(PREFIX)/share/man
 DATADIR      ?= $(PREFIX)/share/drgate
 UNITDIR      ?= $(PREFIX)/lib/systemd/system
+DOCDIR       ?= $(PREFIX)/share/doc/drgate
 PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
 DESTDIR      ?=
 
@@ -177,7 +178,7 @@ GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 .PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
-        check-dep-split check-demo
+        check-dep-split check-demo check-install
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -307,7 +308,8 @@ CHECK_TIMES := $(B)/check-times
 # step and the closing line "check: N passed, M failed". check-deps comes
 # last, when every file of the run has been built.
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
-               check-asan check-fuzz check-dep-split check-demo
+               check-asan check-fuzz check-dep-split check-demo \
+               check-install
 check: test-deps
 	@rm -f $(RESULTS) $(CHECK_TIMES)
 	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
@@ -433,13 +435,21 @@ check-demo: $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
 
 # ---- install ---------------------------------------------------------------
 # Beside the programs: the daemon's systemd unit (ExecStart= pointed at
-# $(BINDIR)), the example configurations and the manual pages.
+# $(BINDIR)), the example configurations, the manual pages and the docs.
+# The manual pages name the installed paths: their sources say docs/NAME.md
+# and /usr/local/..., which MAN_SED turns into $(DOCDIR)/NAME.md, $(DATADIR)
+# and $(UNITDIR) (check-install looks at the result of a PREFIX=/usr install).
 GW_EXAMPLES := $(wildcard gateway/examples/*.ini)
+DOCS        := $(wildcard docs/*.md)
+MAN_SED     := -e 's|docs/\([A-Za-z0-9_-]*\.md\)|$(DOCDIR)/\1|g' \
+               -e 's|/usr/local/share/drgate|$(DATADIR)|g' \
+               -e 's|/usr/local/lib/systemd/system|$(UNITDIR)|g'
 
 install: all
 	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/drgate \
 	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1 \
-	    $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DATADIR)/examples
+	    $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DATADIR)/examples \
+	    $(DESTDIR)$(DOCDIR)
 	install -m 644 $(LIB_A) $(DESTDIR)$(LIBDIR)/
 	install -m 755 $(LIB_SO) $(DESTDIR)$(LIBDIR)/
 	ln -sf libdrgate.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(LIB_SO_NAME)
@@ -448,12 +458,20 @@ install: all
 	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
 	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
-	install -m 644 $(wildcard man/*.1) $(DESTDIR)$(MANDIR)/man1/
-	install -m 644 $(wildcard man/*.8) $(DESTDIR)$(MANDIR)/man8/
+	for m in $(wildcard man/*.[18]); do \
+	    sed $(MAN_SED) $$m > $(DESTDIR)$(MANDIR)/man$${m##*.}/$${m##*/} && \
+	    chmod 644 $(DESTDIR)$(MANDIR)/man$${m##*.}/$${m##*/} || exit 1; done
+	install -m 644 $(DOCS) $(DESTDIR)$(DOCDIR)/
 	sed -e 's|/usr/local/bin/drgatewayd|$(BINDIR)/drgatewayd|' gateway/drgatewayd.service \
 	    > $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	chmod 644 $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	install -m 644 $(GW_EXAMPLES) $(DESTDIR)$(DATADIR)/examples/
+
+# make install PREFIX=/usr into a staging root: paths follow the prefix,
+# what the manual pages name is installed, uninstall removes it all
+# (mk/check-install.sh; about 2 s once built).
+check-install: all
+	@MAKE="$(MAKE)" sh mk/check-install.sh "$(abspath $(RESULTS))"
 
 uninstall:
 	rm -f $(DESTDIR)$(LIBDIR)/libdrgate.* $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
@@ -463,7 +481,8 @@ uninstall:
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/man8/,$(notdir $(wildcard man/*.8)))
 	rm -f $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	rm -f $(addprefix $(DESTDIR)$(DATADIR)/examples/,$(notdir $(GW_EXAMPLES)))
-	-rmdir $(DESTDIR)$(DATADIR)/examples $(DESTDIR)$(DATADIR) 2>/dev/null
+	rm -f $(addprefix $(DESTDIR)$(DOCDIR)/,$(notdir $(DOCS)))
+	-rmdir $(DESTDIR)$(DATADIR)/examples $(DESTDIR)$(DATADIR) $(DESTDIR)$(DOCDIR) 2>/dev/null
 
 clean:
 	rm -rf build
