@@ -178,7 +178,7 @@ GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 .PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
-        check-dep-split check-demo check-install
+        check-dep-split check-demo check-install dissector check-dissector
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -309,7 +309,7 @@ CHECK_TIMES := $(B)/check-times
 # last, when every file of the run has been built.
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
                check-asan check-fuzz check-dep-split check-demo \
-               check-install
+               check-install check-dissector
 check: test-deps
 	@rm -f $(RESULTS) $(CHECK_TIMES)
 	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
@@ -466,6 +466,18 @@ install: all
 	    > $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	chmod 644 $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	install -m 644 $(GW_EXAMPLES) $(DESTDIR)$(DATADIR)/examples/
+
+# ---- Wireshark dissector ---------------------------------------------------
+# dissector/drgate.lua is generated from the field table (drcli list
+# --json) by mk/gen-dissector.py: `make dissector` writes it again;
+# check-dissector (in make check, ~15 s) fails when it is stale, and runs
+# tshark with it on a capture of drsim, drgatewayd, mbpoll and drcli
+# (tests/dissector/check_dissector.py).
+dissector: $(CLI_BIN)
+	python3 mk/gen-dissector.py $(CLI_BIN) dissector/drgate.lua
+
+check-dissector: $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
+	@python3 tests/dissector/check_dissector.py $(B) "$(RESULTS)"
 
 # make install PREFIX=/usr into a staging root: paths follow the prefix,
 # what the manual pages name is installed, uninstall removes it all
