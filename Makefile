@@ -13,6 +13,9 @@ MANDIR       ?= $(PREFIX)/share/man
 DATADIR      ?= $(PREFIX)/share/drgate
 UNITDIR      ?= $(PREFIX)/lib/systemd/system
 DOCDIR       ?= $(PREFIX)/share/doc/drgate
+# Where Wireshark looks for Lua plugins: with PREFIX=/usr on Debian, its
+# global Lua plugin folder (tshark -G folders); elsewhere see docs/wireshark.md.
+WIRESHARK_LUADIR ?= $(PREFIX)/lib/$(if $(MULTIARCH),$(MULTIARCH)/)wireshark/plugins
 PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
 DESTDIR      ?=
 
@@ -25,6 +28,9 @@ AR := $(CROSS_COMPILE)ar
 endif
 PKG_CONFIG ?= pkg-config
 PYTHON     ?= python3
+# Debian's multiarch triplet of the target (x86_64-linux-gnu), for paths of
+# other packages' plugin folders; empty where the compiler has none.
+MULTIARCH  ?= $(shell $(CC) -print-multiarch 2>/dev/null)
 
 # Build directory: the sanitizer and cross builds use their own.
 B ?= build
@@ -449,7 +455,7 @@ install: all
 	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/drgate \
 	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1 \
 	    $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DATADIR)/examples \
-	    $(DESTDIR)$(DOCDIR)
+	    $(DESTDIR)$(DOCDIR) $(DESTDIR)$(WIRESHARK_LUADIR)
 	install -m 644 $(LIB_A) $(DESTDIR)$(LIBDIR)/
 	install -m 755 $(LIB_SO) $(DESTDIR)$(LIBDIR)/
 	ln -sf libdrgate.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(LIB_SO_NAME)
@@ -462,6 +468,7 @@ install: all
 	    sed $(MAN_SED) $$m > $(DESTDIR)$(MANDIR)/man$${m##*.}/$${m##*/} && \
 	    chmod 644 $(DESTDIR)$(MANDIR)/man$${m##*.}/$${m##*/} || exit 1; done
 	install -m 644 $(DOCS) $(DESTDIR)$(DOCDIR)/
+	install -m 644 dissector/drgate.lua $(DESTDIR)$(WIRESHARK_LUADIR)/
 	sed -e 's|/usr/local/bin/drgatewayd|$(BINDIR)/drgatewayd|' gateway/drgatewayd.service \
 	    > $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	chmod 644 $(DESTDIR)$(UNITDIR)/drgatewayd.service
@@ -483,7 +490,7 @@ check-dissector: $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
 # what the manual pages name is installed, uninstall removes it all
 # (mk/check-install.sh; about 2 s once built).
 check-install: all
-	@MAKE="$(MAKE)" sh mk/check-install.sh "$(abspath $(RESULTS))"
+	@MAKE="$(MAKE)" CC="$(CC)" sh mk/check-install.sh "$(abspath $(RESULTS))"
 
 uninstall:
 	rm -f $(DESTDIR)$(LIBDIR)/libdrgate.* $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
@@ -494,6 +501,7 @@ uninstall:
 	rm -f $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	rm -f $(addprefix $(DESTDIR)$(DATADIR)/examples/,$(notdir $(GW_EXAMPLES)))
 	rm -f $(addprefix $(DESTDIR)$(DOCDIR)/,$(notdir $(DOCS)))
+	rm -f $(DESTDIR)$(WIRESHARK_LUADIR)/drgate.lua
 	-rmdir $(DESTDIR)$(DATADIR)/examples $(DESTDIR)$(DATADIR) $(DESTDIR)$(DOCDIR) 2>/dev/null
 
 clean:

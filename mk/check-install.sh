@@ -5,6 +5,7 @@
 #     no "drgate sources": their paths follow the prefix;
 #   - every path the manual pages name under /usr (FILES, the docs they
 #     point at) is installed; ExecStart= is /usr/bin/drgatewayd;
+#   - the Wireshark dissector is in Wireshark's global Lua plugin folder;
 #   - `make uninstall` removes every file it installed.
 # About 2 s once built. usage: check-install.sh [RESULTS]   (MAKE from make)
 set -u
@@ -47,6 +48,11 @@ done
 grep -qx 'ExecStart=/usr/bin/drgatewayd -c /etc/drgate/drgatewayd.ini' \
     "$d/usr/lib/systemd/system/drgatewayd.service" 2>/dev/null &&
     ok "ExecStart=/usr/bin/drgatewayd" || bad "the unit's ExecStart= is not /usr/bin/drgatewayd"
+
+ma=$(${CC:-cc} -print-multiarch 2>/dev/null)
+lua=/usr/lib/${ma:+$ma/}wireshark/plugins/drgate.lua
+[ -f "$d$lua" ] && ok "the Wireshark dissector in Wireshark's Lua plugin folder: $lua" ||
+    bad "no $lua (the Wireshark dissector)"
 
 $mk --no-print-directory uninstall PREFIX=/usr DESTDIR="$d" > /dev/null 2>&1
 left=$(find "$d" -type f -o -type l | sed "s|^$d||" | tr '\n' ' ')
