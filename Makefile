@@ -58,6 +58,12 @@ LIB_A         := $(B)/libdrgate.a
 LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
 LIB_SO        := $(B)/libdrgate.so.$(VERSION)
 LIB_HDR       := $(wildcard lib/include/drgate/*.h)
+# The library's private headers (lib/*.h: the wire toolkit cip_internal.h,
+# the client's and the codec's insides): never installed. drsim, the tests,
+# the fuzzers and the benchmarks, which work on the wire themselves, see
+# them with PRIV_CPPFLAGS; applications (cli/, gateway/) do not.
+LIB_PRIV_HDR  := $(wildcard lib/*.h)
+PRIV_CPPFLAGS := -Ilib
 
 # ---- programs --------------------------------------------------------------
 JSON_CFLAGS := $(call pc,--cflags,jansson)
@@ -87,7 +93,7 @@ TEST_SUPPORT  := $(wildcard tests/support/*.c)
 all: lib $(BINS)
 lib: $(LIB_A) $(LIB_SO)
 
-$(B)/%.o: %.c $(LIB_HDR)
+$(B)/%.o: %.c $(LIB_HDR) $(LIB_PRIV_HDR)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC -c $< -o $@
 
@@ -107,17 +113,17 @@ $(CLI_BIN): $(CLI_SRC) $(CLI_HDR) $(LIB_A) $(LIB_HDR)
 	    -o $@ $(CLI_SRC) $(LIB_A) $(JSON_LIBS) -lm
 
 $(SIM_BIN): sim/main.c $(SIM_LIB_SRC) $(SIM_HDR) $(LIB_A) $(LIB_HDR)
-	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
 	    -o $@ sim/main.c $(SIM_LIB_SRC) $(LIB_A) -lm
 
 $(B)/tests/test_sim_%: tests/test_sim_%.c $(SIM_LIB_SRC) $(SIM_HDR) $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
 	    -o $@ $< $(SIM_LIB_SRC) $(TEST_SUPPORT) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 $(B)/tests/%: tests/%.c $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
 	    -o $@ $< $(TEST_SUPPORT) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 # ---- dependencies ----------------------------------------------------------
@@ -219,7 +225,7 @@ bench: $(B)/bench/bench_codec
 
 $(B)/bench/%: bench/%.c $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(WARN) -O2 -g $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -O2 -g $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 demo: deps all
 	@sh mk/demo.sh $(B)

@@ -17,6 +17,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 static double now_s(void)

@@ -46,6 +46,7 @@
 #include <unistd.h>
 
 #include "adapter.h"
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 #define ADDR "127.0.0.2"

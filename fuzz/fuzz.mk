@@ -52,23 +52,23 @@ FUZZ_LIBS_cli         = $(JSON_LIBS)
 
 .PHONY: fuzz fuzz-build check-fuzz fuzz-replay fuzz-corpus
 
-$(FUZZ_DIR)/obj/%.o: %.c fuzz/coverage-ignore.txt $(LIB_HDR)
+$(FUZZ_DIR)/obj/%.o: %.c fuzz/coverage-ignore.txt $(LIB_HDR) $(LIB_PRIV_HDR)
 	@mkdir -p $(dir $@)
-	$(FUZZ_CC) $(ALL_CPPFLAGS) $(WARN) -fsanitize=fuzzer-no-link,address,undefined \
+	$(FUZZ_CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -fsanitize=fuzzer-no-link,address,undefined \
 	    $(FUZZ_SAN) -c $< -o $@
 
 # $(1): target name
 define FUZZ_RULES
 $$(FUZZ_DIR)/fuzz_$(1): fuzz/fuzz_$(1).c fuzz/fuzz.h fuzz/coverage-ignore.txt \
-        $$(FUZZ_LIB_OBJ) $$(FUZZ_SRC_$(1)) $$(FUZZ_HDR_$(1)) $$(LIB_HDR)
+        $$(FUZZ_LIB_OBJ) $$(FUZZ_SRC_$(1)) $$(FUZZ_HDR_$(1)) $$(LIB_HDR) $$(LIB_PRIV_HDR)
 	@mkdir -p $$(dir $$@)
-	$$(FUZZ_CC) $$(ALL_CPPFLAGS) $$(FUZZ_CFLAGS_$(1)) $$(WARN) $$(FUZZ_FLAGS) -o $$@ \
+	$$(FUZZ_CC) $$(ALL_CPPFLAGS) $$(PRIV_CPPFLAGS) $$(FUZZ_CFLAGS_$(1)) $$(WARN) $$(FUZZ_FLAGS) -o $$@ \
 	    $$< $$(FUZZ_SRC_$(1)) $$(FUZZ_LIB_OBJ) $$(FUZZ_LIBS_$(1)) -lm
 
 $$(B)/fuzz-replay/fuzz_$(1): fuzz/fuzz_$(1).c fuzz/standalone.c fuzz/fuzz.h \
         $$(FUZZ_SRC_$(1)) $$(FUZZ_HDR_$(1)) $$(LIB_A) $$(LIB_HDR)
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$(ALL_CPPFLAGS) $$(FUZZ_CFLAGS_$(1)) $$(ALL_CFLAGS) $$(ALL_LDFLAGS) -o $$@ \
+	$$(CC) $$(ALL_CPPFLAGS) $$(PRIV_CPPFLAGS) $$(FUZZ_CFLAGS_$(1)) $$(ALL_CFLAGS) $$(ALL_LDFLAGS) -o $$@ \
 	    $$< fuzz/standalone.c $$(filter-out $$(LIB_SRC),$$(FUZZ_SRC_$(1))) $$(LIB_A) \
 	    $$(FUZZ_LIBS_$(1)) -lm
 endef
@@ -93,7 +93,7 @@ fuzz-replay: $(FUZZ_REPLAY_BIN)
 
 $(B)/fuzz-replay/gen_corpus: fuzz/gen_corpus.c $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 fuzz-corpus: $(B)/fuzz-replay/gen_corpus
 	rm -rf fuzz/corpus

@@ -542,13 +542,12 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
         if (!t2o && !(l->dirty & (1u << a)))
             continue;
         uint8_t path[12];
-        dr_wr_t w;
-        dr_wr_init(&w, path, sizeof path);
-        dr_epath_write(&w, DR_CIP_CLASS_ASSEMBLY, dr_client_instance(l->client, (dr_asm_t)a),
-                       DR_CIP_ASM_ATTR_DATA);
+        size_t path_len = dr_cip_path(path, sizeof path, DR_CIP_CLASS_ASSEMBLY,
+                                      dr_client_instance(l->client, (dr_asm_t)a),
+                                      DR_CIP_ASM_ATTR_DATA);
         dr_status_t st = dr_client_call_async(
             l->client, t2o ? DR_CIP_SVC_GET_ATTRIBUTE_SINGLE : DR_CIP_SVC_SET_ATTRIBUTE_SINGLE,
-            path, w.len, t2o ? NULL : l->data->img[a], t2o ? 0 : info->size, on_poll_reply,
+            path, path_len, t2o ? NULL : l->data->img[a], t2o ? 0 : info->size, on_poll_reply,
             &l->poll_ctx[a]);
         if (st == DR_OK) {
             l->in_flight++;

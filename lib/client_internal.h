@@ -26,6 +26,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 /* The bounds, all from drgate/config.h. */
@@ -200,6 +201,11 @@ static inline void deadline_moved(dr_client_t *c)
 
 /* ---- shared between the parts -------------------------------------------- */
 
+/* Hidden from the shared library's dynamic symbols, like cip_internal.h. */
+#if defined(__GNUC__) && !defined(_WIN32)
+#pragma GCC visibility push(hidden)
+#endif
+
 /* client.c */
 void drc_close_handle(dr_client_t *c, int *h);
 
@@ -241,5 +247,9 @@ int drc_fd_of(dr_transport_t tp, int h);
 void drc_rearm(dr_client_t *c);
 bool drc_can_wait(const dr_client_t *c);
 void drc_wait_and_process(dr_client_t *c, uint64_t deadline);
+
+#if defined(__GNUC__) && !defined(_WIN32)
+#pragma GCC visibility pop
+#endif
 
 #endif /* DRGATE_CLIENT_INTERNAL_H */

@@ -23,7 +23,7 @@ ENIP_BENCH_BIN := $(B)/bench/pingpong $(B)/bench/enip_gets $(B)/bench/enip_io
 # I/O bench links drsim's adapter logic as its measuring receiver.
 $(B)/bench/enip_io: bench/enip_io.c $(SIM_LIB_SRC) $(SIM_HDR) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Isim $(WARN) -O2 -g $(ALL_LDFLAGS) \
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Isim $(WARN) -O2 -g $(ALL_LDFLAGS) \
 	    -o $@ $< $(SIM_LIB_SRC) $(LIB_A) -lm
 
 bench-enip: $(ENIP_BENCH_BIN) $(SIM_BIN)

@@ -34,7 +34,7 @@ STATIC_FLAGS_cli = $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS
 
 STATIC_GROUPS += sim
 STATIC_SRC_sim   = $(sort $(wildcard sim/*.c))
-STATIC_FLAGS_sim = $(ALL_CPPFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_sim = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += gw
 STATIC_SRC_gw    = $(GW_SRC)
@@ -49,7 +49,7 @@ STATIC_FLAGS_gpio = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(GPIO_CFLAGS) $(ALL_CFLAGS
 
 STATIC_GROUPS += tests_sim
 STATIC_SRC_tests_sim   = $(sort $(wildcard tests/test_sim_*.c))
-STATIC_FLAGS_tests_sim = $(ALL_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_tests_sim = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += tests_gw
 STATIC_SRC_tests_gw   = $(sort $(wildcard tests/test_gw_*.c))
@@ -59,7 +59,7 @@ STATIC_FLAGS_tests_gw = $(ALL_CPPFLAGS) -Igateway -Itests -DGW_TEST_TOP='"$(CURD
 STATIC_GROUPS += tests
 STATIC_SRC_tests   = $(filter-out $(STATIC_SRC_tests_sim) $(STATIC_SRC_tests_gw), \
                        $(sort $(wildcard tests/*.c tests/support/*.c)))
-STATIC_FLAGS_tests = $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_tests = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += tests_gpio
 STATIC_SRC_tests_gpio   = $(sort $(wildcard tests/gpio/*.c tests/gpio/gateway/*.c))
@@ -68,12 +68,12 @@ STATIC_FLAGS_tests_gpio = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) -Itests/gpio $(GPIO_C
 
 STATIC_GROUPS += tests_interop
 STATIC_SRC_tests_interop   = $(sort $(wildcard tests/interop/*.c))
-STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
 # Some harnesses reach into gateway/ (the Modbus and configuration paths).
 STATIC_GROUPS += fuzz
 STATIC_SRC_fuzz   = $(sort $(wildcard fuzz/*.c))
-STATIC_FLAGS_fuzz = $(ALL_CPPFLAGS) $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_fuzz = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(ALL_CFLAGS)
 
 # The firmware scenario (mk/firmware.mk): the POSIX side, and the lwIP
 # port with its test (lwIP's headers, from liblwip-dev).

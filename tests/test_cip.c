@@ -16,7 +16,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 
 #define N(a) (sizeof(a) / sizeof((a)[0]))
 

@@ -15,6 +15,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 #define TCP_H 10

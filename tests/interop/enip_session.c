@@ -23,6 +23,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 #define RPI_US 10000u

@@ -44,9 +44,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "drgate/cip.h"
 #include "drgate/codec.h"
 #include "drgate/config.h"
+#include "drgate/enip.h"
 #include "drgate/status.h"
 #include "drgate/transport.h"
 
