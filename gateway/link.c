@@ -471,7 +471,7 @@ static bool add_connections(gw_link_t *l)
         cc.on_state = on_conn_state;
         cc.user = l;
         dr_status_t err;
-        l->conn[i] = dr_client_conn_add(l->client, &cc, &err);
+        l->conn[i] = dr_conn_add(l->client, &cc, &err);
         if (l->conn[i] == NULL)
             return false;
         if (cc.o2t_asm >= 0)
@@ -712,9 +712,11 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         }
         cc.shared_udp = l->port->port;
     }
-    l->client = dr_client_new(&cc);
+    dr_status_t err = DR_OK;
+    l->client = dr_client_new(&cc, &err);
     if (l->client == NULL || (rc->mode == GW_MODE_IMPLICIT && !add_connections(l))) {
-        gw_log(GW_LOG_ERROR, "robot %s: cannot create the EtherNet/IP client", rc->name);
+        gw_log(GW_LOG_ERROR, "robot %s: cannot create the EtherNet/IP client%s%s", rc->name,
+               l->client == NULL ? ": " : "", l->client == NULL ? dr_strerror(err) : "");
         gw_link_free(l, NULL);
         return NULL;
     }

@@ -165,7 +165,7 @@ void dr_client_deinit(dr_client_t *c)
 {
     if (c == NULL)
         return;
-    dr_client_close(c);
+    dr_client_close_sync(c);
     drc_close_handle(c, &c->timer);
     if (c->udp != &c->own_udp) {
         c->udp->clients[c->port_slot] = NULL; /* the others keep their slots */

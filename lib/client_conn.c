@@ -343,7 +343,7 @@ void drc_conn_on_reply(dr_conn_t *cn, req_t *r, const dr_cip_rsp_t *rsp,
     drc_conn_schedule_retry(cn, st);
 }
 
-dr_conn_t *dr_client_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
+dr_conn_t *dr_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
                               dr_status_t *err)
 {
     dr_status_t st = DR_EINVAL;

@@ -78,13 +78,12 @@ static void process(dr_client_t *c, bool tcp_ready, bool udp_ready, bool may_hol
     drc_rearm(c);
 }
 
-dr_status_t dr_client_process(dr_client_t *c)
+void dr_client_process(dr_client_t *c)
 {
     process(c, true, true, true);
-    return DR_OK;
 }
 
-dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n)
+void dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n)
 {
     bool tcp = c->tcp >= 0 && c->tx_len > 0, udp = false;
     int tcp_fd = drc_fd_of(c->tp, c->tcp), udp_fd = drc_fd_of(c->tp, c->udp->h);
@@ -97,7 +96,6 @@ dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int 
             udp = true;
     }
     process(c, tcp, udp, true);
-    return DR_OK;
 }
 
 int dr_client_pollfds(dr_client_t *c, dr_pollfd_t *fds, int max)

@@ -154,7 +154,7 @@ int dr_udp_port_fd(const dr_udp_port_t *p)
     return drc_fd_of(p->tp, p->h);
 }
 
-dr_status_t dr_udp_port_process(dr_udp_port_t *p)
+void dr_udp_port_process(dr_udp_port_t *p)
 {
     drc_read_udp(p, p->tp.ops->now_us(p->tp.ctx));
     /* O->T produced on arrival (o2t_follow_us) goes now, and the timers
@@ -168,7 +168,6 @@ dr_status_t dr_udp_port_process(dr_udp_port_t *p)
         c->tx_n = 0;
         drc_rearm(c);
     }
-    return DR_OK;
 }
 
 void dr_udp_port_hold(dr_udp_port_t *p, bool hold)

@@ -253,7 +253,7 @@ static void send_register(dr_client_t *c)
         drc_session_fail(c, st);
 }
 
-dr_status_t dr_client_start(dr_client_t *c)
+void dr_client_start(dr_client_t *c)
 {
     if (c->closing != CL_NONE)
         drc_close_finish(c); /* started again before the close ended */
@@ -266,7 +266,6 @@ dr_status_t dr_client_start(dr_client_t *c)
     if (c->state == S_IDLE || c->state == S_BACKOFF)
         (void)drc_begin_session(c); /* a failure is retried with backoff */
     deadline_moved(c);
-    return DR_OK;
 }
 
 /* ---- inbound ---------------------------------------------------------------- */

@@ -85,7 +85,7 @@ dr_status_t dr_client_set_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,
                                data, len, NULL, 0, NULL);
 }
 
-dr_status_t dr_client_asm_read_sync(dr_client_t *c, dr_asm_t a, uint8_t *buf,
+dr_status_t dr_client_read_asm_sync(dr_client_t *c, dr_asm_t a, uint8_t *buf,
                                     size_t len)
 {
     const dr_asm_info_t *info = dr_asm_info(a);
@@ -103,7 +103,7 @@ dr_status_t dr_client_asm_read_sync(dr_client_t *c, dr_asm_t a, uint8_t *buf,
     return DR_OK;
 }
 
-dr_status_t dr_client_asm_write_sync(dr_client_t *c, dr_asm_t a,
+dr_status_t dr_client_write_asm_sync(dr_client_t *c, dr_asm_t a,
                                      const uint8_t *buf, size_t len)
 {
     const dr_asm_info_t *info = dr_asm_info(a);
@@ -113,7 +113,7 @@ dr_status_t dr_client_asm_write_sync(dr_client_t *c, dr_asm_t a,
                                    DR_CIP_ASM_ATTR_DATA, buf, len);
 }
 
-dr_status_t dr_client_asm_size_sync(dr_client_t *c, uint16_t instance, uint16_t *size)
+dr_status_t dr_client_read_asm_size_sync(dr_client_t *c, uint16_t instance, uint16_t *size)
 {
     uint8_t tmp[8];
     size_t got = 0;
@@ -127,7 +127,7 @@ dr_status_t dr_client_asm_size_sync(dr_client_t *c, uint16_t instance, uint16_t 
     return DR_OK;
 }
 
-dr_status_t dr_client_identity_sync(dr_client_t *c, dr_identity_t *id)
+dr_status_t dr_client_read_identity_sync(dr_client_t *c, dr_identity_t *id)
 {
     uint8_t path[8], tmp[128];
     size_t got = 0;
@@ -170,7 +170,7 @@ dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id)
 
 /* ---- close ------------------------------------------------------------------- */
 
-void dr_client_close(dr_client_t *c)
+void dr_client_close_sync(dr_client_t *c)
 {
     dr_client_close_start(c);
     while (c->closing != CL_NONE && drc_can_wait(c))
