@@ -22,6 +22,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "drgate/codec.h"
 
@@ -206,6 +207,14 @@ void gw_config_defaults(gw_config_t *cfg);
 /* Two robot sections equal in everything the link depends on (for SIGHUP:
  * an unchanged robot keeps its connection). */
 bool gw_robot_config_same_link(const gw_robot_config_t *a, const gw_robot_config_t *b);
+
+/* "[daemon], [modbus], [robot NAME], ...": every section, for messages. */
+const char *gw_config_sections(void);
+
+/* The keys of [section] ("robot", "modbus", ...: the keyword) as a
+ * Markdown table: key, default, allowed, meaning (the tables of
+ * docs/configuration.md). False for an unknown section. */
+bool gw_config_print_keys(FILE *out, const char *section);
 
 /* "abcd", "cdab", "badc", "dcba"; "?" for a value outside the enum. */
 const char *gw_word_order_name(gw_word_order_t w);

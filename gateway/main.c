@@ -484,6 +484,7 @@ static void usage(FILE *out)
             "usage: drgatewayd [-c FILE] [-v]\n"
             "       drgatewayd --check-config FILE\n"
             "       drgatewayd --print-map [--json | --markdown]\n"
+            "       drgatewayd --help-config SECTION\n"
             "       drgatewayd --print-errors [--markdown]\n"
             "Serves Doosan robots' EtherNet/IP assemblies as Modbus TCP registers, as a\n"
             "Modbus RTU slave on serial lines, as GPIO lines, and publishes them to an\n"
@@ -494,6 +495,8 @@ static void usage(FILE *out)
             "      --print-errors     print every value of the status block's last_error\n"
             "                         (IR 12, with IR 30) and exit\n"
             "      --json, --markdown   format of --print-map (--print-errors: --markdown)\n"
+            "      --help-config SECTION  print the keys of [SECTION] (its keyword, such as\n"
+            "                         robot) as a Markdown table and exit\n"
             "  -v, --verbose          log debug messages\n"
             "  -h, --help             this help\n"
             "  -V, --version          version\n\n"
@@ -506,7 +509,7 @@ static void usage(FILE *out)
 
 int main(int argc, char **argv)
 {
-    enum { OPT_CHECK = 256, OPT_MAP, OPT_ERRORS, OPT_JSON, OPT_MD };
+    enum { OPT_CHECK = 256, OPT_MAP, OPT_ERRORS, OPT_JSON, OPT_MD, OPT_HELP_CONFIG };
     static const struct option opts[] = {
         {"config", required_argument, NULL, 'c'},
         {"check-config", required_argument, NULL, OPT_CHECK},
@@ -514,12 +517,13 @@ int main(int argc, char **argv)
         {"print-errors", no_argument, NULL, OPT_ERRORS},
         {"json", no_argument, NULL, OPT_JSON},
         {"markdown", no_argument, NULL, OPT_MD},
+        {"help-config", required_argument, NULL, OPT_HELP_CONFIG},
         {"verbose", no_argument, NULL, 'v'},
         {"help", no_argument, NULL, 'h'},
         {"version", no_argument, NULL, 'V'},
         {NULL, 0, NULL, 0},
     };
-    const char *config = DEFAULT_CONFIG, *check = NULL;
+    const char *config = DEFAULT_CONFIG, *check = NULL, *help_config = NULL;
     bool print_map = false, print_errors = false, verbose = false;
     gw_print_fmt_t fmt = GW_PRINT_TEXT;
     int c;
@@ -531,6 +535,7 @@ int main(int argc, char **argv)
         case OPT_ERRORS: print_errors = true; break;
         case OPT_JSON: fmt = GW_PRINT_JSON; break;
         case OPT_MD: fmt = GW_PRINT_MARKDOWN; break;
+        case OPT_HELP_CONFIG: help_config = optarg; break;
         case 'v': verbose = true; break;
         case 'h': usage(stdout); return 0;
         case 'V': printf("drgatewayd %s\n", DRGATE_VERSION); return 0;
@@ -539,6 +544,13 @@ int main(int argc, char **argv)
     }
     if (optind != argc) {
         fprintf(stderr, "drgatewayd: unexpected argument '%s'\n", argv[optind]);
+        return 2;
+    }
+    if (help_config != NULL) {
+        if (gw_config_print_keys(stdout, help_config))
+            return 0;
+        fprintf(stderr, "drgatewayd: --help-config: no section [%s] (allowed: %s)\n",
+                help_config, gw_config_sections());
         return 2;
     }
     if (print_errors) {

@@ -1,7 +1,7 @@
 # shellcheck shell=sh disable=SC2154,SC2034 # variables shared with the caller
 # SPDX-License-Identifier: MIT
-# Sourced by mk/gen-docs.sh and mk/gen-regmap-doc.sh: a document whose text
-# between two marker lines is generated from the code, the prose around it
+# Sourced by mk/gen-docs.sh, mk/gen-regmap-doc.sh and mk/gen-config-doc.sh: a
+# document whose text between two marker lines is generated from the code, the prose around it
 # written by hand. The caller sets
 #   doc    the document            label  its name in messages and RESULTS
 #   begin  the first marker line   end    the last marker line

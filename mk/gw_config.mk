@@ -1,14 +1,16 @@
 # SPDX-License-Identifier: MIT
-# drgatewayd's configuration loader (gateway/config.c) and its tests.
+# drgatewayd's configuration loader (gateway/config*.c: the generic parser,
+# the libinih reader, the checks across sections and each side's key table;
+# gateway/config_internal.h) and its tests.
 #
-# INIH_CFLAGS / INIH_LIBS are for every program that links gateway/config.c.
+# INIH_CFLAGS / INIH_LIBS are for every program that links the loader.
 # The fallback -linih covers builds where pkg-config is off (check-be runs
 # with PKG_CONFIG=true and needs Debian's libinih-dev:s390x).
 
 INIH_CFLAGS    := $(call pc,--cflags,inih)
 INIH_LIBS      := $(or $(call pc,--libs,inih),-linih)
-GW_CONFIG_SRC  := gateway/config.c
-GW_CONFIG_HDR  := gateway/config.h
+GW_CONFIG_SRC  := $(sort $(wildcard gateway/config*.c))
+GW_CONFIG_HDR  := gateway/config.h gateway/config_internal.h
 GW_CONFIG_TEST := $(B)/tests/test_gw_config
 
 # An explicit rule, so it wins over the generic $(B)/tests/% rule: that one

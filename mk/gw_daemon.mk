@@ -39,6 +39,11 @@ $(GW_BIN): gateway/main.c $(GW_A) $(GPIO_A) $(LIB_A) $(GW_HDR) $(LIB_HDR)
 check-regmap-docs: $(GW_BIN)
 	@sh mk/gen-regmap-doc.sh --check $(GW_BIN) "$(RESULTS)"
 
+# So are the key tables of docs/configuration.md, from the sections' tables.
+.PHONY: check-config-docs
+check-config-docs: $(GW_BIN)
+	@sh mk/gen-config-doc.sh --check $(GW_BIN) "$(RESULTS)"
+
 # ---- install -----------------------------------------------------------------
 # The daemon itself is in $(BINS) (the Makefile's install); these add the
 # systemd unit (ExecStart= pointed at $(BINDIR)), the example

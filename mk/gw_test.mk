@@ -13,6 +13,8 @@
 #                        a sanitizer report in any log is a failure
 #   check-regmap-docs    docs/register-map.md equals --print-map --markdown
 #                        (the rule is in mk/gw_daemon.mk)
+#   check-config-docs    the key tables of docs/configuration.md equal
+#                        --help-config SECTION (the rule: mk/gw_daemon.mk)
 #   check-gw-boundary    the robot (gateway/robot.[ch]) and its link know
 #                        nothing of Modbus, GPIO and MQTT read gw_robot_t
 #                        only (mk/gw-boundary.sh; check-gateway runs it first)
@@ -20,11 +22,14 @@
 #                        verify reads it: any complaint is a failure
 #                        (skipped loudly where systemd-analyze is missing)
 #   regmap-docs          regenerates docs/register-map.md (also `make docs`)
+#   config-docs          regenerates docs/configuration.md's key tables
+#                        (also `make docs`)
 #
 # GW_PYTEST_ARGS passes options to pytest (e.g. -k reload -x); the logs and
 # the configurations written by the tests are kept in $(B)/tests/gateway.
 
-CHECK_STEPS += check-gateway check-gateway-asan check-regmap-docs check-gateway-unit
+CHECK_STEPS += check-gateway check-gateway-asan check-regmap-docs check-config-docs \
+               check-gateway-unit
 
 GW_TEST_PY      ?= .venv/bin/python
 GW_TEST_TIMEOUT ?= 1800
@@ -40,7 +45,8 @@ GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus' 2>/dev/null; 
                        echo "0 1 $(1) (no pytest/pymodbus: make deps)" >> $(RESULTS); \
                        exit 1; fi
 
-.PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs
+.PHONY: check-gateway check-gateway-asan check-gateway-unit check-gw-boundary regmap-docs \
+        config-docs
 
 check-gw-boundary:
 	@sh mk/gw-boundary.sh "$(RESULTS)"
@@ -80,4 +86,7 @@ check-gateway-unit: $(GW_BIN)
 regmap-docs: $(GW_BIN)
 	@sh mk/gen-regmap-doc.sh --write $(GW_BIN)
 
-docs: regmap-docs
+config-docs: $(GW_BIN)
+	@sh mk/gen-config-doc.sh --write $(GW_BIN)
+
+docs: regmap-docs config-docs

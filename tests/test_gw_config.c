@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "config.h"
+#include "config_internal.h"
 
 #ifndef GW_TEST_TOP
 #define GW_TEST_TOP "."
@@ -1233,6 +1234,107 @@ static void test_word_order_name(void **state)
     assert_string_equal(gw_word_order_name((gw_word_order_t)4), "?");
 }
 
+
+/* ---- the key tables (gateway/config_internal.h) ----------------------------- */
+
+static const gw_cfg_side_t *const all_sides[] = {
+    &gw_cfg_daemon, &gw_cfg_modbus, &gw_cfg_robot,
+    &gw_cfg_gpio,   &gw_cfg_rtu,    &gw_cfg_mqtt,
+};
+
+static size_t names_in(const char *const *names)
+{
+    size_t n = 0;
+    while (names != NULL && names[n] != NULL)
+        n++;
+    return n;
+}
+
+/* One table line: what the generic parser, the defaults and the docs read
+ * from it must be there and fit the value it names. */
+static void check_key(const gw_cfg_side_t *s, const gw_cfg_key_t *k)
+{
+    size_t n = names_in(k->names);
+    const char *name = k->name != NULL ? k->name : "";
+    bool integer = k->type == GW_CFG_UINT || k->type == GW_CFG_ENUM ||
+                   k->type == GW_CFG_BOOL;
+    if (name[0] == '\0' || k->help == NULL || k->help[0] == '\0')
+        fail_msg("[%s] key '%s': no name or no help", s->kw, name);
+    if (integer && k->size != 1 && k->size != 2 && k->size != 4)
+        fail_msg("[%s] %s: a %zu-byte integer", s->kw, name, k->size);
+    if (k->type == GW_CFG_BOOL && k->size != sizeof(bool))
+        fail_msg("[%s] %s: not a bool", s->kw, name);
+    if (k->type == GW_CFG_UINT &&
+        (k->lo > k->hi || k->def < k->lo || k->def > k->hi ||
+         (k->size < 4 && k->hi >= 1ul << (8 * k->size)) || k->hi > 0xFFFFFFFFul))
+        fail_msg("[%s] %s: range %lu..%lu, default %lu in %zu bytes", s->kw,
+                 name, k->lo, k->hi, k->def, k->size);
+    if ((k->type == GW_CFG_ENUM || k->type == GW_CFG_WORD) &&
+        (n == 0 || (k->type == GW_CFG_ENUM && k->def >= n)))
+        fail_msg("[%s] %s: %zu names, default %lu", s->kw, name, n, k->def);
+    for (size_t i = 0; k->type == GW_CFG_WORD && i < n; i++)
+        if (strlen(k->names[i]) >= k->size)
+            fail_msg("[%s] %s: '%s' does not fit", s->kw, name, k->names[i]);
+    if (k->def_text != NULL && strlen(k->def_text) >= k->size)
+        fail_msg("[%s] %s: default '%s' does not fit", s->kw, name, k->def_text);
+    if ((k->type == GW_CFG_HOOK || k->type == GW_CFG_PREFIX) && k->parse == NULL)
+        fail_msg("[%s] %s: no parse hook", s->kw, name);
+    if (k->type == GW_CFG_PREFIX && (k->item == NULL || strchr(name, '<') == NULL))
+        fail_msg("[%s] %s: a family without items or '<'", s->kw, name);
+    if ((k->type == GW_CFG_TEXT || k->type == GW_CFG_IPV4 || k->type == GW_CFG_HOST ||
+         k->type == GW_CFG_HOOK) && k->allowed == NULL)
+        fail_msg("[%s] %s: no allowed text for messages", s->kw, name);
+    if ((k->flags & GW_CFG_LINK) && s != &gw_cfg_robot)
+        fail_msg("[%s] %s: only robot keys reconnect a link", s->kw, name);
+}
+
+static void test_key_tables(void **state)
+{
+    (void)state;
+    for (size_t j = 0; j < sizeof all_sides / sizeof all_sides[0]; j++) {
+        const gw_cfg_side_t *s = all_sides[j];
+        assert_true(s->nkeys > 0 && s->nkeys <= GW_CFG_MAX_KEYS);
+        for (unsigned k = 0; k < s->nkeys; k++) {
+            check_key(s, &s->keys[k]);
+            for (unsigned l = 0; l < k; l++)
+                if (strcmp(s->keys[k].name, s->keys[l].name) == 0)
+                    fail_msg("[%s] %s twice", s->kw, s->keys[k].name);
+        }
+        if (s->named && (s->max == 0 || s->name_off == GW_CFG_NONE))
+            fail_msg("[%s]: named without a maximum or a name", s->kw);
+    }
+}
+
+/* Every key of a section, in the table of --help-config, in the order of
+ * "unknown key" messages. */
+static void test_print_keys(void **state)
+{
+    (void)state;
+    char text[8192];
+    for (size_t j = 0; j < sizeof all_sides / sizeof all_sides[0]; j++) {
+        const gw_cfg_side_t *s = all_sides[j];
+        FILE *f = fmemopen(text, sizeof text, "w");
+        assert_non_null(f);
+        assert_true(gw_config_print_keys(f, s->kw));
+        assert_int_equal(fclose(f), 0);
+        const char *p = text;
+        for (unsigned k = 0; k < s->nkeys; k++) {
+            char cell[80];
+            snprintf(cell, sizeof cell, "\n| `%s` |", s->keys[k].name);
+            const char *q = strstr(p, cell);
+            if (q == NULL) {
+                fail_msg("[%s]: %s missing or out of order", s->kw, s->keys[k].name);
+                return;
+            }
+            p = q + 1;
+        }
+    }
+    FILE *f = fmemopen(text, sizeof text, "w");
+    assert_non_null(f);
+    assert_false(gw_config_print_keys(f, "robots"));
+    assert_int_equal(fclose(f), 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1256,6 +1358,8 @@ int main(void)
         cmocka_unit_test(test_same_link),
         cmocka_unit_test(test_word_order_name),
         cmocka_unit_test(test_connection_plan),
+        cmocka_unit_test(test_key_tables),
+        cmocka_unit_test(test_print_keys),
     };
     return cmocka_run_group_tests_name("gw_config", tests, make_tmpdir,
                                        remove_tmpdir);

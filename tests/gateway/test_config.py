@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 """Configuration errors name FILE:LINE and exit 78, both for --check-config
 and at start-up; the command line's other exit codes."""
+import re
 import socket
 import subprocess
 
@@ -112,6 +113,41 @@ def test_usage_errors():
     assert run("--help").returncode == EXIT_OK
     r = run("--version")
     assert r.returncode == EXIT_OK and r.stdout.startswith("drgatewayd ")
+
+
+# A file with one unknown key in each section, which lists the keys it takes.
+UNKNOWN_KEY_IN = {
+    "daemon": "[daemon]\n",
+    "modbus": "[modbus]\n",
+    "robot": ROBOT,
+    "gpio": ROBOT + "[gpio g]\n",
+    "modbus_rtu": ROBOT + "[modbus_rtu l]\n",
+    "mqtt": ROBOT + "[mqtt]\n",
+}
+
+
+@pytest.mark.parametrize("section", sorted(UNKNOWN_KEY_IN))
+def test_help_config_lists_the_loaders_keys(section):
+    """--help-config SECTION (the key tables of docs/configuration.md) names
+    exactly the keys the loader takes, in the order its messages list
+    them."""
+    r = run("--help-config", section)
+    assert r.returncode == EXIT_OK, r.stderr
+    assert r.stdout.startswith("| key | default | allowed | meaning |\n")
+    keys = re.findall(r"^\| `([^`]+)` \|", r.stdout, re.M)
+    p = write("help-" + section, UNKNOWN_KEY_IN[section] + "no_such_key = 1\n")
+    c = run("--check-config", p)
+    assert c.returncode == EXIT_CONFIG
+    m = re.search(r"unknown key 'no_such_key' in \[.*\] \(allowed: (.*)\)$", c.stderr.strip())
+    assert m, c.stderr
+    assert keys == m.group(1).split(", ")
+
+
+def test_help_config_unknown_section():
+    r = run("--help-config", "robots")
+    assert r.returncode == EXIT_USAGE
+    assert r.stdout == ""
+    assert "no section [robots]" in r.stderr and "[robot NAME]" in r.stderr
 
 
 def test_runtime_error_exit_1():
