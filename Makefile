@@ -2,8 +2,9 @@
 # drgate: `make` builds, `make check` runs every test, `make demo` shows it
 # working, `make install` installs. See README.md.
 
-VERSION      := 0.1.0
-SOVERSION    := 0
+# 1.0.0: the client's API changed (docs/api-changes.md), so did the soname.
+VERSION      := 1.0.0
+SOVERSION    := 1
 
 PREFIX       ?= /usr/local
 BINDIR       ?= $(PREFIX)/bin
@@ -238,7 +239,10 @@ install: all
 	install -m 755 $(LIB_SO) $(DESTDIR)$(LIBDIR)/
 	ln -sf libdrgate.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(DESTDIR)$(LIBDIR)/libdrgate.so
+	# The public headers only (lib/*.h are private); cip.h was public up to
+	# 0.1.0 and must not outlive it in an upgraded tree.
 	install -m 644 $(LIB_HDR) $(DESTDIR)$(INCLUDEDIR)/drgate/
+	rm -f $(DESTDIR)$(INCLUDEDIR)/drgate/cip.h
 	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
 	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/

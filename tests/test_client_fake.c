@@ -1898,7 +1898,7 @@ static void test_close_start_silent_peer(void **state)
 }
 
 /* T->O packets on a shared port find their connection by the ID alone
- * (lib/client.c, struct dr_udp_port): every one reaches its own among many
+ * (lib/client_internal.h, struct dr_udp_port): every one reaches its own among many
  * clients and connections, a closed connection's ID matches nothing, a
  * freed client's slot is taken again by a new client, IDs nobody owns are
  * dropped, and a target that chose its own T->O ID is still served. */
@@ -2117,7 +2117,7 @@ static void test_class1_follow_spacing(void **state)
     }
 }
 
-/* dr_client_next_deadline is kept between calls (lib/client.c): after each
+/* dr_client_next_deadline is kept between calls (lib/client_loop.c): after each
  * event that moves it, it is the new one at once, also when a state
  * callback asked in the middle of the change. Shared port, O->T on
  * arrival (o2t_follow_us), RPI 10 ms, timeout 40 ms, backoff 10 ms,
