@@ -17,15 +17,16 @@ LWIP_INC    ?= /usr/include/lwip
 LWIP_LIBS   ?= -llwip
 LWIP_SECONDS ?= 5
 # The lwIP program links only the firmware objects of the library: no
-# POSIX transport, no malloc'ing constructors.
+# POSIX transport, no malloc'ing constructors. The port includes the socket
+# code it shares with the POSIX transport from lib/ (transport_bsd.h).
 LIB_FW_OBJ  := $(LIB_FW_SRC:%.c=$(B)/%.o)
 
 .PHONY: check-lwip check-be-client
 
 $(B)/tests/firmware/test_lwip: tests/firmware/test_lwip.c $(FW_TEST_SRC) $(FW_TEST_HDR) \
-        $(LWIP_PORT_SRC) $(LWIP_PORT_HDR) $(LIB_FW_OBJ) $(LIB_HDR)
+        $(LWIP_PORT_SRC) $(LWIP_PORT_HDR) $(LIB_FW_OBJ) $(LIB_HDR) lib/transport_bsd.h
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip -Itests/firmware \
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip -Itests/firmware \
 	    $(ALL_CFLAGS) $(ALL_LDFLAGS) -o $@ $< $(FW_TEST_SRC) $(LWIP_PORT_SRC) \
 	    $(LIB_FW_OBJ) $(LWIP_LIBS) -lm
 

@@ -83,7 +83,7 @@ STATIC_FLAGS_tests_firmware = $(ALL_CPPFLAGS) -Itests/firmware $(ALL_CFLAGS)
 
 STATIC_GROUPS += lwip
 STATIC_SRC_lwip   = $(LWIP_PORT_SRC) tests/firmware/test_lwip.c
-STATIC_FLAGS_lwip = $(ALL_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip \
+STATIC_FLAGS_lwip = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip \
                     -Itests/firmware $(ALL_CFLAGS)
 
 STATIC_SRC       = $(foreach g,$(STATIC_GROUPS),$(STATIC_SRC_$(g)))
