@@ -41,7 +41,8 @@ WARN    := -std=c99 -Wall -Wextra -Wpedantic $(WERROR) -Wshadow \
 HARDEN  ?= -fstack-protector-strong -D_FORTIFY_SOURCE=2
 PIE_CFLAGS  ?= -fPIE
 PIE_LDFLAGS ?= -pie
-ALL_CPPFLAGS := -Ilib/include -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
+# -I.: the programs include what they share as "common/NAME.h".
+ALL_CPPFLAGS := -Ilib/include -I. -D_POSIX_C_SOURCE=200809L $(CPPFLAGS)
 ALL_CFLAGS   := $(WARN) $(HARDEN) $(PIE_CFLAGS) $(CFLAGS)
 ALL_LDFLAGS  := $(PIE_LDFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 
@@ -67,6 +68,11 @@ LIB_PRIV_HDR  := $(wildcard lib/*.h)
 PRIV_CPPFLAGS := -Ilib
 
 # ---- programs --------------------------------------------------------------
+# What drsim and drgatewayd share (Linux only, so not in the library): the
+# event loop.
+COMMON_SRC  := $(sort $(wildcard common/*.c))
+COMMON_HDR  := $(wildcard common/*.h)
+COMMON_OBJ  := $(COMMON_SRC:%.c=$(B)/%.o)
 JSON_CFLAGS := $(call pc,--cflags,jansson)
 JSON_LIBS   := $(call pc,--libs,jansson)
 CLI_SRC     := $(sort $(wildcard cli/*.c))
@@ -98,6 +104,8 @@ $(B)/%.o: %.c $(LIB_HDR) $(LIB_PRIV_HDR)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC -c $< -o $@
 
+$(COMMON_OBJ): $(COMMON_HDR)
+
 $(LIB_A): $(LIB_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
@@ -113,14 +121,21 @@ $(CLI_BIN): $(CLI_SRC) $(CLI_HDR) $(LIB_A) $(LIB_HDR)
 	    $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
 	    -o $@ $(CLI_SRC) $(LIB_A) $(JSON_LIBS) -lm
 
-$(SIM_BIN): sim/main.c $(SIM_LIB_SRC) $(SIM_HDR) $(LIB_A) $(LIB_HDR)
+$(SIM_BIN): sim/main.c $(SIM_LIB_SRC) $(SIM_HDR) $(COMMON_SRC) $(COMMON_HDR) $(LIB_A) $(LIB_HDR)
 	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
-	    -o $@ sim/main.c $(SIM_LIB_SRC) $(LIB_A) -lm
+	    -o $@ sim/main.c $(SIM_LIB_SRC) $(COMMON_SRC) $(LIB_A) -lm
 
 $(B)/tests/test_sim_%: tests/test_sim_%.c $(SIM_LIB_SRC) $(SIM_HDR) $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
 	    -o $@ $< $(SIM_LIB_SRC) $(TEST_SUPPORT) $(LIB_A) $(CMOCKA_LIBS) -lm
+
+# The event loop's test links the loop (an explicit rule wins over the
+# generic one below).
+$(B)/tests/test_ev: tests/test_ev.c $(COMMON_SRC) $(COMMON_HDR) $(LIB_A) $(LIB_HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
+	    -o $@ $< $(COMMON_SRC) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 $(B)/tests/%: tests/%.c $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
 	@mkdir -p $(dir $@)

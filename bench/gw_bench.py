@@ -17,7 +17,7 @@ Side by side in one run, on loopback, with drsim as the robot:
    rotated every round), --rounds rounds; medians are reported, the ratios
    are the medians of the per-round ratios.
 3. Latency from a robot packet's arrival to Modbus visibility: a build of
-   drgatewayd with -DGW_BENCH_LATENCY (gateway/link.c) takes, for every
+   drgatewayd with bench/gw_lat.c (a link observer) takes, for every
    T->O packet, the kernel's receive timestamp of the datagram (SIOCGSTAMPNS
    on the Class 1 socket: when the packet entered this host's network
    stack) and the time its data has been copied into the unit image that
@@ -565,7 +565,7 @@ RPI 2 ms (`rpi_ms = 2`).
   Every request reads 125 registers (the issue's figure): FC03 and FC04 in
   turn, where 125 registers of the gateway's map hold the most mapped ones
   (its reserved registers between blocks read 0).
-- **Latency**: a build with `-DGW_BENCH_LATENCY` (`gateway/link.c`; not the
+- **Latency**: a build with `bench/gw_lat.c` (a link observer; not the
   installed daemon) records, for every T->O packet, the kernel's receive
   timestamp of the datagram (`SIOCGSTAMPNS`: the packet entering this host's
   network stack) and the moment its data is in the unit image every Modbus

@@ -5,7 +5,10 @@
  */
 #include <stdio.h>
 
-#include "drcli.h"
+#include "cmd.h"
+#include "error.h"
+#include "opt.h"
+#include "util.h"
 #include "drgate/text.h"
 
 static const char decode_help[] =
@@ -87,7 +90,7 @@ static int run_decode(const char *cmd, int argc, char **argv,
         {"hex", 0, &hex, NULL, NULL},
         {"json", 0, &json, NULL, NULL},
     };
-    int npos = cli_parse_opts(&cli_cmd_decode, argc, argv, opts,
+    int npos = cli_parse_opts(cli_cmd_decode.name, argc, argv, opts,
                               sizeof opts / sizeof opts[0], &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;

@@ -8,7 +8,10 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "drcli.h"
+#include "cmd.h"
+#include "error.h"
+#include "opt.h"
+#include "util.h"
 #include "drgate/text.h"
 
 static const char encode_help[] =
@@ -184,7 +187,7 @@ static int run_encode(const char *cmd, int argc, char **argv,
     const cli_opt_t opts[] = {
         {"hex", 0, &hex, NULL, NULL},
     };
-    int npos = cli_parse_opts(&cli_cmd_encode, argc, argv, opts,
+    int npos = cli_parse_opts(cli_cmd_encode.name, argc, argv, opts,
                               sizeof opts / sizeof opts[0], &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;

@@ -7,7 +7,9 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drcli.h"
+#include "error.h"
+#include "fields.h"
+#include "util.h"
 #include "drgate/text.h"
 
 static void add(cli_items_t *it, dr_ref_t ref)

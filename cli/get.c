@@ -7,7 +7,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drcli.h"
+#include "cmd.h"
+#include "error.h"
+#include "fields.h"
+#include "net.h"
+#include "opt.h"
+#include "util.h"
 #include "drgate/text.h"
 
 static const char get_help[] =
@@ -133,7 +138,7 @@ static int run_read(const cli_cmd_t *self, int argc, char **argv,
     bool help = false;
     cli_opt_t opts[CLI_NET_NOPTS];
     size_t nopts = cli_net_optv(&o, opts);
-    int npos = cli_parse_opts(self, argc, argv, opts, nopts, &help);
+    int npos = cli_parse_opts(self->name, argc, argv, opts, nopts, &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;
     if (help) {

@@ -7,7 +7,11 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drcli.h"
+#include "cmd.h"
+#include "error.h"
+#include "net.h"
+#include "opt.h"
+#include "util.h"
 
 static const char identity_help[] =
     "usage: drcli [-H HOST] identity [OPTION...]\n"
@@ -126,7 +130,7 @@ static int parse_common(const cli_cmd_t *self, int argc, char **argv,
     *o = *lead;
     cli_opt_t opts[CLI_NET_NOPTS];
     size_t nopts = cli_net_optv(o, opts);
-    int npos = cli_parse_opts(self, argc, argv, opts, nopts, &help);
+    int npos = cli_parse_opts(self->name, argc, argv, opts, nopts, &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;
     if (help) {

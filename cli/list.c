@@ -7,7 +7,10 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drcli.h"
+#include "cmd.h"
+#include "error.h"
+#include "opt.h"
+#include "util.h"
 
 static const char list_help[] =
     "usage: drcli list [--markdown | --json] [ASSEMBLY...]\n"
@@ -241,7 +244,7 @@ static int run_list(const char *cmd, int argc, char **argv,
         {"markdown", 0, &markdown, NULL, NULL},
         {"json", 0, &json, NULL, NULL},
     };
-    int npos = cli_parse_opts(&cli_cmd_list, argc, argv, opts,
+    int npos = cli_parse_opts(cli_cmd_list.name, argc, argv, opts,
                               sizeof opts / sizeof opts[0], &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;

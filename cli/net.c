@@ -11,7 +11,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "drcli.h"
+#include "error.h"
+#include "net.h"
+#include "util.h"
 
 const char cli_net_help[] =
     "  -H, --host HOST     the robot (name or IPv4 address); default\n"

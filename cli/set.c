@@ -8,7 +8,12 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "drcli.h"
+#include "cmd.h"
+#include "error.h"
+#include "fields.h"
+#include "net.h"
+#include "opt.h"
+#include "util.h"
 #include "drgate/text.h"
 
 static const char set_help[] =
@@ -164,7 +169,7 @@ static int run_set(const char *cmd, int argc, char **argv,
     cli_opt_t opts[CLI_NET_NOPTS + 1];
     size_t nopts = cli_net_optv(&o, opts);
     opts[nopts++] = (cli_opt_t){"dry-run", 'n', &dry_run, NULL, NULL};
-    int npos = cli_parse_opts(&cli_cmd_set, argc, argv, opts, nopts, &help);
+    int npos = cli_parse_opts(cli_cmd_set.name, argc, argv, opts, nopts, &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;
     if (help) {

@@ -6,7 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "drcli.h"
+#include "error.h"
+#include "util.h"
 #include "drgate/text.h"
 
 /* ---- assemblies ----------------------------------------------------------- */

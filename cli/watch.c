@@ -13,7 +13,12 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "drcli.h"
+#include "cmd.h"
+#include "error.h"
+#include "fields.h"
+#include "net.h"
+#include "opt.h"
+#include "util.h"
 #include "drgate/text.h"
 
 static const char watch_help[] =
@@ -232,7 +237,7 @@ static int parse(watch_t *w, int argc, char **argv, const cli_net_opts_t *lead,
     size_t nopts = cli_net_optv(&o, opts);
     opts[nopts++] = (cli_opt_t){"interval", 'i', NULL, &interval, NULL};
     opts[nopts++] = (cli_opt_t){"count", 'c', NULL, &count, NULL};
-    int npos = cli_parse_opts(&cli_cmd_watch, argc, argv, opts, nopts, &help);
+    int npos = cli_parse_opts(cli_cmd_watch.name, argc, argv, opts, nopts, &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;
     if (help) {

@@ -43,10 +43,10 @@ FUZZ_CFLAGS_config    = $(INIH_CFLAGS)
 FUZZ_LIBS_config      = $(INIH_LIBS)
 FUZZ_SRC_sim_request := $(filter-out sim/main.c,$(wildcard sim/*.c))
 FUZZ_HDR_sim_request := $(wildcard sim/*.h)
-# fuzz_cli.c includes cli/drcli.c itself, renaming its main().
+# All of drcli but its main() (cli/drcli.c, on top of the rest).
 FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(sort $(wildcard cli/*.c))) \
                         $(filter-out $(FUZZ_LIB_SRC),$(sort $(wildcard lib/*.c)))
-FUZZ_HDR_cli         := $(wildcard cli/*.h) cli/drcli.c
+FUZZ_HDR_cli         := $(wildcard cli/*.h)
 FUZZ_CFLAGS_cli       = $(JSON_CFLAGS)
 FUZZ_LIBS_cli         = $(JSON_LIBS)
 

@@ -36,16 +36,13 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "../cli/drcli.h"
+#include "../cli/cmd.h"
+#include "../cli/error.h"
+#include "../cli/fields.h"
+#include "../cli/net.h"
+#include "../cli/util.h"
 #include "drgate/text.h"
 #include "fuzz.h"
-
-/* cli/drcli.c holds the option parser and the messages, and a main() that
- * would clash with the fuzzer's: it is compiled here, under another name. */
-int drcli_main(int argc, char **argv);
-#define main drcli_main
-#include "../cli/drcli.c" // NOLINT(bugprone-suspicious-include): see above
-#undef main
 
 #define MAX_ARGS 16
 #define ARG_MAX 512

@@ -321,7 +321,7 @@ static void request(const uint8_t *adu, size_t len)
                    (uint32_t)res.addr + res.count == GW_HR_FAULT_RESET + 1u &&
                    res.values[GW_HR_FAULT_RESET - res.addr] == 1);
     }
-    FUZZ_CHECK(res.unit_id == adu[6] && res.fc == fc);
+    FUZZ_CHECK(res.unit_id == adu[6] && res.fc == fc && res.unit == u);
     FUZZ_CHECK((ex == 0x0A) == (u == NULL));
     FUZZ_CHECK(asked == (u != NULL && is_write_fc(fc)));
     if (u != NULL && !is_read_fc(fc) && !is_write_fc(fc) && fc != 0x2B)

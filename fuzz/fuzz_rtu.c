@@ -55,6 +55,7 @@ static void answer(const uint8_t *frame, size_t n)
         return; /* another slave's, or a broadcast: no reply */
     int ex = gw_mb_handle(frame[0], frame + 1, n - 3, &env, &res);
     FUZZ_CHECK(ex >= 0); /* frames are 4..256 bytes: PDUs 1..253 */
+    FUZZ_CHECK(res.unit == unit_for(NULL, frame[0])); /* what on_write is handed */
     uint8_t out[GW_RTU_MAX];
     size_t len = gw_rtu_reply(frame[0], &res, out);
     FUZZ_CHECK(len == res.pdu_len + 3 && len <= GW_RTU_MAX && out[0] == frame[0]);

@@ -6,10 +6,10 @@
 #include <string.h>
 #include <sys/epoll.h>
 
+#include "common/ev.h"
 #include "gpio.h"
 #include "gpiomap.h"
 #include "log.h"
-#include "loop.h"
 
 #define MAX_CHIPS 8
 #define MAX_FDS 4 /* descriptors of a one-line request (1 on both backends) */
@@ -32,7 +32,7 @@ typedef struct {
     unsigned offset;
     gw_gpio_line_config_t lc; /* as requested */
     gw_gpio_request_t *req;
-    gw_ev_t ev[MAX_FDS];
+    ev_t ev[MAX_FDS];
     unsigned nev;
     int last; /* outputs: the value written last; -1 unknown */
 } line_t;
@@ -65,7 +65,7 @@ static void on_events(void *obj, uint32_t events);
 static void line_release(line_t *l, int epfd)
 {
     for (unsigned i = 0; i < l->nev; i++)
-        gw_loop_unwatch(epfd, &l->ev[i]);
+        ev_unwatch(epfd, &l->ev[i]);
     l->nev = 0;
     gw_gpio_error_t e;
     if (l->req != NULL && gw_gpio_request_release(l->req, &e) != GW_GPIO_OK)
@@ -99,7 +99,7 @@ static bool line_request(line_t *l, int epfd, char *err, size_t n)
         l->ev[i].fn = on_events;
         l->ev[i].obj = l;
         l->ev[i].fd = -1;
-        if (!gw_loop_watch(epfd, &l->ev[i], fds[i], EPOLLIN)) {
+        if (!ev_watch(epfd, &l->ev[i], fds[i], EPOLLIN)) {
             snprintf(err, n, "cannot watch the edge events of %s line %u: %s", l->chip->name,
                      l->offset, strerror(errno));
             line_release(l, epfd);
@@ -532,7 +532,7 @@ static void on_events(void *obj, uint32_t events)
                 gw_log(GW_LOG_ERROR, "gpio %s: %s; no longer watching its edges", l->cfg->name,
                        e.msg);
                 for (unsigned i = 0; i < l->nev; i++)
-                    gw_loop_unwatch(m->epfd, &l->ev[i]);
+                    ev_unwatch(m->epfd, &l->ev[i]);
                 l->nev = 0;
             } else {
                 gw_log_limited(GW_LOG_ERROR, &m->log_limit, "gpio %s: %s", l->cfg->name, e.msg);

@@ -8,10 +8,10 @@
 #include <sys/epoll.h>
 #include <sys/socket.h>
 
+#include "common/ev.h"
 #include "drgate/client.h"
 #include "link.h"
 #include "log.h"
-#include "loop.h"
 
 /* One Class 1 connection per T->O assembly, as the configuration's plan
  * opens it (gw_robot_config_t.open; by default the four O->T assemblies
@@ -26,7 +26,7 @@ static const dr_asm_t slot_t2o[] = {
 
 /* A descriptor of the client in the loop, and whose it is. */
 typedef struct {
-    gw_ev_t ev;
+    ev_t ev;
     struct gw_link *link;
 } link_ev_t;
 
@@ -80,7 +80,7 @@ typedef struct shared_port {
     char addr[64];
     uint16_t num;
     unsigned refs;
-    gw_ev_t ev;
+    ev_t ev;
     uint64_t read_us; /* when it was last read to the end */
 } shared_port_t;
 
@@ -215,11 +215,11 @@ static void sync_fds(gw_link_t *l)
             /* A slot whose fd moved must leave epoll before another takes it. */
             for (int j = 0; j < DR_CLIENT_MAX_FDS; j++)
                 if (j != i && l->ev[j].ev.fd == fds[i].fd)
-                    gw_loop_unwatch(l->epfd, &l->ev[j].ev);
-            if (!gw_loop_watch(l->epfd, &l->ev[i].ev, fds[i].fd, ev))
+                    ev_unwatch(l->epfd, &l->ev[j].ev);
+            if (!ev_watch(l->epfd, &l->ev[i].ev, fds[i].fd, ev))
                 gw_log_limited(GW_LOG_ERROR, &l->log_limit, "robot %s: epoll failed", l->cfg.name);
         } else {
-            gw_loop_unwatch(l->epfd, &l->ev[i].ev);
+            ev_unwatch(l->epfd, &l->ev[i].ev);
         }
     }
 }
@@ -240,108 +240,30 @@ static void on_client_fd(void *obj, uint32_t events)
     sync_fds(e->link);
 }
 
-/* ---- latency instrumentation (make bench only) -------------------------------- */
+/* ---- the observer -------------------------------------------------------------- */
 
-#ifdef GW_BENCH_LATENCY
-/* Built with -DGW_BENCH_LATENCY (bench/gw_bench.py's drgatewayd-lat, never
- * the installed daemon): for every T->O packet, the kernel's receive
- * timestamp of the datagram (SIOCGSTAMPNS on the Class 1 socket: when it
- * entered this host's network stack), the time the event loop last woke up
- * (epoll_wait returned: see bench/gw_lat_hook.h) and the time its data is in
- * the robot's image that Modbus reads answer from, all CLOCK_REALTIME. Kept
- * in memory, written at exit to $GW_BENCH_LATENCY_FILE as lines
- * "ARRIVAL WAKE VISIBLE" (ns). Costs one ioctl and two clock reads a packet,
- * and the Class 1 port is read one datagram at a time (see port_transport),
- * which puts the figures on the safe side by about a microsecond for each
- * packet ahead in the same burst. */
-#include <linux/sockios.h>
-#include <sys/ioctl.h>
-#include <time.h>
+/* Process-wide (gw_link_observe): the daemon registers none. */
+static const gw_link_observer_t *link_observer;
 
-#define LAT_MAX (1u << 20)
-static struct lat_sample {
-    int64_t at_ns, wake_ns, vis_ns;
-} *lat_samples;
-static size_t lat_count;
-static int64_t lat_wake_ns;
-
-static int64_t realtime_ns(void)
+void gw_link_observe(const gw_link_observer_t *o)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+    link_observer = o;
 }
 
-/* The loop's epoll_wait (renamed by the hook); epoll_pwait with no signal
- * mask is the same call. */
-int gw_bench_epoll_wait(int epfd, struct epoll_event *events, int maxevents, int timeout)
-{
-    int n = epoll_pwait(epfd, events, maxevents, timeout, NULL);
-    lat_wake_ns = realtime_ns();
-    return n;
-}
-
-/* The loop woke up from epoll_pwait2 (gateway/main.c, GW_BENCH_WOKE). */
-void gw_bench_woke(void)
-{
-    lat_wake_ns = realtime_ns();
-}
-
-static void lat_dump(void)
-{
-    const char *path = getenv("GW_BENCH_LATENCY_FILE");
-    FILE *f = path != NULL ? fopen(path, "w") : NULL;
-    if (f == NULL)
-        return;
-    for (size_t i = 0; i < lat_count; i++)
-        (void)fprintf(f, "%lld %lld %lld\n", (long long)lat_samples[i].at_ns,
-                      (long long)lat_samples[i].wake_ns, (long long)lat_samples[i].vis_ns);
-    if (fclose(f) != 0)
-        gw_log(GW_LOG_ERROR, "bench: cannot write %s", path);
-}
-
-static void lat_record(const gw_link_t *l)
-{
-    struct timespec arr;
-    int64_t now = realtime_ns();
-    if (l->port == NULL || ioctl(dr_udp_port_fd(l->port->port), SIOCGSTAMPNS, &arr) < 0)
-        return;
-    if (lat_samples == NULL) {
-        lat_samples = calloc(LAT_MAX, sizeof *lat_samples);
-        if (lat_samples == NULL)
-            return;
-        if (atexit(lat_dump) != 0) {
-            free(lat_samples);
-            lat_samples = NULL;
-            return;
-        }
-    }
-    int64_t at = (int64_t)arr.tv_sec * 1000000000 + arr.tv_nsec;
-    if (at > 0 && lat_count < LAT_MAX)
-        lat_samples[lat_count++] = (struct lat_sample){at, lat_wake_ns, now};
-}
-#define LAT_RECORD(l) lat_record(l)
-
-/* The daemon reads the Class 1 port in batches (recvmmsg); the socket's
- * timestamp is that of the last datagram read, so this build reads them
- * one at a time. */
-static dr_transport_ops_t lat_ops;
-static dr_transport_t port_transport(void)
-{
-    dr_transport_t t = dr_transport_posix();
-    lat_ops = *t.ops;
-    lat_ops.udp_recv_batch = NULL;
-    t.ops = &lat_ops;
-    return t;
-}
-#else
-#define LAT_RECORD(l) ((void)0)
+/* The shared Class 1 ports' transport: the observer's, or POSIX. */
 static dr_transport_t port_transport(void)
 {
     dr_transport_t t = {NULL, NULL}; /* the default: POSIX */
-    return t;
+    return link_observer != NULL ? link_observer->port_transport : t;
 }
-#endif
+
+/* T->O data of assembly a is in the image, from a Class 1 packet. */
+static void observe_t2o(const gw_link_t *l, dr_asm_t a)
+{
+    if (link_observer != NULL && link_observer->on_t2o != NULL)
+        link_observer->on_t2o(link_observer->user, l->robot, a,
+                              l->port != NULL ? dr_udp_port_fd(l->port->port) : -1);
+}
 
 /* ---- implicit mode ----------------------------------------------------------- */
 
@@ -360,11 +282,11 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
         if (l->conn[i] != conn)
             continue;
         dr_asm_t a = slot_t2o[i];
-        l->last_rx_us[a] = gw_now_us();
+        l->last_rx_us[a] = ev_now_us();
         if (data_withheld(l))
             continue;
         memcpy(l->data->img[a], data, len);
-        LAT_RECORD(l); /* the new data is now what a Modbus read gets */
+        observe_t2o(l, a); /* the new data is now what a Modbus read gets */
         if (l->hooks.on_data != NULL)
             l->hooks.on_data(l->hooks.user, l->robot, a);
     }
@@ -512,7 +434,7 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
         return;
     }
     if (info->dir == DR_DIR_T2O) {
-        l->last_rx_us[pc->a] = gw_now_us(); /* the link's health: counted anyway */
+        l->last_rx_us[pc->a] = ev_now_us(); /* the link's health: counted anyway */
         l->data->link.rx_packets++;
         if (!data_withheld(l)) {
             memcpy(l->data->img[pc->a], data, len);
@@ -562,7 +484,7 @@ static void on_port(void *obj, uint32_t events)
     shared_port_t *sp = obj;
     (void)events;
     dr_udp_port_process(sp->port);
-    sp->read_us = gw_now_us();
+    sp->read_us = ev_now_us();
 }
 
 static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *rc, int epfd)
@@ -605,7 +527,7 @@ static shared_port_t *port_get(gw_link_ports_t *ports, const gw_robot_config_t *
     free_slot->ev.fn = on_port;
     free_slot->ev.obj = free_slot;
     free_slot->ev.fd = -1;
-    if (!gw_loop_watch(epfd, &free_slot->ev, dr_udp_port_fd(free_slot->port), EPOLLIN))
+    if (!ev_watch(epfd, &free_slot->ev, dr_udp_port_fd(free_slot->port), EPOLLIN))
         gw_log(GW_LOG_ERROR, "robot %s: epoll failed for the UDP port", rc->name);
     return free_slot;
 }
@@ -614,7 +536,7 @@ static void port_put(shared_port_t *sp, int epfd)
 {
     if (sp == NULL || --sp->refs > 0)
         return;
-    gw_loop_unwatch(epfd, &sp->ev);
+    ev_unwatch(epfd, &sp->ev);
     dr_udp_port_free(sp->port);
     sp->port = NULL;
 }
@@ -720,7 +642,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         gw_link_free(l, NULL);
         return NULL;
     }
-    l->start_us = gw_now_us();
+    l->start_us = ev_now_us();
     l->dirty = (1u << DR_ASM_COUNT) - 1u;
     l->data->link.link_state = 1;
     l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
@@ -742,7 +664,7 @@ void gw_link_free(gw_link_t *l, const char *why)
         return;
     l->closing = why != NULL ? why : "closed";
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++)
-        gw_loop_unwatch(l->epfd, &l->ev[i].ev);
+        ev_unwatch(l->epfd, &l->ev[i].ev);
     /* SIGTERM must end within a second even with a slow robot: the
      * Forward Close replies get a short wait. */
     if (l->client != NULL)

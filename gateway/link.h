@@ -13,6 +13,7 @@
 #include <stdint.h>
 
 #include "config.h"
+#include "drgate/transport.h"
 #include "robot.h"
 
 typedef struct gw_link gw_link_t;
@@ -40,6 +41,22 @@ typedef struct {
     void (*on_data)(void *user, unsigned robot, dr_asm_t a);
     void *user;
 } gw_link_hooks_t;
+
+/* An observer of every link, for instrumented builds: the benchmark's
+ * drgatewayd-lat registers one (bench/gw_lat.c) to time a robot packet
+ * from its arrival to the image; the daemon registers none. One for the
+ * process, set before the first link is made (the ports take its
+ * transport when they open); NULL removes it. */
+typedef struct {
+    /* New T->O data of assembly `a` is in the robot's image, from a Class
+     * 1 packet read on udp_fd (the shared port's socket). Called before
+     * the link's on_data hook. */
+    void (*on_t2o)(void *user, unsigned robot, dr_asm_t a, int udp_fd);
+    /* The transport of the shared Class 1 ports; {NULL, NULL}: POSIX. */
+    dr_transport_t port_transport;
+    void *user;
+} gw_link_observer_t;
+void gw_link_observe(const gw_link_observer_t *o);
 
 gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *data,
                        int epfd, gw_link_ports_t *ports, const gw_link_hooks_t *hooks);

@@ -10,8 +10,8 @@
 #include <string.h>
 #include <time.h>
 
+#include "common/ev.h"
 #include "log.h"
-#include "loop.h"
 
 #define LIMIT_US 10000000u
 
@@ -132,7 +132,7 @@ static void pending_print(const pending_t *p, const char *when)
 
 void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
 {
-    uint64_t now = gw_now_us();
+    uint64_t now = ev_now_us();
     pending_t *p = pending_of(limit);
     uint64_t end = p != NULL ? p->due_us : limit->last_us + LIMIT_US;
     va_list ap;

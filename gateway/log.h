@@ -44,7 +44,7 @@ void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt
  * current one; and the kind's next line is shown at once. */
 void gw_log_limit_end(gw_log_limit_t *limit);
 
-/* Prints the counts of the kinds whose 10 s ended by now (gw_now_us()); the
+/* Prints the counts of the kinds whose 10 s ended by now (ev_now_us()); the
  * daemon's tick calls it. What is still pending at exit is printed then. */
 void gw_log_flush(uint64_t now);
 

@@ -4,25 +4,18 @@
  * them to its northbound sides (north.h: Modbus TCP, Modbus RTU, GPIO
  * lines, MQTT). One thread, one epoll loop.
  */
-#define _GNU_SOURCE /* signalfd */
 #include <errno.h>
 #include <getopt.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/epoll.h>
-#include <sys/prctl.h>
-#include <sys/signalfd.h>
-#include <sys/syscall.h>
 #include <systemd/sd-daemon.h>
-#include <time.h>
-#include <unistd.h>
 
+#include "common/ev.h"
 #include "config.h"
 #include "link.h"
 #include "log.h"
-#include "loop.h"
 #include "north.h"
 #include "regmap.h" /* --print-map and --print-errors only */
 #include "robot.h"
@@ -36,9 +29,7 @@
 
 typedef struct {
     gw_config_t cfg;
-    int epfd;
-    gw_ev_t sig_ev;
-    int sigfd;
+    ev_loop_t loop; /* common/ev.c: epoll_pwait2 where the kernel has it */
     gw_robot_t robots[GW_MAX_ROBOTS]; /* by position in cfg.robot */
     gw_link_t *links[GW_MAX_ROBOTS];
     gw_link_ports_t *ports; /* the links' shared UDP ports */
@@ -49,7 +40,6 @@ typedef struct {
     uint64_t start_us, next_tick_us, next_beat_us;
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
     uint64_t last_notify_us;
-    bool pwait2; /* epoll_pwait2 works: the loop's timeout is to the us */
     uint16_t generation;
     uint32_t serial; /* the last robot's (gw_robot_t serial) */
     int exit_status; /* 0 after a signal, 1 after a failure */
@@ -146,52 +136,10 @@ static uint64_t next_deadline(const gw_t *g)
 
 /* ---- the wait ---------------------------------------------------------------------- */
 
-/* epoll_pwait2 (Linux 5.11) takes its timeout to the nanosecond, so the
- * loop can wake up at the robots' O->T deadlines itself and their clients
- * need no timer descriptor each (gw_link_ports_loop_timer): one
- * timerfd_settime per robot per RPI fewer. It is called through syscall():
- * glibc has a wrapper only since 2.35. Where the kernel (or valgrind 3.19)
- * does not know it, the timeout is whole milliseconds and every client
- * keeps its own timer, as before. */
-#ifdef SYS_epoll_pwait2
-#define SIGSET_BYTES 8 /* the kernel's sigset_t (_NSIG / 8); no mask is passed */
-static int pwait2(int epfd, struct epoll_event *evs, int max, uint64_t wait_us)
+/* Microseconds (the daemon's clock) as the loop's nanoseconds. */
+static uint64_t deadline_ns(uint64_t us)
 {
-    struct timespec ts = {(time_t)(wait_us / 1000000u), (long)(wait_us % 1000000u) * 1000L};
-    return (int)syscall(SYS_epoll_pwait2, epfd, evs, max, &ts, NULL, SIGSET_BYTES);
-}
-#endif
-
-static bool probe_pwait2(int epfd)
-{
-#ifdef SYS_epoll_pwait2
-    struct epoll_event ev;
-    /* The kernel's timer slack (50 us by default) would make every O->T
-     * packet on the loop's timeout that much late; a timerfd had none. */
-    if (pwait2(epfd, &ev, 1, 0) >= 0 && prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0) == 0)
-        return true;
-#else
-    (void)epfd;
-#endif
-    return false;
-}
-
-/* Wait for events until d at the latest (capped at 1 s). */
-static int loop_wait(gw_t *g, struct epoll_event *evs, int max, uint64_t now, uint64_t d)
-{
-    uint64_t wait = d <= now ? 0 : d - now;
-    if (wait > 1000000u)
-        wait = 1000000u;
-#ifdef SYS_epoll_pwait2
-    if (g->pwait2) {
-        int n = pwait2(g->epfd, evs, max, wait);
-#ifdef GW_BENCH_WOKE
-        GW_BENCH_WOKE();
-#endif
-        return n;
-    }
-#endif
-    return epoll_wait(g->epfd, evs, max, (int)((wait + 999u) / 1000u));
+    return us < UINT64_MAX / 1000u ? us * 1000u : UINT64_MAX;
 }
 
 /* Tell systemd we are alive, but only while the loop keeps its timing. */
@@ -205,17 +153,13 @@ static void notify_watchdog(gw_t *g, uint64_t now)
 
 /* ---- set-up, reload, shutdown ---------------------------------------------- */
 
-static void on_signal(void *obj, uint32_t events)
+static void on_signal(void *obj, int signo)
 {
     gw_t *g = obj;
-    struct signalfd_siginfo si;
-    (void)events;
-    while (read(g->sigfd, &si, sizeof si) == (ssize_t)sizeof si) {
-        if (si.ssi_signo == SIGHUP)
-            g->reload = true;
-        else
-            g->stop = true;
-    }
+    if (signo == SIGHUP)
+        g->reload = true;
+    else
+        g->stop = true;
 }
 
 /* The robots before anything serves them: the sides set up their own
@@ -231,7 +175,7 @@ static void init_robots(gw_t *g)
 static bool start_links(gw_t *g)
 {
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
-        g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->robots[r], g->epfd, g->ports,
+        g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->robots[r], g->loop.epfd, g->ports,
                                   &link_hooks);
         if (g->links[r] == NULL)
             return false;
@@ -286,7 +230,7 @@ static void reload(gw_t *g)
         for (unsigned o = 0; o < g->cfg.robot_count; o++)
             if (!kept[o] && strcmp(next.robot[n].name, g->cfg.robot[o].name) == 0)
                 gw_robot_carry_over(&robots[n], &g->robots[o]); /* a changed one */
-        links[n] = gw_link_new(&next.robot[n], n, &robots[n], g->epfd, g->ports, &link_hooks);
+        links[n] = gw_link_new(&next.robot[n], n, &robots[n], g->loop.epfd, g->ports, &link_hooks);
         fresh[n] = true;
         if (links[n] == NULL) {
             gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: "
@@ -351,22 +295,6 @@ static void reload(gw_t *g)
     sd_notify(0, "READY=1");
 }
 
-static int setup_signals(gw_t *g)
-{
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGTERM);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGHUP);
-    sigprocmask(SIG_BLOCK, &set, NULL);
-    (void)signal(SIGPIPE, SIG_IGN);
-    g->sigfd = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
-    g->sig_ev.fn = on_signal;
-    g->sig_ev.obj = g;
-    g->sig_ev.fd = -1;
-    return g->sigfd >= 0 && gw_loop_watch(g->epfd, &g->sig_ev, g->sigfd, EPOLLIN) ? 0 : -1;
-}
-
 static void free_sides(gw_t *g)
 {
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
@@ -381,7 +309,7 @@ static void free_sides(gw_t *g)
 static bool start_sides(gw_t *g)
 {
     char err[512];
-    g->env = (gw_north_env_t){g->epfd, &g->cfg, g->robots, outputs_changed, robot_link_up,
+    g->env = (gw_north_env_t){g->loop.epfd, &g->cfg, g->robots, outputs_changed, robot_link_up,
                               fault, g, DRGATE_VERSION};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
@@ -414,30 +342,29 @@ static int close_loop(gw_t *g, int status)
 {
     gw_link_ports_free(g->ports); /* after the last link (shutdown_all) */
     g->ports = NULL;
-    if (g->sigfd >= 0)
-        close(g->sigfd);
-    if (g->epfd >= 0)
-        close(g->epfd);
-    g->sigfd = g->epfd = -1;
+    ev_close(&g->loop);
     return status;
 }
 
 static int run(gw_t *g)
 {
-    g->sigfd = -1;
-    g->epfd = epoll_create1(EPOLL_CLOEXEC);
-    if (g->epfd < 0 || setup_signals(g) != 0) {
+    static const int signals[] = {SIGTERM, SIGINT, SIGHUP};
+    if (!ev_open(&g->loop, EV_FINE) ||
+        !ev_signals(&g->loop, signals, sizeof signals / sizeof signals[0], on_signal, g)) {
         gw_log(GW_LOG_ERROR, "cannot set up the event loop: %s", strerror(errno));
         return close_loop(g, 1);
     }
-    g->start_us = gw_now_us();
+    g->start_us = ev_now_us();
     g->ports = gw_link_ports_new();
     if (g->ports == NULL) {
         gw_log(GW_LOG_ERROR, "out of memory");
         return close_loop(g, 1);
     }
-    g->pwait2 = probe_pwait2(g->epfd);
-    gw_link_ports_loop_timer(g->ports, g->pwait2);
+    /* With epoll_pwait2 the loop wakes up at the robots' O->T deadlines
+     * itself, and their clients need no timer descriptor each: one
+     * timerfd_settime per robot per RPI fewer. Without it (a kernel
+     * before 5.11, valgrind 3.19), each client keeps its own. */
+    gw_link_ports_loop_timer(g->ports, g->loop.fine);
     init_robots(g);
     if (!start_sides(g))
         return close_loop(g, 1);
@@ -452,20 +379,14 @@ static int run(gw_t *g)
     gw_log(GW_LOG_INFO, "drgatewayd %s running: %u robot(s), %u GPIO line(s)", DRGATE_VERSION,
            g->cfg.robot_count, g->cfg.gpio_count);
 
-    struct epoll_event evs[32];
     while (!g->stop) {
-        uint64_t now = gw_now_us(), d = next_deadline(g);
-        int n = loop_wait(g, evs, 32, now, d);
-        if (n < 0 && errno != EINTR) {
+        int n = ev_run(&g->loop, deadline_ns(next_deadline(g)));
+        if (n < 0) {
             gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
             g->exit_status = 1;
             break;
         }
-        for (int i = 0; i < n; i++) {
-            gw_ev_t *ev = evs[i].data.ptr;
-            ev->fn(ev->obj, evs[i].events);
-        }
-        now = gw_now_us();
+        uint64_t now = ev_now_us();
         tick(g, now, n > 1);
         notify_watchdog(g, now);
         if (g->reload)

@@ -298,6 +298,7 @@ static int decide(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_
     r->pdu_len = 0;
 
     gw_unit_t *u = env->unit_for(env->units, unit_id);
+    r->unit = u;
     if (u == NULL)
         return 0x0A; /* gateway path unavailable: no robot with this unit ID */
     if (r->fc == FC_READ_WRITE)

@@ -60,6 +60,10 @@ typedef struct {
 /* What gw_mbs_decide found. */
 typedef struct {
     uint8_t unit_id, fc;
+    /* The unit unit_id named (env->unit_for's answer), NULL: none. The
+     * framers hand an accepted write's dirty images on with it: nothing
+     * looks the unit ID up a second time. */
+    gw_unit_t *unit;
     bool write;        /* fc is a write function (05, 06, 0F, 10, 17) */
     gw_area_t area;    /* valid once the function code is known */
     uint16_t addr, count;

@@ -12,8 +12,8 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include "common/ev.h"
 #include "log.h"
-#include "loop.h"
 #include "mbproto.h"
 #include "mbrtu.h"
 
@@ -22,7 +22,7 @@ struct gw_rtu {
     uint8_t unit_of[248]; /* slave address -> unit ID; 0: not ours */
     gw_mbs_hooks_t hooks;
     int epfd, fd;
-    gw_ev_t ev;
+    ev_t ev;
     gw_rtu_rx_t rx;
     uint64_t last_rx_us; /* when the last bytes came */
     uint64_t t35_us;
@@ -89,7 +89,7 @@ static void handle_one(gw_rtu_t *t, uint8_t addr, const uint8_t *pdu, size_t pdu
     if (ex < 0)
         return;
     if (ex == 0 && t->result.write && t->result.dirty != 0)
-        t->hooks.on_write(t->hooks.user, t->unit_of[addr], t->result.dirty);
+        t->hooks.on_write(t->hooks.user, t->result.unit, t->result.dirty);
     if (t->result.reset)
         gw_log(GW_LOG_INFO, "modbus_rtu %s: the master reset the write fault of unit %u",
                t->cfg.name, t->unit_of[addr]);
@@ -135,7 +135,7 @@ static void drain(gw_rtu_t *t, bool silence)
 
 static void port_close(gw_rtu_t *t)
 {
-    gw_loop_unwatch(t->epfd, &t->ev);
+    ev_unwatch(t->epfd, &t->ev);
     if (t->fd >= 0)
         close(t->fd);
     t->fd = -1;
@@ -156,10 +156,10 @@ static void on_port(void *obj, uint32_t events)
         gw_log(GW_LOG_WARNING, "modbus_rtu %s: %s lost (%s): trying again every second",
                t->cfg.name, t->cfg.device, got < 0 ? strerror(errno) : "hang-up");
         port_close(t);
-        t->reopen_us = gw_now_us() + REOPEN_US;
+        t->reopen_us = ev_now_us() + REOPEN_US;
         return;
     }
-    uint64_t now = gw_now_us();
+    uint64_t now = ev_now_us();
     /* Bytes after t3.5 of silence start a new frame: what came before is
      * whole (the loop was late to look at it). */
     if (t->rx.len > 0 && now - t->last_rx_us >= t->t35_us)
@@ -251,7 +251,7 @@ static bool port_open(gw_rtu_t *t, char *err, size_t errlen)
         set_rs485(t->fd, cfg);
     t->ev.fn = on_port;
     t->ev.obj = t;
-    if (!gw_loop_watch(t->epfd, &t->ev, t->fd, EPOLLIN)) {
+    if (!ev_watch(t->epfd, &t->ev, t->fd, EPOLLIN)) {
         snprintf(err, errlen, "epoll: %s", strerror(errno));
         port_close(t);
         return false;

@@ -12,15 +12,15 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include "common/ev.h"
 #include "log.h"
-#include "loop.h"
 #include "mbproto.h"
 #include "mbserver.h"
 
 #define MAX_CLIENTS_HARD 256u
 
 typedef struct {
-    gw_ev_t ev;
+    ev_t ev;
     gw_mbs_t *srv;
     bool used;
     int fd;
@@ -37,7 +37,7 @@ struct gw_mbs {
     gw_modbus_config_t cfg;
     gw_mbs_hooks_t hooks;
     int epfd;
-    gw_ev_t listen_ev;
+    ev_t listen_ev;
     int listen_fd;
     gw_mb_result_t result;  /* of the request being answered */
     client_t clients[MAX_CLIENTS_HARD];
@@ -67,7 +67,7 @@ static void client_close(client_t *cl, const char *why)
     char who[32];
     fmt_addr(cl->addr, cl->port, who, sizeof who);
     gw_log(GW_LOG_INFO, "modbus: client %s closed: %s", who, why);
-    gw_loop_unwatch(s->epfd, &cl->ev);
+    ev_unwatch(s->epfd, &cl->ev);
     close(cl->fd);
     if (s->writer == cl)
         s->writer = NULL; /* its watchdog will expire and latch the fault */
@@ -110,7 +110,7 @@ static void on_client(void *obj, uint32_t events);
  * the newcomer is refused. */
 static client_t *evict_idle(gw_mbs_t *s, const char *newcomer)
 {
-    uint64_t now = gw_now_us(), min_idle = (uint64_t)s->cfg.request_timeout_ms * 1000u;
+    uint64_t now = ev_now_us(), min_idle = (uint64_t)s->cfg.request_timeout_ms * 1000u;
     client_t *victim = NULL;
     if (s->nclients != s->cfg.max_clients)
         return NULL; /* over the limit after a reload: one slot would not do */
@@ -174,7 +174,7 @@ static void on_accept(void *obj, uint32_t events)
         cl->addr = addr;
         cl->port = port;
         cl->rw = rw;
-        cl->last_us = gw_now_us();
+        cl->last_us = ev_now_us();
         cl->ev.fn = on_client;
         cl->ev.obj = cl;
         cl->ev.fd = -1;
@@ -182,7 +182,7 @@ static void on_accept(void *obj, uint32_t events)
             set_keepalive(fd);
         int one = 1;
         (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-        if (!gw_loop_watch(s->epfd, &cl->ev, fd, EPOLLIN)) {
+        if (!ev_watch(s->epfd, &cl->ev, fd, EPOLLIN)) {
             close(fd);
             cl->used = false;
             continue;
@@ -237,7 +237,7 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
                s->result.unit_id);
     }
     if (ex == 0 && s->result.write && s->result.dirty != 0)
-        s->hooks.on_write(s->hooks.user, s->result.unit_id, s->result.dirty);
+        s->hooks.on_write(s->hooks.user, s->result.unit, s->result.dirty);
     if (ex != 0)
         s->exceptions++;
     /* All of it or the client is dropped, as libmodbus's send did. */
@@ -293,7 +293,7 @@ static void on_client(void *obj, uint32_t events)
         client_close(cl, got == 0 ? "closed by the client" : "receive error");
         return;
     }
-    uint64_t now = gw_now_us();
+    uint64_t now = ev_now_us();
     if (cl->len == 0)
         cl->req_us = now; /* a request's first byte: its deadline starts */
     cl->len += (size_t)got;
@@ -359,7 +359,7 @@ gw_mbs_t *gw_mbs_new(const gw_modbus_config_t *cfg, int epfd,
     }
     s->listen_ev.fn = on_accept;
     s->listen_ev.obj = s;
-    if (!gw_loop_watch(epfd, &s->listen_ev, s->listen_fd, EPOLLIN)) {
+    if (!ev_watch(epfd, &s->listen_ev, s->listen_fd, EPOLLIN)) {
         snprintf(err, errlen, "epoll: %s", strerror(errno));
         gw_mbs_free(s);
         return NULL;
@@ -376,7 +376,7 @@ void gw_mbs_free(gw_mbs_t *s)
     for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++)
         if (s->clients[i].used)
             client_close(&s->clients[i], "gateway stopping");
-    gw_loop_unwatch(s->epfd, &s->listen_ev);
+    ev_unwatch(s->epfd, &s->listen_ev);
     if (s->listen_fd >= 0)
         close(s->listen_fd);
     free(s);
@@ -392,7 +392,7 @@ static bool move_listener(gw_mbs_t *s, const gw_modbus_config_t *cfg)
     int fd = open_listener(cfg, err, sizeof err);
     if (fd < 0 && errno == EADDRINUSE && cfg->port == s->cfg.port) {
         /* The same port on another address: ours is in the way. */
-        gw_loop_unwatch(s->epfd, &s->listen_ev);
+        ev_unwatch(s->epfd, &s->listen_ev);
         close(s->listen_fd);
         s->listen_fd = -1;
         fd = open_listener(cfg, err, sizeof err);
@@ -400,7 +400,7 @@ static bool move_listener(gw_mbs_t *s, const gw_modbus_config_t *cfg)
             char again[256];
             s->listen_fd = open_listener(&s->cfg, again, sizeof again);
             if (s->listen_fd < 0 ||
-                !gw_loop_watch(s->epfd, &s->listen_ev, s->listen_fd, EPOLLIN)) {
+                !ev_watch(s->epfd, &s->listen_ev, s->listen_fd, EPOLLIN)) {
                 gw_log(GW_LOG_ERROR, "reload: %s; and again %s", err, again);
                 return false;
             }
@@ -411,7 +411,7 @@ static bool move_listener(gw_mbs_t *s, const gw_modbus_config_t *cfg)
                s->cfg.port);
         return true;
     }
-    if (!gw_loop_watch(s->epfd, &s->listen_ev, fd, EPOLLIN)) {
+    if (!ev_watch(s->epfd, &s->listen_ev, fd, EPOLLIN)) {
         gw_log(GW_LOG_ERROR, "reload: epoll: %s: still listening on %s:%u", strerror(errno),
                s->cfg.listen, s->cfg.port);
         close(fd);

@@ -21,8 +21,9 @@ typedef struct gw_mbs gw_mbs_t;
 typedef struct {
     /* The unit (robot) for a unit ID, NULL if none. */
     gw_unit_t *(*unit_for)(void *user, uint8_t unit_id);
-    /* O->T images of `unit_id` changed (bit per assembly). */
-    void (*on_write)(void *user, uint8_t unit_id, unsigned dirty);
+    /* An accepted write changed O->T images of unit u (bit per assembly
+     * in dirty); u is what unit_for returned for the request. */
+    void (*on_write)(void *user, gw_unit_t *u, unsigned dirty);
     void *user;
     const char *version; /* the gateway's, for FC 43 device identification */
 } gw_mbs_hooks_t;

@@ -18,8 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "common/ev.h"
 #include "log.h"
-#include "loop.h"
 #include "mbrtu.h"
 #include "mbserver.h"
 #include "north.h"
@@ -78,18 +78,16 @@ static gw_unit_t *unit_for(void *user, uint8_t unit_id)
     return NULL;
 }
 
-static void on_write(void *user, uint8_t unit_id, unsigned dirty)
+/* A write reached unit u, which unit_for found for the request: its
+ * robot is where the daemon keeps it (unit_policy points u->robot into
+ * env->robots), and that position is the link's. */
+static void on_write(void *user, gw_unit_t *u, unsigned dirty)
 {
     const mb_ctx_t *c = user;
     const gw_north_env_t *env = c->mb->env;
-    const gw_config_t *cfg = env->cfg;
-    unsigned r = 0;
-    for (unsigned i = 0; i < cfg->robot_count; i++)
-        if (cfg->robot[i].unit_id == unit_id)
-            r = i;
     if (c->wrote != NULL)
         c->wrote(c->side);
-    env->outputs_changed(env->user, r, dirty);
+    env->outputs_changed(env->user, (unsigned)(u->robot - env->robots), dirty);
 }
 
 /* What [modbus] and the [gpio] inputs decide about unit r, and its robot.
@@ -136,7 +134,7 @@ static void writer_wrote(void *side)
     tcp_t *t = side;
     if (t->ctx.mb->env->cfg->modbus.single_writer && !t->writer_seen) {
         t->writer_seen = true;
-        t->watchdog_change_us = gw_now_us();
+        t->watchdog_change_us = ev_now_us();
     }
 }
 

@@ -33,9 +33,9 @@
 
 #include <mosquitto.h>
 
+#include "common/ev.h"
 #include "drgate/text.h"
 #include "log.h"
-#include "loop.h"
 #include "mqtt_lib.h"
 #include "north.h"
 
@@ -63,7 +63,7 @@ typedef struct {
     const gw_north_env_t *env;
     gw_mqtt_config_t cfg; /* a copy: a reload compares the new one with it */
     struct mosquitto *mosq;
-    gw_ev_t ev;
+    ev_t ev;
     char prefix[160], client_id[80];
     char password[256];
     bool connected;     /* CONNACK accepted */
@@ -461,7 +461,7 @@ static void sync_watch(mq_t *t, uint64_t now)
 {
     int fd = ml->socket(t->mosq);
     if (fd < 0) {
-        gw_loop_unwatch(t->env->epfd, &t->ev);
+        ev_unwatch(t->env->epfd, &t->ev);
         if (t->connected || t->connecting) {
             if (t->connecting)
                 gw_log(GW_LOG_WARNING, "mqtt: cannot connect to %s:%u", t->cfg.host, t->cfg.port);
@@ -475,13 +475,13 @@ static void sync_watch(mq_t *t, uint64_t now)
         return;
     }
     uint32_t ev = EPOLLIN | (ml->want_write(t->mosq) ? (uint32_t)EPOLLOUT : 0u);
-    if (!gw_loop_watch(t->env->epfd, &t->ev, fd, ev))
+    if (!ev_watch(t->env->epfd, &t->ev, fd, ev))
         gw_log(GW_LOG_ERROR, "mqtt: epoll: %s", strerror(errno));
 }
 
 static void drop_connection(mq_t *t, uint64_t now)
 {
-    gw_loop_unwatch(t->env->epfd, &t->ev);
+    ev_unwatch(t->env->epfd, &t->ev);
     (void)ml->disconnect(t->mosq); /* closes the socket */
     t->connected = t->connecting = false;
     t->retry_us = 0;
@@ -491,7 +491,7 @@ static void drop_connection(mq_t *t, uint64_t now)
 static void try_connect(mq_t *t, uint64_t now)
 {
     t->retry_us = 0;
-    gw_loop_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
+    ev_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
     /* Non-blocking connect; the host name (if not an address) is resolved
      * here, the one blocking step (docs/mqtt.md). */
     int rc = ml->connect_async(t->mosq, t->cfg.host, t->cfg.port, (int)t->cfg.keepalive_s);
@@ -509,7 +509,7 @@ static void try_connect(mq_t *t, uint64_t now)
 static void on_ready(void *obj, uint32_t events)
 {
     mq_t *t = obj;
-    uint64_t now = gw_now_us();
+    uint64_t now = ev_now_us();
     if (events & (EPOLLIN | EPOLLERR | EPOLLHUP)) {
         /* libmosquitto reads a few packets per call; TLS may hold more
          * than the socket shows: read until it would block. */
@@ -560,7 +560,7 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
     }
     t->env = env;
     t->cfg = *q;
-    t->ev = (gw_ev_t){on_ready, t, -1, 0};
+    t->ev = (ev_t){on_ready, t, -1, 0};
     t->backoff_us = MQ_BACKOFF_MIN_US;
     if (!q->enabled)
         return t;
@@ -658,10 +658,10 @@ static void mq_goodbye(mq_t *t)
         return;
     (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
     (void)ml->disconnect(t->mosq);
-    uint64_t end = gw_now_us() + 1000000u;
+    uint64_t end = ev_now_us() + 1000000u;
     int fd;
     while ((fd = ml->socket(t->mosq)) >= 0 && ml->want_write(t->mosq)) {
-        uint64_t now = gw_now_us();
+        uint64_t now = ev_now_us();
         if (now >= end)
             break;
         struct pollfd p = {fd, POLLOUT, 0};
@@ -678,7 +678,7 @@ static void mq_free(mq_t *t)
     if (t == NULL)
         return;
     if (t->env != NULL)
-        gw_loop_unwatch(t->env->epfd, &t->ev);
+        ev_unwatch(t->env->epfd, &t->ev);
     if (t->mosq != NULL)
         ml->destroy(t->mosq);
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
@@ -695,7 +695,7 @@ static void *mq_create(const gw_north_env_t *env, char *err, size_t errlen)
     mq_t *t = mq_new(&env->cfg->mqtt, env, err, errlen);
     if (t != NULL && t->cfg.enabled) {
         mq_sync_robots(t, false);
-        try_connect(t, gw_now_us());
+        try_connect(t, ev_now_us());
     }
     return t;
 }
@@ -743,7 +743,7 @@ static void *mq_commit(void *self, void *out, const gw_north_env_t *env)
         mq_goodbye(t);
         mq_free(t);
         if (n->cfg.enabled)
-            try_connect(n, gw_now_us());
+            try_connect(n, ev_now_us());
     }
     if (n->cfg.enabled)
         mq_sync_robots(n, true); /* robots may have moved, come or gone */
@@ -830,7 +830,7 @@ static uint64_t mq_deadline(const void *self)
         return UINT64_MAX; /* EPOLLOUT, or the broker's acknowledgements, first */
     /* Wake for a robot whose data arrived, when its interval allows it;
      * other robots' O->T images are looked at with the 10 Hz tick. */
-    uint64_t d = UINT64_MAX, now = gw_now_us();
+    uint64_t d = UINT64_MAX, now = ev_now_us();
     for (unsigned r = 0; r < t->env->cfg->robot_count; r++) {
         uint64_t x = UINT64_MAX;
         if (t->link[r] && t->full_due[r])
@@ -862,7 +862,7 @@ static void mq_on_link(void *self, unsigned robot, bool up)
     if (up) {
         t->full_due[robot] = true; /* the plant gets every field afresh */
         t->asm_seen[robot] = 0;
-        t->up_us[robot] = gw_now_us();
+        t->up_us[robot] = ev_now_us();
     }
 }
 

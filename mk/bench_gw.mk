@@ -29,17 +29,19 @@ $(B)/bench/gw_plain_server: bench/gw_plain_server.c gateway/regmap.h $(LIB_HDR)
 	$(CC) $(ALL_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(WARN) -O2 -g $(ALL_LDFLAGS) \
 	    -o $@ $< $(MODBUS_LIBS)
 
-# The daemon with the latency instrumentation (gateway/link.c,
-# GW_BENCH_LATENCY; bench/gw_lat_hook.h notes when the loop wakes up); the
+# The daemon with the latency instrumentation: bench/gw_lat.c, which
+# watches the links through their observer (gateway/link.h), and
+# bench/gw_lat_hook.h, which notes when the loop wakes up; the
 # throughput, RSS and CPU figures use the real one.
-$(B)/bench/drgatewayd-lat: gateway/main.c $$(GW_LIB_SRC) $$(GPIO_A) $(LIB_A) $$(GW_HDR) \
-                           $(LIB_HDR) bench/gw_lat_hook.h
+GW_LAT_SRC := bench/gw_lat.c
+$(B)/bench/drgatewayd-lat: gateway/main.c $$(GW_LIB_SRC) $(GW_LAT_SRC) $(COMMON_SRC) $$(GPIO_A) $(LIB_A) \
+                           $$(GW_HDR) $(COMMON_HDR) $(LIB_HDR) bench/gw_lat_hook.h
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Igateway -DGW_BENCH_LATENCY -include bench/gw_lat_hook.h \
+	$(CC) $(ALL_CPPFLAGS) -Igateway -include bench/gw_lat_hook.h \
 	    -DDRGATE_VERSION='"$(VERSION)"' \
 	    $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS) -fPIE -pie \
-	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
-	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
+	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(GW_LAT_SRC) $(COMMON_SRC) $(GPIO_A) $(LIB_A) \
+	    $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
 
 bench-gw: $$(GW_BIN) $(SIM_BIN) $(GW_BENCH_BIN)
 	@if [ ! -x $(GW_BENCH_PY) ]; then \

@@ -22,11 +22,12 @@ BENCH_STEPS += bench-scale
 .PHONY: bench-scale
 .SECONDEXPANSION:
 
-$(SCALE_GW): gateway/main.c $$(GW_LIB_SRC) $$(GPIO_A) $(LIB_A) $$(GW_HDR) $(LIB_HDR)
+$(SCALE_GW): gateway/main.c $$(GW_LIB_SRC) $(COMMON_SRC) $$(GPIO_A) $(LIB_A) $$(GW_HDR) \
+             $(COMMON_HDR) $(LIB_HDR)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) -Igateway -DGW_MAX_ROBOTS=32 -DDRGATE_VERSION='"$(VERSION)"' \
 	    $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS) -fPIE -pie \
-	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
+	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(COMMON_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
 	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
 
 # `make bench` passes GW_BENCH_ARGS=--write-doc to every step: the results

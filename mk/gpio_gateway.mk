@@ -22,7 +22,7 @@ CHECK_STEPS += check-gpio-gateway
 .PHONY: check-gpio-gateway check-gpio-gateway-unit gpio-gateway-shell
 
 # gateway/gpiomap.c on the fake GPIO backend and a fake event loop: no
-# kernel, no libgpiod, no epoll (the test defines gw_loop_watch & co.).
+# kernel, no libgpiod, no epoll (the test defines ev_watch & co.).
 $(GPIO_GW_TEST): $(GPIO_GW_DIR)/test_gpiomap.c gateway/gpiomap.c gateway/gpiomap.h \
         gateway/log.c gateway/robot.c gateway/robot.h tests/gpio/gpio_fake.c \
         tests/gpio/gpio_fake.h $(GPIO_CORE_SRC) $(GPIO_HDR) $(LIB_A) $(LIB_HDR)

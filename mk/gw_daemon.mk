@@ -26,7 +26,7 @@ $(GW_LIB_OBJ): $(B)/gateway/%.o: gateway/%.c $(GW_HDR) $(GPIO_HDR) $(LIB_HDR)
 	$(CC) $(ALL_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) \
 	    $(ALL_CFLAGS) -fPIE -c $< -o $@
 
-$(GW_A): $(GW_LIB_OBJ)
+$(GW_A): $(GW_LIB_OBJ) $(COMMON_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 

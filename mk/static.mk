@@ -2,7 +2,7 @@
 # Static analysis and hardening checks (docs/quality.md), both in `make check`:
 #
 #   check-static     cppcheck (mk/cppcheck-suppressions.txt) and clang-tidy
-#                    (.clang-tidy) over lib/, cli/, sim/, gateway/, port/,
+#                    (.clang-tidy) over lib/, cli/, common/, sim/, gateway/, port/,
 #                    tests/ and fuzz/; any finding fails it
 #   check-hardening  the built programs are PIE, full RELRO (BIND_NOW), with
 #                    the stack protector and _FORTIFY_SOURCE's checked calls
@@ -31,6 +31,10 @@ STATIC_FLAGS_lib = $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC
 STATIC_GROUPS += cli
 STATIC_SRC_cli   = $(CLI_SRC)
 STATIC_FLAGS_cli = $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS) $(ALL_CFLAGS)
+
+STATIC_GROUPS += common
+STATIC_SRC_common   = $(COMMON_SRC)
+STATIC_FLAGS_common = $(ALL_CPPFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += sim
 STATIC_SRC_sim   = $(sort $(wildcard sim/*.c))

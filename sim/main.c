@@ -2,15 +2,16 @@
 /*
  * drsim: a simulated Doosan robot controller, as an EtherNet/IP adapter.
  *
- * One thread, one epoll loop. Sockets: TCP listener and clients
- * (encapsulation), UDP on the encapsulation port (ListIdentity discovery),
- * UDP on the Class 1 port (O->T in, T->O out, one socket for all
- * connections). One timerfd, armed at an absolute monotonic deadline,
- * drives everything timed: the robot model, T->O production, connection
- * timeouts, delayed replies and dropped sessions. A signalfd makes
- * SIGINT/SIGTERM a normal event. The protocol itself is in adapter.c.
+ * One thread, one event loop (common/ev.c, the one drgatewayd has too).
+ * Sockets: TCP listener and clients (encapsulation), UDP on the
+ * encapsulation port (ListIdentity discovery), UDP on the Class 1 port
+ * (O->T in, T->O out, one socket for all connections). The loop's timer
+ * (EV_TIMER: one timerfd, armed at an absolute monotonic deadline) drives
+ * everything timed: the robot model, T->O production, connection
+ * timeouts, delayed replies and dropped sessions. SIGINT/SIGTERM come as
+ * events of the loop too. The protocol itself is in adapter.c.
  */
-#define _GNU_SOURCE /* accept4, epoll, timerfd, signalfd */
+#define _GNU_SOURCE /* accept4 */
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -22,13 +23,12 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/epoll.h>
-#include <sys/signalfd.h>
 #include <sys/socket.h>
-#include <sys/timerfd.h>
 #include <time.h>
 #include <unistd.h>
 
 #include "adapter.h"
+#include "common/ev.h"
 #include "log.h"
 
 #define DRSIM_VERSION "1.0.0"
@@ -39,8 +39,6 @@
 #define UDP_BURST 64
 /* Replies and packets held back by --delay at any one time. */
 #define DELAY_QUEUE_LEN 4096u
-/* Upper bound on any epoll wait: the timerfd normally wakes us first. */
-#define EPOLL_WAIT_MS 1000
 
 /* ---- options --------------------------------------------------------------- */
 
@@ -384,19 +382,15 @@ static int parse_options(int argc, char **argv, options_t *o)
     return check_instances(&o->cfg) == 0 ? -1 : 2;
 }
 
-/* ---- time ------------------------------------------------------------------ */
-
-static uint64_t now_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
-}
-
 /* ---- event loop state ------------------------------------------------------- */
+
+typedef struct loop loop_t;
 
 typedef struct {
     int fd; /* -1: free */
+    ev_t ev; /* in the loop while fd is open */
+    loop_t *L;
+    int idx; /* in L->clients */
     uint32_t gen; /* bumped on every close, so delayed replies find no ghost */
     drsim_peer_t peer;
     uint64_t accepted_ns;
@@ -424,37 +418,16 @@ typedef struct {
     uint64_t full_drops;
 } delayq_t;
 
-typedef struct {
+struct loop {
     options_t opt;
     drsim_t sim;
-    int ep, tfd, sfd, lfd, ufd_io, ufd_encap;
+    ev_loop_t loop;
+    int lfd, ufd_io, ufd_encap;
+    ev_t lfd_ev, ufd_io_ev, ufd_encap_ev;
     client_t clients[MAX_CLIENTS];
     delayq_t dq;
-    uint64_t armed;
     volatile int quit;
-} loop_t;
-
-/* epoll tags: kind in the high half, client index in the low half. */
-enum { TAG_LISTEN = 1, TAG_UDP_IO, TAG_UDP_ENCAP, TAG_TIMER, TAG_SIGNAL, TAG_CLIENT };
-#define TAG(kind, idx) ((uint64_t)(kind) << 32 | (uint32_t)(idx))
-
-static int ep_add(int ep, int fd, uint32_t events, uint64_t tag)
-{
-    struct epoll_event ev;
-    memset(&ev, 0, sizeof ev);
-    ev.events = events;
-    ev.data.u64 = tag;
-    return epoll_ctl(ep, EPOLL_CTL_ADD, fd, &ev);
-}
-
-static void ep_mod(int ep, int fd, uint32_t events, uint64_t tag)
-{
-    struct epoll_event ev;
-    memset(&ev, 0, sizeof ev);
-    ev.events = events;
-    ev.data.u64 = tag;
-    (void)epoll_ctl(ep, EPOLL_CTL_MOD, fd, &ev);
-}
+};
 
 static struct sockaddr_in sin_of(uint32_t addr, uint16_t port)
 {
@@ -536,7 +509,7 @@ static delayed_t *dq_push(loop_t *L, uint8_t kind, const uint8_t *data, size_t l
         return NULL;
     }
     delayed_t *e = &d->q[(d->head + d->count++) % DELAY_QUEUE_LEN];
-    e->due = now_ns() + L->opt.delay_ns;
+    e->due = ev_now_ns() + L->opt.delay_ns;
     e->kind = kind;
     e->len = (uint16_t)len;
     if (len > 0)
@@ -554,7 +527,7 @@ static void client_close(loop_t *L, int idx, const char *why)
     char ip[INET_ADDRSTRLEN];
     drsim_log(1, "client %s:%u closed (%s)", ip_str(c->peer.addr, ip),
               (unsigned)c->peer.port, why);
-    (void)epoll_ctl(L->ep, EPOLL_CTL_DEL, c->fd, NULL);
+    ev_unwatch(L->loop.epfd, &c->ev);
     close(c->fd);
     c->fd = -1;
     c->gen++;
@@ -580,7 +553,7 @@ static void client_flush(loop_t *L, int idx)
     /* Back-pressure: while replies wait for the peer to read them, read
      * no more requests from it (the other clients carry on). */
     uint32_t ev = c->out_len > 0 ? EPOLLOUT : EPOLLIN;
-    ep_mod(L->ep, c->fd, ev, TAG(TAG_CLIENT, idx));
+    (void)ev_watch(L->loop.epfd, &c->ev, c->fd, ev);
 }
 
 static void client_send(loop_t *L, int idx, const uint8_t *buf, size_t len)
@@ -633,7 +606,7 @@ static void client_frames(loop_t *L, int idx)
         if (st != DR_OK || c->in_len < total)
             return; /* wait for the rest */
         size_t out_len = 0;
-        drsim_action_t act = drsim_encap(&L->sim, &c->peer, now_ns(), c->in, total,
+        drsim_action_t act = drsim_encap(&L->sim, &c->peer, ev_now_ns(), c->in, total,
                                          out, sizeof out, &out_len);
         memmove(c->in, c->in + total, c->in_len - total);
         c->in_len -= total;
@@ -686,14 +659,14 @@ static void accept_clients(loop_t *L)
         client_t *c = &L->clients[idx];
         c->fd = fd;
         c->in_len = c->out_len = 0;
-        c->accepted_ns = now_ns();
+        c->accepted_ns = ev_now_ns();
         memset(&c->peer, 0, sizeof c->peer);
         c->peer.addr = ntohl(sa.sin_addr.s_addr);
         c->peer.port = ntohs(sa.sin_port);
         sl = sizeof sa;
         if (getsockname(fd, (struct sockaddr *)&sa, &sl) == 0)
             c->peer.local_addr = ntohl(sa.sin_addr.s_addr);
-        if (ep_add(L->ep, fd, EPOLLIN, TAG(TAG_CLIENT, idx)) != 0) {
+        if (!ev_watch(L->loop.epfd, &c->ev, fd, EPOLLIN)) {
             client_close(L, idx, strerror(errno));
             continue;
         }
@@ -723,7 +696,7 @@ static void io_send(void *ctx, const dr_sockaddr_t *to, const uint8_t *buf, size
  * loop got to the socket on a busy machine. Without a stamp: now. */
 static uint64_t arrival_ns(const struct msghdr *mh)
 {
-    uint64_t mono = now_ns();
+    uint64_t mono = ev_now_ns();
     for (struct cmsghdr *cm = CMSG_FIRSTHDR(mh); cm != NULL;
          cm = CMSG_NXTHDR((struct msghdr *)mh, cm)) {
         if (cm->cmsg_level != SOL_SOCKET || cm->cmsg_type != SCM_TIMESTAMPNS)
@@ -854,47 +827,72 @@ static uint64_t next_deadline(const loop_t *L)
     return t;
 }
 
-/* Arm the timerfd at the absolute deadline: no drift, however long the
- * work in between took. */
-static void arm_timer(loop_t *L)
-{
-    uint64_t t = next_deadline(L);
-    if (t == L->armed)
-        return;
-    struct itimerspec its;
-    memset(&its, 0, sizeof its);
-    if (t == 0)
-        t = 1; /* 0 would disarm it */
-    its.it_value.tv_sec = (time_t)(t / 1000000000u);
-    its.it_value.tv_nsec = (long)(t % 1000000000u);
-    if (timerfd_settime(L->tfd, TFD_TIMER_ABSTIME, &its, NULL) == 0)
-        L->armed = t;
-}
-
 static void timers(loop_t *L)
 {
-    uint64_t now = now_ns();
+    uint64_t now = ev_now_ns();
     drsim_run(&L->sim, now, io_send, L);
     run_delayed(L, now);
     drop_sessions(L, now);
+}
+
+/* ---- events ------------------------------------------------------------------ */
+
+static void on_listen(void *obj, uint32_t events)
+{
+    (void)events;
+    accept_clients(obj);
+}
+
+static void on_udp_io(void *obj, uint32_t events)
+{
+    (void)events;
+    udp_io_readable(obj);
+}
+
+static void on_udp_encap(void *obj, uint32_t events)
+{
+    (void)events;
+    udp_encap_readable(obj);
+}
+
+static void on_signal(void *obj, int signo)
+{
+    loop_t *L = obj;
+    drsim_log(1, "signal %d: stopping", signo);
+    L->quit = 1;
+}
+
+static void on_client(void *obj, uint32_t events)
+{
+    client_t *c = obj;
+    if (c->fd < 0)
+        return;
+    if (events & (EPOLLERR | EPOLLHUP)) {
+        client_close(c->L, c->idx, "connection error");
+        return;
+    }
+    if (events & EPOLLOUT)
+        client_flush(c->L, c->idx);
+    if ((events & EPOLLIN) && c->fd >= 0)
+        client_readable(c->L, c->idx);
 }
 
 /* ---- main ---------------------------------------------------------------------- */
 
 static int setup(loop_t *L)
 {
+    static const int signals[] = {SIGINT, SIGTERM};
     const drsim_config_t *cfg = &L->opt.cfg;
-    sigset_t mask;
-    sigemptyset(&mask);
-    sigaddset(&mask, SIGINT);
-    sigaddset(&mask, SIGTERM);
-    if (sigprocmask(SIG_BLOCK, &mask, NULL) != 0)
-        return -1;
-    (void)signal(SIGPIPE, SIG_IGN);
-    L->sfd = signalfd(-1, &mask, SFD_NONBLOCK | SFD_CLOEXEC);
-    L->tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
-    L->ep = epoll_create1(EPOLL_CLOEXEC);
-    if (L->sfd < 0 || L->tfd < 0 || L->ep < 0) {
+    /* first: teardown closes what these opened, whatever fails below */
+    for (int i = 0; i < MAX_CLIENTS; i++) {
+        client_t *c = &L->clients[i];
+        c->fd = -1;
+        c->ev = (ev_t){on_client, c, -1, 0};
+        c->L = L;
+        c->idx = i;
+    }
+    if (!ev_open(&L->loop, EV_TIMER) ||
+        !ev_signals(&L->loop, signals, sizeof signals / sizeof signals[0], on_signal, L)) {
         fprintf(stderr, "drsim: %s\n", strerror(errno));
         return -1;
     }
@@ -910,15 +908,15 @@ static int setup(loop_t *L)
         if (L->dq.q == NULL)
             return -1;
     }
-    if (ep_add(L->ep, L->lfd, EPOLLIN, TAG(TAG_LISTEN, 0)) != 0 ||
-        ep_add(L->ep, L->ufd_io, EPOLLIN, TAG(TAG_UDP_IO, 0)) != 0 ||
-        ep_add(L->ep, L->ufd_encap, EPOLLIN, TAG(TAG_UDP_ENCAP, 0)) != 0 ||
-        ep_add(L->ep, L->tfd, EPOLLIN, TAG(TAG_TIMER, 0)) != 0 ||
-        ep_add(L->ep, L->sfd, EPOLLIN, TAG(TAG_SIGNAL, 0)) != 0)
+    L->lfd_ev = (ev_t){on_listen, L, -1, 0};
+    L->ufd_io_ev = (ev_t){on_udp_io, L, -1, 0};
+    L->ufd_encap_ev = (ev_t){on_udp_encap, L, -1, 0};
+    int ep = L->loop.epfd;
+    if (!ev_watch(ep, &L->lfd_ev, L->lfd, EPOLLIN) ||
+        !ev_watch(ep, &L->ufd_io_ev, L->ufd_io, EPOLLIN) ||
+        !ev_watch(ep, &L->ufd_encap_ev, L->ufd_encap, EPOLLIN))
         return -1;
-    for (int i = 0; i < MAX_CLIENTS; i++)
-        L->clients[i].fd = -1;
-    drsim_init(&L->sim, cfg, now_ns());
+    drsim_init(&L->sim, cfg, ev_now_ns());
     char ip[INET_ADDRSTRLEN];
     drsim_log(1, "listening on %s, TCP/UDP %u (encapsulation), UDP %u (I/O);"
               " instances %u..%u%s", ip_str(cfg->address, ip),
@@ -928,52 +926,6 @@ static int setup(loop_t *L)
     return 0;
 }
 
-static void dispatch_event(loop_t *L, const struct epoll_event *ev)
-{
-    uint32_t kind = (uint32_t)(ev->data.u64 >> 32);
-    int idx = (int)(uint32_t)ev->data.u64;
-    switch (kind) {
-    case TAG_LISTEN:
-        accept_clients(L);
-        break;
-    case TAG_UDP_IO:
-        udp_io_readable(L);
-        break;
-    case TAG_UDP_ENCAP:
-        udp_encap_readable(L);
-        break;
-    case TAG_TIMER: {
-        uint64_t expirations;
-        if (read(L->tfd, &expirations, sizeof expirations) < 0)
-            break; /* EAGAIN: already read */
-        L->armed = 0;
-        break;
-    }
-    case TAG_SIGNAL: {
-        struct signalfd_siginfo si;
-        if (read(L->sfd, &si, sizeof si) == (ssize_t)sizeof si) {
-            drsim_log(1, "signal %u: stopping", (unsigned)si.ssi_signo);
-            L->quit = 1;
-        }
-        break;
-    }
-    case TAG_CLIENT:
-        if (L->clients[idx].fd < 0)
-            break;
-        if (ev->events & (EPOLLERR | EPOLLHUP)) {
-            client_close(L, idx, "connection error");
-            break;
-        }
-        if (ev->events & EPOLLOUT)
-            client_flush(L, idx);
-        if ((ev->events & EPOLLIN) && L->clients[idx].fd >= 0)
-            client_readable(L, idx);
-        break;
-    default:
-        break;
-    }
-}
-
 static void teardown(loop_t *L)
 {
     for (int i = 0; i < MAX_CLIENTS; i++)
@@ -981,10 +933,11 @@ static void teardown(loop_t *L)
     unsigned open = drsim_conn_count(&L->sim);
     if (open > 0)
         drsim_log(1, "%u Class 1 connection(s) left open", open);
-    int fds[] = {L->lfd, L->ufd_io, L->ufd_encap, L->tfd, L->sfd, L->ep};
+    int fds[] = {L->lfd, L->ufd_io, L->ufd_encap};
     for (size_t i = 0; i < sizeof fds / sizeof fds[0]; i++)
         if (fds[i] >= 0)
             close(fds[i]);
+    ev_close(&L->loop);
     free(L->dq.q);
 }
 
@@ -994,22 +947,17 @@ int main(int argc, char **argv)
     int rc = parse_options(argc, argv, &L.opt);
     if (rc >= 0)
         return rc;
-    L.lfd = L.ufd_io = L.ufd_encap = L.tfd = L.sfd = L.ep = -1;
+    L.lfd = L.ufd_io = L.ufd_encap = -1;
     if (setup(&L) != 0) {
         teardown(&L);
         return 1;
     }
     while (!L.quit) {
-        arm_timer(&L);
-        struct epoll_event evs[32];
-        int n = epoll_wait(L.ep, evs, 32, EPOLL_WAIT_MS);
-        if (n < 0 && errno != EINTR) {
+        if (ev_run(&L.loop, next_deadline(&L)) < 0) {
             fprintf(stderr, "drsim: epoll_wait: %s\n", strerror(errno));
             rc = 1;
             break;
         }
-        for (int i = 0; i < n; i++)
-            dispatch_event(&L, &evs[i]);
         timers(&L);
     }
     teardown(&L);

@@ -17,19 +17,19 @@
 #include <sys/epoll.h>
 #include <cmocka.h>
 
+#include "common/ev.h"
 #include "gpio.h"
 #include "gpio_fake.h"
 #include "gpiomap.h"
-#include "loop.h"
 
 #define MS 1000000ull
 
 /* ---- a fake event loop: gpiomap.c links against these ------------------ */
 
-static gw_ev_t *watched[64];
+static ev_t *watched[64];
 static size_t nwatched;
 
-bool gw_loop_watch(int epfd, gw_ev_t *ev, int fd, uint32_t events)
+bool ev_watch(int epfd, ev_t *ev, int fd, uint32_t events)
 {
     (void)epfd;
     ev->fd = fd;
@@ -43,7 +43,7 @@ bool gw_loop_watch(int epfd, gw_ev_t *ev, int fd, uint32_t events)
     return true;
 }
 
-void gw_loop_unwatch(int epfd, gw_ev_t *ev)
+void ev_unwatch(int epfd, ev_t *ev)
 {
     (void)epfd;
     for (size_t i = 0; i < nwatched; i++)
@@ -55,7 +55,7 @@ void gw_loop_unwatch(int epfd, gw_ev_t *ev)
     ev->events = 0;
 }
 
-uint64_t gw_now_us(void)
+uint64_t ev_now_us(void)
 {
     return gw_gpio_now_ns() / 1000u;
 }
@@ -63,7 +63,7 @@ uint64_t gw_now_us(void)
 /* Every watched descriptor fires once (what epoll would report). */
 static void fire_all(void)
 {
-    gw_ev_t *copy[64];
+    ev_t *copy[64];
     size_t n = nwatched;
     for (size_t i = 0; i < n; i++)
         copy[i] = watched[i];

@@ -1,0 +1,87 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The event loop of drsim and drgatewayd: one thread, one epoll set per
+ * process. Every descriptor is registered with an ev_t, whose callback
+ * gets its ready events; ev_run waits until one is ready or the caller's
+ * next deadline comes, whichever is first, and runs the callbacks. The
+ * caller then does what is due and asks for its next deadline again.
+ *
+ * How the deadline is kept (ev_timing_t):
+ *   EV_FINE   by the wait's own timeout: to the microsecond with
+ *             epoll_pwait2 (Linux 5.11, called through syscall(); the
+ *             process's timer slack is set to 1 us), or, where the kernel
+ *             or valgrind 3.19 lacks it, in whole milliseconds rounded up.
+ *             ev_loop_t.fine says which, so that a caller can keep timers
+ *             of its own for exact deadlines (drgatewayd's robot clients).
+ *   EV_TIMER  by one timerfd armed at the absolute deadline
+ *             (TFD_TIMER_ABSTIME): to the nanosecond on any kernel, no
+ *             drift however long the work in between (drsim).
+ * Every wait ends after a second at most, so nothing blocks for good, and
+ * a deadline in the past returns at once: nothing spins unless the caller
+ * keeps asking for a time that has passed.
+ *
+ * Linux only, so not in lib/ (firmware code): see README.md's layout.
+ */
+#ifndef DRGATE_EV_H
+#define DRGATE_EV_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+typedef void (*ev_fn)(void *obj, uint32_t events);
+
+/* One watched descriptor: set fn and obj, and fd to -1 until ev_watch. */
+typedef struct {
+    ev_fn fn;
+    void *obj;
+    int fd;           /* -1 when not registered */
+    uint32_t events;  /* EPOLLIN / EPOLLOUT as registered */
+} ev_t;
+
+typedef enum { EV_FINE, EV_TIMER } ev_timing_t;
+
+typedef void (*ev_signal_fn)(void *obj, int signo);
+
+typedef struct {
+    int epfd;      /* the epoll set: what ev_watch takes */
+    bool fine;     /* EV_FINE with epoll_pwait2: waits to the microsecond */
+    /* the rest is ev.c's */
+    ev_t timer;    /* EV_TIMER's timerfd */
+    uint64_t armed_ns;
+    ev_t sig;      /* ev_signals' signalfd */
+    ev_signal_fn on_signal;
+    void *sig_obj;
+} ev_loop_t;
+
+/* Open the loop. False (errno set) if a descriptor cannot be made; call
+ * ev_close in either case. */
+bool ev_open(ev_loop_t *L, ev_timing_t timing);
+
+/* Close every descriptor the loop opened (not those watched in it). */
+void ev_close(ev_loop_t *L);
+
+/* Deliver `signals` as events: blocked, read from a signalfd, and each
+ * given to fn(obj, signo) from ev_run. SIGPIPE is ignored as well, so that
+ * a peer that goes away is an error return, not the end of the process.
+ * False (errno set) on failure. */
+bool ev_signals(ev_loop_t *L, const int *signals, size_t n, ev_signal_fn fn, void *obj);
+
+/* Wait until something is ready or until deadline_ns (ev_now_ns's clock),
+ * at most one second, and run the callbacks of what is ready. Returns the
+ * number of ready descriptors, 0 on a timeout or a signal; -1 (errno set)
+ * if the wait itself failed. */
+int ev_run(ev_loop_t *L, uint64_t deadline_ns);
+
+/* Register ev->fd in the set `epfd` for `events`, or change what it waits
+ * for (another fd replaces the one registered); ev_unwatch removes it.
+ * Asking again for what is registered costs no system call. Returns false
+ * on an epoll error. */
+bool ev_watch(int epfd, ev_t *ev, int fd, uint32_t events);
+void ev_unwatch(int epfd, ev_t *ev);
+
+/* The monotonic clock, in nanoseconds and in microseconds. */
+uint64_t ev_now_ns(void);
+uint64_t ev_now_us(void);
+
+#endif /* DRGATE_EV_H */
