@@ -48,6 +48,21 @@ ALL_LDFLAGS  := $(PIE_LDFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 
 pc = $(shell $(PKG_CONFIG) $(1) $(2) 2>/dev/null)
 
+# Every object and every program compiled from a source writes the list of
+# the headers it read (-MMD) next to it, with an empty rule per header
+# (-MP: a header deleted later does not break the build); the lists are
+# read at the end of this file. So touching any header rebuilds exactly
+# what includes it. mk/check-deps.py (make check-deps, in check-quick)
+# checks that this holds for every header of the tree.
+#
+# Each compile rule also names its list as a prerequisite: a file whose
+# list is missing (built before the lists existed, or by a rule that forgot
+# DEPFLAGS) is made again, since a missing list is "remade" by the empty
+# rule below (and is kept: .PRECIOUS).
+DEPFLAGS := -MMD -MP
+$(B)/%.d: ;
+.PRECIOUS: $(B)/%.d
+
 # ---- library -------------------------------------------------------------
 LIB_CODEC_SRC := lib/fields.c lib/codec.c lib/path.c lib/status.c
 LIB_SRC       := $(sort $(wildcard lib/*.c))
@@ -64,26 +79,82 @@ LIB_HDR       := $(wildcard lib/include/drgate/*.h)
 # the client's and the codec's insides): never installed. drsim, the tests,
 # the fuzzers and the benchmarks, which work on the wire themselves, see
 # them with PRIV_CPPFLAGS; applications (cli/, gateway/) do not.
-LIB_PRIV_HDR  := $(wildcard lib/*.h)
 PRIV_CPPFLAGS := -Ilib
 
 # ---- programs --------------------------------------------------------------
+# Each program is linked from objects compiled once with its own flags
+# (a static pattern rule per group below); what else links the same code
+# (tests, fuzz replay, benchmarks) links those objects.
+#
 # What drsim and drgatewayd share (Linux only, so not in the library): the
-# event loop.
+# event loop, as an archive of its own.
 COMMON_SRC  := $(sort $(wildcard common/*.c))
-COMMON_HDR  := $(wildcard common/*.h)
 COMMON_OBJ  := $(COMMON_SRC:%.c=$(B)/%.o)
+COMMON_A    := $(B)/common/libdrcommon.a
 JSON_CFLAGS := $(call pc,--cflags,jansson)
 JSON_LIBS   := $(call pc,--libs,jansson)
 CLI_SRC     := $(sort $(wildcard cli/*.c))
-CLI_HDR     := $(wildcard cli/*.h)
+CLI_OBJ     := $(CLI_SRC:%.c=$(B)/%.o)
 CLI_BIN     := $(B)/drcli
+CLI_CFLAGS   = $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS) $(ALL_CFLAGS)
 # drsim: the adapter logic (all of sim/ but main.c) is also linked into the
-# tests/test_sim_* unit tests.
-SIM_LIB_SRC := $(filter-out sim/main.c,$(wildcard sim/*.c))
-SIM_HDR     := $(wildcard sim/*.h)
+# tests/test_sim_* unit tests and bench/enip_io.
+SIM_SRC     := $(sort $(wildcard sim/*.c))
+SIM_LIB_SRC := $(filter-out sim/main.c,$(SIM_SRC))
+SIM_OBJ     := $(SIM_SRC:%.c=$(B)/%.o)
+SIM_LIB_OBJ := $(SIM_LIB_SRC:%.c=$(B)/%.o)
 SIM_BIN     := $(B)/drsim
-BINS        := $(CLI_BIN) $(SIM_BIN)
+SIM_CFLAGS   = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS)
+
+# ---- drgatewayd ------------------------------------------------------------
+# The daemon is gateway/main.c linked with two archives: libgw.a (every
+# other gateway/ source but the GPIO ones) and libgwgpio.a (the GPIO layer
+# with one backend, libgpiod 1 or 2). The tests link the same archives.
+# The pkg-config fallbacks cover builds where pkg-config is off (check-be
+# runs with PKG_CONFIG=true).
+MODBUS_CFLAGS  := $(or $(call pc,--cflags,libmodbus),-I/usr/include/modbus)
+MODBUS_LIBS    := $(or $(call pc,--libs,libmodbus),-lmodbus)
+INIH_CFLAGS    := $(call pc,--cflags,inih)
+INIH_LIBS      := $(or $(call pc,--libs,inih),-linih)
+SYSTEMD_CFLAGS := $(call pc,--cflags,libsystemd)
+SYSTEMD_LIBS   := $(or $(call pc,--libs,libsystemd),-lsystemd)
+# GPIO backend: v2 when pkg-config finds libgpiod >= 2.0, else v1
+# (bookworm). An empty version (no libgpiod, or PKG_CONFIG=true in cross
+# builds) means v1, which is what bookworm has.
+GPIO_VERSION  := $(call pc,--modversion,libgpiod)
+ifeq ($(origin GPIO_BACKEND),undefined)
+GPIO_BACKEND  := $(if $(GPIO_VERSION),$(if $(shell $(PKG_CONFIG) \
+                   --atleast-version=2.0 libgpiod 2>/dev/null && echo y),v2,v1),v1)
+endif
+GPIO_CFLAGS   := $(call pc,--cflags,libgpiod)
+GPIO_LIBS     := $(or $(call pc,--libs,libgpiod),-lgpiod)
+# For a program that includes "gpio.h" and links $(GPIO_A) $(GPIO_LIBS).
+GPIO_CPPFLAGS := -Igateway
+GPIO_HDR      := gateway/gpio.h gateway/gpio_internal.h
+GPIO_CORE_SRC := gateway/gpio_common.c gateway/gpio_debounce.c
+GPIO_ALL_SRC  := $(GPIO_CORE_SRC) gateway/gpio_v1.c gateway/gpio_v2.c
+GPIO_SRC      := $(GPIO_CORE_SRC) gateway/gpio_$(GPIO_BACKEND).c
+GPIO_OBJ      := $(GPIO_SRC:%.c=$(B)/%.o)
+GPIO_A        := $(B)/gateway/libgwgpio.a
+GPIO_OBJ_CFLAGS = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(GPIO_CFLAGS) $(ALL_CFLAGS) -fPIC
+
+GW_SRC      := $(filter-out $(GPIO_ALL_SRC),$(sort $(wildcard gateway/*.c)))
+GW_HDR      := $(filter-out $(GPIO_HDR),$(wildcard gateway/*.h))
+GW_LIB_SRC  := $(filter-out gateway/main.c,$(GW_SRC))
+GW_LIB_OBJ  := $(GW_LIB_SRC:%.c=$(B)/%.o)
+GW_A        := $(B)/gateway/libgw.a
+GW_BIN      := $(B)/drgatewayd
+GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBUS_CFLAGS) \
+               $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS)
+# libmosquitto is loaded with dlopen only when the configuration has an
+# [mqtt] section (gateway/mqtt_lib.c, docs/mqtt.md): the daemon is compiled
+# against its header but does not link it. glibc 2.34 and later have
+# dlopen in libc; -ldl is an empty stub there and keeps older C libraries
+# linking.
+GW_LIBS     := $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
+GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
+
+BINS        := $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
 
 # ---- tests -----------------------------------------------------------------
 CMOCKA_CFLAGS := $(call pc,--cflags,cmocka)
@@ -91,21 +162,59 @@ CMOCKA_LIBS   := $(call pc,--libs,cmocka)
 TEST_SRC      := $(wildcard tests/test_*.c)
 TEST_BIN      := $(TEST_SRC:tests/%.c=$(B)/tests/%)
 TEST_SUPPORT  := $(wildcard tests/support/*.c)
+TEST_SUPPORT_OBJ := $(TEST_SUPPORT:%.c=$(B)/%.o)
+TEST_CFLAGS    = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+# A test of gateway code (the gateway's tests/test_gw_*.c, the GPIO
+# layer's tests/gpio/test_*.c and tests/gpio/gateway/test_*.c) is one
+# source: it links the daemon's archives and the fakes (a GPIO backend
+# without hardware; whatever the test defines itself, such as a fake event
+# loop, takes the place of the archive member that would define it). Only
+# the libraries of what the tests reach are linked (no libgpiod, no
+# libsystemd), so that check-be links them for s390x too.
+GW_TEST_SRC   := $(sort $(wildcard tests/test_gw_*.c tests/gpio/test_*.c \
+                                   tests/gpio/gateway/test_*.c))
+GW_TEST_BIN   := $(GW_TEST_SRC:%.c=$(B)/%)
+GW_TEST_FAKES := tests/gpio/gpio_fake.c
+GW_TEST_FAKE_OBJ := $(GW_TEST_FAKES:%.c=$(B)/%.o)
+GW_TEST_CFLAGS = $(ALL_CPPFLAGS) -Igateway -Itests -Itests/gpio -DGW_TEST_TOP='"$(CURDIR)"' \
+                 $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 
-.PHONY: all lib clean install uninstall check check-unit check-cli check-docs \
+.PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
-        check-summary
+        check-summary check-quick check-deps check-gw-config
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
 lib: $(LIB_A) $(LIB_SO)
+gateway: $(GW_BIN)
 
-$(B)/%.o: %.c $(LIB_HDR) $(LIB_PRIV_HDR)
+# ---- compiling -------------------------------------------------------------
+$(LIB_OBJ): $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC -c $< -o $@
+	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC $(DEPFLAGS) -c $< -o $@
 
-$(COMMON_OBJ): $(COMMON_HDR)
+$(CLI_OBJ): $(B)/%.o: %.c $(B)/%.d
+	@mkdir -p $(dir $@)
+	$(CC) $(CLI_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
 
+$(SIM_OBJ) $(COMMON_OBJ): $(B)/%.o: %.c $(B)/%.d
+	@mkdir -p $(dir $@)
+	$(CC) $(SIM_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
+
+$(GW_LIB_OBJ) $(B)/gateway/main.o: $(B)/%.o: %.c $(B)/%.d
+	@mkdir -p $(dir $@)
+	$(CC) $(GW_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
+
+$(GPIO_OBJ): $(B)/%.o: %.c $(B)/%.d
+	@mkdir -p $(dir $@)
+	$(CC) $(GPIO_OBJ_CFLAGS) $(DEPFLAGS) -c $< -o $@
+
+$(TEST_SUPPORT_OBJ) $(GW_TEST_FAKE_OBJ): $(B)/%.o: %.c $(B)/%.d
+	@mkdir -p $(dir $@)
+	$(CC) $(TEST_CFLAGS) -Itests/gpio -Igateway $(DEPFLAGS) -c $< -o $@
+
+# ---- linking ---------------------------------------------------------------
 $(LIB_A): $(LIB_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
@@ -116,31 +225,57 @@ $(LIB_SO): $(LIB_OBJ)
 	ln -sf $(notdir $@) $(B)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(B)/libdrgate.so
 
-$(CLI_BIN): $(CLI_SRC) $(CLI_HDR) $(LIB_A) $(LIB_HDR)
-	$(CC) $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS) \
-	    $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
-	    -o $@ $(CLI_SRC) $(LIB_A) $(JSON_LIBS) -lm
+$(CLI_BIN): $(CLI_OBJ) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(CLI_OBJ) $(LIB_A) $(JSON_LIBS) -lm
 
-$(SIM_BIN): sim/main.c $(SIM_LIB_SRC) $(SIM_HDR) $(COMMON_SRC) $(COMMON_HDR) $(LIB_A) $(LIB_HDR)
-	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) \
-	    -o $@ sim/main.c $(SIM_LIB_SRC) $(COMMON_SRC) $(LIB_A) -lm
+$(SIM_BIN): $(SIM_OBJ) $(COMMON_A) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(SIM_OBJ) $(COMMON_A) $(LIB_A) -lm
 
-$(B)/tests/test_sim_%: tests/test_sim_%.c $(SIM_LIB_SRC) $(SIM_HDR) $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
+$(COMMON_A): $(COMMON_OBJ)
+	rm -f $@
+	$(AR) rcs $@ $^
+
+$(GW_A): $(GW_LIB_OBJ)
+	rm -f $@
+	$(AR) rcs $@ $^
+
+$(GPIO_A): $(GPIO_OBJ)
+	rm -f $@
+	$(AR) rcs $@ $^
+
+$(GW_BIN): $(B)/gateway/main.o $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(B)/gateway/main.o $(GW_DEP_LIBS)
+
+# $(call GW_VARIANT,NAME,FLAGS[,SOURCES]): drgatewayd's sources and the
+# event loop's, and SOURCES, compiled again with FLAGS into $(B)/bench/NAME/
+# (the benchmarks' instrumented daemons); the objects, main.o among them,
+# are $(GW_OBJ_NAME).
+define GW_VARIANT
+GW_OBJ_$(1) := $$(patsubst %.c,$$(B)/bench/$(1)/%.o,$$(GW_SRC) $$(COMMON_SRC) $(3))
+$$(GW_OBJ_$(1)): $$(B)/bench/$(1)/%.o: %.c $$(B)/bench/$(1)/%.d
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$(GW_CFLAGS) $(2) -fPIE $$(DEPFLAGS) -c $$< -o $$@
+endef
+
+# A test is one source, compiled and linked in one step.
+SIM_TEST_BIN := $(filter $(B)/tests/test_sim_%,$(TEST_BIN))
+$(SIM_TEST_BIN): $(B)/%: %.c $(B)/%.d $(SIM_LIB_OBJ) $(TEST_SUPPORT_OBJ) $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
-	    -o $@ $< $(SIM_LIB_SRC) $(TEST_SUPPORT) $(LIB_A) $(CMOCKA_LIBS) -lm
+	$(CC) $(TEST_CFLAGS) -Isim $(DEPFLAGS) $(ALL_LDFLAGS) \
+	    -o $@ $< $(SIM_LIB_OBJ) $(TEST_SUPPORT_OBJ) $(LIB_A) $(CMOCKA_LIBS) -lm
 
-# The event loop's test links the loop (an explicit rule wins over the
-# generic one below).
-$(B)/tests/test_ev: tests/test_ev.c $(COMMON_SRC) $(COMMON_HDR) $(LIB_A) $(LIB_HDR)
+$(GW_TEST_BIN): $(B)/%: %.c $(B)/%.d $(GW_TEST_FAKE_OBJ) $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
-	    -o $@ $< $(COMMON_SRC) $(LIB_A) $(CMOCKA_LIBS) -lm
+	$(CC) $(GW_TEST_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(GW_TEST_FAKE_OBJ) \
+	    $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_TEST_LIBS)
 
-$(B)/tests/%: tests/%.c $(TEST_SUPPORT) $(LIB_A) $(LIB_HDR)
+# (The other tests link the event loop's archive too: tests/test_ev.c
+# needs it, the others take nothing from it.)
+$(filter-out $(SIM_TEST_BIN) $(GW_TEST_BIN),$(TEST_BIN)): $(B)/%: %.c $(B)/%.d $(TEST_SUPPORT_OBJ) \
+        $(COMMON_A) $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) \
-	    -o $@ $< $(TEST_SUPPORT) $(LIB_A) $(CMOCKA_LIBS) -lm
+	$(CC) $(TEST_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) \
+	    -o $@ $< $(TEST_SUPPORT_OBJ) $(COMMON_A) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 # ---- dependencies ----------------------------------------------------------
 # Installs missing Debian packages (as root) and the Python test peers
@@ -150,24 +285,54 @@ deps:
 
 # ---- tests -----------------------------------------------------------------
 RESULTS := $(B)/check-results
+# Seconds per step of the last `make check`; the summary prints them.
+CHECK_TIMES := $(B)/check-times
 
-# Every step runs even if an earlier one failed; a step that fails without
-# recording its own result is recorded as one failure, so the summary line
-# (and the exit status) can never miss it.
+# make check: every step (mk/*.mk add theirs to CHECK_STEPS), each run
+# even if an earlier one failed (mk/check-steps.sh), then the time per
+# step and the closing line "check: N passed, M failed". check-deps comes
+# last, when every file of the run has been built.
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
                check-asan check-fuzz
 check: deps
-	@rm -f $(RESULTS)
-	$(MAKE) --no-print-directory all
-	@for step in $(CHECK_STEPS); do \
-	    $(MAKE) --no-print-directory $$step || \
-	        echo "0 1 $$step (make $$step failed)" >> $(RESULTS); \
-	done
+	@rm -f $(RESULTS) $(CHECK_TIMES)
+	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
+	    all $(CHECK_STEPS) check-deps || true
 	@$(MAKE) --no-print-directory check-summary
+
+check-summary:
+	@sh mk/check-steps.sh --summary $(RESULTS) $(CHECK_TIMES)
+
+# make check-quick: the everyday loop, well under a minute once built (and
+# nothing here needs the network, qemu or root): the unit tests (codec,
+# client against a scripted transport and against drsim, drsim's adapter,
+# the gateway's configuration loader, register map, robot, GPIO layer and
+# GPIO map), drcli's offline commands, the configuration's command line
+# (drgatewayd --check-config), the generated docs, and the dependency check
+# of the build. Same summary as make check, its own results file.
+QUICK_RESULTS := $(B)/check-quick-results
+QUICK_TIMES   := $(B)/check-quick-times
+QUICK_STEPS   := check-unit check-cli check-gateway-config check-gpio-unit check-docs \
+                 check-regmap-docs check-deps
+check-quick: all $(TEST_BIN) $(GW_TEST_BIN)
+	@rm -f $(QUICK_RESULTS) $(QUICK_TIMES)
+	@MAKE="$(MAKE) RESULTS=$(QUICK_RESULTS)" sh mk/check-steps.sh $(QUICK_RESULTS) \
+	    $(QUICK_TIMES) $(QUICK_STEPS) || true
+	@sh mk/check-steps.sh --summary $(QUICK_RESULTS) $(QUICK_TIMES)
 
 # The client tests run drsim next to them; cross builds skip those.
 check-unit: $(TEST_BIN) $(if $(CROSS_COMPILE),,$(SIM_BIN))
 	@sh tests/run-tests.sh "$(RESULTS)" "$(TEST_RUNNER)" $(TEST_BIN)
+
+# The configuration loader's unit test alone (also in check-unit).
+check-gw-config: $(B)/tests/test_gw_config
+	@sh tests/run-tests.sh "$(RESULTS)" "$(TEST_RUNNER)" $<
+
+# Every header of the tree is a prerequisite of what includes it, so that
+# touching it rebuilds them (mk/check-deps.py says how it is checked).
+DEPS_CHECK_TARGETS = all $(TEST_BIN) $(GW_TEST_BIN)
+check-deps: $(DEPS_CHECK_TARGETS)
+	@MAKE="$(MAKE)" $(PYTHON) mk/check-deps.py "$(RESULTS)" $(B) $(DEPS_CHECK_TARGETS)
 
 # drcli's offline commands end to end: golden transcripts, exit codes, and
 # an independent Python decoder.
@@ -215,9 +380,6 @@ check-asan:
 	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
 	    RESULTS=$(abspath $(RESULTS)) all check-unit check-cli
 
-check-summary:
-	@awk '{p += $$1; f += $$2} END {printf "check: %d passed, %d failed\n", p, f; exit (f > 0)}' $(RESULTS)
-
 # Fuzzing: fuzz, check-fuzz, fuzz-replay, fuzz-corpus (see fuzz/fuzz.mk).
 -include fuzz/fuzz.mk
 
@@ -239,17 +401,26 @@ bench: $(B)/bench/bench_codec
 	done; \
 	sh mk/bench-report.sh $(BENCH_OUT) docs/performance.md; exit $$st
 
-$(B)/bench/%: bench/%.c $(LIB_A) $(LIB_HDR)
+# (A list named as a target here, not only by the pattern rule: make does
+# not remake a file for a missing prerequisite that only a chain of
+# pattern rules names.)
+$(patsubst bench/%.c,$(B)/bench/%.d,$(wildcard bench/*.c)):
+$(B)/bench/%: bench/%.c $(B)/bench/%.d $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -O2 -g $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 demo: deps all
 	@sh mk/demo.sh $(B)
 
 # ---- install ---------------------------------------------------------------
+# Beside the programs: the daemon's systemd unit (ExecStart= pointed at
+# $(BINDIR)), the example configurations and the manual pages.
+GW_EXAMPLES := $(wildcard gateway/examples/*.ini)
+
 install: all
 	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/drgate \
-	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1
+	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1 \
+	    $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DATADIR)/examples
 	install -m 644 $(LIB_A) $(DESTDIR)$(LIBDIR)/
 	install -m 755 $(LIB_SO) $(DESTDIR)$(LIBDIR)/
 	ln -sf libdrgate.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(LIB_SO_NAME)
@@ -262,16 +433,33 @@ install: all
 	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
 	install -m 644 $(wildcard man/*.1) $(DESTDIR)$(MANDIR)/man1/
+	install -m 644 $(wildcard man/*.8) $(DESTDIR)$(MANDIR)/man8/
+	sed -e 's|/usr/local/bin/drgatewayd|$(BINDIR)/drgatewayd|' gateway/drgatewayd.service \
+	    > $(DESTDIR)$(UNITDIR)/drgatewayd.service
+	chmod 644 $(DESTDIR)$(UNITDIR)/drgatewayd.service
+	install -m 644 $(GW_EXAMPLES) $(DESTDIR)$(DATADIR)/examples/
 
 uninstall:
 	rm -f $(DESTDIR)$(LIBDIR)/libdrgate.* $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
 	rm -rf $(DESTDIR)$(INCLUDEDIR)/drgate
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(notdir $(BINS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/man1/,$(notdir $(wildcard man/*.1)))
+	rm -f $(addprefix $(DESTDIR)$(MANDIR)/man8/,$(notdir $(wildcard man/*.8)))
+	rm -f $(DESTDIR)$(UNITDIR)/drgatewayd.service
+	rm -f $(addprefix $(DESTDIR)$(DATADIR)/examples/,$(notdir $(GW_EXAMPLES)))
+	-rmdir $(DESTDIR)$(DATADIR)/examples $(DESTDIR)$(DATADIR) 2>/dev/null
 
 clean:
 	rm -rf build
 
 # ---- module fragments ------------------------------------------------------
-# Each mk/*.mk adds the rules of one part (gateway, GPIO, fuzzing, ...).
+# Each mk/*.mk adds the tests, checks and benchmarks of one part (GPIO,
+# coverage, interop, ...) and may add to CHECK_STEPS and BENCH_STEPS. Every
+# program and archive they use is defined above, so the order in which
+# they are read does not matter.
 include $(sort $(wildcard mk/*.mk))
+
+# The header lists written by -MMD (see DEPFLAGS), of this build and of
+# the builds nested in it ($(B)/asan, $(B)/cov, ...): each only names
+# targets in its own directory.
+-include $(shell find $(B) -name '*.d' 2>/dev/null)

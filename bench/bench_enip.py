@@ -16,9 +16,13 @@ are compared with the goals (>= 0.7x the ping-pong, >= 1.5x pycomm3).
 
 Class 1: bench/enip_io.c, six connections at RPI 1 ms, with a bare
 timerfd loop alongside, in IO_ROUNDS runs of IO_SECONDS each; goals, on
-the medians of the runs: p99 deviation from the RPI <= 1.5x the timer's
-(the ratio of each run, since the two streams share the run's noise),
-client CPU < 5 % of one core. One long run judged the timing on whichever
+the medians of the per-run ratios (the two share the run's noise and the
+host's cost of a wake-up): p99 deviation from the RPI <= 1.5x the timer's,
+client CPU <= 4x the timer loop's (its bound: two wake-ups per RPI where
+the timer loop has one, each moving six datagrams in one batched call
+where the timer loop sends one; docs/performance.md, "How the CPU goals
+are set"). The wake-ups per RPI of both are printed beside them. One long
+run judged the timing on whichever
 stream the VM happened to disturb: on a quiet host both p99 deviations are
 10 to 60 us and each moves by 3x from run to run. Then, for information, the same
 with o2t_follow_us (O->T sent with the T->O arrivals, drgatewayd's
@@ -46,7 +50,7 @@ GOALS = {
     "gets_vs_pingpong": (">=", 0.7),
     "gets_vs_pycomm3": (">=", 1.5),
     "io_p99dev_vs_timerfd": ("<=", 1.5),
-    "io_client_cpu_pct": ("<", 5.0),
+    "io_cpu_vs_timerfd": ("<=", 4.0),
 }
 
 
@@ -171,6 +175,8 @@ def implicit(build, follow_us=0, loop=False):
             res["io_timerfd_cpu_pct"] = float(w[3])
         elif w[:3] == ["io", "cpu", "receiver"]:
             res["io_receiver_cpu_pct"] = float(w[3])
+        elif w[:2] == ["io", "wakeups"]:
+            res["wakeups_" + w[2]] = float(w[3])
         elif w[:2] == ["io", "timerfd"] or w[:2] == ["io", "client"] and w[3] == "n":
             kv = dict(zip(w[2 if w[1] == "timerfd" else 3::2], w[3 if w[1] == "timerfd" else 4::2]))
             res["timerfd" if w[1] == "timerfd" else "client"] = {k: float(v) for k, v in kv.items()}
@@ -178,6 +184,7 @@ def implicit(build, follow_us=0, loop=False):
             res["client_counts"] = line
             res["timeouts"] = int(w[5])
     res["io_p99dev_vs_timerfd"] = res["client"]["dev_p99"] / max(res["timerfd"]["dev_p99"], 1e-3)
+    res["io_cpu_vs_timerfd"] = res["io_client_cpu_pct"] / max(res["io_timerfd_cpu_pct"], 1e-3)
     return res
 
 
@@ -204,40 +211,51 @@ def main():
         if k == 0:
             for line in io["lines"]:
                 print("  " + line)
-    print("  run  interval (us)     p50      p99      max   dev p99  x timer  client CPU %")
+    print("  run  interval (us)     p50      p99      max   dev p99  x timer    CPU %  x timer"
+          "  wake-ups/RPI")
     for k, io in enumerate(runs):
         c, t = io["client"], io["timerfd"]
-        print("  %d    client pooled %8.1f %8.1f %8.1f %8.1f %7.2f %8.2f"
+        print("  %d    client pooled %8.1f %8.1f %8.1f %8.1f %7.2f %8.2f %8.2f %8.2f"
               % (k + 1, c["p50"], c["p99"], c["max"], c["dev_p99"], io["io_p99dev_vs_timerfd"],
-                 io["io_client_cpu_pct"]))
-        print("       bare timerfd  %8.1f %8.1f %8.1f %8.1f" % (t["p50"], t["p99"], t["max"], t["dev_p99"]))
+                 io["io_client_cpu_pct"], io["io_cpu_vs_timerfd"], io.get("wakeups_client", 0)))
+        print("       bare timerfd  %8.1f %8.1f %8.1f %8.1f %16.2f %17.2f"
+              % (t["p50"], t["p99"], t["max"], t["dev_p99"], io["io_timerfd_cpu_pct"],
+                 io.get("wakeups_timerfd", 0)))
         if io.get("timeouts"):
             print("  NOTE: %d connection timeout(s) in run %d: the machine stalled for more "
                   "than 128 ms; the figures are of a disturbed run" % (io["timeouts"], k + 1))
     io = {"io_p99dev_vs_timerfd": statistics.median(r["io_p99dev_vs_timerfd"] for r in runs),
-          "io_client_cpu_pct": statistics.median(r["io_client_cpu_pct"] for r in runs)}
+          "io_cpu_vs_timerfd": statistics.median(r["io_cpu_vs_timerfd"] for r in runs),
+          "io_client_cpu_pct": statistics.median(r["io_client_cpu_pct"] for r in runs),
+          "io_timerfd_cpu_pct": statistics.median(r["io_timerfd_cpu_pct"] for r in runs)}
     # The same with o2t_follow_us (drgatewayd's default): for information,
     # the trade it makes (fewer wake-ups, O->T timing that follows the
     # T->O arrivals); the goals are judged on the client's default above.
     fo = implicit(build, 250)
-    print("  with o2t_follow_us = 250 (info): client CPU %.2f %%, dev p99 %.1f us = %.2f x "
-          "the bare timerfd loop's" % (fo["io_client_cpu_pct"], fo["client"]["dev_p99"],
-                                       fo["io_p99dev_vs_timerfd"]))
+    print("  with o2t_follow_us = 250 (info): client CPU %.2f %% = %.2f x the bare timerfd "
+          "loop's, %.2f wake-ups per RPI, dev p99 %.1f us = %.2f x the bare timerfd loop's"
+          % (fo["io_client_cpu_pct"], fo["io_cpu_vs_timerfd"], fo.get("wakeups_client", 0),
+             fo["client"]["dev_p99"], fo["io_p99dev_vs_timerfd"]))
     # Without the client's timerfd: one timerfd_settime per RPI fewer (4
     # system calls per period instead of 5), the same wake-ups.
     lo = implicit(build, 0, True)
-    print("  with the loop's timer (info): client CPU %.2f %%, dev p99 %.1f us = %.2f x "
-          "the bare timerfd loop's" % (lo["io_client_cpu_pct"], lo["client"]["dev_p99"],
-                                       lo["io_p99dev_vs_timerfd"]))
+    print("  with the loop's timer (info): client CPU %.2f %% = %.2f x the bare timerfd loop's, "
+          "%.2f wake-ups per RPI, dev p99 %.1f us = %.2f x the bare timerfd loop's"
+          % (lo["io_client_cpu_pct"], lo["io_cpu_vs_timerfd"], lo.get("wakeups_client", 0),
+             lo["client"]["dev_p99"], lo["io_p99dev_vs_timerfd"]))
     print("results:")
     vals = {"gets_vs_pingpong": ex["gets_vs_pingpong"], "gets_vs_pycomm3": ex["gets_vs_pycomm3"],
             "io_p99dev_vs_timerfd": io["io_p99dev_vs_timerfd"],
-            "io_client_cpu_pct": io["io_client_cpu_pct"]}
+            "io_cpu_vs_timerfd": io["io_cpu_vs_timerfd"]}
     missed = 0
     for name, v in vals.items():
         ok, text = verdict(name, v)
         missed += not ok
         print("  " + text)
+    # the figures behind the CPU ratio, for the record (not goals: a
+    # percentage of this host's core says more about the host than the code)
+    print("  (client CPU %.2f %% of a core, the bare timerfd loop's %.2f %%: medians)"
+          % (io["io_client_cpu_pct"], io["io_timerfd_cpu_pct"]))
     print("bench-enip: %s" % ("all goals met" if missed == 0 else "%d goal(s) missed" % missed))
     return 1 if missed else 0
 

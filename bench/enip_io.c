@@ -17,14 +17,16 @@
  * time. For each O->T connection and for the timer the receiver keeps the
  * intervals between arrivals during the window, and reports p50/p99/max of
  * the interval and of its deviation from the period; CPU shares come from
- * getrusage over the window.
+ * getrusage over the window, and so do the wake-ups per period (voluntary
+ * context switches: the times a loop went to sleep).
  *
  * usage: enip_io [SECONDS [CONNECTIONS [RPI_US [FOLLOW_US [loop]]]]]  (10, 6, 1000, 0)
  * FOLLOW_US is the connections' o2t_follow_us (0: O->T on the client's own
  * timer only). "loop": the client runs on a transport without timer calls
  * and the loop waits with ppoll until dr_client_next_deadline(), to the
  * microsecond (as drgatewayd does), instead of polling the client's timerfd.
- * prints lines starting with "io" (parsed by bench/bench_enip.py).
+ * prints lines starting with "io" (parsed by bench/bench_enip.py): "io cpu
+ * client|timerfd|receiver PCT", "io wakeups client|timerfd PER_PERIOD", ...
  */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
@@ -70,6 +72,15 @@ static double cpu_s(void)
     getrusage(RUSAGE_SELF, &ru);
     return (double)ru.ru_utime.tv_sec + (double)ru.ru_utime.tv_usec / 1e6 +
            (double)ru.ru_stime.tv_sec + (double)ru.ru_stime.tv_usec / 1e6;
+}
+
+/* Voluntary context switches: the times this process went to sleep
+ * waiting (one per wake-up of its loop). */
+static long wakeups(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_nvcsw;
 }
 
 static struct sockaddr_in sin_of(uint32_t addr, uint16_t port)
@@ -527,6 +538,7 @@ static int bare_timer(int ctl, int out, uint16_t port, uint32_t period_ns, doubl
     int tfd = timerfd_create(CLOCK_MONOTONIC, TFD_CLOEXEC);
     struct sockaddr_in to = sin_of(0x7F000002u, port);
     double cpu0 = cpu_s();
+    long wake0 = wakeups();
     uint64_t start = now_ns(), end = start + (uint64_t)(secs * 1e9), next = start + period_ns;
     uint32_t seq = 0;
     uint8_t pkt[20];
@@ -550,9 +562,11 @@ static int bare_timer(int ctl, int out, uint16_t port, uint32_t period_ns, doubl
         if (next <= t)
             next = t + period_ns;
     }
-    char line[64];
-    snprintf(line, sizeof line, "io cpu timerfd %.2f\n",
-             100.0 * (cpu_s() - cpu0) / ((double)(now_ns() - start) / 1e9));
+    char line[96];
+    double wall = (double)(now_ns() - start) / 1e9;
+    snprintf(line, sizeof line, "io cpu timerfd %.2f\nio wakeups timerfd %.3f\n",
+             100.0 * (cpu_s() - cpu0) / wall,
+             (double)(wakeups() - wake0) / (wall * 1e9 / period_ns));
     put_line(out, line);
     return 0;
 }
@@ -744,11 +758,13 @@ int main(int argc, char **argv)
             timeouts0 += dr_conn_stats(cn[i])->timeouts;
         }
         double cpu0 = cpu_s();
+        long wake0 = wakeups();
         uint64_t t0 = now_ns();
         put_line(rctl[1], "S");
         put_line(tctl[1], "S");
         run_client(c, t0 + (uint64_t)(secs * 1e9), -1);
         double cpu = cpu_s() - cpu0, wall = (double)(now_ns() - t0) / 1e9;
+        long wake = wakeups() - wake0;
         put_line(rctl[1], "E");
         uint64_t tx = 0, timeouts = 0, lost = 0;
         for (unsigned i = 0; i < nconn; i++) {
@@ -758,6 +774,7 @@ int main(int argc, char **argv)
         }
         printf("io setup seconds %.1f connections %u rpi_us %u\n", secs, nconn, (unsigned)rpi);
         printf("io cpu client %.2f\n", 100.0 * cpu / wall);
+        printf("io wakeups client %.3f\n", (double)wake / (wall * 1e6 / rpi));
         printf("io client tx %llu timeouts %llu t2o_lost %llu\n", (unsigned long long)(tx - tx0),
                (unsigned long long)(timeouts - timeouts0), (unsigned long long)lost);
         /* keep the connections fed while the receiver reports */
@@ -772,8 +789,10 @@ int main(int argc, char **argv)
                     printf("%s\n", line);
             }
         }
-        if (get_line(tout[0], line, sizeof line, (int)(secs * 1000.0) + 5000) == 0)
-            printf("%s\n", line);
+        /* the bare loop's two lines: its CPU, its wake-ups per period */
+        for (int k = 0; k < 2; k++)
+            if (get_line(tout[0], line, sizeof line, (int)(secs * 1000.0) + 5000) == 0)
+                printf("%s\n", line);
         if (!ended) {
             fprintf(stderr, "enip_io: no report from the receiver\n");
             status = 1;

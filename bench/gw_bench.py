@@ -8,6 +8,11 @@ Side by side in one run, on loopback, with drsim as the robot:
    RPI 2 ms, no Modbus client, for --idle seconds (CPU time from
    /proc/PID/schedstat, which counts nanoseconds, and utime+stime from
    /proc/PID/stat as a cross-check; VmRSS, and VmHWM after the load runs).
+   Its baseline is drsim over the same windows: the other end of the same
+   six connections, which receives every packet the daemon sends and sends
+   every packet it receives (the mirror work); the goal is the ratio of
+   the two, and the wake-ups per RPI (voluntary context switches) of both
+   are printed beside it.
 2. Modbus throughput: bench/gw_load (C, one epoll loop, each connection
    keeps one request outstanding) against drgatewayd (the six connections
    still running), a plain select-loop libmodbus server
@@ -58,7 +63,11 @@ GOAL_PLAIN = 0.9
 GOAL_PYMODBUS = 3.0
 GOAL_LAT_P99_US = 100.0
 GOAL_RSS_KB = 4096
-GOAL_CPU_PCT = 3.0
+# The daemon's CPU over drsim's in the same windows (docs/performance.md,
+# "How the CPU goals are set"): the same datagrams each way, and at most
+# the same wake-ups (one per RPI, O->T sent with the T->O arrivals, batched)
+# where drsim also wakes for its own production timer: no more than drsim.
+GOAL_CPU_VS_SIM = 1.0
 
 
 def log(msg):
@@ -142,6 +151,16 @@ def run_delay_ns(pid):
     """Time spent runnable but waiting for a CPU (a busy machine)."""
     with open(f"/proc/{pid}/schedstat") as f:
         return int(f.read().split()[1])
+
+
+def wakeups(pid):
+    """Voluntary context switches: the times the process went to sleep
+    waiting for something (a wake-up each)."""
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("voluntary_ctxt_switches:"):
+                return int(line.split()[1])
+    return 0
 
 
 def cpu_ticks(pid):
@@ -296,20 +315,31 @@ rpi_ms = {RPI_MS}
             f"{a.idle:g} s")
         t0, c0, k0 = time.monotonic(), cpu_ns(gw.pid), cpu_ticks(gw.pid)
         r0 = run_delay_ns(gw.pid)
-        # five windows: the median of their shares, and their range
-        shares, tw, cw = [], t0, c0
+        s0, w0, ws0 = cpu_ns(sim.pid), wakeups(gw.pid), wakeups(sim.pid)
+        # five windows: the median of their shares, and their range; drsim
+        # over the same windows, and the ratio of each window
+        shares, sim_shares, ratios, tw, cw, sw = [], [], [], t0, c0, s0
         for _ in range(5):
             time.sleep(a.idle / 5)
-            t, c = time.monotonic(), cpu_ns(gw.pid)
+            t, c, s = time.monotonic(), cpu_ns(gw.pid), cpu_ns(sim.pid)
             shares.append((c - cw) / 1e9 / (t - tw) * 100)
-            tw, cw = t, c
+            sim_shares.append((s - sw) / 1e9 / (t - tw) * 100)
+            ratios.append((c - cw) / max(s - sw, 1))
+            tw, cw, sw = t, c, s
         t1, k1 = time.monotonic(), cpu_ticks(gw.pid)
+        periods = (t1 - t0) * 1000 / RPI_MS
+        self.wake_per_rpi = (wakeups(gw.pid) - w0) / periods
+        self.sim_wake_per_rpi = (wakeups(sim.pid) - ws0) / periods
         self.idle_rq = (run_delay_ns(gw.pid) - r0) / 1e9 / (t1 - t0) * 100
         self.cpu_pct = statistics.median(shares)
         self.cpu_range = (min(shares), max(shares))
+        self.sim_cpu_pct = statistics.median(sim_shares)
+        self.cpu_vs_sim = statistics.median(ratios)
         self.cpu_ticks_pct = (k1 - k0) / os.sysconf("SC_CLK_TCK") / (t1 - t0) * 100
         self.rss_idle = status_kb(gw.pid, "VmRSS")
         log(f"  {self.cpu_pct:.2f} % of a core (utime+stime: {self.cpu_ticks_pct:.1f} %), "
+            f"{self.wake_per_rpi:.2f} wake-ups per RPI; drsim {self.sim_cpu_pct:.2f} %, "
+            f"{self.sim_wake_per_rpi:.2f} wake-ups per RPI; ratio {self.cpu_vs_sim:.2f}x; "
             f"VmRSS {self.rss_idle} kB")
         st0 = read_input_registers(gw.port, 0, 16)
 
@@ -472,11 +502,15 @@ rpi_ms = {RPI_MS}
         rows.append(("RSS (VmRSS idle / VmHWM after the load runs)",
                      f"{self.rss_idle} kB / {self.rss_hwm} kB", "", "",
                      f"< {GOAL_RSS_KB} kB", ok(max(self.rss_idle, self.rss_hwm) < GOAL_RSS_KB)))
-        rows.append((f"CPU, 6 connections at RPI {RPI_MS} ms, no Modbus load",
+        rows.append((f"CPU, 6 connections at RPI {RPI_MS} ms, no Modbus load: vs drsim "
+                     f"(the other end of the same connections)",
                      f"{self.cpu_pct:.2f} % (range {self.cpu_range[0]:.1f}-"
                      f"{self.cpu_range[1]:.1f}; utime+stime {self.cpu_ticks_pct:.1f} %; waiting "
-                     f"for a CPU {self.idle_rq:.1f} % of the time)", "", "",
-                     f"< {GOAL_CPU_PCT:g} % of a core", ok(self.cpu_pct < GOAL_CPU_PCT)))
+                     f"for a CPU {self.idle_rq:.1f} % of the time; {self.wake_per_rpi:.2f} "
+                     f"wake-ups per RPI)",
+                     f"{self.sim_cpu_pct:.2f} % ({self.sim_wake_per_rpi:.2f} wake-ups per RPI)",
+                     f"{self.cpu_vs_sim:.2f}x", f"<= {GOAL_CPU_VS_SIM:g}x",
+                     ok(self.cpu_vs_sim <= GOAL_CPU_VS_SIM)))
         e = self.enip_check
         rows.append(("robot link during the Modbus load runs",
                      f"{e['link_down_logged']} losses ({e['robot_o2t_timeouts']} connections "
@@ -574,9 +608,14 @@ RPI 2 ms (`rpi_ms = 2`).
 - **RSS**: VmRSS of the idle daemon, VmHWM after the load runs (both include
   the pages of the shared libraries it maps).
 - **CPU**: the daemon's CPU time (`/proc/PID/schedstat`; utime+stime as a
-  cross-check) over the idle period, as a share of one core. On loopback the
-  daemon's `sendto` also pays for delivering its O->T packets into drsim's
-  socket.
+  cross-check) over the idle period, as a share of one core, and drsim's over
+  the same five windows: drsim is the other end of the same six connections
+  (it receives the six O->T packets a period the daemon sends and sends the
+  six T->O packets it receives), so the ratio, the median of the five
+  windows', is the goal: at most 1.0x ("How the CPU goals are set"). The
+  wake-ups per RPI of both (voluntary context switches) show why. On
+  loopback each side's send also pays for delivering its packets into the
+  other's socket.
 
 The machine is shared (2 CPUs, other test runs going on), so the figures
 move by 10-30 % from run to run; the interleaving keeps the ratios fairer

@@ -10,7 +10,8 @@
 FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
                       sim_request cli
 FUZZ_SECONDS       ?= 60
-# make check runs every harness this long: 10 x 7 s keeps check-fuzz,
+# make check runs every harness this long: 10 x 7 s, two at a time
+# (FUZZ_JOBS, fuzz/run-fuzz.sh), keeps check-fuzz,
 # builds included, well under two minutes.
 FUZZ_CHECK_SECONDS ?= 7
 FUZZ_CC            ?= clang
@@ -25,51 +26,51 @@ FUZZ_LIB_OBJ       := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/obj/%.o)
 FUZZ_BIN           := $(FUZZ_TARGETS:%=$(FUZZ_DIR)/fuzz_%)
 FUZZ_REPLAY_BIN    := $(FUZZ_TARGETS:%=$(B)/fuzz-replay/fuzz_%)
 
-# What a harness needs beyond FUZZ_LIB_SRC: sources (FUZZ_SRC_T), headers
-# (FUZZ_HDR_T), compiler flags (FUZZ_CFLAGS_T) and libraries (FUZZ_LIBS_T).
-# Flags and libraries are expanded when the recipe runs: the variables
-# they use come from mk/*.mk, included after this file.
+# What a harness links beyond FUZZ_LIB_SRC: sources (FUZZ_SRC_T), compiled
+# into objects of their own here (instrumented) and taken from the plain
+# build for the replay programs, and libraries (FUZZ_LIBS_T).
 FUZZ_SRC_modbus      := gateway/mbproto.c gateway/regmap.c gateway/robot.c
-FUZZ_HDR_modbus      := gateway/mbproto.h gateway/regmap.h gateway/robot.h gateway/config.h
-FUZZ_CFLAGS_modbus    = $(MODBUS_CFLAGS)
-FUZZ_LIBS_modbus      = $(MODBUS_LIBS)
+FUZZ_LIBS_modbus     := $(MODBUS_LIBS)
 FUZZ_SRC_rtu         := gateway/mbproto.c gateway/regmap.c gateway/robot.c
-FUZZ_HDR_rtu         := gateway/mbproto.h gateway/regmap.h gateway/robot.h gateway/config.h
-FUZZ_CFLAGS_rtu       = $(MODBUS_CFLAGS)
-FUZZ_LIBS_rtu         = $(MODBUS_LIBS)
+FUZZ_LIBS_rtu        := $(MODBUS_LIBS)
 FUZZ_SRC_config      := $(sort $(wildcard gateway/config*.c))
-FUZZ_HDR_config      := gateway/config.h gateway/config_internal.h
-FUZZ_CFLAGS_config    = $(INIH_CFLAGS)
-FUZZ_LIBS_config      = $(INIH_LIBS)
-FUZZ_SRC_sim_request := $(filter-out sim/main.c,$(wildcard sim/*.c))
-FUZZ_HDR_sim_request := $(wildcard sim/*.h)
+FUZZ_LIBS_config     := $(INIH_LIBS)
+FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 # All of drcli but its main() (cli/drcli.c, on top of the rest).
-FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(sort $(wildcard cli/*.c))) \
-                        $(filter-out $(FUZZ_LIB_SRC),$(sort $(wildcard lib/*.c)))
-FUZZ_HDR_cli         := $(wildcard cli/*.h)
-FUZZ_CFLAGS_cli       = $(JSON_CFLAGS)
-FUZZ_LIBS_cli         = $(JSON_LIBS)
+FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
+                        $(filter-out $(FUZZ_LIB_SRC),$(LIB_SRC))
+FUZZ_LIBS_cli        := $(JSON_LIBS)
+# Every harness and every object gets all the packages' flags: they only
+# add include directories.
+FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(JSON_CFLAGS)
 
 .PHONY: fuzz fuzz-build check-fuzz fuzz-replay fuzz-corpus
 
-$(FUZZ_DIR)/obj/%.o: %.c fuzz/coverage-ignore.txt $(LIB_HDR) $(LIB_PRIV_HDR)
+$(FUZZ_DIR)/obj/%.o: %.c $(FUZZ_DIR)/obj/%.d fuzz/coverage-ignore.txt
 	@mkdir -p $(dir $@)
-	$(FUZZ_CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -fsanitize=fuzzer-no-link,address,undefined \
-	    $(FUZZ_SAN) -c $< -o $@
+	$(FUZZ_CC) $(FUZZ_CPPFLAGS) $(WARN) -fsanitize=fuzzer-no-link,address,undefined \
+	    $(FUZZ_SAN) $(DEPFLAGS) -c $< -o $@
 
-# $(1): target name
+$(B)/fuzz-replay/standalone.o: fuzz/standalone.c $(B)/fuzz-replay/standalone.d
+	@mkdir -p $(dir $@)
+	$(CC) $(FUZZ_CPPFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) -c $< -o $@
+
+# $(1): target name. The replay programs link the plain build's objects
+# (the library through libdrgate.a).
 define FUZZ_RULES
-$$(FUZZ_DIR)/fuzz_$(1): fuzz/fuzz_$(1).c fuzz/fuzz.h fuzz/coverage-ignore.txt \
-        $$(FUZZ_LIB_OBJ) $$(FUZZ_SRC_$(1)) $$(FUZZ_HDR_$(1)) $$(LIB_HDR) $$(LIB_PRIV_HDR)
+$$(FUZZ_DIR)/fuzz_$(1): fuzz/fuzz_$(1).c $$(FUZZ_DIR)/fuzz_$(1).d fuzz/coverage-ignore.txt $$(FUZZ_LIB_OBJ) \
+        $$(FUZZ_SRC_$(1):%.c=$$(FUZZ_DIR)/obj/%.o)
 	@mkdir -p $$(dir $$@)
-	$$(FUZZ_CC) $$(ALL_CPPFLAGS) $$(PRIV_CPPFLAGS) $$(FUZZ_CFLAGS_$(1)) $$(WARN) $$(FUZZ_FLAGS) -o $$@ \
-	    $$< $$(FUZZ_SRC_$(1)) $$(FUZZ_LIB_OBJ) $$(FUZZ_LIBS_$(1)) -lm
+	$$(FUZZ_CC) $$(FUZZ_CPPFLAGS) $$(WARN) $$(FUZZ_FLAGS) $$(DEPFLAGS) -o $$@ $$< \
+	    $$(FUZZ_SRC_$(1):%.c=$$(FUZZ_DIR)/obj/%.o) $$(FUZZ_LIB_OBJ) $$(FUZZ_LIBS_$(1)) -lm
 
-$$(B)/fuzz-replay/fuzz_$(1): fuzz/fuzz_$(1).c fuzz/standalone.c fuzz/fuzz.h \
-        $$(FUZZ_SRC_$(1)) $$(FUZZ_HDR_$(1)) $$(LIB_A) $$(LIB_HDR)
+$$(B)/fuzz-replay/fuzz_$(1): fuzz/fuzz_$(1).c $$(B)/fuzz-replay/fuzz_$(1).d \
+        $$(B)/fuzz-replay/standalone.o \
+        $$(patsubst %.c,$$(B)/%.o,$$(filter-out $$(LIB_SRC),$$(FUZZ_SRC_$(1)))) $$(LIB_A)
 	@mkdir -p $$(dir $$@)
-	$$(CC) $$(ALL_CPPFLAGS) $$(PRIV_CPPFLAGS) $$(FUZZ_CFLAGS_$(1)) $$(ALL_CFLAGS) $$(ALL_LDFLAGS) -o $$@ \
-	    $$< fuzz/standalone.c $$(filter-out $$(LIB_SRC),$$(FUZZ_SRC_$(1))) $$(LIB_A) \
+	$$(CC) $$(FUZZ_CPPFLAGS) $$(ALL_CFLAGS) $$(DEPFLAGS) $$(ALL_LDFLAGS) -o $$@ $$< \
+	    $$(B)/fuzz-replay/standalone.o \
+	    $$(patsubst %.c,$$(B)/%.o,$$(filter-out $$(LIB_SRC),$$(FUZZ_SRC_$(1)))) $$(LIB_A) \
 	    $$(FUZZ_LIBS_$(1)) -lm
 endef
 $(foreach t,$(FUZZ_TARGETS),$(eval $(call FUZZ_RULES,$(t))))
@@ -91,9 +92,9 @@ check-fuzz:
 fuzz-replay: $(FUZZ_REPLAY_BIN)
 	@for t in $(FUZZ_TARGETS); do $(B)/fuzz-replay/fuzz_$$t fuzz/corpus/$$t || exit 1; done
 
-$(B)/fuzz-replay/gen_corpus: fuzz/gen_corpus.c $(LIB_A) $(LIB_HDR)
+$(B)/fuzz-replay/gen_corpus: fuzz/gen_corpus.c $(B)/fuzz-replay/gen_corpus.d $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 fuzz-corpus: $(B)/fuzz-replay/gen_corpus
 	rm -rf fuzz/corpus

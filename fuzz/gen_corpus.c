@@ -939,6 +939,17 @@ static void gen_sim_request(void)
     sim_rr(&b, req, w.len, false);
     put("sim_request", "unconnected_send", b.b, b.n);
 
+    /* ... and around nothing: refused as an Unconnected Send (drsim once
+     * answered it as a request for service 0x00). */
+    b.n = 0;
+    b_u8(&b, 0x12);
+    sim_register(&b, 0x00);
+    dr_wr_init(&w, req, sizeof req);
+    dr_cip_req_write(&w, DR_CIP_SVC_UNCONNECTED_SEND, cm_path, sizeof cm_path, NULL, 0);
+    dr_ucmm_send_write(&w, inner, 0, route, sizeof route);
+    sim_rr(&b, req, w.len, false);
+    put("sim_request", "unconnected_send_empty", b.b, b.n);
+
     /* UDP 44818: ListIdentity, ListServices, and a RegisterSession (ignored). */
     b.n = 0;
     b_u8(&b, 0x02);

@@ -8,6 +8,9 @@
 # runs) and the committed seeds fuzz/corpus/T, then appends
 # "1 0 fuzz_T" or "0 1 fuzz_T" to RESULTS (the `make check` format, see
 # tests/run-tests.sh). Crashing inputs land in DIR/artifacts/.
+# FUZZ_JOBS (environment, default 2) harnesses run at a time: each is one
+# process on one core for SECONDS, so two cores fuzz two harnesses in the
+# time of one. Their reports are printed in the order of T.
 set -u
 
 if [ "${1:-}" = --probe ]; then
@@ -44,10 +47,14 @@ if [ "${1:-}" = --skip ]; then
 fi
 
 results=$1; seconds=$2; dir=$3; shift 3
+jobs=${FUZZ_JOBS:-2}
 [ -n "$results" ] && mkdir -p "$(dirname "$results")"
 mkdir -p "$dir/artifacts"
-status=0
-for t in "$@"; do
+
+# One harness: its report to DIR/fuzz_T.report, its result line to
+# DIR/fuzz_T.result.
+fuzz_one() {
+    t=$1
     work=$dir/corpus/$t
     log=$dir/fuzz_$t.log
     mkdir -p "$work"
@@ -59,12 +66,30 @@ for t in "$@"; do
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -n 1)
     if [ "$rc" -eq 0 ]; then
         echo "fuzz_$t: ${execs:-?} executions in ${seconds}s, ${cov:-cov ?}: no crash"
-        [ -n "$results" ] && echo "1 0 fuzz_$t" >> "$results"
+        echo "1 0 fuzz_$t" > "$dir/fuzz_$t.result"
     else
-        status=1
         echo "FAIL: fuzz_$t (exit $rc) after ${execs:-?} executions; log: $log"
         grep -E 'invariant broken|ERROR:|runtime error|Test unit written' "$log" | head -n 5
-        [ -n "$results" ] && echo "0 1 fuzz_$t" >> "$results"
+        echo "0 1 fuzz_$t" > "$dir/fuzz_$t.result"
+    fi > "$dir/fuzz_$t.report"
+}
+
+# Batches of $jobs; a harness that dies without a result line is a failure.
+status=0
+set -- "$@" ""
+batch=
+for t in "$@"; do
+    [ -n "$t" ] && { rm -f "$dir/fuzz_$t.result"; fuzz_one "$t" & batch="$batch $t"; }
+    # shellcheck disable=SC2086 # a list of names
+    if [ -z "$t" ] || [ $(set -- $batch; echo $#) -ge "$jobs" ]; then
+        wait
+        for b in $batch; do
+            cat "$dir/fuzz_$b.report" 2>/dev/null
+            line=$(cat "$dir/fuzz_$b.result" 2>/dev/null) || line="0 1 fuzz_$b (no result)"
+            case $line in 0\ *) status=1 ;; esac
+            [ -n "$results" ] && echo "$line" >> "$results"
+        done
+        batch=
     fi
 done
 exit $status

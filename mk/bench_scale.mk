@@ -3,7 +3,8 @@
 # 2, 4, 8, 16, 32; one drsim each, on its own 127.0.15.x address) with six
 # Class 1 connections each at RPI 10 ms and 2 ms and a light Modbus poll:
 # the daemon's CPU per robot, whether it grows linearly, and the goal (RPI
-# 10 ms: 32 robots under 25 % of a core, no connection timeout). Run by
+# 10 ms: 32 robots with no connection timeout, the daemon at most the 32
+# drsims' CPU in the same window). Run by
 # `make bench` through BENCH_STEPS, or alone with `make bench-scale`;
 # `make bench-scale SCALE_BENCH_ARGS=--quick` measures N = 1, 2, 4 only.
 # Method and results in docs/performance.md ("Robots per core").
@@ -11,8 +12,6 @@
 # The daemon takes 32 robots (GW_MAX_ROBOTS, gateway/config.h); the bench
 # builds it with -DGW_MAX_ROBOTS=32 all the same, so that it keeps measuring
 # 32 robots should the default change.
-# Like bench_gw.mk, the prerequisites naming gateway variables are expanded
-# in make's second expansion (gw_daemon.mk is read after this file).
 
 SCALE_BENCH_PY   ?= python3
 SCALE_BENCH_ARGS ?=
@@ -20,15 +19,11 @@ SCALE_GW         := $(B)/bench/drgatewayd-scale
 
 BENCH_STEPS += bench-scale
 .PHONY: bench-scale
-.SECONDEXPANSION:
 
-$(SCALE_GW): gateway/main.c $$(GW_LIB_SRC) $(COMMON_SRC) $$(GPIO_A) $(LIB_A) $$(GW_HDR) \
-             $(COMMON_HDR) $(LIB_HDR)
-	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Igateway -DGW_MAX_ROBOTS=32 -DDRGATE_VERSION='"$(VERSION)"' \
-	    $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS) -fPIE -pie \
-	    $(ALL_LDFLAGS) -o $@ gateway/main.c $(GW_LIB_SRC) $(COMMON_SRC) $(GPIO_A) $(LIB_A) $(MODBUS_LIBS) \
-	    $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
+$(eval $(call GW_VARIANT,scale,-DGW_MAX_ROBOTS=32))
+$(SCALE_GW): $(GW_OBJ_scale) $(GPIO_A) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(GW_OBJ_scale) $(GPIO_A) \
+	    $(LIB_A) $(GW_LIBS)
 
 # `make bench` passes GW_BENCH_ARGS=--write-doc to every step: the results
 # go into docs/performance.md then too.

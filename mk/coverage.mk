@@ -13,14 +13,21 @@
 #                   line per directory, and one saying whether every test
 #                   passed in the coverage build
 #
+# In make check, this run of the gateway's end-to-end suite is also the
+# suite's result (check-gateway is not a step of make check): its line,
+# "drgatewayd end to end (tests/gateway) [coverage build]", goes to make
+# check's results as well (COV_GW_RESULTS, set by check-coverage). The
+# daemon at -O0 with counters runs the same code as the installed one;
+# what only the -O2 build could show (undefined behaviour the optimizer
+# exploits, FORTIFY's checks) is what the ASan+UBSan run catches, and the
+# -O2 daemon itself runs end to end in check-soak, check-valgrind and
+# check-gpio-gateway (docs/quality.md, "What runs where").
+#
 # tests/, fuzz/ and bench/ are not measured. sim/ (drsim, test
 # infrastructure) is reported without a floor. gcovr is Debian's (bookworm:
 # 5.2), installed by `make deps`. The sanitizer reruns of check-cli-net and
 # check-gpio are left out (CLI_NET_NO_ASAN, GPIO_NO_ASAN): they add time,
 # not coverage.
-#
-# Named so it is included before mk/gw_daemon.mk: targets of later
-# fragments are named by path here, not by their variables.
 
 CHECK_STEPS += check-coverage
 
@@ -28,10 +35,12 @@ GCOVR      ?= gcovr
 COV_B      := $(B)/cov
 COV_FLOORS ?= lib=90 gateway=80 cli=80
 COV_STEPS  ?= check-unit check-cli check-cli-net check-gpio check-gpio-gateway-unit \
-              $(if $(wildcard mk/gw_test.mk),check-gateway)
+              check-gateway
+COV_GW_RESULTS ?=
 COV_MAKE    = GW_COVERAGE=1 $(MAKE) --no-print-directory B=$(COV_B) CFLAGS="-O0 -g --coverage" \
               LDFLAGS=--coverage HARDEN= CLI_NET_NO_ASAN=1 GPIO_NO_ASAN=1 \
-              RESULTS=$(abspath $(COV_B))/test-results
+              RESULTS=$(abspath $(COV_B))/test-results \
+              $(if $(COV_GW_RESULTS),GW_EXTRA_RESULTS=$(abspath $(COV_GW_RESULTS)))
 COV_GCOVR   = $(GCOVR) -r . -j 2 -e 'tests/' -e 'fuzz/' -e 'bench/' \
               --json-summary $(COV_B)/coverage-summary.json --json-summary-pretty \
               --txt $(COV_B)/coverage.txt --html-details $(COV_B)/html/index.html \
@@ -43,7 +52,7 @@ coverage:
 	@if ! command -v $(GCOVR) >/dev/null 2>&1; then \
 	    echo "coverage: no $(GCOVR) (make deps installs Debian's gcovr)"; exit 1; fi
 	@t0=$$(date +%s); \
-	$(COV_MAKE) all $(COV_B)/drgatewayd || exit 1; \
+	$(COV_MAKE) all || exit 1; \
 	find $(COV_B) -name '*.gcda' -delete; \
 	rm -rf $(COV_B)/test-results $(COV_B)/html; mkdir -p $(COV_B)/html; \
 	for step in $(COV_STEPS); do \
@@ -62,7 +71,7 @@ check-coverage:
 	    echo "check-coverage: no $(GCOVR) (make deps)"; \
 	    echo "0 1 coverage (no gcovr: make deps)" >> $(RESULTS); exit 1; fi
 	@rm -f $(COV_B)/coverage-summary.json
-	@$(MAKE) --no-print-directory coverage || true
+	@$(MAKE) --no-print-directory coverage COV_GW_RESULTS=$(RESULTS) || true
 	@if [ ! -f $(COV_B)/coverage-summary.json ]; then \
 	    echo "0 1 coverage (no report: see above)" >> $(RESULTS); exit 1; fi
 	@awk '{p += $$1; f += $$2} END {ok = (f == 0 && p > 0); \

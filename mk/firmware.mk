@@ -9,9 +9,9 @@
 CHECK_STEPS += check-lwip check-be-client
 
 FW_TEST_SRC := tests/firmware/drive.c
-FW_TEST_HDR := tests/firmware/drive.h
+FW_TEST_OBJ := $(FW_TEST_SRC:%.c=$(B)/%.o)
 LWIP_PORT_SRC := $(wildcard port/lwip/*.c)
-LWIP_PORT_HDR := $(wildcard port/lwip/*.h)
+LWIP_PORT_OBJ := $(LWIP_PORT_SRC:%.c=$(B)/%.o)
 # Debian's liblwip-dev: headers under /usr/include/lwip, its lwipopts.h.
 LWIP_INC    ?= /usr/include/lwip
 LWIP_LIBS   ?= -llwip
@@ -23,12 +23,22 @@ LIB_FW_OBJ  := $(LIB_FW_SRC:%.c=$(B)/%.o)
 
 .PHONY: check-lwip check-be-client
 
-$(B)/tests/firmware/test_lwip: tests/firmware/test_lwip.c $(FW_TEST_SRC) $(FW_TEST_HDR) \
-        $(LWIP_PORT_SRC) $(LWIP_PORT_HDR) $(LIB_FW_OBJ) $(LIB_HDR) lib/transport_bsd.h
+LWIP_CFLAGS  = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip -Itests/firmware \
+               $(ALL_CFLAGS)
+
+$(FW_TEST_OBJ): $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip -Itests/firmware \
-	    $(ALL_CFLAGS) $(ALL_LDFLAGS) -o $@ $< $(FW_TEST_SRC) $(LWIP_PORT_SRC) \
-	    $(LIB_FW_OBJ) $(LWIP_LIBS) -lm
+	$(CC) $(ALL_CPPFLAGS) -Itests/firmware $(ALL_CFLAGS) $(DEPFLAGS) -c $< -o $@
+
+$(LWIP_PORT_OBJ): $(B)/%.o: %.c $(B)/%.d
+	@mkdir -p $(dir $@)
+	$(CC) $(LWIP_CFLAGS) $(DEPFLAGS) -c $< -o $@
+
+$(B)/tests/firmware/test_lwip: tests/firmware/test_lwip.c $(B)/tests/firmware/test_lwip.d $(FW_TEST_OBJ) $(LWIP_PORT_OBJ) \
+        $(LIB_FW_OBJ)
+	@mkdir -p $(dir $@)
+	$(CC) $(LWIP_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(FW_TEST_OBJ) \
+	    $(LWIP_PORT_OBJ) $(LIB_FW_OBJ) $(LWIP_LIBS) -lm
 
 check-lwip: $(SIM_BIN)
 	@if [ ! -f $(LWIP_INC)/lwip/sockets.h ]; then \
@@ -40,11 +50,11 @@ check-lwip: $(SIM_BIN)
 	        "$(RESULTS)" $(LWIP_SECONDS); \
 	fi
 
-$(B)/tests/firmware/test_be_client: tests/firmware/test_be_client.c $(FW_TEST_SRC) \
-        $(FW_TEST_HDR) $(LIB_A) $(LIB_HDR)
+$(B)/tests/firmware/test_be_client: tests/firmware/test_be_client.c \
+        $(B)/tests/firmware/test_be_client.d $(FW_TEST_OBJ) $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Itests/firmware $(ALL_CFLAGS) $(ALL_LDFLAGS) \
-	    -o $@ $< $(FW_TEST_SRC) $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) -Itests/firmware $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) \
+	    -o $@ $< $(FW_TEST_OBJ) $(LIB_A) -lm
 
 check-be-client: $(SIM_BIN)
 	$(MAKE) --no-print-directory B=$(B)/s390x CROSS_COMPILE=s390x-linux-gnu- \

@@ -8,11 +8,8 @@
 # host unit test of gateway/gpiomap.c. ~20-35 s once the kernel is cached;
 # the qemu part is a loud skip where qemu cannot run.
 # GPIO_GW_ARGS passes more options to run.sh (e.g. --log FILE).
-#
-# Included before mk/gw_daemon.mk (alphabetical), so the daemon is named
-# by its path here, not by $(GW_BIN).
 
-GPIO_GW_BIN     := $(B)/drgatewayd
+GPIO_GW_BIN     := $(GW_BIN)
 GPIO_GW_TIMEOUT ?= 150
 GPIO_GW_DIR     := tests/gpio/gateway
 GPIO_GW_TEST    := $(B)/tests/gpio/gateway/test_gpiomap
@@ -21,15 +18,9 @@ CHECK_STEPS += check-gpio-gateway
 
 .PHONY: check-gpio-gateway check-gpio-gateway-unit gpio-gateway-shell
 
-# gateway/gpiomap.c on the fake GPIO backend and a fake event loop: no
-# kernel, no libgpiod, no epoll (the test defines ev_watch & co.).
-$(GPIO_GW_TEST): $(GPIO_GW_DIR)/test_gpiomap.c gateway/gpiomap.c gateway/gpiomap.h \
-        gateway/log.c gateway/robot.c gateway/robot.h tests/gpio/gpio_fake.c \
-        tests/gpio/gpio_fake.h $(GPIO_CORE_SRC) $(GPIO_HDR) $(LIB_A) $(LIB_HDR)
-	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) -Itests/gpio $(CMOCKA_CFLAGS) $(ALL_CFLAGS) \
-	    $(ALL_LDFLAGS) -o $@ $< gateway/gpiomap.c gateway/log.c gateway/robot.c \
-	    tests/gpio/gpio_fake.c $(GPIO_CORE_SRC) $(LIB_A) $(CMOCKA_LIBS) -lm
+# $(GPIO_GW_TEST) is gateway/gpiomap.c on the fake GPIO backend and a fake
+# event loop: no kernel, no libgpiod, no epoll (the test defines ev_watch
+# & co.). It builds with the Makefile's rule for gateway tests.
 
 # Plain, then under ASan+UBSan (the Makefile's SAN_FLAGS) in $(B)/asan.
 check-gpio-gateway-unit: $(GPIO_GW_TEST)

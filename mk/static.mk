@@ -10,8 +10,8 @@
 #                    of the rule that builds it (clang-tidy, cppcheck and
 #                    editors read it)
 #
-# Named so it is included after the gateway's and GPIO's fragments, whose
-# variables (flags, sources) it uses.
+# The groups' flags are the variables of the rules that build them (the
+# Makefile's, mk/firmware.mk's, fuzz/fuzz.mk's), used when the recipe runs.
 
 CHECK_STEPS += check-static check-hardening
 
@@ -30,45 +30,43 @@ STATIC_FLAGS_lib = $(ALL_CPPFLAGS) $(ALL_CFLAGS) -fPIC
 
 STATIC_GROUPS += cli
 STATIC_SRC_cli   = $(CLI_SRC)
-STATIC_FLAGS_cli = $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_cli = $(CLI_CFLAGS)
 
 STATIC_GROUPS += common
 STATIC_SRC_common   = $(COMMON_SRC)
 STATIC_FLAGS_common = $(ALL_CPPFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += sim
-STATIC_SRC_sim   = $(sort $(wildcard sim/*.c))
-STATIC_FLAGS_sim = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS)
+STATIC_SRC_sim   = $(SIM_SRC)
+STATIC_FLAGS_sim = $(SIM_CFLAGS)
 
 STATIC_GROUPS += gw
 STATIC_SRC_gw    = $(GW_SRC)
-STATIC_FLAGS_gw  = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' \
-                   $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_gw  = $(GW_CFLAGS)
 
 # gpio_v2.c needs libgpiod 2's headers, which bookworm does not have:
 # cppcheck reads it (it does not need the headers), clang-tidy cannot.
 STATIC_GROUPS += gpio
 STATIC_SRC_gpio   = $(GPIO_ALL_SRC)
-STATIC_FLAGS_gpio = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(GPIO_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_gpio = $(GPIO_OBJ_CFLAGS)
 
 STATIC_GROUPS += tests_sim
 STATIC_SRC_tests_sim   = $(sort $(wildcard tests/test_sim_*.c))
-STATIC_FLAGS_tests_sim = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests -Isim $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_tests_sim = $(TEST_CFLAGS) -Isim
 
+# The tests of gateway code (the Makefile's GW_TEST_SRC) and their fakes.
 STATIC_GROUPS += tests_gw
-STATIC_SRC_tests_gw   = $(sort $(wildcard tests/test_gw_*.c))
-STATIC_FLAGS_tests_gw = $(ALL_CPPFLAGS) -Igateway -Itests -DGW_TEST_TOP='"$(CURDIR)"' \
-                            $(INIH_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_SRC_tests_gw   = $(GW_TEST_SRC) $(GW_TEST_FAKES)
+STATIC_FLAGS_tests_gw = $(GW_TEST_CFLAGS)
 
 STATIC_GROUPS += tests
 STATIC_SRC_tests   = $(filter-out $(STATIC_SRC_tests_sim) $(STATIC_SRC_tests_gw), \
                        $(sort $(wildcard tests/*.c tests/support/*.c)))
-STATIC_FLAGS_tests = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_tests = $(TEST_CFLAGS)
 
 STATIC_GROUPS += tests_gpio
-STATIC_SRC_tests_gpio   = $(sort $(wildcard tests/gpio/*.c tests/gpio/gateway/*.c))
-STATIC_FLAGS_tests_gpio = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) -Itests/gpio $(GPIO_CFLAGS) \
-                          $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_SRC_tests_gpio   = tests/gpio/gpio_selftest.c
+STATIC_FLAGS_tests_gpio = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += tests_interop
 STATIC_SRC_tests_interop   = $(sort $(wildcard tests/interop/*.c))
@@ -77,7 +75,7 @@ STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(CMOCKA_CFLAGS) $
 # Some harnesses reach into gateway/ (the Modbus and configuration paths).
 STATIC_GROUPS += fuzz
 STATIC_SRC_fuzz   = $(sort $(wildcard fuzz/*.c))
-STATIC_FLAGS_fuzz = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_fuzz = $(FUZZ_CPPFLAGS) $(ALL_CFLAGS)
 
 # The firmware scenario (mk/firmware.mk): the POSIX side, and the lwIP
 # port with its test (lwIP's headers, from liblwip-dev).
@@ -87,8 +85,7 @@ STATIC_FLAGS_tests_firmware = $(ALL_CPPFLAGS) -Itests/firmware $(ALL_CFLAGS)
 
 STATIC_GROUPS += lwip
 STATIC_SRC_lwip   = $(LWIP_PORT_SRC) tests/firmware/test_lwip.c
-STATIC_FLAGS_lwip = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip \
-                    -Itests/firmware $(ALL_CFLAGS)
+STATIC_FLAGS_lwip = $(LWIP_CFLAGS)
 
 STATIC_SRC       = $(foreach g,$(STATIC_GROUPS),$(STATIC_SRC_$(g)))
 # What clang-tidy cannot compile here (see above).

@@ -747,13 +747,15 @@ static void dispatch(req_ctx_t *ctx, const uint8_t *req, size_t len, int depth,
                      dr_wr_t *w);
 
 /* Unconnected Send: answer the embedded request as if it came directly;
- * the route path names this device, so it is not followed. */
+ * the route path names this device, so it is not followed. One with no
+ * embedded request is refused as an Unconnected Send (answering it as
+ * service 0x00 was found by fuzz_sim_request). */
 static void unconnected_send(req_ctx_t *ctx, const dr_cip_req_t *rq, int depth,
                              dr_wr_t *w)
 {
     dr_ucmm_send_t us;
     if (depth >= UCMM_MAX_DEPTH ||
-        dr_ucmm_send_parse(rq->data, rq->data_len, &us) != DR_OK) {
+        dr_ucmm_send_parse(rq->data, rq->data_len, &us) != DR_OK || us.message_len == 0) {
         uint16_t e = CM_UCMM_PARAM;
         dr_cip_rsp_write(w, rq->service, GS_CONN_FAILURE, &e, 1, NULL, 0);
         return;

@@ -1,7 +1,13 @@
 # SPDX-License-Identifier: MIT
 """pytest set-up for tests/gateway: a time limit per test, processes that
 never outlive the run, and the "passed failed label" line `make check`
-sums up (GW_RESULTS, see tests/run-tests.sh)."""
+sums up (GW_RESULTS, see tests/run-tests.sh; several files separated by
+':' each get the line: make coverage's run of the suite counts both in the
+coverage build's results and in make check's).
+
+Under pytest-xdist (`-n 2`), the controller clears the old logs before the
+workers start, and reads the sanitizer reports and writes the results line
+after they are done; each worker only stops its own processes."""
 import os
 import signal
 
@@ -38,12 +44,17 @@ SANITIZER_MARKS = ("ERROR: AddressSanitizer", "ERROR: LeakSanitizer", "runtime e
                    "SUMMARY: UndefinedBehaviorSanitizer")
 
 
+def is_worker(config):
+    return hasattr(config, "workerinput")
+
+
 def pytest_sessionstart(session):
     # logs of an earlier run would be scanned below as if they were new
-    if gwlib.LOGDIR.is_dir():
-        for p in gwlib.LOGDIR.iterdir():
-            if p.suffix in (".log", ".ini", ".notify"):
-                p.unlink()
+    if is_worker(session.config) or not gwlib.LOGROOT.is_dir():
+        return
+    for p in gwlib.LOGROOT.rglob("*"):
+        if p.suffix in (".log", ".ini", ".notify") and p.is_file():
+            p.unlink()
 
 
 def sanitizer_reports():
@@ -51,8 +62,8 @@ def sanitizer_reports():
     a report is one failure (the process may have exited 0 after a UBSan
     report that did not abort)."""
     bad = []
-    if gwlib.LOGDIR.is_dir():
-        for p in sorted(gwlib.LOGDIR.glob("*.log")):
+    if gwlib.LOGROOT.is_dir():
+        for p in sorted(gwlib.LOGROOT.rglob("*.log")):
             text = gwlib.read_text(p)
             if any(m in text for m in SANITIZER_MARKS):
                 bad.append(p)
@@ -61,6 +72,8 @@ def sanitizer_reports():
 
 def pytest_sessionfinish(session, exitstatus):
     gwlib.kill_all()
+    if is_worker(session.config):
+        return
     bad = sanitizer_reports()
     for p in bad:
         print("\n### sanitizer report in %s:\n%s" % (p, gwlib.read_text(p)[-4000:]))
@@ -79,9 +92,10 @@ def pytest_sessionfinish(session, exitstatus):
         failed = 1  # an internal error or an interrupted run
     if passed + failed == 0:
         failed = 1  # no test ran: that is a failure too
-    os.makedirs(os.path.dirname(os.path.abspath(results)), exist_ok=True)
-    with open(results, "a") as f:
-        f.write("%d %d %s\n" % (passed, failed, LABEL))
+    for path in results.split(":"):
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        with open(path, "a") as f:
+            f.write("%d %d %s\n" % (passed, failed, LABEL))
 
 
 def pytest_configure(config):

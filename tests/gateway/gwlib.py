@@ -27,7 +27,14 @@ TOP = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("GW_BUILD", TOP / "build"))
 DRGATEWAYD = Path(os.environ.get("DRGATEWAYD", BUILD / "drgatewayd"))
 DRSIM = Path(os.environ.get("DRSIM", BUILD / "drsim"))
-LOGDIR = Path(os.environ.get("GW_LOGDIR", BUILD / "tests" / "gateway"))
+# Under pytest-xdist (make check runs the suite with two workers, `-n 2`)
+# each worker keeps its files in a folder of its own (gw0, gw1, ...), since
+# tests name their configurations and logs after themselves, and takes
+# ports of its own (see free_port).
+LOGROOT = Path(os.environ.get("GW_LOGDIR", BUILD / "tests" / "gateway"))
+WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")
+WORKERS = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+LOGDIR = LOGROOT / WORKER if WORKER else LOGROOT
 SCALE = float(os.environ.get("GW_TIMEOUT_SCALE", "1"))
 
 SIM_ADDR = "127.0.0.2"   # drsim
@@ -158,13 +165,27 @@ def _port_range():
     return hi + 1, 65535
 
 
+def _worker_index():
+    """This process's share of the port range: worker gwN of a pytest-xdist
+    run takes the ports p with p % WORKERS == N, so two workers never pick
+    the same port (a process of the machine may still take one: see below)."""
+    if WORKER.startswith("gw") and WORKER[2:].isdigit() and WORKERS > 1:
+        return int(WORKER[2:]) % WORKERS
+    return None
+
+
 def free_port(addr, tcp=True, udp=True):
     """A port that is free on addr now (TCP and/or UDP). Others may take it
     before we bind it: callers that start a process retry with new ports."""
     rnd = random.SystemRandom()
     first, last = _port_range()
+    share = _worker_index()
     for _ in range(500):
         p = rnd.randint(first, last)
+        if share is not None:
+            p -= (p - share) % WORKERS
+            if p < first:
+                continue
         if p in _taken:
             continue
         ok = True
