@@ -107,7 +107,7 @@ SIM_BIN     := $(B)/drsim
 SIM_CFLAGS   = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS)
 
 # ---- drgatewayd ------------------------------------------------------------
-# The daemon is gateway/main.c linked with two archives: libgw.a (every
+# The daemon is gateway/core/main.c linked with two archives: libgw.a (every
 # other gateway/ source but the GPIO ones) and libgwgpio.a (the GPIO layer
 # with one backend, libgpiod 1 or 2). The tests link the same archives.
 # The pkg-config fallbacks cover builds where pkg-config is off (check-be
@@ -128,26 +128,26 @@ GPIO_BACKEND  := $(if $(GPIO_VERSION),$(if $(shell $(PKG_CONFIG) \
 endif
 GPIO_CFLAGS   := $(call pc,--cflags,libgpiod)
 GPIO_LIBS     := $(or $(call pc,--libs,libgpiod),-lgpiod)
-# For a program that includes "gpio.h" and links $(GPIO_A) $(GPIO_LIBS).
+# For a program that includes "gpio/gpio.h" and links $(GPIO_A) $(GPIO_LIBS).
 GPIO_CPPFLAGS := -Igateway
-GPIO_HDR      := gateway/gpio.h gateway/gpio_internal.h
-GPIO_CORE_SRC := gateway/gpio_common.c gateway/gpio_debounce.c
-GPIO_ALL_SRC  := $(GPIO_CORE_SRC) gateway/gpio_v1.c gateway/gpio_v2.c
-GPIO_SRC      := $(GPIO_CORE_SRC) gateway/gpio_$(GPIO_BACKEND).c
+GPIO_HDR      := gateway/gpio/gpio.h gateway/gpio/gpio_internal.h
+GPIO_CORE_SRC := gateway/gpio/gpio_common.c gateway/gpio/gpio_debounce.c
+GPIO_ALL_SRC  := $(GPIO_CORE_SRC) gateway/gpio/gpio_v1.c gateway/gpio/gpio_v2.c
+GPIO_SRC      := $(GPIO_CORE_SRC) gateway/gpio/gpio_$(GPIO_BACKEND).c
 GPIO_OBJ      := $(GPIO_SRC:%.c=$(B)/%.o)
 GPIO_A        := $(B)/gateway/libgwgpio.a
 GPIO_OBJ_CFLAGS = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(GPIO_CFLAGS) $(ALL_CFLAGS) -fPIC
 
-GW_SRC      := $(filter-out $(GPIO_ALL_SRC),$(sort $(wildcard gateway/*.c)))
-GW_HDR      := $(filter-out $(GPIO_HDR),$(wildcard gateway/*.h))
-GW_LIB_SRC  := $(filter-out gateway/main.c,$(GW_SRC))
+GW_SRC      := $(filter-out $(GPIO_ALL_SRC),$(sort $(wildcard gateway/*/*.c)))
+GW_HDR      := $(filter-out $(GPIO_HDR),$(wildcard gateway/*/*.h))
+GW_LIB_SRC  := $(filter-out gateway/core/main.c,$(GW_SRC))
 GW_LIB_OBJ  := $(GW_LIB_SRC:%.c=$(B)/%.o)
 GW_A        := $(B)/gateway/libgw.a
 GW_BIN      := $(B)/drgatewayd
 GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBUS_CFLAGS) \
                $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS)
 # libmosquitto is loaded with dlopen only when the configuration has an
-# [mqtt] section (gateway/mqtt_lib.c, docs/mqtt.md): the daemon is compiled
+# [mqtt] section (gateway/mqtt/mqtt_lib.c, docs/mqtt.md): the daemon is compiled
 # against its header but does not link it. glibc 2.34 and later have
 # dlopen in libc; -ldl is an empty stub there and keeps older C libraries
 # linking.
@@ -202,7 +202,7 @@ $(SIM_OBJ) $(COMMON_OBJ): $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(SIM_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
 
-$(GW_LIB_OBJ) $(B)/gateway/main.o: $(B)/%.o: %.c $(B)/%.d
+$(GW_LIB_OBJ) $(B)/gateway/core/main.o: $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(GW_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
 
@@ -243,8 +243,8 @@ $(GPIO_A): $(GPIO_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
-$(GW_BIN): $(B)/gateway/main.o $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A)
-	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(B)/gateway/main.o $(GW_DEP_LIBS)
+$(GW_BIN): $(B)/gateway/core/main.o $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(B)/gateway/core/main.o $(GW_DEP_LIBS)
 
 # $(call GW_VARIANT,NAME,FLAGS[,SOURCES]): drgatewayd's sources and the
 # event loop's, and SOURCES, compiled again with FLAGS into $(B)/bench/NAME/

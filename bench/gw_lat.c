@@ -13,7 +13,7 @@
  * which puts the figures on the safe side by about a microsecond for each
  * packet ahead in the same burst.
  *
- * It sees the links through their observer (gateway/link.h:
+ * It sees the links through their observer (gateway/core/link.h:
  * gw_link_observe), registered before main() runs, so the gateway's
  * sources have no code of the benchmark's.
  */
@@ -26,8 +26,8 @@
 #include <sys/ioctl.h>
 #include <time.h>
 
-#include "link.h"
-#include "log.h"
+#include "core/link.h"
+#include "core/log.h"
 
 #define LAT_MAX (1u << 20)
 

@@ -20,7 +20,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include "regmap.h" /* GW_AREA_SIZE: the same counts as the gateway */
+#include "modbus/regmap.h" /* GW_AREA_SIZE: the same counts as the gateway */
 
 static volatile sig_atomic_t stop;
 

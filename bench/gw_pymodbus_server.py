@@ -19,7 +19,7 @@ from pymodbus.datastore import (ModbusSequentialDataBlock, ModbusServerContext,
                                 ModbusSlaveContext)
 from pymodbus.server import StartAsyncTcpServer
 
-GW_AREA_SIZE = 2048  # gateway/regmap.h
+GW_AREA_SIZE = 2048  # gateway/modbus/regmap.h
 
 
 def block(values):

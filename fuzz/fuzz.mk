@@ -29,11 +29,11 @@ FUZZ_REPLAY_BIN    := $(FUZZ_TARGETS:%=$(B)/fuzz-replay/fuzz_%)
 # What a harness links beyond FUZZ_LIB_SRC: sources (FUZZ_SRC_T), compiled
 # into objects of their own here (instrumented) and taken from the plain
 # build for the replay programs, and libraries (FUZZ_LIBS_T).
-FUZZ_SRC_modbus      := gateway/mbproto.c gateway/regmap.c gateway/robot.c
+FUZZ_SRC_modbus      := gateway/modbus/mbproto.c gateway/modbus/regmap.c gateway/core/robot.c
 FUZZ_LIBS_modbus     := $(MODBUS_LIBS)
-FUZZ_SRC_rtu         := gateway/mbproto.c gateway/regmap.c gateway/robot.c
+FUZZ_SRC_rtu         := gateway/modbus/mbproto.c gateway/modbus/regmap.c gateway/core/robot.c
 FUZZ_LIBS_rtu        := $(MODBUS_LIBS)
-FUZZ_SRC_config      := $(sort $(wildcard gateway/config*.c))
+FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c))
 FUZZ_LIBS_config     := $(INIH_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 # All of drcli but its main() (cli/drcli.c, on top of the rest).
@@ -42,7 +42,7 @@ FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
 FUZZ_LIBS_cli        := $(JSON_LIBS)
 # Every harness and every object gets all the packages' flags: they only
 # add include directories.
-FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(JSON_CFLAGS)
+FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(JSON_CFLAGS)
 
 .PHONY: fuzz fuzz-build check-fuzz fuzz-replay fuzz-corpus
 

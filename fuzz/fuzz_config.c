@@ -18,7 +18,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "../gateway/config.h"
+#include "core/config.h"
 #include "fuzz.h"
 
 static int fd = -1;

@@ -40,7 +40,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include "../gateway/mbproto.h"
+#include "modbus/mbproto.h"
 #include "fuzz.h"
 
 #define UNITS 2

@@ -23,7 +23,7 @@
  */
 #include <string.h>
 
-#include "../gateway/mbproto.h"
+#include "modbus/mbproto.h"
 #include "fuzz.h"
 
 static gw_unit_t units[2];

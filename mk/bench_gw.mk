@@ -24,7 +24,7 @@ $(B)/bench/gw_plain_server: bench/gw_plain_server.c $(B)/bench/gw_plain_server.d
 	    $(ALL_LDFLAGS) -o $@ $< $(MODBUS_LIBS)
 
 # The daemon with the latency instrumentation: bench/gw_lat.c, which
-# watches the links through their observer (gateway/link.h), and
+# watches the links through their observer (gateway/core/link.h), and
 # bench/gw_lat_hook.h, forced into every source (-include: the lists of
 # headers name it all the same), which notes when the loop wakes up; the
 # throughput, RSS and CPU figures use the real one.

@@ -9,7 +9,7 @@
 # `make bench-scale SCALE_BENCH_ARGS=--quick` measures N = 1, 2, 4 only.
 # Method and results in docs/performance.md ("Robots per core").
 #
-# The daemon takes 32 robots (GW_MAX_ROBOTS, gateway/config.h); the bench
+# The daemon takes 32 robots (GW_MAX_ROBOTS, gateway/core/config.h); the bench
 # builds it with -DGW_MAX_ROBOTS=32 all the same, so that it keeps measuring
 # 32 robots should the default change.
 

@@ -89,7 +89,7 @@ gpio-qemu-shell: $(GPIO_SELFTEST)
 # build gpio_v2.c and the selftest against it, and run the same qemu test.
 GPIO_V2_PYPI  ?= gpiod==2.5.0
 GPIO_V2_DIR   := $(B)/gpio-v2
-GPIO_V2_OBJ   := $(patsubst %.c,$(GPIO_V2_DIR)/%.o,$(GPIO_CORE_SRC) gateway/gpio_v2.c)
+GPIO_V2_OBJ   := $(patsubst %.c,$(GPIO_V2_DIR)/%.o,$(GPIO_CORE_SRC) gateway/gpio/gpio_v2.c)
 
 check-gpio-v2:
 	@if sh tests/gpio/libgpiod2.sh "$(GPIO_CACHE)" "$(GPIO_V2_PYPI)" \

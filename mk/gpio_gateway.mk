@@ -5,7 +5,7 @@
 # outputs following robot bits, inputs driving O->T bits through drsim's
 # echo, debounce, safe values on robot link loss, faults, reloads and
 # SIGTERM (docs/gpio.md, "The gateway's lines end to end"). Before it, the
-# host unit test of gateway/gpiomap.c. ~20-35 s once the kernel is cached;
+# host unit test of gateway/gpio/gpiomap.c. ~20-35 s once the kernel is cached;
 # the qemu part is a loud skip where qemu cannot run.
 # GPIO_GW_ARGS passes more options to run.sh (e.g. --log FILE).
 
@@ -18,7 +18,7 @@ CHECK_STEPS += check-gpio-gateway
 
 .PHONY: check-gpio-gateway check-gpio-gateway-unit gpio-gateway-shell
 
-# $(GPIO_GW_TEST) is gateway/gpiomap.c on the fake GPIO backend and a fake
+# $(GPIO_GW_TEST) is gateway/gpio/gpiomap.c on the fake GPIO backend and a fake
 # event loop: no kernel, no libgpiod, no epoll (the test defines ev_watch
 # & co.). It builds with the Makefile's rule for gateway tests.
 

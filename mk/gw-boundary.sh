@@ -35,16 +35,16 @@ check() {
         if [ -n "$hit" ]; then echo "$label: $1 reads Modbus's units:"; echo "$hit"; fail=1; fi
     esac
 }
-check gateway/robot.h inc,sym
-check gateway/robot.c inc,sym
-check gateway/link.h inc,sym
-check gateway/link.c inc,sym
-check gateway/gpiomap.h inc,unit
-check gateway/gpiomap.c inc,unit
-check gateway/north_gpio.c inc,unit
-check gateway/north_mqtt.c inc,unit
-check gateway/north.h inc,unit
-check gateway/north.c inc,unit
+check gateway/core/robot.h inc,sym
+check gateway/core/robot.c inc,sym
+check gateway/core/link.h inc,sym
+check gateway/core/link.c inc,sym
+check gateway/gpio/gpiomap.h inc,unit
+check gateway/gpio/gpiomap.c inc,unit
+check gateway/gpio/north_gpio.c inc,unit
+check gateway/mqtt/north_mqtt.c inc,unit
+check gateway/core/north.h inc,unit
+check gateway/core/north.c inc,unit
 if [ "$fail" -eq 0 ]; then
     echo "$label: clean"; echo "1 0 $label" >> "$results"
 else

@@ -2207,7 +2207,7 @@ static void test_deadline_cache(void **state)
     dr_udp_port_free(p);
 }
 
-/* drgatewayd's set-up (gateway/link.c): a shared port and a transport
+/* drgatewayd's set-up (gateway/core/link.c): a shared port and a transport
  * with descriptors but no timer, the daemon's loop waking at
  * dr_client_next_deadline. The client still sends one O->T packet per RPI
  * on its own deadlines (strict timing), and still times out a connection

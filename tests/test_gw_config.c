@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * gateway/config.c: good files (every key, every section spelling, every
+ * gateway/core/config.c: good files (every key, every section spelling, every
  * shipped example), the defaults, and each kind of error with its exact
  * "FILE:LINE: message". Error cases are written to a temporary gw.ini so
  * each one sits in the table below next to the message it must produce.
@@ -17,8 +17,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "config.h"
-#include "config_internal.h"
+#include "core/config.h"
+#include "core/config_internal.h"
 
 #ifndef GW_TEST_TOP
 #define GW_TEST_TOP "."
@@ -1235,7 +1235,7 @@ static void test_word_order_name(void **state)
 }
 
 
-/* ---- the key tables (gateway/config_internal.h) ----------------------------- */
+/* ---- the key tables (gateway/core/config_internal.h) ----------------------------- */
 
 static const gw_cfg_side_t *const all_sides[] = {
     &gw_cfg_daemon, &gw_cfg_modbus, &gw_cfg_robot,

@@ -14,7 +14,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "regmap.h"
+#include "modbus/regmap.h"
 
 static gw_unit_t U;
 static gw_robot_t R; /* U's robot */

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * gw_robot_t's own logic (gateway/robot.c): a robot starts empty with its
+ * gw_robot_t's own logic (gateway/core/robot.c): a robot starts empty with its
  * name and serial; a failure is recorded as the status block shows it
  * (CIP extended status, or the general one when there is none, and the
  * general status apart; anything else as its code); clear_while_down
@@ -15,7 +15,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "robot.h"
+#include "core/robot.h"
 
 static gw_robot_t R;
 

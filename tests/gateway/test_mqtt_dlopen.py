@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""libmosquitto is loaded at run time, only for [mqtt] (gateway/mqtt_lib.c,
+"""libmosquitto is loaded at run time, only for [mqtt] (gateway/mqtt/mqtt_lib.c,
 docs/mqtt.md): a gateway without [mqtt] maps neither libmosquitto nor the
 libssl/libcrypto it pulls in (what keeps its idle RSS under the goal of
 docs/performance.md), one with [mqtt] does, and a library that cannot be

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * A fake GPIO backend (gateway/gpio_internal.h) for unit tests of
- * gateway/gpio_common.c without a kernel: two chips, /dev/gpiochip0
+ * A fake GPIO backend (gateway/gpio/gpio_internal.h) for unit tests of
+ * gateway/gpio/gpio_common.c without a kernel: two chips, /dev/gpiochip0
  * "fake-A" with 8 lines named fake-A-0..7 and /dev/gpiochip1 "fake-B"
  * with 4 unnamed lines. Tests poke the state below.
  */
@@ -12,7 +12,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "gpio_internal.h"
+#include "gpio/gpio_internal.h"
 
 #define FAKE_LINES 8
 #define FAKE_LOG   64

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * gateway/gpio.h against a real kernel GPIO chip: run inside the qemu
+ * gateway/gpio/gpio.h against a real kernel GPIO chip: run inside the qemu
  * guest of tests/gpio/qemu (gpio-mockup loaded with
  * gpio_mockup_ranges=-1,8,-1,4 gpio_mockup_named_lines=1, debugfs and
  * tracefs mounted). The other side of every line is driven and read
@@ -26,7 +26,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "gpio.h"
+#include "gpio/gpio.h"
 
 #define MOCKUP      "/sys/kernel/debug/gpio-mockup"
 #define TRACING     "/sys/kernel/tracing"

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * gateway/gpio_common.c over the fake backend: lookup, validation, the
+ * gateway/gpio/gpio_common.c over the fake backend: lookup, validation, the
  * wording of errors, safe values, events and debouncing. The same code
  * runs against a real kernel in tests/gpio/qemu.
  */
@@ -12,7 +12,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "gpio.h"
+#include "gpio/gpio.h"
 #include "gpio_fake.h"
 
 #define MS 1000000ull

@@ -1,12 +1,12 @@
 /* SPDX-License-Identifier: MIT */
-/* The software debouncer of gateway/gpio_debounce.c, on made-up times. */
+/* The software debouncer of gateway/gpio/gpio_debounce.c, on made-up times. */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
 #include <stdint.h>
 #include <cmocka.h>
 
-#include "gpio.h"
+#include "gpio/gpio.h"
 
 #define MS 1000000ull /* ns */
 

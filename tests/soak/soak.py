@@ -152,7 +152,7 @@ class Client:
         if st[0] != 1:
             raise ModbusFailure("%s: layout_version %d" % (self.name, st[0]))
         # link up (IR 1 = 2) with data_age_ms (IR 3) at its 65535 cap cannot
-        # be: the age wrapped around (fixed in gateway/link.c)
+        # be: the age wrapped around (fixed in gateway/core/link.c)
         with self.sh.lock:
             if st[1] == 2 and st[3] == 65535:
                 if not self.sh.glitches:

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * gateway/gpiomap.c (GPIO lines bound to robot fields) over the fake GPIO
+ * gateway/gpio/gpiomap.c (GPIO lines bound to robot fields) over the fake GPIO
  * backend (tests/gpio/gpio_fake.c) and a fake event loop: outputs follow
  * only fresh robot data, safe values on link loss and faults, inputs into
  * O->T bits with debounce, one handle per chip however it is spelled, and
@@ -18,9 +18,9 @@
 #include <cmocka.h>
 
 #include "common/ev.h"
-#include "gpio.h"
+#include "gpio/gpio.h"
 #include "gpio_fake.h"
-#include "gpiomap.h"
+#include "gpio/gpiomap.h"
 
 #define MS 1000000ull
 

@@ -1,7 +1,7 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
 # Guest side of `make check-gpio-qemu` (run by tests/gpio/qemu/run.sh's
-# /init): gateway/gpio.h through gpio_selftest, then the daemon-like
+# /init): gateway/gpio/gpio.h through gpio_selftest, then the daemon-like
 # lifetime of a line seen from outside: held output readable in debugfs
 # and shown as used by gpioinfo, safe value written on SIGTERM.
 # Every wait is bounded. Exit status 0 = all passed.

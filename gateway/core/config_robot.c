@@ -1,0 +1,449 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * [robot NAME] (the core): its keys, the instance.* and open.* families,
+ * the defaults of the connection plan, and the checks of one robot's own
+ * keys (config_internal.h; robots against each other: config_check.c).
+ */
+#include "core/config_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define R(m) GW_CFG_AT(gw_robot_config_t, m)
+/* Robot keys of the connection plan (gw_robot_default_plan). */
+#define RK_PLAN (1u << 16)
+#define LINK GW_CFG_LINK
+#define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
+
+static gw_cfg_parse_fn robot_serial, robot_instance, robot_open;
+static const char *asm_item(unsigned i);
+
+static const gw_cfg_key_t robot_keys[] = {
+    { .name = "host", .type = GW_CFG_HOST, .flags = GW_CFG_REQUIRED | LINK, R(host), .allowed = "an IPv4 address or a host name", .help = "the robot controller. A name is resolved once, when the configuration is loaded (start, SIGHUP), so that reconnects never wait for DNS; one that does not resolve stops the start (exit 1, systemd retries) or refuses the reload. While it resolves, the daemon waits (at most the resolver's timeout, `/etc/resolv.conf`); an IPv4 address never waits" },
+    { .name = "tcp_port", .type = GW_CFG_UINT, .flags = LINK, R(tcp_port), .lo = 1, .hi = 65535, .def = 44818, .help = "EtherNet/IP encapsulation port" },
+    { .name = "udp_port", .type = GW_CFG_UINT, .flags = LINK, R(udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "the robot's Class 1 (implicit I/O) UDP port" },
+    { .name = "local_address", .type = GW_CFG_IPV4, .flags = LINK, R(local_addr), .allowed = "an IPv4 address", .doc_default = "any", .help = "local address for the Class 1 UDP socket" },
+    { .name = "local_udp_port", .type = GW_CFG_UINT, .flags = LINK, R(local_udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "local Class 1 UDP port. If another program has it (`cannot open UDP 0.0.0.0:2222 for Class 1 I/O: address already in use`), set `local_address` to another address of this host or `local_udp_port` to a free port (the robot is told where to send in the Forward Open)" },
+    /* 0 is broadcast, 248..255 reserved (Modbus spec 4.1) */
+    { .name = "unit_id", .type = GW_CFG_UINT, R(unit_id), .lo = 1, .hi = 247, .def = 1, .doc_allowed = "1..247, unique across robots", .help = "Modbus unit ID under which this robot's registers are served" },
+    { .name = "mode", .type = GW_CFG_ENUM, .flags = LINK, R(mode), GW_CFG_NAMES("implicit", "explicit"), .def = GW_MODE_IMPLICIT, .help = "`implicit`: Class 1 connections exchanging data every `rpi_ms`. `explicit`: cyclic Get/Set_Attribute_Single over TCP every `rpi_ms` (for networks that block UDP 2222)" },
+    { .name = "rpi_ms", .type = GW_CFG_UINT, .flags = LINK, R(rpi_ms), .lo = 1, .hi = 10000, .def = 10, .help = "implicit: requested packet interval. Explicit: poll period" },
+    /* CIP's code: timeout = RPI x (4 << code) */
+    { .name = "timeout_multiplier", .type = GW_CFG_UINT, .flags = LINK, R(timeout_mult), .lo = 0, .hi = 7, .def = 2, .help = "implicit: the connection times out after `rpi_ms × (4 << code)`, that is ×4, ×8, ×16 (default), ×32, ×64, ×128, ×256, ×512" },
+    { .name = "timeout_ms", .type = GW_CFG_UINT, .flags = LINK, R(timeout_ms), .lo = 10, .hi = 60000, .def = 1000, .help = "explicit request timeout" },
+    { .name = "fallback", .type = GW_CFG_ENUM, R(fallback_hold), GW_CFG_NAMES("zero", "hold"), .help = "O->T image sent when the single writer's watchdog expires: all zeros, or the last values written" },
+    { .name = "o2t_timing", .type = GW_CFG_ENUM, .flags = LINK, R(o2t_strict), GW_CFG_NAMES("follow", "strict"), .help = "implicit: when O->T packets go out. `strict`: on the gateway's own timer, every `rpi_ms`. `follow`: an O->T packet due within a quarter of `rpi_ms` is sent as soon as the robot's T->O packet of that connection arrives, so the gateway wakes up once per RPI instead of twice (about a third less CPU); a packet leaves at most a quarter RPI before its time, two packets of a connection are never closer than three quarters of an RPI, and the rate never exceeds one packet per RPI; when the arrivals drift out of that window (the robot's clock runs a little slow or fast, as every real clock does) the O->T schedule moves later to follow them (one longer interval, never a shorter one)" },
+    { .name = "config_instance", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(config_instance), .lo = 1, .hi = 65535, .def = 1, .help = "configuration instance (connection point) in every Forward Open; see [Connection plan](#connection-plan)" },
+    { .name = "input_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(input_only_heartbeat), .lo = 1, .hi = 65535, .def = 198, .help = "O->T connection point of input-only connections" },
+    { .name = "listen_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(listen_only_heartbeat), .lo = 1, .hi = 65535, .def = 199, .help = "O->T connection point of listen-only connections" },
+    /* often written in hex, as tools show it; 0 (the default): derived at start (link.c) */
+    { .name = "originator_serial", .type = GW_CFG_HOOK, .flags = LINK, R(originator_serial), .parse = robot_serial, .allowed = "1..4294967295, or 0x1..0xFFFFFFFF", .doc_default = "derived from the machine and the robot's name, see [below](#originator_serial)", .help = "the originator serial number of every Forward Open: the robot gives the owner connections of a gateway that stopped uncleanly back only to the same serial" },
+    /* the families last: "allowed:" lists them after the plain keys */
+    { .name = "instance.<assembly>", .type = GW_CFG_PREFIX, .flags = LINK, R(instance), .parse = robot_instance, .item = asm_item, .doc_default = "see below", .doc_allowed = "1..65535, one per assembly", .help = "assembly instance numbers, if the robot is configured differently" },
+    { .name = "open.<T->O assembly>", .type = GW_CFG_PREFIX, .flags = LINK, R(open), .parse = robot_open, .item = asm_item, .doc_default = "see below", .doc_allowed = "`owner:<O->T assembly>`, `input_only`, `listen_only`, `none`", .help = "how the connection for that T->O assembly is opened" },
+};
+
+/* Where instance.* and open.* were set, by assembly (0: not set): the
+ * side's scratch. */
+typedef struct {
+    unsigned instance[DR_ASM_COUNT];
+    unsigned open[DR_ASM_COUNT];
+} robot_lines_t;
+
+static void robot_defaults(void *sec);
+
+const gw_cfg_side_t gw_cfg_robot = {
+    .kw = "robot",
+    GW_CFG_NAMED(robot, robot_count, gw_robot_config_t),
+    .lone_name = "robot",
+    GW_CFG_KEYS(robot_keys),
+    .scratch = sizeof(robot_lines_t),
+    .defaults = robot_defaults,
+    .check = gw_cfg_check_robots,
+};
+
+static robot_lines_t *lines_of(gw_cfg_ctx_t *c, unsigned i)
+{
+    return gw_cfg_scratch(c, &gw_cfg_robot, i);
+}
+
+static const char *asm_item(unsigned i)
+{
+    return i < DR_ASM_COUNT ? dr_asm_info((dr_asm_t)i)->name : NULL;
+}
+
+/* An originator serial number: decimal as any number, or 0x and 1 to 8
+ * hex digits; never 0 (the default, see gw_robot_config_t). */
+static void robot_serial(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                         const char *name, const char *v)
+{
+    unsigned long n;
+    if (v[0] != '0' || (v[1] != 'x' && v[1] != 'X')) {
+        if (gw_cfg_get_uint(c, name, v, 1, 4294967295ul, &n))
+            gw_cfg_store(c, k, sec, n);
+        return;
+    }
+    size_t digits = strspn(v + 2, "0123456789abcdefABCDEF");
+    if (digits == 0 || digits > 8 || v[2 + digits] != '\0') {
+        gw_cfg_fail(c, c->lineno,
+                    "%s '%s' invalid: not a 32-bit hex number (allowed: %s)",
+                    name, v, k->allowed);
+        return;
+    }
+    n = strtoul(v + 2, NULL, 16);
+    if (n == 0)
+        gw_cfg_fail(c, c->lineno, "%s %s out of range (allowed: %s)", name, v,
+                    k->allowed);
+    else
+        gw_cfg_store(c, k, sec, n);
+}
+
+/* ---- instance.* and open.* ---------------------------------------------- */
+
+/* The assembly `asm_name` (the part of key `name` after its prefix);
+ * false, with a did-you-mean message, if there is no such assembly. */
+static bool key_assembly(gw_cfg_ctx_t *c, const char *name,
+                         const char *asm_name, dr_asm_t *a)
+{
+    if (dr_asm_lookup(asm_name, a) == DR_OK)
+        return true;
+    const char *names[DR_ASM_COUNT];
+    gw_cfg_guess_t g = GW_CFG_GUESS(asm_name);
+    for (unsigned i = 0; i < DR_ASM_COUNT; i++) {
+        names[i] = asm_item(i);
+        gw_cfg_guess(&g, names[i]);
+    }
+    char allowed[200], hint[96];
+    gw_cfg_join(names, DR_ASM_COUNT, allowed, sizeof allowed);
+    gw_cfg_fail(c, c->lineno,
+                "unknown assembly '%s' in '%s' (%sallowed: %s, or dr1..dr10)",
+                asm_name, name,
+                gw_cfg_did_you_mean(&g, "'", "'", hint, sizeof hint), allowed);
+    return false;
+}
+
+/* "io_state, joint_state, ..." for the assemblies of one direction. */
+static void join_dir(dr_dir_t dir, char *buf, size_t size)
+{
+    const char *names[DR_ASM_COUNT];
+    size_t n = 0;
+    for (unsigned i = 0; i < DR_ASM_COUNT; i++)
+        if (dr_asm_info((dr_asm_t)i)->dir == dir)
+            names[n++] = asm_item(i);
+    gw_cfg_join(names, n, buf, size);
+}
+
+/* key_assembly, of direction dir: else "SUBJECT invalid: ASSEMBLY WHY
+ * (allowed: the assemblies of dir)". False after the message. */
+static bool assembly_of(gw_cfg_ctx_t *c, const char *name, const char *asm_name,
+                        dr_dir_t dir, const char *subject, const char *why,
+                        dr_asm_t *a)
+{
+    if (!key_assembly(c, name, asm_name, a))
+        return false;
+    if (dr_asm_info(*a)->dir == dir)
+        return true;
+    char allowed[120];
+    join_dir(dir, allowed, sizeof allowed);
+    gw_cfg_fail(c, c->lineno, "%s invalid: %s %s (allowed: %s)", subject,
+                asm_item(*a), why, allowed);
+    return false;
+}
+
+/* A family key's assembly set once: instance.io_state and instance.dr1
+ * are the same key. False after the message. */
+static bool first_of_family(gw_cfg_ctx_t *c, const char *name, unsigned *seen,
+                            const char *what, dr_asm_t a)
+{
+    if (*seen != 0) {
+        gw_cfg_fail(c, c->lineno,
+                    "key '%s' repeated in [%s] (%s of %s, first at line %u)",
+                    name, c->sec_text, what, asm_item(a), *seen);
+        return false;
+    }
+    *seen = c->lineno;
+    return true;
+}
+
+static void robot_instance(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                           const char *name, const char *v)
+{
+    gw_robot_config_t *r = sec;
+    dr_asm_t a;
+    (void)k;
+    if (!key_assembly(c, name, name + strlen("instance."), &a) ||
+        !first_of_family(c, name, &lines_of(c, c->idx)->instance[a],
+                         "instance", a))
+        return;
+    unsigned long n;
+    if (v[0] == '\0')
+        gw_cfg_fail(c, c->lineno, "%s has no value (allowed: 1..65535)", name);
+    else if (gw_cfg_get_uint(c, name, v, 1, 65535, &n))
+        r->instance[a] = (uint16_t)n;
+}
+
+/* The value of open.<T->O assembly>: "owner:<O->T assembly>",
+ * "input_only", "listen_only" or "none". */
+static void open_value(gw_cfg_ctx_t *c, const char *name, const char *v,
+                       gw_open_t *o)
+{
+    static const char *const kinds[] = { "owner", "input_only", "listen_only",
+                                         "none" };
+    size_t n = strcspn(v, ":");
+    for (unsigned k = 1; k < GW_CFG_COUNT(kinds); k++)
+        if (strcmp(v, kinds[k]) == 0) {
+            o->kind = (gw_open_kind_t)k;
+            o->o2t = -1;
+            return;
+        }
+    if (strcmp(v, kinds[0]) == 0) {
+        gw_cfg_fail(c, c->lineno,
+                    "%s 'owner' invalid: an owner connection needs its O->T "
+                    "partner, e.g. owner:io_control (allowed: " OPEN_ALLOWED
+                    ")",
+                    name);
+        return;
+    }
+    if (n != strlen(kinds[0]) || strncmp(v, kinds[0], n) != 0 || v[n] != ':') {
+        gw_cfg_guess_t g = GW_CFG_GUESS(v);
+        char hint[96];
+        for (unsigned k = 0; k < GW_CFG_COUNT(kinds); k++)
+            gw_cfg_guess(&g, kinds[k]);
+        gw_cfg_fail(c, c->lineno, "%s '%s' invalid (%sallowed: " OPEN_ALLOWED ")",
+                    name, v, gw_cfg_did_you_mean(&g, "'", "'", hint, sizeof hint));
+        return;
+    }
+    char subject[300];
+    snprintf(subject, sizeof subject, "%s '%s'", name, v);
+    dr_asm_t p;
+    if (!assembly_of(c, name, v + n + 1, DR_DIR_O2T, subject,
+                     "is produced by the robot (T->O), an owner's partner must "
+                     "be an O->T assembly",
+                     &p))
+        return;
+    o->kind = GW_OPEN_OWNER;
+    o->o2t = (int)p;
+}
+
+static void robot_open(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                       const char *name, const char *v)
+{
+    gw_robot_config_t *r = sec;
+    dr_asm_t a;
+    (void)k;
+    char subject[300];
+    snprintf(subject, sizeof subject, "key '%s'", name);
+    if (!assembly_of(c, name, name + strlen("open."), DR_DIR_T2O, subject,
+                     "is consumed by the robot (O->T); open.* names a T->O "
+                     "assembly, which brings its O->T partner with owner:<O->T>",
+                     &a))
+        return;
+    if (!first_of_family(c, name, &lines_of(c, c->idx)->open[a], "open", a))
+        return;
+    open_value(c, name, v, &r->open[a]);
+}
+
+/* ---- defaults ------------------------------------------------------------- */
+
+static void robot_defaults(void *sec)
+{
+    gw_robot_config_t *r = sec;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        r->instance[a] = DR_ASM_DEFAULT_INSTANCE(a);
+    gw_robot_default_plan(r);
+}
+
+void gw_robot_default_plan(gw_robot_config_t *r)
+{
+    for (unsigned k = 0; k < GW_CFG_COUNT(robot_keys); k++)
+        if (robot_keys[k].flags & RK_PLAN)
+            gw_cfg_key_default(&robot_keys[k], r);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        r->open[a] = (gw_open_t){ GW_OPEN_NONE, -1 };
+    r->open[DR_ASM_IO_STATE] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_IO_CONTROL };
+    r->open[DR_ASM_BIT_OUT] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_BIT_IN };
+    r->open[DR_ASM_INT_OUT] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_INT_IN };
+    r->open[DR_ASM_FLOAT_OUT] = (gw_open_t){ GW_OPEN_OWNER, DR_ASM_FLOAT_IN };
+    r->open[DR_ASM_JOINT_STATE] = (gw_open_t){ GW_OPEN_INPUT_ONLY, -1 };
+    r->open[DR_ASM_TASK_STATE] = (gw_open_t){ GW_OPEN_INPUT_ONLY, -1 };
+}
+
+/* ---- one robot's own checks ------------------------------------------------ */
+
+static unsigned line_or(unsigned key_line, unsigned section_line)
+{
+    return key_line != 0 ? key_line : section_line;
+}
+
+static unsigned max_line(unsigned a, unsigned b)
+{
+    return a > b ? a : b;
+}
+
+/* Two assemblies on one instance would read one another's data. */
+static bool check_instances(gw_cfg_ctx_t *c, const gw_robot_config_t *r,
+                            const robot_lines_t *rl)
+{
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        for (unsigned b = a + 1; b < DR_ASM_COUNT; b++) {
+            if (r->instance[a] != r->instance[b])
+                continue;
+            gw_cfg_fail(c,
+                        max_line(line_or(rl->instance[a], r->line),
+                                 line_or(rl->instance[b], r->line)),
+                        "robot '%s': instance %u used by both %s and %s (each "
+                        "assembly needs its own instance)",
+                        r->name, (unsigned)r->instance[a], asm_item(a),
+                        asm_item(b));
+            return false;
+        }
+    }
+    return true;
+}
+
+/* A connection point of the plan (config_instance or a heartbeat in use)
+ * that is also an assembly's instance: the target could not tell them
+ * apart. False after reporting it. */
+static bool check_point(gw_cfg_ctx_t *c, unsigned i, const char *key,
+                        uint16_t inst)
+{
+    const gw_robot_config_t *r = &c->cfg.robot[i];
+    const robot_lines_t *rl = lines_of(c, i);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        if (r->instance[a] != inst)
+            continue;
+        gw_cfg_fail(c,
+                    max_line(line_or(gw_cfg_line(c, &gw_cfg_robot, i, key), r->line),
+                             line_or(rl->instance[a], r->line)),
+                    "robot '%s': %s %u is also the instance of %s (a "
+                    "connection point names one thing)",
+                    r->name, key, (unsigned)inst, asm_item(a));
+        return false;
+    }
+    return true;
+}
+
+/* The configuration point equal to the heartbeat point `key` the plan
+ * uses: a Forward Open would name one instance as both, which the robot
+ * refuses at run time (the defaults invite it: listen_only_heartbeat is
+ * 199, and 199 is a common configuration instance). False after
+ * reporting it. */
+static bool check_config_point(gw_cfg_ctx_t *c, unsigned i, const char *key,
+                               uint16_t inst)
+{
+    const gw_robot_config_t *r = &c->cfg.robot[i];
+    if (r->config_instance != inst)
+        return true;
+    unsigned hb_line = gw_cfg_line(c, &gw_cfg_robot, i, key);
+    gw_cfg_fail(c,
+                max_line(line_or(gw_cfg_line(c, &gw_cfg_robot, i, "config_instance"),
+                                 r->line),
+                         line_or(hb_line, r->line)),
+                "robot '%s': config_instance %u is also %s (%sthe robot refuses "
+                "a Forward Open that names one instance as both: set %s to "
+                "another point of its EDS)",
+                r->name, (unsigned)inst, key, hb_line != 0 ? "" : "its default; ",
+                key);
+    return false;
+}
+
+/* An O->T assembly with two owners: reported where the second one (in
+ * the file) is. */
+static void two_owners(gw_cfg_ctx_t *c, const gw_robot_config_t *r,
+                       const robot_lines_t *rl, unsigned a, unsigned b)
+{
+    unsigned la = line_or(rl->open[a], r->line), lb = line_or(rl->open[b], r->line);
+    unsigned later = la >= lb ? a : b, earlier = la >= lb ? b : a;
+    char where[32];
+    if (rl->open[earlier] != 0)
+        snprintf(where, sizeof where, "line %u", rl->open[earlier]);
+    else
+        snprintf(where, sizeof where, "the default");
+    gw_cfg_fail(c, max_line(la, lb),
+                "robot '%s': O->T %s has two owners, %s and %s (%s; one "
+                "exclusive owner connection per O->T assembly: make one of "
+                "them input_only or listen_only)",
+                r->name, asm_item((unsigned)r->open[a].o2t), asm_item(later),
+                asm_item(earlier), where);
+}
+
+/* The connection plan: every O->T assembly has at most one owner, at
+ * least one connection is opened, the instances it uses are distinct. */
+static bool check_plan(gw_cfg_ctx_t *c, unsigned i)
+{
+    const gw_robot_config_t *r = &c->cfg.robot[i];
+    const robot_lines_t *rl = lines_of(c, i);
+    int owner[DR_ASM_COUNT];
+    bool any = false, input_only = false, listen_only = false;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        owner[a] = -1;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        const gw_open_t *o = &r->open[a];
+        any |= o->kind != GW_OPEN_NONE;
+        input_only |= o->kind == GW_OPEN_INPUT_ONLY;
+        listen_only |= o->kind == GW_OPEN_LISTEN_ONLY;
+        if (o->kind != GW_OPEN_OWNER)
+            continue;
+        if (owner[o->o2t] >= 0) {
+            two_owners(c, r, rl, a, (unsigned)owner[o->o2t]);
+            return false;
+        }
+        owner[o->o2t] = (int)a;
+    }
+    if (!any) {
+        gw_cfg_fail(c, r->line,
+                    "robot '%s': every open.* is none: nothing would be opened "
+                    "(allowed: " OPEN_ALLOWED ")",
+                    r->name);
+        return false;
+    }
+    if (input_only && listen_only &&
+        r->input_only_heartbeat == r->listen_only_heartbeat) {
+        unsigned li = line_or(gw_cfg_line(c, &gw_cfg_robot, i, "input_only_heartbeat"), r->line);
+        unsigned ll = line_or(gw_cfg_line(c, &gw_cfg_robot, i, "listen_only_heartbeat"), r->line);
+        gw_cfg_fail(c, max_line(li, ll),
+                    "robot '%s': input_only_heartbeat and listen_only_heartbeat "
+                    "are both %u (the robot tells the two kinds apart by it)",
+                    r->name, (unsigned)r->input_only_heartbeat);
+        return false;
+    }
+    /* explicit mode opens no connection: its points are not used */
+    bool implicit = r->mode == GW_MODE_IMPLICIT;
+    if (implicit && input_only &&
+        !check_config_point(c, i, "input_only_heartbeat", r->input_only_heartbeat))
+        return false;
+    if (implicit && listen_only &&
+        !check_config_point(c, i, "listen_only_heartbeat", r->listen_only_heartbeat))
+        return false;
+    return check_point(c, i, "config_instance", r->config_instance) &&
+           (!input_only ||
+            check_point(c, i, "input_only_heartbeat", r->input_only_heartbeat)) &&
+           (!listen_only ||
+            check_point(c, i, "listen_only_heartbeat", r->listen_only_heartbeat));
+}
+
+bool gw_cfg_robot_check(gw_cfg_ctx_t *c, unsigned i)
+{
+    return check_instances(c, &c->cfg.robot[i], lines_of(c, i)) &&
+           check_plan(c, i);
+}
+
+/* ---- public API ------------------------------------------------------------ */
+
+bool gw_robot_config_same_link(const gw_robot_config_t *a,
+                               const gw_robot_config_t *b)
+{
+    /* The keys marked LINK; not compared: name (the caller pairs robots by
+     * it), unit_id and fallback (Modbus side only), line. */
+    for (unsigned k = 0; k < GW_CFG_COUNT(robot_keys); k++) {
+        const gw_cfg_key_t *key = &robot_keys[k];
+        if (!(key->flags & GW_CFG_LINK))
+            continue;
+        const char *x = (const char *)a + key->off, *y = (const char *)b + key->off;
+        bool text = key->type == GW_CFG_HOST || key->type == GW_CFG_IPV4 ||
+                    key->type == GW_CFG_TEXT;
+        if (text ? strcmp(x, y) != 0 : memcmp(x, y, key->size) != 0)
+            return false;
+    }
+    return true;
+}

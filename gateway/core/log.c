@@ -1,0 +1,191 @@
+/* SPDX-License-Identifier: MIT */
+/* Log lines: "<N>" priority prefixes when stderr is the journal (systemd
+ * sets JOURNAL_STREAM), which stamps each line itself; otherwise the local
+ * time to the millisecond and a level word, so that a log kept in a file
+ * or read on a terminal says when each thing happened. */
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "common/ev.h"
+#include "core/log.h"
+
+#define LIMIT_US 10000000u
+
+static gw_log_level_t max_level = GW_LOG_INFO;
+
+void gw_log_set_level(gw_log_level_t max)
+{
+    max_level = max;
+}
+
+int gw_log_level_parse(const char *name, gw_log_level_t *out)
+{
+    static const struct { const char *n; gw_log_level_t l; } t[] = {
+        {"error", GW_LOG_ERROR}, {"warning", GW_LOG_WARNING},
+        {"info", GW_LOG_INFO}, {"debug", GW_LOG_DEBUG}};
+    for (size_t i = 0; i < sizeof t / sizeof t[0]; i++)
+        if (strcmp(name, t[i].n) == 0) {
+            *out = t[i].l;
+            return 1;
+        }
+    return 0;
+}
+
+/* "2025-03-14 09:26:53.589": the wall clock, local time. */
+static const char *time_stamp(char *buf, size_t size)
+{
+    struct timespec ts;
+    struct tm tm;
+    buf[0] = '\0';
+    if (clock_gettime(CLOCK_REALTIME, &ts) != 0 || localtime_r(&ts.tv_sec, &tm) == NULL)
+        return buf;
+    size_t n = strftime(buf, size, "%Y-%m-%d %H:%M:%S", &tm);
+    if (n > 0 && n < size)
+        snprintf(buf + n, size - n, ".%03ld", ts.tv_nsec / 1000000L);
+    return buf;
+}
+
+/* suppressed: a count of the same kind to end the line with (0: none). */
+static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
+{
+    static const char *const words[8] = {"", "", "", "error", "warning", "", "info", "debug"};
+    if (level > max_level)
+        return;
+    if (getenv("JOURNAL_STREAM") != NULL) {
+        fprintf(stderr, "<%d>", (int)level);
+    } else {
+        char stamp[32];
+        fprintf(stderr, "%s drgatewayd: %s: ", time_stamp(stamp, sizeof stamp), words[level]);
+    }
+    vfprintf(stderr, fmt, ap);
+    if (suppressed > 0)
+        fprintf(stderr, " [%u similar message%s suppressed]", suppressed,
+                suppressed == 1 ? "" : "s");
+    fputc('\n', stderr);
+}
+
+void gw_log(gw_log_level_t level, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vlog(level, 0, fmt, ap);
+    va_end(ap);
+}
+
+/* ---- limited kinds ------------------------------------------------------------
+ * While a kind is being suppressed, its count and a copy of its latest line
+ * live here rather than in its gw_log_limit_t: gw_log_flush then never
+ * reads the owner's memory, so a robot, map or server freed (by a reload)
+ * with a count still pending neither dangles nor loses that count. An
+ * entry also holds the kind's window: after a summary the next 10 s are
+ * suppressed as well, so a flood that goes on prints one line per 10 s. */
+
+#define PENDING_MAX 64  /* kinds suppressing at once; beyond, the old way */
+#define TEXT_MAX 256
+
+typedef struct {
+    const gw_log_limit_t *limit; /* identity only, never dereferenced */
+    uint64_t due_us;             /* end of the kind's window */
+    gw_log_level_t level;
+    unsigned count;              /* suppressed in this window */
+    char text[TEXT_MAX];         /* the latest of them */
+} pending_t;
+
+static pending_t pending[PENDING_MAX];
+
+static pending_t *pending_of(const gw_log_limit_t *limit)
+{
+    if (limit->slot == 0 || limit->slot > PENDING_MAX)
+        return NULL;
+    pending_t *p = &pending[limit->slot - 1];
+    return p->limit == limit ? p : NULL;
+}
+
+static void flush_at_exit(void)
+{
+    gw_log_flush(UINT64_MAX);
+}
+
+static pending_t *pending_new(gw_log_limit_t *limit, uint64_t due_us, gw_log_level_t level)
+{
+    static bool at_exit;
+    if (!at_exit)
+        at_exit = atexit(flush_at_exit) == 0;
+    for (unsigned i = 0; i < PENDING_MAX; i++)
+        if (pending[i].limit == NULL) {
+            pending[i] = (pending_t){.limit = limit, .due_us = due_us, .level = level};
+            limit->slot = i + 1;
+            return &pending[i];
+        }
+    return NULL;
+}
+
+static void pending_print(const pending_t *p, const char *when)
+{
+    gw_log(p->level, "%s [%u similar message%s suppressed %s, the last shown]", p->text,
+           p->count, p->count == 1 ? "" : "s", when);
+}
+
+void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt, ...)
+{
+    uint64_t now = ev_now_us();
+    pending_t *p = pending_of(limit);
+    uint64_t end = p != NULL ? p->due_us : limit->last_us + LIMIT_US;
+    va_list ap;
+    va_start(ap, fmt);
+    if (limit->last_us != 0 && now < end) {
+        if (p == NULL)
+            p = pending_new(limit, end, level);
+        if (p != NULL) {
+            p->count++;
+            p->level = level;
+            (void)vsnprintf(p->text, sizeof p->text, fmt, ap);
+        } else {
+            limit->suppressed++; /* table full: ends the kind's next line */
+        }
+        va_end(ap);
+        return;
+    }
+    /* a window over but not flushed yet (the tick runs at 10 Hz): its
+     * count ends this line, as one that waited for the next line does */
+    unsigned n = limit->suppressed;
+    if (p != NULL) {
+        n += p->count;
+        p->limit = NULL;
+    }
+    limit->last_us = now;
+    limit->suppressed = 0;
+    vlog(level, n, fmt, ap);
+    va_end(ap);
+}
+
+void gw_log_flush(uint64_t now)
+{
+    for (unsigned i = 0; i < PENDING_MAX; i++) {
+        pending_t *p = &pending[i];
+        if (p->limit == NULL || now < p->due_us)
+            continue;
+        if (p->count == 0) {
+            p->limit = NULL; /* a quiet window: the kind is free again */
+            continue;
+        }
+        pending_print(p, "in 10 s");
+        p->count = 0;
+        p->due_us = now + LIMIT_US;
+    }
+}
+
+void gw_log_limit_end(gw_log_limit_t *limit)
+{
+    pending_t *p = pending_of(limit);
+    if (p != NULL) {
+        if (p->count > 0)
+            pending_print(p, "until now");
+        p->limit = NULL;
+    }
+    limit->last_us = 0; /* the next line of the kind is a new story: shown */
+}

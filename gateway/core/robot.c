@@ -1,0 +1,123 @@
+/* SPDX-License-Identifier: MIT */
+/* One robot's images and link facts: see robot.h. */
+#include "core/robot.h"
+
+#include <stdio.h>
+#include <string.h>
+
+void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial)
+{
+    memset(r, 0, sizeof *r);
+    snprintf(r->name, sizeof r->name, "%s", name != NULL ? name : "");
+    r->serial = serial;
+}
+
+void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old)
+{
+    r->heartbeat = old->heartbeat;
+    r->link.rx_packets = old->link.rx_packets;
+    r->link.lost_packets = old->link.lost_packets;
+}
+
+uint16_t gw_robot_error_code(dr_status_t why, uint16_t *general)
+{
+    *general = 0;
+    if (DR_IS_CIP(why)) {
+        *general = DR_CIP_GENERAL(why);
+        return DR_CIP_EXTENDED(why) != 0 ? DR_CIP_EXTENDED(why) : DR_CIP_GENERAL(why);
+    }
+    if (DR_IS_ENCAP(why)) {
+        uint16_t st = (uint16_t)(why & 0xFFFF);
+        return st < GW_ERROR_OTHER - GW_ERROR_ENCAP ? (uint16_t)(GW_ERROR_ENCAP + st)
+                                                    : (uint16_t)GW_ERROR_OTHER;
+    }
+    /* a plain code; DR_OK stays 0 */
+    return why >= 0 && why < (dr_status_t)GW_ERROR_ENCAP ? (uint16_t)why : (uint16_t)DR_EIO;
+}
+
+/* Kept for every failure, not only the ones that change the link's state:
+ * an adapter that refuses every Forward Open never brings the link up. */
+void gw_robot_record_error(gw_robot_t *r, dr_status_t why)
+{
+    if (why == DR_OK)
+        return;
+    r->link.last_status = why;
+    r->link.last_error = gw_robot_error_code(why, &r->link.last_cip_general);
+}
+
+void gw_robot_error_text(dr_status_t why, char *buf, size_t size)
+{
+    if (why == DR_OK)
+        snprintf(buf, size, "%s", "");
+    else if (DR_IS_CIP(why) && DR_CIP_EXTENDED(why) != 0)
+        snprintf(buf, size, "CIP 0x%02X/0x%04X %s", (unsigned)DR_CIP_GENERAL(why),
+                 (unsigned)DR_CIP_EXTENDED(why), dr_strerror(why));
+    else if (DR_IS_CIP(why))
+        snprintf(buf, size, "CIP 0x%02X %s", (unsigned)DR_CIP_GENERAL(why), dr_strerror(why));
+    else if (DR_IS_ENCAP(why))
+        snprintf(buf, size, "%s (0x%04X)", dr_strerror(why), (unsigned)(why & 0xFFFF));
+    else
+        snprintf(buf, size, "%s", dr_strerror(why));
+}
+
+/* The causes of a link failure an integrator meets, and where to look. */
+static const struct {
+    dr_status_t st;
+    const char *hint;
+} hints[] = {
+    {DR_ECONNREFUSED, "the address answered, but nothing listens on `tcp_port`: the robot's "
+                      "EtherNet/IP adapter is disabled or still starting, or the port is wrong"},
+    {DR_EHOSTUNREACH, "no route to the robot's address, or nothing answered ARP on its subnet: "
+                      "wrong `host`, robot switched off, cable"},
+    {DR_ENETUNREACH, "this host has no route to the robot's network (or a blackhole route): "
+                     "wrong `host`, or this host's address and routes"},
+    {DR_ENOANSWER, "nothing answered the TCP connection within `timeout_ms`: robot switched "
+                   "off, wrong `host`, or a firewall that drops packets"},
+    {DR_ENOREGISTER, "something accepted the TCP connection on `tcp_port` but does not speak "
+                     "EtherNet/IP there (wrong port or device), or the adapter hangs"},
+    {DR_ECLOSED, "the robot closed or reset the TCP connection (its adapter refuses sessions, "
+                 "or restarted)"},
+    {DR_ENOTFOUND, "`host` does not resolve (names are resolved at start and at reload)"},
+    {DR_EADDRINUSE, "`local_address`:`local_udp_port` is taken by another program: set "
+                    "`local_address` or `local_udp_port`"},
+    {DR_EADDRNOTAVAIL, "`local_address` is not an address of this host"},
+    {DR_EACCES, "a firewall rule or a prohibit route on this host refuses the traffic"},
+    {DR_ETIMEDOUT, "an EtherNet/IP request, or a Class 1 connection's data, did not come in "
+                   "time (the robot stopped producing, or the network loses packets)"},
+    {DR_ESESSION, "explicit mode: no EtherNet/IP session for the poll"},
+    {DR_ELENGTH, "explicit mode: the robot's assembly has another size than the "
+                 "specification's"},
+    {DR_EMALFORMED, "the robot sent a frame that is not valid EtherNet/IP"},
+    {DR_ELONG, "the robot sent a frame longer than the protocol allows"},
+    {DR_EIO, "another network error"},
+};
+
+const char *gw_robot_error_hint(dr_status_t why)
+{
+    for (size_t i = 0; i < sizeof hints / sizeof hints[0]; i++)
+        if (hints[i].st == why)
+            return hints[i].hint;
+    return NULL;
+}
+
+void gw_robot_link_down(gw_robot_t *r)
+{
+    if (!r->clear_while_down)
+        return;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
+            memset(r->img[a], 0, DR_ASM_MAX_SIZE);
+}
+
+bool gw_robot_takes_data(const gw_robot_t *r, bool link_up)
+{
+    return link_up || !r->clear_while_down;
+}
+
+dr_status_t gw_robot_get(const gw_robot_t *r, dr_ref_t ref, dr_value_t *v)
+{
+    if (ref.field == NULL || ref.field->assembly >= DR_ASM_COUNT)
+        return DR_EINVAL;
+    dr_asm_t a = (dr_asm_t)ref.field->assembly;
+    return dr_field_get(r->img[a], dr_asm_info(a)->size, ref, v);
+}

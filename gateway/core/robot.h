@@ -1,0 +1,129 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * One robot as the gateway holds it, whatever serves it: its live wire
+ * images (T->O as received, O->T as the northbound sides write them), what
+ * its link knows (state, connections, counters, last error), and what the
+ * daemon says about it (name, configuration generation, heartbeat).
+ *
+ * The robots' side (link.c) writes the T->O images and the link facts;
+ * the northbound sides (north.h: Modbus, GPIO, MQTT) read them and write
+ * the O->T images. Nothing here knows how a side serves the data: the
+ * Modbus rules (word order, on_link_loss = exception, unmapped reads, the
+ * single writer, GPIO-owned bits, the status block's layout) are the
+ * Modbus side's own, in its unit (regmap.h) that points at a gw_robot_t.
+ * Neither this file nor robot.c nor the link may include a Modbus header
+ * or name a Modbus symbol: make check-gw-boundary (mk/gw-boundary.sh,
+ * also run by check-gateway) fails if they do.
+ */
+#ifndef DRGATE_GW_ROBOT_H
+#define DRGATE_GW_ROBOT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/config.h"
+#include "drgate/codec.h"
+#include "drgate/status.h"
+
+/* Class 1 connections a link reports the state of (one per T->O assembly
+ * the plan may open, and room to grow). */
+#define GW_ROBOT_CONNS 10
+
+/* What the link knows; refreshed by the link every turn of the loop
+ * (link_state, fresh, age_ms, the counters) or when it happens (errors,
+ * connection states). */
+typedef struct {
+    uint16_t link_state;       /* 0 down, 1 connecting, 2 up */
+    bool fresh;                /* robot data younger than the timeout */
+    uint32_t age_ms;           /* age of the oldest T->O data */
+    uint16_t rpi_ms;           /* API in use (explicit: the poll period) */
+    uint32_t rx_packets, lost_packets;
+    uint16_t last_error;       /* gw_robot_error_code() of last_status */
+    uint16_t last_cip_general; /* CIP general status of last_error, 0: not CIP */
+    dr_status_t last_status;   /* why the link last failed, DR_OK: not yet */
+    uint16_t conn_state[GW_ROBOT_CONNS]; /* dr_conn_state_t per connection */
+} gw_robot_link_t;
+
+typedef struct {
+    uint8_t img[DR_ASM_COUNT][DR_ASM_MAX_SIZE]; /* wire images, both ways */
+    char name[GW_NAME_MAX];
+    /* Which start of this robot it is: a robot a reload keeps (same name,
+     * same link settings) keeps its serial and its data; a new or changed
+     * one gets a new serial. A side carries its own per-robot state over a
+     * reload by it (robot positions change). 0: no robot. */
+    uint32_t serial;
+    gw_robot_link_t link;
+    /* O->T assemblies the connection plan gives no owner connection (set
+     * by the link): nothing would carry a write to the robot, so the sides
+     * refuse writes to them rather than keep them where nobody reads. */
+    unsigned o2t_unsent;
+    /* T->O data while the link is not up: cleared when it goes down, and
+     * what arrives before it is up again (connections of a partly open
+     * link) dropped without telling the sides. Set from [modbus]
+     * on_link_loss = zero by the Modbus side, but applied to the images
+     * here because every side reads the same images: GPIO outputs and
+     * MQTT's snapshot after a reconnect see what Modbus sees (the daemon
+     * has always behaved so). on_link_loss = exception is the Modbus read
+     * path's alone (regmap.c). */
+    bool clear_while_down;
+    /* A fault latched for this robot by a side (the Modbus single writer's
+     * watchdog) and told to every side (north.h: env->fault): the daemon
+     * keeps it here so that a side that starts or reloads later, and
+     * MQTT's write checks, know it. */
+    bool fault;
+    /* The daemon's, shown with the robot (refreshed ten times a second):
+     * +1 every second, seconds since start, configuration generation. */
+    uint16_t heartbeat;
+    uint32_t uptime_s;
+    uint16_t generation;
+} gw_robot_t;
+
+/* A robot that has not started: images, link facts and counters zero,
+ * name and serial set. */
+void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial);
+
+/* r replaces `old`, the same robot before a reload changed its section:
+ * what a PLC watches for liveness and progress goes on from where it was
+ * (the heartbeat and the packet counters never go backwards; the
+ * generation register says that a reload happened). */
+void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old);
+
+/* Why the link last failed (DR_OK: nothing to record), in last_status and
+ * as gw_robot_error_code() in last_error and last_cip_general. */
+void gw_robot_record_error(gw_robot_t *r, dr_status_t why);
+
+/* last_error's code space, one number for every cause a PLC may act on:
+ *   general != 0: a CIP reply's status: last_error is its extended status
+ *                 (the general one when the reply had none);
+ *   general == 0: 1..0x7FFF a drgate status code (drgate/status.h, whose
+ *                 numbers never change), GW_ERROR_ENCAP + an encapsulation
+ *                 status (RegisterSession or a request refused by the
+ *                 robot's encapsulation layer), GW_ERROR_OTHER for an
+ *                 encapsulation status above 0x7FFE.
+ * docs/register-map.md's table of them is `drgatewayd --print-errors`. */
+#define GW_ERROR_ENCAP 0x8000u
+#define GW_ERROR_OTHER 0xFFFFu
+uint16_t gw_robot_error_code(dr_status_t why, uint16_t *general);
+
+/* The cause in words, as the log, MQTT's state and drcli say it:
+ * "connection refused", "CIP 0x01/0x0106 ownership conflict",
+ * "encapsulation: unsupported protocol version (0x0069)"; "" for DR_OK. */
+void gw_robot_error_text(dr_status_t why, char *buf, size_t size);
+
+/* What usually causes `why` on a robot link and what to check, for the
+ * documentation's table; NULL when there is nothing to add. */
+const char *gw_robot_error_hint(dr_status_t why);
+
+/* The link went down: with clear_while_down, the T->O images go to 0
+ * (the O->T images are the sides' and stay). */
+void gw_robot_link_down(gw_robot_t *r);
+
+/* May T->O data that arrives now go into the images? (Not while the link
+ * is down with clear_while_down.) */
+bool gw_robot_takes_data(const gw_robot_t *r, bool link_up);
+
+/* Field `ref` of the robot's images; DR_OK or why not. */
+dr_status_t gw_robot_get(const gw_robot_t *r, dr_ref_t ref, dr_value_t *v);
+
+#endif /* DRGATE_GW_ROBOT_H */

@@ -1,0 +1,289 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The Modbus side's sections (config_internal.h): [modbus], the TCP
+ * server, with its allowlist, and [modbus_rtu NAME], one serial line on
+ * which the gateway is an RTU slave. Its robots are resolved once the
+ * whole file is read (config_check.c).
+ */
+#include "core/config_internal.h"
+
+#include <arpa/inet.h>
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- [modbus] -------------------------------------------------------------- */
+
+#define M(m) GW_CFG_AT(gw_modbus_config_t, m)
+
+static const char *const word_orders[] = { "abcd", "cdab", "badc", "dcba", NULL };
+static gw_cfg_parse_fn modbus_allow;
+
+static const gw_cfg_key_t modbus_keys[] = {
+    { .name = "listen", .type = GW_CFG_IPV4, M(listen), .def_text = "0.0.0.0", .allowed = "an IPv4 address such as 0.0.0.0", .help = "local address to listen on; `0.0.0.0` = all interfaces" },
+    { .name = "port", .type = GW_CFG_UINT, M(port), .lo = 1, .hi = 65535, .def = 502, .help = "TCP port. Ports below 1024 need `CAP_NET_BIND_SERVICE`, which the systemd unit grants" },
+    { .name = "max_clients", .type = GW_CFG_UINT, M(max_clients), .lo = 1, .hi = 256, .def = 16, .help = "clients served at once. One more is accepted, logged and closed at once, never left hanging" },
+    { .name = "idle_timeout", .type = GW_CFG_UINT, M(idle_timeout_s), .lo = 0, .hi = 86400, .def = 60, .allowed = "0..86400 seconds, 0 = never", .help = "close a client that sent no complete request for this long (bytes of an unfinished request do not count); `0` = never" },
+    { .name = "keepalive", .type = GW_CFG_BOOL, M(keepalive), .def = 1, .help = "TCP keepalive on client sockets, so dead peers (a PLC switched off) are found" },
+    { .name = "word_order", .type = GW_CFG_ENUM, M(word_order), .names = word_orders, .def = GW_WORD_ABCD, .help = "how 32-bit values (REAL, DINT) are laid out in two registers; see below" },
+    { .name = "allow", .type = GW_CFG_HOOK, .flags = GW_CFG_LIST, .parse = modbus_allow, .allowed = "a.b.c.d/len [ro|rw]", .doc_default = "(none: everyone read-write)", .doc_allowed = "`a.b.c.d/len [ro|rw]`, repeatable, at most 16", .help = "client networks allowed to connect; see below" },
+    { .name = "on_link_loss", .type = GW_CFG_ENUM, M(on_link_loss), GW_CFG_NAMES("hold", "zero", "exception"), .def = GW_LOSS_HOLD, .help = "what Modbus sees of a robot whose link is down; see below" },
+    { .name = "unmapped_read", .type = GW_CFG_ENUM, M(unmapped_read), GW_CFG_NAMES("zero", "exception"), .def = GW_UNMAPPED_ZERO, .help = "a read that covers reserved addresses between the map's blocks: they read 0 (so 125-register block reads work), or the whole read is refused with 0x02. Reads past a table's last mapped address and writes to reserved addresses are refused either way ([register-map.md](register-map.md))" },
+    { .name = "single_writer", .type = GW_CFG_BOOL, M(single_writer), .def = 0, .help = "write lock: only one client may write O->T data; see below" },
+    { .name = "writer_watchdog_ms", .type = GW_CFG_UINT, M(writer_watchdog_ms), .lo = 10, .hi = 60000, .def = 1000, .help = "single-writer mode: the owner must write the watchdog register at least this often" },
+    { .name = "request_timeout_ms", .type = GW_CFG_UINT, M(request_timeout_ms), .lo = 100, .hi = 60000, .def = 3000, .help = "a request must be complete this long after its first byte, or its client is closed; also how long a client must have gone without a complete request before a newcomer may evict it (see max_clients below)" },
+};
+
+/* The line of each allow entry: the side's scratch. */
+typedef struct {
+    unsigned allow_line[GW_MAX_ALLOW];
+} modbus_lines_t;
+
+const gw_cfg_side_t gw_cfg_modbus = {
+    .kw = "modbus",
+    .base = offsetof(gw_config_t, modbus),
+    .name_off = GW_CFG_NONE,
+    .line_off = GW_CFG_NONE,
+    GW_CFG_KEYS(modbus_keys),
+    .scratch = sizeof(modbus_lines_t),
+};
+
+/* Up to n blank-separated words of buf, each cut in place; how many
+ * there were (n + 1 when there are more). */
+static size_t split_words(char *buf, char **word, size_t n)
+{
+    size_t nw = 0;
+    for (char *p = buf; *p != '\0';) {
+        while (gw_cfg_is_space(*p))
+            *p++ = '\0';
+        if (*p == '\0')
+            break;
+        if (nw == n)
+            return n + 1;
+        word[nw++] = p;
+        while (*p != '\0' && !gw_cfg_is_space(*p))
+            p++;
+    }
+    return nw;
+}
+
+/* "/len" of an allow entry: 0..32 into *prefix; false after the message. */
+static bool allow_prefix(gw_cfg_ctx_t *c, const char *v, const char *p,
+                         unsigned long *prefix)
+{
+    size_t digits = strspn(p, "0123456789");
+    *prefix = digits > 0 ? strtoul(p, NULL, 10) : 99;
+    if (digits == 0 || p[digits] != '\0' || *prefix > 32) {
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: prefix length '%s' (allowed: 0..32)", v,
+                    p);
+        return false;
+    }
+    return true;
+}
+
+/* "a.b.c.d/len [ro|rw]": the network must be given exactly (no host bits),
+ * and must not be shadowed by an earlier entry, since the first match
+ * decides (gateway/modbus/mbserver.c) and a shadowed line would silently do
+ * nothing. */
+static void modbus_allow(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                         const char *name, const char *v)
+{
+    gw_modbus_config_t *m = sec;
+    modbus_lines_t *ml = gw_cfg_scratch(c, &gw_cfg_modbus, 0);
+    (void)k;
+    (void)name;
+    if (m->allow_count >= GW_MAX_ALLOW) {
+        gw_cfg_fail(c, c->lineno, "too many allow entries (at most %d)",
+                    GW_MAX_ALLOW);
+        return;
+    }
+    /* The value itself is ours to split: libinih has already stripped it
+     * and removed comments. */
+    char buf[128];
+    if (strlen(v) >= sizeof buf) {
+        gw_cfg_fail(c, c->lineno, "allow too long (at most %zu characters)",
+                    sizeof buf - 1);
+        return;
+    }
+    memcpy(buf, v, strlen(v) + 1);
+    char *word[3] = { NULL, NULL, NULL };
+    size_t nw = split_words(buf, word, 3);
+    if (nw > 2) {
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: trailing '%s' (allowed: a.b.c.d/len "
+                    "[ro|rw])",
+                    v, word[2]);
+        return;
+    }
+    if (nw == 0) { /* not reached: an empty value is refused before */
+        gw_cfg_fail(c, c->lineno,
+                    "allow has no value (allowed: a.b.c.d/len [ro|rw])");
+        return;
+    }
+    bool rw = false; /* least privilege: writing must be asked for */
+    if (nw == 2) {
+        if (strcmp(word[1], "rw") == 0) {
+            rw = true;
+        } else if (strcmp(word[1], "ro") != 0) {
+            gw_cfg_fail(c, c->lineno,
+                        "allow '%s' invalid: access '%s' (allowed: ro, rw)", v,
+                        word[1]);
+            return;
+        }
+    }
+    char *slash = strchr(word[0], '/');
+    unsigned long prefix = 32;
+    if (slash != NULL) {
+        *slash = '\0';
+        if (!allow_prefix(c, v, slash + 1, &prefix))
+            return;
+    }
+    struct in_addr a;
+    if (inet_pton(AF_INET, word[0], &a) != 1) {
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: '%s' is not an IPv4 address (allowed: "
+                    "a.b.c.d/len [ro|rw])",
+                    v, word[0]);
+        return;
+    }
+    uint32_t addr = ntohl(a.s_addr);
+    /* A shift by 32 is undefined, hence the /0 case. */
+    uint32_t mask = prefix == 0 ? 0u : 0xFFFFFFFFu << (32u - (unsigned)prefix);
+    if ((addr & ~mask) != 0) {
+        uint32_t n = addr & mask;
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: host bits set in %s/%lu (did you mean "
+                    "%u.%u.%u.%u/%lu?)",
+                    v, word[0], prefix, (unsigned)(n >> 24),
+                    (unsigned)(n >> 16 & 0xFF), (unsigned)(n >> 8 & 0xFF),
+                    (unsigned)(n & 0xFF), prefix);
+        return;
+    }
+    for (unsigned i = 0; i < m->allow_count; i++) {
+        const gw_allow_t *e = &m->allow[i];
+        if ((addr & e->mask) == e->net && mask >= e->mask) {
+            gw_cfg_fail(c, c->lineno,
+                        "allow '%s' never matches: line %u already covers it "
+                        "(the first matching entry decides; put narrower "
+                        "networks first)",
+                        v, ml->allow_line[i]);
+            return;
+        }
+    }
+    ml->allow_line[m->allow_count] = c->lineno;
+    m->allow[m->allow_count] = (gw_allow_t){ addr, mask, rw };
+    m->allow_count++;
+}
+
+const char *gw_word_order_name(gw_word_order_t w)
+{
+    unsigned i = (unsigned)w;
+    return i < GW_CFG_COUNT(word_orders) - 1 ? word_orders[i] : "?";
+}
+
+/* ---- [modbus_rtu NAME] ------------------------------------------------------ */
+
+#define U(m) GW_CFG_AT(gw_rtu_config_t, m)
+#define BAUDS "1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400"
+
+static gw_cfg_parse_fn rtu_baud, rtu_robots;
+
+static const gw_cfg_key_t rtu_keys[] = {
+    { .name = "device", .type = GW_CFG_TEXT, .flags = GW_CFG_REQUIRED, U(device), .valid = gw_cfg_no_blank, .allowed = "a serial port such as /dev/ttyS0", .doc_allowed = "a serial port, such as `/dev/ttyS1`, `/dev/ttyUSB0`, `/dev/ttyAMA0`; each line its own", .help = "opened non-blocking, raw, no flow control" },
+    { .name = "baud", .type = GW_CFG_UINT, U(baud), .lo = 1200, .hi = 230400, .def = 19200, .parse = rtu_baud, .allowed = BAUDS, .help = "line speed in bits per second" },
+    { .name = "parity", .type = GW_CFG_ENUM, U(parity), GW_CFG_NAMES("none", "even", "odd"), .def = GW_PARITY_EVEN, .help = "the Modbus default is even; with `none` the specification asks for `stop_bits = 2`" },
+    { .name = "data_bits", .type = GW_CFG_UINT, U(data_bits), .lo = 8, .hi = 8, .def = 8, .allowed = "8", .help = "RTU carries 8-bit bytes" },
+    { .name = "stop_bits", .type = GW_CFG_UINT, U(stop_bits), .lo = 1, .hi = 2, .def = 1, .allowed = "1, 2", .help = "stop bits after each byte" },
+    { .name = "rs485", .type = GW_CFG_BOOL, U(rs485), .help = "ask the kernel driver for RS-485 mode (`TIOCSRS485`): it drives RTS, the transceiver's direction, around each reply. A port that refuses (a pty, many USB adapters, which switch by themselves) is logged as a warning and served anyway" },
+    { .name = "rts_on_send", .type = GW_CFG_ENUM, U(rts_on_send_low), GW_CFG_NAMES("high", "low"), .help = "RS-485 mode: the RTS level while sending" },
+    { .name = "rts_delay_before_ms", .type = GW_CFG_UINT, U(rts_before_ms), .lo = 0, .hi = 100, .help = "RS-485 mode: RTS set this long before the first bit" },
+    { .name = "rts_delay_after_ms", .type = GW_CFG_UINT, U(rts_after_ms), .lo = 0, .hi = 100, .help = "RS-485 mode: RTS kept this long after the last bit" },
+    { .name = "read_only", .type = GW_CFG_BOOL, U(read_only), .help = "the line's master may only read (writes get 0x01)" },
+    { .name = "robots", .type = GW_CFG_HOOK, .parse = rtu_robots, .allowed = "robot names, each optionally NAME:ADDRESS (1..247)", .doc_default = "every robot, at its `unit_id`", .doc_allowed = "robot names separated by commas or blanks, each optionally `NAME:ADDRESS` (1..247)", .help = "the robots on this line and their slave addresses; an address must be unique on the line" },
+};
+
+const gw_cfg_side_t gw_cfg_rtu = {
+    .kw = "modbus_rtu",
+    GW_CFG_NAMED(rtu, rtu_count, gw_rtu_config_t),
+    GW_CFG_KEYS(rtu_keys),
+    .scratch = sizeof(gw_cfg_rtu_robots_t),
+    .check = gw_cfg_check_rtu,
+};
+
+static void rtu_baud(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                     const char *name, const char *v)
+{
+    static const unsigned long bauds[] = { 1200,  2400,  4800,   9600,  19200,
+                                           38400, 57600, 115200, 230400 };
+    unsigned long n;
+    if (!gw_cfg_get_uint(c, name, v, k->lo, k->hi, &n))
+        return;
+    for (size_t i = 0; i < GW_CFG_COUNT(bauds); i++) {
+        if (bauds[i] == n) {
+            gw_cfg_store(c, k, sec, n);
+            return;
+        }
+    }
+    gw_cfg_fail(c, c->lineno, "baud %lu not a standard rate (allowed: %s)", n,
+                k->allowed);
+}
+
+/* ":ADDRESS" after a robot's name in robots = (p at the ':'): 1..247 into
+ * *addr, the end into *end; false if it is not one. */
+static bool slave_address(const char *p, uint8_t *addr, const char **end)
+{
+    char *e;
+    errno = 0;
+    unsigned long a = strtoul(p + 1, &e, 10);
+    if (e == p + 1 || !gw_cfg_is_digit(p[1]) || errno != 0 || a < 1 ||
+        a > 247 || (*e != '\0' && *e != ',' && !gw_cfg_is_space(*e)))
+        return false;
+    *addr = (uint8_t)a;
+    *end = e;
+    return true;
+}
+
+/* robots = arm1:5, arm2 (commas or blanks between): names are checked
+ * against the robot sections once the whole file is read. */
+static void rtu_robots(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                       const char *name, const char *v)
+{
+    gw_rtu_config_t *u = sec;
+    gw_cfg_rtu_robots_t *ul = gw_cfg_scratch(c, &gw_cfg_rtu, c->idx);
+    const char *p = v;
+    (void)name;
+    u->slave_count = 0;
+    while (*p != '\0' && c->err_line == 0) {
+        while (*p == ',' || gw_cfg_is_space(*p))
+            p++;
+        if (*p == '\0')
+            break;
+        size_t n = strcspn(p, ", \t:");
+        if (u->slave_count >= GW_MAX_ROBOTS) {
+            gw_cfg_fail(c, c->lineno, "robots: more than %d robots",
+                        GW_MAX_ROBOTS);
+            return;
+        }
+        unsigned i = u->slave_count++;
+        snprintf(ul->robot[i], sizeof ul->robot[i], "%.*s", (int)n, p);
+        if (n >= GW_NAME_MAX || !gw_cfg_valid_name(ul->robot[i])) {
+            gw_cfg_fail(c, c->lineno,
+                        "robots: '%.*s' is not a robot name (allowed: %s)",
+                        (int)n, p, k->allowed);
+            return;
+        }
+        p += n;
+        ul->addr_given[i] = *p == ':';
+        if (*p == ':' && !slave_address(p, &u->slave_addr[i], &p)) {
+            gw_cfg_fail(c, c->lineno,
+                        "robots: slave address of '%s' invalid (allowed: "
+                        "1..247)",
+                        ul->robot[i]);
+            return;
+        }
+    }
+    if (u->slave_count == 0)
+        gw_cfg_fail(c, c->lineno, "robots has no value (allowed: %s)",
+                    k->allowed);
+}

@@ -1,0 +1,508 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The Modbus side of the gateway as one northbound side (north.h): Modbus
+ * TCP (mbserver.c) and the Modbus RTU lines (mbrtu.c), both answering
+ * through the one request handler (mbproto.c) from the same units.
+ *
+ * A unit (regmap.h) is Modbus's per-robot state: the [modbus] rules
+ * (word order, on_link_loss, unmapped reads, the bits GPIO inputs own),
+ * the single writer's watchdog register and write fault latch, and
+ * Modbus's part of the status block; it points at the robot (robot.h),
+ * whose images and link facts are the daemon's. The units are kept here
+ * by robot position and carried over a reload by the robot's serial, as
+ * the daemon carries the robots (same name and link settings: same robot,
+ * same unit state). The single writer's watchdog is here too: it spans
+ * TCP and RTU (a write on either line moves the same register).
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/ev.h"
+#include "core/log.h"
+#include "modbus/mbrtu.h"
+#include "modbus/mbserver.h"
+#include "core/north.h"
+
+typedef struct mb mb_t;
+
+/* ---- unit lookup and writes, shared by TCP and RTU ------------------------------ */
+
+typedef struct {
+    mb_t *mb;
+    void (*wrote)(void *side); /* a write reached a robot (single writer) */
+    void *side;
+} mb_ctx_t;
+
+/* Modbus TCP */
+typedef struct {
+    mb_ctx_t ctx;
+    gw_mbs_t *mbs;
+    /* single writer */
+    bool writer_seen;
+    unsigned writer_claims; /* gw_mbs_writer_claims() when last looked */
+    uint16_t last_watchdog[GW_MAX_ROBOTS];
+    uint64_t watchdog_change_us;
+} tcp_t;
+
+/* The RTU lines, and during a reload the ones that will take over (a line
+ * keeps its hooks, which point at ctx: the lines are reloaded in place). */
+typedef struct {
+    mb_ctx_t ctx;
+    unsigned count, pending_count;
+    gw_rtu_config_t cfg[GW_MAX_RTU], pending_cfg[GW_MAX_RTU];
+    gw_rtu_t *line[GW_MAX_RTU], *pending[GW_MAX_RTU];
+    bool handed[GW_MAX_RTU]; /* line[i] is in pending[] too */
+} rtu_t;
+
+struct mb {
+    const gw_north_env_t *env;
+    gw_unit_t unit[GW_MAX_ROBOTS];   /* by robot position */
+    uint32_t serial[GW_MAX_ROBOTS];  /* whose unit it is (prepare: before the move) */
+    gw_unit_t moving[GW_MAX_ROBOTS]; /* units_move's copy of the old ones */
+    tcp_t tcp;
+    rtu_t rtu;
+};
+
+static void unit_refresh(mb_t *m, unsigned r);
+
+static gw_unit_t *unit_for(void *user, uint8_t unit_id)
+{
+    const mb_ctx_t *c = user;
+    const gw_config_t *cfg = c->mb->env->cfg;
+    for (unsigned i = 0; i < cfg->robot_count; i++)
+        if (cfg->robot[i].unit_id == unit_id) {
+            unit_refresh(c->mb, i);
+            return &c->mb->unit[i];
+        }
+    return NULL;
+}
+
+/* A write reached unit u, which unit_for found for the request: its
+ * robot is where the daemon keeps it (unit_policy points u->robot into
+ * env->robots), and that position is the link's. */
+static void on_write(void *user, gw_unit_t *u, unsigned dirty)
+{
+    const mb_ctx_t *c = user;
+    const gw_north_env_t *env = c->mb->env;
+    if (c->wrote != NULL)
+        c->wrote(c->side);
+    env->outputs_changed(env->user, (unsigned)(u->robot - env->robots), dirty);
+}
+
+/* What [modbus] and the [gpio] inputs decide about unit r, and its robot.
+ * on_link_loss = zero is handed to the robot (robot.h: clear_while_down):
+ * every side reads its images. */
+static void unit_policy(mb_t *m, unsigned r)
+{
+    const gw_config_t *cfg = m->env->cfg;
+    gw_unit_t *u = &m->unit[r];
+    u->robot = &m->env->robots[r];
+    u->order = cfg->modbus.word_order;
+    u->on_loss = cfg->modbus.on_link_loss;
+    u->unmapped = cfg->modbus.unmapped_read;
+    u->gpio_in_count = 0;
+    for (unsigned i = 0; i < cfg->gpio_count; i++)
+        if (cfg->gpio[i].dir == GW_GPIO_INPUT && cfg->gpio[i].robot_index == r)
+            u->gpio_in[u->gpio_in_count++] = cfg->gpio[i].field;
+    u->robot->clear_while_down = cfg->modbus.on_link_loss == GW_LOSS_ZERO;
+}
+
+/* After a reload: each robot's unit from where the robot was (its serial,
+ * recorded at prepare), a new robot's afresh. */
+static void units_move(mb_t *m)
+{
+    gw_unit_t *old = m->moving;
+    memcpy(old, m->unit, sizeof m->unit);
+    memset(m->unit, 0, sizeof m->unit);
+    const gw_north_env_t *env = m->env;
+    for (unsigned r = 0; r < env->cfg->robot_count; r++)
+        for (unsigned o = 0; o < GW_MAX_ROBOTS; o++)
+            if (m->serial[o] != 0 && m->serial[o] == env->robots[r].serial)
+                m->unit[r] = old[o];
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        unit_policy(m, r);
+}
+
+/* ---- Modbus TCP ---------------------------------------------------------------- */
+
+/* A writer seen only between two ticks (it wrote and left within one
+ * loop iteration) must still start the watchdog: only the owner's writes
+ * get here in single-writer mode. */
+static void writer_wrote(void *side)
+{
+    tcp_t *t = side;
+    if (t->ctx.mb->env->cfg->modbus.single_writer && !t->writer_seen) {
+        t->writer_seen = true;
+        t->watchdog_change_us = ev_now_us();
+    }
+}
+
+static gw_mbs_t *tcp_server(tcp_t *t, char *err, size_t errlen)
+{
+    gw_mbs_hooks_t mh = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version};
+    return gw_mbs_new(&t->ctx.mb->env->cfg->modbus, t->ctx.mb->env->epfd, &mh, err, errlen);
+}
+
+static bool tcp_create(mb_t *m, char *err, size_t errlen)
+{
+    tcp_t *t = &m->tcp;
+    t->ctx = (mb_ctx_t){m, writer_wrote, t};
+    t->mbs = tcp_server(t, err, errlen);
+    return t->mbs != NULL;
+}
+
+/* Reconfigured in place at commit: it cannot refuse. false: no listener
+ * is left (logged). */
+static bool tcp_commit(tcp_t *t)
+{
+    const gw_north_env_t *env = t->ctx.mb->env;
+    /* Robots may have moved to other positions: the watchdog registers
+     * are compared from their current values on, not from the old order. */
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        t->last_watchdog[r] = t->ctx.mb->unit[r].watchdog;
+    if (gw_mbs_reconfigure(t->mbs, &env->cfg->modbus))
+        return true;
+    char err[512];
+    gw_mbs_free(t->mbs);
+    t->mbs = tcp_server(t, err, sizeof err);
+    if (t->mbs == NULL) {
+        gw_log(GW_LOG_ERROR, "reload: %s", err);
+        return false;
+    }
+    return true;
+}
+
+/* The outputs of every robot to their fallback, the fault latched. */
+static void writer_expired(tcp_t *t)
+{
+    const gw_north_env_t *env = t->ctx.mb->env;
+    t->writer_seen = false;
+    gw_mbs_release_writer(t->mbs);
+    gw_log(GW_LOG_WARNING, "modbus: single writer's watchdog expired: outputs to fallback");
+    for (unsigned r = 0; r < env->cfg->robot_count; r++) {
+        gw_unit_t *u = &t->ctx.mb->unit[r];
+        u->status.write_fault = true;
+        if (!env->cfg->robot[r].fallback_hold) {
+            unsigned dirty = 0;
+            for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+                if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T) {
+                    memset(u->robot->img[a], 0, DR_ASM_MAX_SIZE);
+                    dirty |= 1u << a;
+                }
+            env->outputs_changed(env->user, r, dirty);
+        }
+        /* GPIO outputs safe until the fault is reset (not until the link
+         * happens to reconnect). */
+        env->fault(env->user, r, true);
+    }
+}
+
+/* EK9000-like write lock: the owner must keep changing the watchdog
+ * register; when it stops, outputs go to their fallback and a fault
+ * latches until a client writes the reset register. */
+static void writer_watchdog(tcp_t *t, uint64_t now)
+{
+    const gw_north_env_t *env = t->ctx.mb->env;
+    const gw_config_t *cfg = env->cfg;
+    /* A reset counts in any mode: a fault latched before a reload turned
+     * single-writer mode off must not hold the GPIO outputs for ever. */
+    for (unsigned r = 0; r < cfg->robot_count; r++) {
+        gw_unit_t *u = &t->ctx.mb->unit[r];
+        /* The write that reset the latch cleared write_fault at once
+         * (mbproto.c: writes pipelined behind it are taken) and logged it. */
+        if (u->fault_reset) {
+            u->fault_reset = false;
+            env->fault(env->user, r, false); /* outputs follow again */
+        }
+        /* Out of single-writer mode the register is just a register: a
+         * value written then is no owner's sign of life later. */
+        if (!cfg->modbus.single_writer)
+            t->last_watchdog[r] = u->watchdog;
+    }
+    if (!cfg->modbus.single_writer) {
+        t->writer_seen = false; /* a reload into the mode starts afresh */
+        return;
+    }
+    /* A new owner (the first, or one that took over from an owner that
+     * left while its watchdog still ran): its watchdog starts now. */
+    unsigned claims = gw_mbs_writer_claims(t->mbs);
+    if (claims != t->writer_claims) {
+        t->writer_claims = claims;
+        t->watchdog_change_us = now;
+    }
+    t->writer_seen = t->writer_seen || gw_mbs_writer_present(t->mbs);
+    for (unsigned r = 0; r < cfg->robot_count; r++) {
+        const gw_unit_t *u = &t->ctx.mb->unit[r];
+        if (u->watchdog != t->last_watchdog[r]) {
+            t->last_watchdog[r] = u->watchdog;
+            writer_wrote(t); /* only the owner can have written it */
+            t->watchdog_change_us = now;
+        }
+    }
+    uint64_t limit = (uint64_t)cfg->modbus.writer_watchdog_ms * 1000u;
+    if (t->writer_seen && now - t->watchdog_change_us >= limit)
+        writer_expired(t);
+}
+
+/* ---- Modbus RTU ---------------------------------------------------------------- */
+
+static void rtu_free(rtu_t *t)
+{
+    for (unsigned i = 0; i < t->count; i++)
+        gw_rtu_free(t->line[i]);
+    t->count = 0;
+}
+
+static gw_rtu_t *rtu_open(rtu_t *t, const gw_rtu_config_t *cfg, const gw_robot_config_t *robots,
+                          char *err, size_t errlen)
+{
+    gw_mbs_hooks_t h = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version};
+    return gw_rtu_new(cfg, robots, t->ctx.mb->env->epfd, &h, err, errlen);
+}
+
+static bool rtu_create(mb_t *m, char *err, size_t errlen)
+{
+    rtu_t *t = &m->rtu;
+    const gw_north_env_t *env = m->env;
+    t->ctx = (mb_ctx_t){m, NULL, NULL};
+    for (unsigned i = 0; i < env->cfg->rtu_count; i++) {
+        t->cfg[i] = env->cfg->rtu[i];
+        t->line[i] = rtu_open(t, &t->cfg[i], env->cfg->robot, err, errlen);
+        if (t->line[i] == NULL)
+            return false;
+        t->count++;
+    }
+    return true;
+}
+
+/* The same line, set up the same way, for the same robots at the same
+ * addresses (by unit ID: a robot whose unit ID changed is another). */
+static bool same_line(const gw_rtu_config_t *a, const gw_robot_config_t *ra,
+                      const gw_rtu_config_t *b, const gw_robot_config_t *rb)
+{
+    if (strcmp(a->name, b->name) != 0 || strcmp(a->device, b->device) != 0 ||
+        a->baud != b->baud || a->parity != b->parity || a->data_bits != b->data_bits ||
+        a->stop_bits != b->stop_bits || a->rs485 != b->rs485 ||
+        a->rts_on_send_low != b->rts_on_send_low || a->rts_before_ms != b->rts_before_ms ||
+        a->rts_after_ms != b->rts_after_ms || a->read_only != b->read_only ||
+        a->slave_count != b->slave_count)
+        return false;
+    for (unsigned s = 0; s < a->slave_count; s++)
+        if (a->slave_addr[s] != b->slave_addr[s] ||
+            ra[a->slave_robot[s]].unit_id != rb[b->slave_robot[s]].unit_id)
+            return false;
+    return true;
+}
+
+static void rtu_abort(rtu_t *t)
+{
+    for (unsigned i = 0; i < t->pending_count; i++) {
+        bool carried = false;
+        for (unsigned o = 0; o < t->count; o++)
+            carried = carried || (t->handed[o] && t->line[o] == t->pending[i]);
+        if (!carried)
+            gw_rtu_free(t->pending[i]);
+    }
+    memset(t->handed, 0, sizeof t->handed);
+    t->pending_count = 0;
+}
+
+/* Unchanged lines carry over (their port stays open); new and changed
+ * ones are opened now, while the old ones still serve. */
+static bool rtu_prepare(rtu_t *t, const gw_config_t *next, const gw_north_env_t *env,
+                        char *err, size_t errlen)
+{
+    t->pending_count = 0;
+    memset(t->handed, 0, sizeof t->handed);
+    for (unsigned i = 0; i < next->rtu_count; i++) {
+        t->pending_cfg[i] = next->rtu[i];
+        t->pending[i] = NULL;
+        for (unsigned o = 0; o < t->count && t->pending[i] == NULL; o++)
+            if (!t->handed[o] && same_line(&t->cfg[o], env->cfg->robot, &next->rtu[i], next->robot)) {
+                t->pending[i] = t->line[o];
+                t->handed[o] = true;
+            }
+        if (t->pending[i] == NULL)
+            t->pending[i] = rtu_open(t, &t->pending_cfg[i], next->robot, err, errlen);
+        if (t->pending[i] == NULL) {
+            rtu_abort(t);
+            return false;
+        }
+        t->pending_count = i + 1;
+    }
+    return true;
+}
+
+static void rtu_commit(rtu_t *t)
+{
+    for (unsigned o = 0; o < t->count; o++)
+        if (!t->handed[o]) {
+            gw_log(GW_LOG_INFO, "reload: modbus_rtu %s changed or removed: closing %s",
+                   t->cfg[o].name, t->cfg[o].device);
+            gw_rtu_free(t->line[o]);
+        }
+    memcpy(t->line, t->pending, sizeof t->line);
+    memcpy(t->cfg, t->pending_cfg, sizeof t->cfg);
+    t->count = t->pending_count;
+    t->pending_count = 0;
+    memset(t->handed, 0, sizeof t->handed);
+}
+
+static void rtu_tick(rtu_t *t, uint64_t now)
+{
+    for (unsigned i = 0; i < t->count; i++)
+        gw_rtu_tick(t->line[i], now);
+}
+
+static uint64_t rtu_deadline(const rtu_t *t)
+{
+    uint64_t d = UINT64_MAX;
+    for (unsigned i = 0; i < t->count; i++) {
+        uint64_t x = gw_rtu_next_deadline(t->line[i]);
+        if (x < d)
+            d = x;
+    }
+    return d;
+}
+
+/* ---- the side ------------------------------------------------------------------ */
+
+static void mb_free(void *self)
+{
+    mb_t *m = self;
+    if (m == NULL)
+        return;
+    gw_mbs_free(m->tcp.mbs);
+    rtu_free(&m->rtu);
+    free(m);
+}
+
+static void *mb_create(const gw_north_env_t *env, char *err, size_t errlen)
+{
+    mb_t *m = calloc(1, sizeof *m);
+    if (m == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    m->env = env;
+    gw_regmap_init();
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        unit_policy(m, r);
+    if (!tcp_create(m, err, errlen) || !rtu_create(m, err, errlen)) {
+        mb_free(m);
+        return NULL;
+    }
+    return m;
+}
+
+/* TCP is reconfigured in place at commit and cannot refuse; RTU lines
+ * that cannot be opened refuse the reload. The robots' serials are taken
+ * now, while they are still where the units are. */
+static gw_north_reload_t mb_prepare(void *self, const gw_config_t *next,
+                                    const gw_north_env_t *env, void **out, char *err,
+                                    size_t errlen)
+{
+    mb_t *m = self;
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        m->serial[r] = r < env->cfg->robot_count ? env->robots[r].serial : 0;
+    if (!rtu_prepare(&m->rtu, next, env, err, errlen))
+        return GW_NORTH_REFUSED;
+    *out = m;
+    return GW_NORTH_OK;
+}
+
+static void mb_abort(void *self, void *out)
+{
+    mb_t *m = self;
+    (void)out;
+    rtu_abort(&m->rtu);
+}
+
+static void *mb_commit(void *self, void *out, const gw_north_env_t *env)
+{
+    mb_t *m = self;
+    (void)out, (void)env;
+    units_move(m);
+    bool ok = tcp_commit(&m->tcp);
+    rtu_commit(&m->rtu);
+    if (!ok) {
+        mb_free(m);
+        return NULL;
+    }
+    return m;
+}
+
+static void mb_tick(void *self, uint64_t now)
+{
+    mb_t *m = self;
+    gw_mbs_tick(m->tcp.mbs, now);
+    writer_watchdog(&m->tcp, now);
+    rtu_tick(&m->rtu, now);
+}
+
+static uint64_t mb_deadline(const void *self)
+{
+    const mb_t *m = self;
+    uint64_t d = gw_mbs_next_deadline(m->tcp.mbs), x = rtu_deadline(&m->rtu);
+    return x < d ? x : d;
+}
+
+static void mb_on_data(void *self, unsigned robot, dr_asm_t a)
+{
+    (void)self, (void)robot, (void)a; /* requests read the images as they are */
+}
+
+/* on_link_loss = zero is applied to the images by the robot (robot.h),
+ * exception by the read path (regmap.c): nothing to do here. */
+static void mb_on_link(void *self, unsigned robot, bool up)
+{
+    (void)self, (void)robot, (void)up;
+}
+
+static void mb_on_fault(void *self, unsigned robot, bool latched)
+{
+    (void)self, (void)robot, (void)latched; /* its own: write_fault in the unit */
+}
+
+/* Modbus's part of the status block: clients, exceptions (TCP and every
+ * RTU line), the writer, and IR 40-43: the frames dropped and the frames
+ * for other slaves of the lines this robot is on. unit_for also calls it
+ * for the unit a request addresses, so that a client reading the block
+ * finds itself counted: a 10 Hz snapshot would often have been taken
+ * before it connected (or after its predecessor left). */
+static void unit_refresh(mb_t *m, unsigned r)
+{
+    gw_status_t *st = &m->unit[r].status;
+    uint8_t unit_id = m->env->cfg->robot[r].unit_id;
+    st->clients = (uint16_t)gw_mbs_client_count(m->tcp.mbs);
+    st->exceptions = gw_mbs_exceptions(m->tcp.mbs);
+    st->writer_present = gw_mbs_writer_present(m->tcp.mbs);
+    st->rtu_dropped = 0;
+    st->rtu_other = 0;
+    for (unsigned i = 0; i < m->rtu.count; i++) {
+        const gw_rtu_counters_t *n = gw_rtu_counters(m->rtu.line[i]);
+        st->exceptions += n->exceptions;
+        if (!gw_rtu_serves(m->rtu.line[i], unit_id))
+            continue;
+        st->rtu_dropped += n->crc_errors;
+        st->rtu_other += n->other;
+    }
+}
+
+static void mb_refresh(void *self)
+{
+    mb_t *m = self;
+    for (unsigned r = 0; r < m->env->cfg->robot_count; r++)
+        unit_refresh(m, r);
+}
+
+static void mb_safe(void *self)
+{
+    (void)self;
+}
+
+const gw_north_ops_t gw_north_modbus = {
+    "modbus",   mb_create,  mb_prepare,  mb_abort,   mb_commit, mb_tick, mb_deadline,
+    mb_on_data, mb_on_link, mb_on_fault, mb_refresh, mb_safe,   mb_free,
+};

@@ -1,0 +1,725 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The Modbus register map: one slot per address, built from the field
+ * table at start-up, so every field of every assembly is reachable and no
+ * address is written down by hand (docs/register-map.md is printed from
+ * the same slots).
+ */
+#include <math.h>
+#include <string.h>
+
+#include "modbus/regmap.h"
+
+typedef enum {
+    SL_NONE = 0,
+    SL_VALUE,   /* BIT / USINT / ENUM element as one register */
+    SL_PACKED,  /* 16 bits of a BITS mask; part = word index */
+    SL_WORD32,  /* half of a DINT/REAL; part 0 = first register */
+    SL_SCALED,  /* REAL as INT16 x scale */
+    SL_BIT,     /* one bit (coil / discrete input) */
+    SL_STATUS,  /* status block register or bit; elem = index */
+    SL_TEST,    /* constant test register; elem = index */
+    SL_CONTROL  /* holding register with its own meaning; elem = index */
+} slot_kind_t;
+
+typedef struct {
+    uint8_t kind;
+    uint8_t part;
+    uint16_t field; /* index into dr_field_table */
+    int16_t elem;
+} slot_t;
+
+static slot_t map[GW_AREAS][GW_AREA_SIZE];
+static uint16_t extent[GW_AREAS]; /* one past the last mapped address */
+static bool built;
+
+/* Where each assembly starts: registers (and +1000 for the scaled view)
+ * and bits. T->O go to input registers / discrete inputs, O->T to holding
+ * registers / coils. */
+static const uint16_t reg_base[DR_ASM_COUNT] = {100, 200, 300, 400, 500, 600,
+                                                100, 200, 300, 400};
+static const uint16_t bit_base[DR_ASM_COUNT] = {100, 0, 0, 400, 0, 0,
+                                                100, 200, 0, 0};
+#define SCALED_OFFSET 1000u
+
+#define STATUS_REGS 32u
+#define TEST_BASE 32u
+#define TEST_REGS 8u
+/* The status block goes on after the test registers (IR 0-31 was full and
+ * IR 32-39 are read by PLC programs): status elements 32.. at IR 40.. */
+#define STATUS_EXT_BASE 40u
+#define STATUS_EXT_REGS 4u
+#define STATUS_BITS 4u
+#define CONTROL_REGS 2u
+
+static void put(gw_area_t area, uint16_t *addr, slot_kind_t kind, uint8_t part,
+                uint16_t field, int16_t elem)
+{
+    slot_t s = {(uint8_t)kind, part, field, elem};
+    map[area][(*addr)++] = s;
+}
+
+static void build_field(uint16_t fi, gw_area_t ra, gw_area_t ba, uint16_t *r,
+                        uint16_t *s, uint16_t *b)
+{
+    const dr_field_t *f = &dr_field_table[fi];
+    unsigned n = f->count;
+    switch ((dr_kind_t)f->kind) {
+    case DR_KIND_BIT:
+        put(ra, r, SL_VALUE, 0, fi, 0);
+        put(ba, b, SL_BIT, 0, fi, 0);
+        break;
+    case DR_KIND_BITS:
+        for (unsigned w = 0; w < (n + 15u) / 16u; w++)
+            put(ra, r, SL_PACKED, (uint8_t)w, fi, -1);
+        for (unsigned e = 0; e < n; e++)
+            put(ba, b, SL_BIT, 0, fi, (int16_t)e);
+        break;
+    case DR_KIND_USINT:
+    case DR_KIND_ENUM:
+        for (unsigned e = 0; e < n; e++)
+            put(ra, r, SL_VALUE, 0, fi, (int16_t)e);
+        break;
+    case DR_KIND_DINT:
+    case DR_KIND_REAL:
+        for (unsigned e = 0; e < n; e++) {
+            put(ra, r, SL_WORD32, 0, fi, (int16_t)e);
+            put(ra, r, SL_WORD32, 1, fi, (int16_t)e);
+            if (f->kind == DR_KIND_REAL)
+                put(ra, s, SL_SCALED, 0, fi, (int16_t)e);
+        }
+        break;
+    }
+}
+
+void gw_regmap_init(void)
+{
+    if (built)
+        return;
+    memset(map, 0, sizeof map);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
+        bool t2o = info->dir == DR_DIR_T2O;
+        gw_area_t ra = t2o ? GW_INPUT : GW_HOLDING;
+        gw_area_t ba = t2o ? GW_DISCRETE : GW_COILS;
+        uint16_t r = reg_base[a], s = (uint16_t)(reg_base[a] + SCALED_OFFSET), b = bit_base[a];
+        for (unsigned k = 0; k < info->field_count; k++)
+            build_field((uint16_t)(info->first_field + k), ra, ba, &r, &s, &b);
+    }
+    uint16_t addr = 0;
+    for (unsigned i = 0; i < STATUS_REGS; i++)
+        put(GW_INPUT, &addr, SL_STATUS, 0, 0, (int16_t)i);
+    for (unsigned i = 0; i < TEST_REGS; i++)
+        put(GW_INPUT, &addr, SL_TEST, 0, 0, (int16_t)i);
+    addr = STATUS_EXT_BASE;
+    for (unsigned i = 0; i < STATUS_EXT_REGS; i++)
+        put(GW_INPUT, &addr, SL_STATUS, 0, 0, (int16_t)(STATUS_REGS + i));
+    addr = 0;
+    for (unsigned i = 0; i < STATUS_BITS; i++)
+        put(GW_DISCRETE, &addr, SL_STATUS, 0, 0, (int16_t)i);
+    addr = 0;
+    for (unsigned i = 0; i < CONTROL_REGS; i++)
+        put(GW_HOLDING, &addr, SL_CONTROL, 0, 0, (int16_t)i);
+    for (unsigned t = 0; t < GW_AREAS; t++)
+        for (unsigned a = 0; a < GW_AREA_SIZE; a++)
+            if (map[t][a].kind != SL_NONE)
+                extent[t] = (uint16_t)(a + 1u);
+    built = true;
+}
+
+/* ---- word order ---------------------------------------------------------- */
+
+static uint16_t swap_bytes(uint16_t w)
+{
+    return (uint16_t)(w << 8 | w >> 8);
+}
+
+void gw_words_from_u32(uint32_t v, gw_word_order_t order, uint16_t out[2])
+{
+    uint16_t hi = (uint16_t)(v >> 16), lo = (uint16_t)v;
+    switch (order) {
+    case GW_WORD_ABCD: out[0] = hi; out[1] = lo; break;
+    case GW_WORD_CDAB: out[0] = lo; out[1] = hi; break;
+    case GW_WORD_BADC: out[0] = swap_bytes(hi); out[1] = swap_bytes(lo); break;
+    case GW_WORD_DCBA: out[0] = swap_bytes(lo); out[1] = swap_bytes(hi); break;
+    }
+}
+
+uint32_t gw_words_to_u32(const uint16_t in[2], gw_word_order_t order)
+{
+    uint16_t hi = 0, lo = 0;
+    switch (order) {
+    case GW_WORD_ABCD: hi = in[0]; lo = in[1]; break;
+    case GW_WORD_CDAB: hi = in[1]; lo = in[0]; break;
+    case GW_WORD_BADC: hi = swap_bytes(in[0]); lo = swap_bytes(in[1]); break;
+    case GW_WORD_DCBA: hi = swap_bytes(in[1]); lo = swap_bytes(in[0]); break;
+    }
+    return (uint32_t)hi << 16 | lo;
+}
+
+/* ---- reading ------------------------------------------------------------- */
+
+unsigned gw_regmap_scale(const dr_field_t *f)
+{
+    /* x100 where values are small (currents, analog I/O, general purpose
+     * floats); x10 where they reach hundreds or thousands (degrees, mm,
+     * temperatures, torques, forces), which keeps +-3276.7 in range. */
+    if (strcmp(f->unit, "A") == 0 || f->unit[0] == '\0')
+        return 100;
+    return 10;
+}
+
+static const dr_field_t *slot_field(const slot_t *s)
+{
+    return &dr_field_table[s->field];
+}
+
+static size_t asm_size(const dr_field_t *f)
+{
+    return dr_asm_info((dr_asm_t)f->assembly)->size;
+}
+
+static const uint8_t *asm_img(const gw_unit_t *u, const dr_field_t *f)
+{
+    return u->robot->img[f->assembly];
+}
+
+static dr_value_t get_value(const gw_unit_t *u, const slot_t *s, int16_t elem)
+{
+    const dr_field_t *f = slot_field(s);
+    dr_ref_t ref = {f, elem};
+    dr_value_t v = dr_value_uint(0);
+    (void)dr_field_get(asm_img(u, f), asm_size(f), ref, &v);
+    return v;
+}
+
+static uint16_t scaled(double f, unsigned scale)
+{
+    if (f != f)
+        return 0x8000; /* -32768 marks "not a number" */
+    double x = f * scale;
+    x = x < 0 ? ceil(x - 0.5) : floor(x + 0.5);
+    if (x > 32767.0)
+        x = 32767.0;
+    if (x < -32767.0)
+        x = -32767.0;
+    return (uint16_t)(int16_t)x;
+}
+
+/* The block is assembled here from both owners: the robot's facts (its
+ * link, counters, errors; the daemon's heartbeat, uptime, generation) and
+ * Modbus's own (exceptions, clients, the single writer, word order, RTU
+ * counters). */
+static uint16_t status_reg(const gw_unit_t *u, unsigned i)
+{
+    const gw_status_t *st = &u->status;
+    const gw_robot_t *rb = u->robot;
+    const gw_robot_link_t *lk = &rb->link;
+    switch (i) {
+    case 0: return GW_MAP_LAYOUT_VERSION;
+    case 1: return lk->link_state;
+    case 2: return lk->fresh;
+    case 3: return lk->age_ms > 0xFFFF ? 0xFFFF : (uint16_t)lk->age_ms;
+    case 4: return rb->heartbeat;
+    case 5: return lk->rpi_ms;
+    /* 32-bit counters: high word first, whatever the word order */
+    case 6: return (uint16_t)(lk->rx_packets >> 16);
+    case 7: return (uint16_t)lk->rx_packets;
+    case 8: return (uint16_t)(lk->lost_packets >> 16);
+    case 9: return (uint16_t)lk->lost_packets;
+    case 10: return (uint16_t)(st->exceptions >> 16);
+    case 11: return (uint16_t)st->exceptions;
+    case 12: return lk->last_error;
+    case 13: return st->clients;
+    case 14: return (uint16_t)(rb->uptime_s >> 16);
+    case 15: return (uint16_t)rb->uptime_s;
+    case 26: return st->write_fault;
+    case 27: return st->writer_present;
+    case 28: return (uint16_t)u->order;
+    case 29: return rb->generation;
+    case 30: return lk->last_cip_general;
+    /* 31 is reserved (reads 0); the block goes on at IR 40, its 32-bit
+     * counters high word first too */
+    case STATUS_REGS + 0: return (uint16_t)(st->rtu_dropped >> 16);
+    case STATUS_REGS + 1: return (uint16_t)st->rtu_dropped;
+    case STATUS_REGS + 2: return (uint16_t)(st->rtu_other >> 16);
+    case STATUS_REGS + 3: return (uint16_t)st->rtu_other;
+    default:
+        if (i >= 16 && i < 16 + GW_ROBOT_CONNS)
+            return lk->conn_state[i - 16];
+        return 0;
+    }
+}
+
+static uint16_t status_bit(const gw_unit_t *u, unsigned i)
+{
+    switch (i) {
+    case 0: return u->robot->link.link_state == 2;
+    case 1: return u->robot->link.fresh;
+    case 2: return u->status.write_fault;
+    default: return u->status.writer_present;
+    }
+}
+
+/* Known constants so a PLC programmer can check the word order. */
+static uint16_t test_reg(const gw_unit_t *u, unsigned i)
+{
+    uint16_t w[2];
+    float f;
+    uint32_t bits;
+    switch (i) {
+    case 0: return 0x1234;
+    case 1: case 2:
+        gw_words_from_u32(0x12345678u, u->order, w);
+        return w[i - 1];
+    case 3: case 4:
+        f = 123456.0f; /* 0x47F12000 */
+        memcpy(&bits, &f, 4);
+        gw_words_from_u32(bits, u->order, w);
+        return w[i - 3];
+    case 5: case 6:
+        f = -1.5f; /* 0xBFC00000 */
+        memcpy(&bits, &f, 4);
+        gw_words_from_u32(bits, u->order, w);
+        return w[i - 5];
+    default: return 0xFFFE; /* INT16 -2 */
+    }
+}
+
+static uint16_t read_slot(const gw_unit_t *u, gw_area_t area, const slot_t *s)
+{
+    const dr_field_t *f = slot_field(s);
+    switch ((slot_kind_t)s->kind) {
+    case SL_VALUE:
+    case SL_BIT:
+        return (uint16_t)get_value(u, s, s->elem).u;
+    case SL_PACKED:
+        return (uint16_t)(get_value(u, s, -1).u >> (16u * s->part));
+    case SL_WORD32: {
+        uint16_t w[2];
+        gw_words_from_u32(dr_get_le32(asm_img(u, f) + f->offset + 4u * (unsigned)s->elem),
+                          u->order, w);
+        return w[s->part];
+    }
+    case SL_SCALED:
+        return scaled(get_value(u, s, s->elem).f, gw_regmap_scale(f));
+    case SL_STATUS:
+        return area == GW_DISCRETE ? status_bit(u, (unsigned)s->elem)
+                                   : status_reg(u, (unsigned)s->elem);
+    case SL_TEST:
+        return test_reg(u, (unsigned)s->elem);
+    case SL_CONTROL:
+        return s->elem == GW_HR_WATCHDOG ? u->watchdog : 0;
+    default:
+        return 0;
+    }
+}
+
+static bool in_range(uint16_t addr, uint16_t count)
+{
+    return count > 0 && (uint32_t)addr + count <= GW_AREA_SIZE;
+}
+
+bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count)
+{
+    if (!in_range(addr, count))
+        return false;
+    for (uint32_t a = addr; a < (uint32_t)addr + count; a++) {
+        uint8_t k = map[area][a].kind;
+        if (k != SL_NONE && k != SL_STATUS && k != SL_TEST && k != SL_CONTROL)
+            return true;
+    }
+    return false;
+}
+
+uint16_t gw_regmap_extent(gw_area_t area)
+{
+    return (unsigned)area < GW_AREAS ? extent[area] : 0;
+}
+
+/* Reserved addresses between the blocks read 0 by default, so that a PLC
+ * can read 125 registers in one request across blocks; past the table's
+ * last mapped address nothing is read. */
+int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
+                   uint16_t count, uint16_t *values)
+{
+    if ((unsigned)area >= GW_AREAS || !in_range(addr, count) ||
+        (uint32_t)addr + count > extent[area])
+        return GW_EX_ILLEGAL_ADDRESS;
+    if (u->unmapped == GW_UNMAPPED_EXCEPTION)
+        for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
+            if (map[area][a].kind == SL_NONE)
+                return GW_EX_ILLEGAL_ADDRESS;
+    if (u->on_loss == GW_LOSS_EXCEPTION && u->robot->link.link_state != 2 &&
+        (area == GW_INPUT || area == GW_DISCRETE) &&
+        gw_regmap_touches_robot_data(area, addr, count))
+        return GW_EX_TARGET_FAILED;
+    for (uint16_t i = 0; i < count; i++)
+        values[i] = read_slot(u, area, &map[area][addr + i]);
+    return 0;
+}
+
+/* ---- writing ------------------------------------------------------------- */
+
+/* The bits of field f that GPIO inputs drive (a BIT field: bit 0). */
+static uint64_t gpio_bits(const gw_unit_t *u, const dr_field_t *f)
+{
+    uint64_t m = 0;
+    for (unsigned i = 0; i < u->gpio_in_count && i < GW_MAX_GPIO; i++) {
+        const dr_ref_t *r = &u->gpio_in[i];
+        if (r->field == f)
+            m |= f->kind == DR_KIND_BITS && r->elem >= 0 && r->elem < 64
+                     ? (uint64_t)1 << r->elem : (uint64_t)1;
+    }
+    return m;
+}
+
+/* A write may leave a GPIO-driven bit as it is, not change it: the input
+ * would overwrite it at its next edge, or not, and nobody could tell. */
+static bool changes_gpio_bit(const gw_unit_t *u, const slot_t *s, int16_t elem,
+                             uint64_t v)
+{
+    const dr_field_t *f = slot_field(s);
+    uint64_t owned = gpio_bits(u, f);
+    if (owned == 0)
+        return false;
+    if (elem < 0) /* the whole mask */
+        return ((v ^ get_value(u, s, -1).u) & owned) != 0;
+    uint64_t bit = f->kind == DR_KIND_BITS ? (uint64_t)1 << elem : 1u;
+    return (owned & bit) != 0 && v != get_value(u, s, elem).u;
+}
+
+static int status_to_exception(dr_status_t st)
+{
+    return st == DR_OK ? 0 : (st == DR_EREADONLY ? GW_EX_ILLEGAL_ADDRESS : GW_EX_ILLEGAL_VALUE);
+}
+
+static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
+                     unsigned *dirty)
+{
+    const dr_field_t *f = slot_field(s);
+    dr_ref_t ref = {f, elem};
+    if (u->robot->o2t_unsent & (1u << f->assembly))
+        return GW_EX_ILLEGAL_ADDRESS;
+    int ex = status_to_exception(dr_field_set(u->robot->img[f->assembly], asm_size(f), ref, &v,
+                                              DR_SET_O2T_ONLY));
+    if (ex == 0)
+        *dirty |= 1u << f->assembly;
+    return ex;
+}
+
+/* Apply one write at map[area][*i] (a 32-bit value takes two). */
+static int write_slot(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t *i,
+                      uint16_t count, const uint16_t *values, unsigned *dirty)
+{
+    const slot_t *s = &map[area][addr + *i];
+    const dr_field_t *f = slot_field(s);
+    uint16_t v = values[*i];
+
+    switch ((slot_kind_t)s->kind) {
+    case SL_VALUE:
+    case SL_BIT:
+        if (changes_gpio_bit(u, s, s->elem, v))
+            return GW_EX_ILLEGAL_ADDRESS;
+        return set_field(u, s, s->elem, dr_value_uint(v), dirty);
+    case SL_PACKED: {
+        uint64_t mask = get_value(u, s, -1).u;
+        unsigned shift = 16u * s->part;
+        mask = (mask & ~((uint64_t)0xFFFF << shift)) | (uint64_t)v << shift;
+        if (changes_gpio_bit(u, s, -1, mask))
+            return GW_EX_ILLEGAL_ADDRESS;
+        return set_field(u, s, -1, dr_value_uint(mask), dirty);
+    }
+    case SL_WORD32: {
+        /* Both halves must be in this request, or the value would be torn. */
+        const slot_t *next = &map[area][addr + *i + 1u];
+        if (s->part != 0 || *i + 1u >= count || next->kind != SL_WORD32 ||
+            next->field != s->field || next->elem != s->elem)
+            return GW_EX_ILLEGAL_ADDRESS;
+        uint16_t w[2] = {v, values[*i + 1u]};
+        uint32_t bits = gw_words_to_u32(w, u->order);
+        (*i)++;
+        if (f->kind == DR_KIND_DINT)
+            return set_field(u, s, s->elem,
+                             dr_value_int(bits <= INT32_MAX ? (int64_t)bits
+                                                            : (int64_t)bits - 4294967296LL),
+                             dirty);
+        float fl;
+        memcpy(&fl, &bits, 4);
+        return set_field(u, s, s->elem, dr_value_real((double)fl), dirty);
+    }
+    case SL_SCALED: {
+        int32_t sv = v <= 0x7FFF ? (int32_t)v : (int32_t)v - 65536;
+        return set_field(u, s, s->elem, dr_value_real((double)sv / gw_regmap_scale(f)), dirty);
+    }
+    case SL_CONTROL:
+        if (s->elem == GW_HR_WATCHDOG) {
+            u->watchdog = v;
+            return 0;
+        }
+        if (v > 1)
+            return GW_EX_ILLEGAL_VALUE;
+        u->fault_reset = u->fault_reset || v == 1;
+        return 0;
+    default:
+        return GW_EX_ILLEGAL_ADDRESS;
+    }
+}
+
+int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                    const uint16_t *values, unsigned *dirty)
+{
+    if ((area != GW_HOLDING && area != GW_COILS) || !in_range(addr, count))
+        return GW_EX_ILLEGAL_ADDRESS;
+    for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
+        if (map[area][a].kind == SL_NONE)
+            return GW_EX_ILLEGAL_ADDRESS;
+    /* Work on copies: the unit and the robot's images change only if
+     * every value passes; of the robot, only the O->T images written. */
+    gw_robot_t img = *u->robot;
+    gw_unit_t tmp = *u;
+    tmp.robot = &img;
+    unsigned d = 0;
+    for (uint16_t i = 0; i < count; i++) {
+        int ex = write_slot(&tmp, area, addr, &i, count, values, &d);
+        if (ex != 0)
+            return ex;
+    }
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (d & (1u << a))
+            memcpy(u->robot->img[a], img.img[a], sizeof img.img[a]);
+    tmp.robot = u->robot;
+    *u = tmp;
+    *dirty |= d;
+    return 0;
+}
+
+/* ---- printing ---------------------------------------------------------------- */
+
+static const char *const area_name[GW_AREAS] = {"coil", "discrete input",
+                                                "holding register", "input register"};
+static const char *const area_short[GW_AREAS] = {"CO", "DI", "HR", "IR"};
+static const unsigned area_prefix[GW_AREAS] = {0, 1, 4, 3};
+
+static const char *const status_names[STATUS_REGS + STATUS_EXT_REGS] = {
+    "status.layout_version", "status.link_state (0 down, 1 connecting, 2 up)",
+    "status.data_fresh", "status.data_age_ms", "status.heartbeat", "status.rpi_ms",
+    "status.rx_packets (high word)", "status.rx_packets (low word)",
+    "status.lost_packets (high word)", "status.lost_packets (low word)",
+    "status.modbus_exceptions (high word)", "status.modbus_exceptions (low word)",
+    "status.last_error", "status.clients", "status.uptime_s (high word)",
+    "status.uptime_s (low word)", "status.conn_state[0]", "status.conn_state[1]",
+    "status.conn_state[2]", "status.conn_state[3]", "status.conn_state[4]",
+    "status.conn_state[5]", "status.conn_state[6]", "status.conn_state[7]",
+    "status.conn_state[8]", "status.conn_state[9]", "status.write_fault",
+    "status.writer_present", "status.word_order (0 abcd, 1 cdab, 2 badc, 3 dcba)",
+    "status.config_generation", "status.last_cip_general", "status.reserved31",
+    "status.rtu_frames_dropped (high word)", "status.rtu_frames_dropped (low word)",
+    "status.rtu_frames_other_slave (high word)", "status.rtu_frames_other_slave (low word)",
+};
+static const char *const status_bit_names[STATUS_BITS] = {
+    "status.link_up", "status.data_fresh", "status.write_fault", "status.writer_present"};
+static const char *const test_names[TEST_REGS] = {
+    "test.u16 = 0x1234", "test.dint 0x12345678 (word 1)", "test.dint 0x12345678 (word 2)",
+    "test.real 123456.0 = 0x47F12000 (word 1)", "test.real 123456.0 (word 2)",
+    "test.real -1.5 = 0xBFC00000 (word 1)", "test.real -1.5 (word 2)", "test.int16 -2 = 0xFFFE"};
+static const char *const control_names[CONTROL_REGS] = {
+    "control.writer_watchdog (single-writer mode: keep changing it)",
+    "control.fault_reset (write 1)"};
+
+static bool same_group(const slot_t *a, const slot_t *b)
+{
+    if (a->kind != b->kind)
+        return false;
+    switch ((slot_kind_t)a->kind) {
+    case SL_WORD32: return a->field == b->field && a->elem == b->elem && b->part == 1;
+    case SL_PACKED: return a->field == b->field;
+    default: return false;
+    }
+}
+
+/* words: registers in the printed group (a packed mask takes several). */
+static void slot_text(const slot_t *s, gw_area_t area, unsigned words, char *name,
+                      size_t nsize, char *type, size_t tsize, char *unit, size_t usize)
+{
+    const dr_field_t *f = slot_field(s);
+    dr_ref_t ref = {f, (int16_t)(s->kind == SL_PACKED ? -1 : s->elem)};
+    name[0] = type[0] = unit[0] = '\0';
+    switch ((slot_kind_t)s->kind) {
+    case SL_STATUS:
+        snprintf(name, nsize, "%s", area == GW_DISCRETE ? status_bit_names[s->elem]
+                                                         : status_names[s->elem]);
+        snprintf(type, tsize, area == GW_DISCRETE ? "bit" : "UINT16");
+        return;
+    case SL_TEST:
+        snprintf(name, nsize, "%s", test_names[s->elem]);
+        snprintf(type, tsize, "constant");
+        return;
+    case SL_CONTROL:
+        snprintf(name, nsize, "%s", control_names[s->elem]);
+        snprintf(type, tsize, "UINT16");
+        return;
+    default:
+        break;
+    }
+    (void)dr_ref_path(ref, name, nsize);
+    snprintf(unit, usize, "%s", f->unit);
+    switch ((slot_kind_t)s->kind) {
+    case SL_VALUE:
+        snprintf(type, tsize, "%s (%s)", dr_kind_name((dr_kind_t)f->kind),
+                 f->kind == DR_KIND_BIT ? "0/1" : "0..255");
+        break;
+    case SL_PACKED: {
+        /* the whole mask: one row for all its registers */
+        unsigned first = f->first_index, last = f->first_index + f->count - 1u;
+        if (words > 1)
+            snprintf(type, tsize, "bits %u-%u packed, 16 per register (bit 0 = [%u], [%u], ...)",
+                     first, last, first, first + 16u);
+        else
+            snprintf(type, tsize, "bits %u-%u packed (bit 0 = [%u])", first, last, first);
+        break;
+    }
+    case SL_WORD32:
+        snprintf(type, tsize, "%s, 2 registers in word order", dr_kind_name((dr_kind_t)f->kind));
+        break;
+    case SL_SCALED:
+        snprintf(type, tsize, "INT16 = REAL x %u", gw_regmap_scale(f));
+        break;
+    case SL_BIT:
+        snprintf(type, tsize, "bit");
+        break;
+    default:
+        break;
+    }
+}
+
+void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
+{
+    gw_regmap_init();
+    bool first = true;
+    if (fmt == GW_PRINT_JSON)
+        fputs("[\n", out);
+    for (unsigned area = 0; area < GW_AREAS; area++) {
+        if (fmt == GW_PRINT_MARKDOWN)
+            fprintf(out, "\n### %ss\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
+                    area_name[area]);
+        for (unsigned a = 0; a < GW_AREA_SIZE;) {
+            const slot_t *s = &map[area][a];
+            if (s->kind == SL_NONE) {
+                a++;
+                continue;
+            }
+            unsigned end = a + 1;
+            while (end < GW_AREA_SIZE && same_group(s, &map[area][end]))
+                end++;
+            char name[96], type[96], unit[16];
+            slot_text(s, (gw_area_t)area, end - a, name, sizeof name, type, sizeof type, unit,
+                      sizeof unit);
+            unsigned p = area_prefix[area];
+            switch (fmt) {
+            case GW_PRINT_TEXT:
+                fprintf(out, "%s %4u-%-4u %u%04u  %-40s %s %s\n", area_short[area], a, end - 1,
+                        p, a + 1, name, type, unit);
+                break;
+            case GW_PRINT_MARKDOWN:
+                if (end - 1 > a)
+                    fprintf(out, "| %u-%u | %u%04u-%u%04u | `%s` | %s | %s |\n", a, end - 1, p,
+                            a + 1, p, end, name, type, unit);
+                else
+                    fprintf(out, "| %u | %u%04u | `%s` | %s | %s |\n", a, p, a + 1, name, type, unit);
+                break;
+            case GW_PRINT_JSON:
+                fprintf(out, "%s  {\"area\": \"%s\", \"address\": %u, \"count\": %u, \"name\": \"%s\", "
+                             "\"type\": \"%s\", \"unit\": \"%s\"}",
+                        first ? "" : ",\n", area_short[area], a, end - a, name, type, unit);
+                first = false;
+                break;
+            }
+            a = end;
+        }
+    }
+    if (fmt == GW_PRINT_JSON)
+        fputs("\n]\n", out);
+}
+
+/* ---- last_error's codes (drgatewayd --print-errors) ------------------------------ */
+
+/* One row: the codes as the registers show them, the cause in words and,
+ * where the daemon knows one, what to check. */
+static void error_row(FILE *out, gw_print_fmt_t fmt, const char *code, const char *general,
+                      const char *cause, const char *hint)
+{
+    if (fmt == GW_PRINT_MARKDOWN)
+        fprintf(out, "| %s | %s | %s | %s |\n", code, general, cause, hint != NULL ? hint : "");
+    else
+        fprintf(out, "%-15s %-11s %s%s%s\n", code, general, cause, hint != NULL ? ": " : "",
+                hint != NULL ? hint : "");
+}
+
+/* A code in hexadecimal and, for PLC programs that show decimal, decimal. */
+static void hex_dec(char *buf, size_t size, unsigned v, int digits)
+{
+    snprintf(buf, size, "0x%0*X (%u)", digits, v, v);
+}
+
+#define ERR_CODE(name, value, text) value,
+static const int plain_codes[] = {DR_STATUS_LIST(ERR_CODE)};
+#undef ERR_CODE
+
+void gw_regmap_print_errors(FILE *out, gw_print_fmt_t fmt)
+{
+    char code[40], gen[24], cause[160];
+    if (fmt == GW_PRINT_MARKDOWN)
+        fputs("| `last_error` (IR 12) | `last_cip_general` (IR 30) | cause | what to check |\n"
+              "|---|---|---|---|\n", out);
+    else
+        fprintf(out, "%-15s %-11s %s\n", "last_error", "cip_general", "cause");
+    error_row(out, fmt, "0", "0", "no failure since the robot's link started", NULL);
+    /* drgate's own codes: the whole list, in its order (1, 2, ...) */
+    for (size_t i = 0; i < sizeof plain_codes / sizeof plain_codes[0]; i++) {
+        dr_status_t st = plain_codes[i];
+        if (st == DR_OK)
+            continue;
+        snprintf(code, sizeof code, "%d", (int)st);
+        error_row(out, fmt, code, "0", dr_strerror(st), gw_robot_error_hint(st));
+    }
+    /* encapsulation statuses, moved above drgate's codes */
+    const char *unknown = dr_strerror(DR_ENCAP(0xFFFF));
+    for (unsigned s = 1; s < GW_ERROR_OTHER - GW_ERROR_ENCAP; s++) {
+        if (strcmp(dr_strerror(DR_ENCAP(s)), unknown) == 0)
+            continue;
+        hex_dec(code, sizeof code, GW_ERROR_ENCAP + s, 4);
+        gw_robot_error_text(DR_ENCAP(s), cause, sizeof cause);
+        error_row(out, fmt, code, "0", cause,
+                  s == 0x69 ? "the robot refused RegisterSession's protocol version" : NULL);
+    }
+    error_row(out, fmt, "0x8000 + s", "0",
+              "any other encapsulation status s from the robot (0x0001-0x7FFE)", NULL);
+    hex_dec(code, sizeof code, GW_ERROR_OTHER, 4);
+    error_row(out, fmt, code, "0", "an encapsulation status above 0x7FFE", NULL);
+    /* CIP: a refused Forward Open's extended status, then replies that
+     * carry a general status alone */
+    for (unsigned x = 1; x <= 0xFFFFu; x++) {
+        dr_status_t st = DR_CIP(0x01, x);
+        if (strcmp(dr_strerror(st), dr_cip_general_text(0x01)) == 0)
+            continue;
+        hex_dec(code, sizeof code, x, 4);
+        hex_dec(gen, sizeof gen, 0x01, 2);
+        gw_robot_error_text(st, cause, sizeof cause);
+        error_row(out, fmt, code, gen, cause, NULL);
+    }
+    const char *unknown_general = dr_cip_general_text(0xFF);
+    for (unsigned g = 1; g <= 0xFFu; g++) {
+        if (strcmp(dr_cip_general_text((uint8_t)g), unknown_general) == 0)
+            continue;
+        hex_dec(code, sizeof code, g, 2);
+        hex_dec(gen, sizeof gen, g, 2);
+        gw_robot_error_text(DR_CIP(g, 0), cause, sizeof cause);
+        snprintf(cause + strlen(cause), sizeof cause - strlen(cause),
+                 " (a reply without extended status)");
+        error_row(out, fmt, code, gen, cause, NULL);
+    }
+    error_row(out, fmt, "x", "g",
+              "any other CIP reply: general status g with extended status x (or x = g "
+              "when it has none)", NULL);
+}

@@ -1,0 +1,121 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The Modbus register map, generated from the codec's field table.
+ *
+ * Every Modbus unit (one per robot) has the same layout; addresses are
+ * 0-based PDU offsets. T->O data is read-only (input registers, discrete
+ * inputs), O->T data read/write (holding registers, coils). REAL and DINT
+ * take two registers in the configured word order; bit fields appear both
+ * as single bits and packed into words; REALs also as scaled INT16.
+ * docs/register-map.md is generated from gw_regmap_print().
+ *
+ * Requests are checked completely before anything is applied: a write
+ * that fails a check changes nothing.
+ */
+#ifndef DRGATE_GW_REGMAP_H
+#define DRGATE_GW_REGMAP_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "drgate/codec.h"
+#include "core/config.h"
+#include "core/robot.h"
+
+#define GW_MAP_LAYOUT_VERSION 1
+#define GW_AREA_SIZE 2048 /* addresses per area */
+
+typedef enum { GW_COILS = 0, GW_DISCRETE, GW_HOLDING, GW_INPUT, GW_AREAS } gw_area_t;
+
+/* Modbus exception codes used here. */
+enum {
+    GW_EX_ILLEGAL_FUNCTION = 0x01,
+    GW_EX_ILLEGAL_ADDRESS = 0x02,
+    GW_EX_ILLEGAL_VALUE = 0x03,
+    GW_EX_DEVICE_FAILURE = 0x04, /* a write while the write fault is latched */
+    GW_EX_TARGET_FAILED = 0x0B
+};
+
+/* Modbus's part of the status block (the rest is the robot's: link
+ * state, freshness, counters, errors, connection states, heartbeat,
+ * uptime and generation, from gw_robot_t). Refreshed ten times a second
+ * by the Modbus side (north_modbus.c), but write_fault, which the request
+ * handler and the watchdog change when it happens. */
+typedef struct {
+    uint32_t exceptions;      /* Modbus exceptions sent, TCP and RTU */
+    uint16_t clients;
+    bool write_fault;         /* single writer's watchdog expired (latched) */
+    bool writer_present;
+    /* Modbus RTU lines of this robot: frames dropped (bad CRC, short,
+     * long, cut by t3.5) and frames for other slave addresses (IR 40-43). */
+    uint32_t rtu_dropped, rtu_other;
+} gw_status_t;
+
+/* One robot as Modbus sees it: the robot (its images and link facts,
+ * robot.h: the daemon's, shared with every side) and the [modbus] rules
+ * and state that are Modbus's alone. The Modbus side keeps one per robot
+ * position and carries it over a reload by the robot's serial. */
+typedef struct {
+    gw_robot_t *robot;
+    gw_word_order_t order;
+    gw_link_loss_t on_loss; /* exception: 0x0B while the link is not up (hold
+                             * and zero read the images: zero is applied to
+                             * them, robot.h) */
+    gw_unmapped_read_t unmapped; /* reserved addresses: read 0 or 0x02 */
+    gw_status_t status;
+    /* O->T bits driven by GPIO inputs (from the configuration): they
+     * belong to the input, and a Modbus write that would change one is
+     * refused (0x02). */
+    dr_ref_t gpio_in[GW_MAX_GPIO];
+    unsigned gpio_in_count;
+    uint16_t watchdog;        /* last value written to the watchdog register */
+    bool fault_reset;         /* set when a client wrote the reset register */
+} gw_unit_t;
+
+/* Holding registers with a meaning of their own (0-based). */
+#define GW_HR_WATCHDOG 0    /* the single writer bumps it */
+#define GW_HR_FAULT_RESET 1 /* write 1 to clear the latched write fault */
+
+/* Build the map (once; cheap to call again). */
+void gw_regmap_init(void);
+
+/* One past the last mapped address of a table: reads end there. */
+uint16_t gw_regmap_extent(gw_area_t area);
+
+/* True if the robot data (not status/test/control) is addressed. */
+bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count);
+
+/* Read `count` registers (values) or bits (0/1 in values) starting at
+ * `addr`. Returns 0 or a Modbus exception code: 0x02 for an address past
+ * the table's last mapped one, or (unmapped = exception) for any reserved
+ * address in the range, which otherwise reads 0; 0x0B with on_link_loss =
+ * exception and robot data addressed while the link is down. */
+int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
+                   uint16_t count, uint16_t *values);
+
+/* Check and apply a write of `count` values to holding registers or coils.
+ * Returns 0 or an exception code (0x02 read-only or unmapped address, a
+ * write that covers only one half of a 32-bit value, or one that would
+ * change a bit a GPIO input drives; 0x03 a value out of
+ * range, NaN/infinite REAL). On error nothing changes. On success
+ * *dirty has bit (1 << assembly) set for every O->T image written. */
+int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                    const uint16_t *values, unsigned *dirty);
+
+/* The scale of a REAL field's INT16 view (10 or 100). */
+unsigned gw_regmap_scale(const dr_field_t *f);
+
+/* Print the map: plain text, Markdown (docs/register-map.md) or JSON. */
+typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
+void gw_regmap_print(FILE *out, gw_print_fmt_t fmt);
+/* Every value of the status block's last_error (IR 12) with
+ * last_cip_general (IR 30): text or Markdown (docs/register-map.md). */
+void gw_regmap_print_errors(FILE *out, gw_print_fmt_t fmt);
+
+/* 32-bit value <-> two registers in a word order (our own codec, not
+ * libmodbus's float helpers). */
+void gw_words_from_u32(uint32_t v, gw_word_order_t order, uint16_t out[2]);
+uint32_t gw_words_to_u32(const uint16_t in[2], gw_word_order_t order);
+
+#endif /* DRGATE_GW_REGMAP_H */

@@ -1,0 +1,115 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The MQTT side's section (config_internal.h): [mqtt], present = enabled
+ * (docs/mqtt.md). Whether the files open is checked when the MQTT side
+ * starts, or a reload prepares it; here only what the file says.
+ */
+#include "core/config_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define Q(m) GW_CFG_AT(gw_mqtt_config_t, m)
+
+static bool valid_client_id(const char *s);
+static bool valid_topic(const char *t);
+static gw_cfg_parse_fn mqtt_deadband;
+
+static const gw_cfg_key_t mqtt_keys[] = {
+    { .name = "host", .type = GW_CFG_HOST, .flags = GW_CFG_REQUIRED, Q(host), .allowed = "the broker's IPv4 address or host name", .help = "the broker. A name is resolved at each connection attempt, the one blocking step, so prefer an address" },
+    { .name = "port", .type = GW_CFG_UINT, Q(port), .lo = 1, .hi = 65535, .def = 1883, .help = "the broker's port (TLS brokers usually listen on 8883)" },
+    { .name = "client_id", .type = GW_CFG_TEXT, Q(client_id), .valid = valid_client_id, .allowed = "letters, digits, '_', '-', '.'", .doc_default = "`drgatewayd-<hostname>`", .doc_allowed = "letters, digits, `_`, `-`, `.` (at most 63)", .help = "MQTT client identifier; unique per broker" },
+    { .name = "username", .type = GW_CFG_TEXT, Q(username), .allowed = "a user name", .help = "login name" },
+    { .name = "password_file", .type = GW_CFG_TEXT, Q(password_file), .allowed = "a file whose first line is the password", .help = "file whose first line is the password; needs `username`. Read at start and reload; an unreadable file refuses the start or the reload" },
+    { .name = "ca_file", .type = GW_CFG_TEXT, Q(ca_file), .allowed = "a PEM file of CA certificates (enables TLS)", .doc_default = "(none: plain TCP)", .help = "PEM CA certificates: turns TLS on. The broker's certificate must chain to them and name `host`" },
+    { .name = "cert_file", .type = GW_CFG_TEXT, Q(cert_file), .allowed = "a PEM client certificate", .help = "client certificate (PEM), with `key_file`; needs `ca_file`" },
+    { .name = "key_file", .type = GW_CFG_TEXT, Q(key_file), .allowed = "a PEM private key", .help = "the client certificate's key (PEM), with `cert_file`" },
+    { .name = "keepalive_s", .type = GW_CFG_UINT, Q(keepalive_s), .lo = 5, .hi = 3600, .def = 30, .help = "MQTT keepalive; a broker that stops answering is found after about 1.5 times this" },
+    { .name = "qos", .type = GW_CFG_UINT, Q(qos), .lo = 0, .hi = 2, .help = "QoS of every publication, of the Last Will and of the `set` subscription" },
+    { .name = "topic_prefix", .type = GW_CFG_TEXT, Q(topic_prefix), .valid = valid_topic, .allowed = "topic levels such as drgate/cell1", .invalid = "topic levels separated by '/', no wildcards, blanks or empty levels, e.g. drgate/cell1", .doc_default = "`drgate/<hostname>`", .doc_allowed = "topic levels separated by `/`, no wildcards, blanks or empty levels", .help = "topics are `<prefix>/status` and `<prefix>/<robot>/...`" },
+    { .name = "retain", .type = GW_CFG_BOOL, Q(retain), .def = 1, .help = "`status`, `state` and `meta` are retained messages (the Will too)" },
+    { .name = "publish_interval_ms", .type = GW_CFG_UINT, Q(publish_interval_ms), .lo = 0, .hi = 60000, .def = 100, .help = "at most one `data` message per robot this often; `0` = on every change" },
+    { .name = "deadband", .type = GW_CFG_HOOK, .parse = mqtt_deadband, .allowed = "a number >= 0", .doc_default = "`0`", .doc_allowed = "a decimal number >= 0 (`0.5`; no sign, no exponent)", .help = "a REAL field is published again once it is more than this away from the value last published; integers and bits on any change" },
+    { .name = "writes", .type = GW_CFG_BOOL, Q(writes), .help = "accept writes on `<prefix>/<robot>/set/<path>`, with the checks of a Modbus write" },
+};
+
+static void mqtt_begin(void *sec)
+{
+    ((gw_mqtt_config_t *)sec)->enabled = true;
+}
+
+static void mqtt_check(gw_cfg_ctx_t *c);
+
+const gw_cfg_side_t gw_cfg_mqtt = {
+    .kw = "mqtt",
+    .base = offsetof(gw_config_t, mqtt),
+    .name_off = GW_CFG_NONE,
+    .line_off = offsetof(gw_mqtt_config_t, line),
+    GW_CFG_KEYS(mqtt_keys),
+    .begin = mqtt_begin,
+    .check = mqtt_check,
+};
+
+static bool valid_client_id(const char *s)
+{
+    for (; *s; s++)
+        if (!gw_cfg_is_alnum(*s) && *s != '_' && *s != '-' && *s != '.')
+            return false;
+    return true;
+}
+
+/* MQTT topic levels: no wildcards, no empty level, printable ASCII. */
+static bool valid_topic(const char *t)
+{
+    if (t[0] == '\0' || t[0] == '/' || t[strlen(t) - 1] == '/' ||
+        strstr(t, "//"))
+        return false;
+    for (; *t; t++)
+        if (*t == '+' || *t == '#' || (unsigned char)*t <= 0x20 ||
+            (unsigned char)*t >= 0x7f)
+            return false;
+    return true;
+}
+
+/* A non-negative decimal number such as 0.5 (no exponent, no sign). */
+static void mqtt_deadband(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                          const char *name, const char *v)
+{
+    unsigned digits = 0, dots = 0;
+    const char *p = v;
+    (void)k;
+    for (; *p && (gw_cfg_is_digit(*p) || *p == '.'); p++) {
+        digits += gw_cfg_is_digit(*p);
+        dots += *p == '.';
+    }
+    char *end = NULL;
+    double x = *p == '\0' && digits > 0 && dots <= 1 ? strtod(v, &end) : -1.0;
+    if (end == NULL || *end != '\0' || !(x >= 0.0 && x <= 1e9)) {
+        gw_cfg_fail(c, c->lineno,
+                    "%s '%s' invalid (allowed: a decimal number >= 0, e.g. "
+                    "0.5)",
+                    name, v);
+        return;
+    }
+    ((gw_mqtt_config_t *)sec)->deadband = x;
+}
+
+static void mqtt_check(gw_cfg_ctx_t *c)
+{
+    const gw_mqtt_config_t *q = &c->cfg.mqtt;
+    const gw_cfg_side_t *s = &gw_cfg_mqtt;
+    if (!q->enabled || !gw_cfg_require(c, s, 0))
+        return;
+    if ((q->cert_file[0] != '\0') != (q->key_file[0] != '\0'))
+        gw_cfg_fail(c,
+                    gw_cfg_line(c, s, 0, q->cert_file[0] ? "cert_file"
+                                                         : "key_file"),
+                    "[mqtt] cert_file and key_file go together (allowed: both "
+                    "or neither)");
+    else if (q->cert_file[0] != '\0' && q->ca_file[0] == '\0')
+        gw_cfg_fail(c, gw_cfg_line(c, s, 0, "cert_file"),
+                    "[mqtt] cert_file needs ca_file (TLS)");
+    else if (q->password_file[0] != '\0' && q->username[0] == '\0')
+        gw_cfg_fail(c, gw_cfg_line(c, s, 0, "password_file"),
+                    "[mqtt] password_file needs username");
+}
