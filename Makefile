@@ -2,8 +2,9 @@
 # drgate: `make` builds, `make check` runs every test, `make demo` shows it
 # working, `make install` installs. See README.md.
 
-VERSION      := 0.1.0
-SOVERSION    := 0
+# 1.0.0: the client's API changed (docs/api-changes.md), so did the soname.
+VERSION      := 1.0.0
+SOVERSION    := 1
 
 PREFIX       ?= /usr/local
 BINDIR       ?= $(PREFIX)/bin
@@ -74,6 +75,11 @@ LIB_A         := $(B)/libdrgate.a
 LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
 LIB_SO        := $(B)/libdrgate.so.$(VERSION)
 LIB_HDR       := $(wildcard lib/include/drgate/*.h)
+# The library's private headers (lib/*.h: the wire toolkit cip_internal.h,
+# the client's and the codec's insides): never installed. drsim, the tests,
+# the fuzzers and the benchmarks, which work on the wire themselves, see
+# them with PRIV_CPPFLAGS; applications (cli/, gateway/) do not.
+PRIV_CPPFLAGS := -Ilib
 
 # ---- programs --------------------------------------------------------------
 # Each program is linked from objects compiled once with its own flags
@@ -98,7 +104,7 @@ SIM_LIB_SRC := $(filter-out sim/main.c,$(SIM_SRC))
 SIM_OBJ     := $(SIM_SRC:%.c=$(B)/%.o)
 SIM_LIB_OBJ := $(SIM_LIB_SRC:%.c=$(B)/%.o)
 SIM_BIN     := $(B)/drsim
-SIM_CFLAGS   = $(ALL_CPPFLAGS) $(ALL_CFLAGS)
+SIM_CFLAGS   = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS)
 
 # ---- drgatewayd ------------------------------------------------------------
 # The daemon is gateway/core/main.c linked with two archives: libgw.a (every
@@ -157,7 +163,7 @@ TEST_SRC      := $(wildcard tests/unit/test_*.c)
 TEST_BIN      := $(TEST_SRC:%.c=$(B)/%)
 TEST_SUPPORT  := $(wildcard tests/support/*.c)
 TEST_SUPPORT_OBJ := $(TEST_SUPPORT:%.c=$(B)/%.o)
-TEST_CFLAGS    = $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+TEST_CFLAGS    = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 # A test of gateway code (the gateway's tests/unit/test_gw_*.c, the GPIO
 # layer's tests/gpio/test_*.c and tests/gpio/gateway/test_*.c) is one
 # source: it links the daemon's archives and the fakes (a GPIO backend
@@ -401,7 +407,7 @@ bench: $(B)/bench/bench_codec
 $(patsubst bench/%.c,$(B)/bench/%.d,$(wildcard bench/*.c)):
 $(B)/bench/%: bench/%.c $(B)/bench/%.d $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 demo: deps all
 	@sh mk/demo.sh $(B)
@@ -419,7 +425,10 @@ install: all
 	install -m 755 $(LIB_SO) $(DESTDIR)$(LIBDIR)/
 	ln -sf libdrgate.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(DESTDIR)$(LIBDIR)/libdrgate.so
+	# The public headers only (lib/*.h are private); cip.h was public up to
+	# 0.1.0 and must not outlive it in an upgraded tree.
 	install -m 644 $(LIB_HDR) $(DESTDIR)$(INCLUDEDIR)/drgate/
+	rm -f $(DESTDIR)$(INCLUDEDIR)/drgate/cip.h
 	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
 	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/

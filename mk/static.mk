@@ -70,7 +70,7 @@ STATIC_FLAGS_tests_gpio = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += tests_interop
 STATIC_SRC_tests_interop   = $(sort $(wildcard tests/interop/*.c))
-STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
 # Some harnesses reach into gateway/ (the Modbus and configuration paths).
 STATIC_GROUPS += fuzz

@@ -17,7 +17,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "drgate/codec.h"
 #include "robot.h"
 
