@@ -22,7 +22,9 @@
 # at the runtime's version (libsystemd-dev=<libsystemd0's>), so apt does not
 # upgrade libsystemd0, systemd and libudev1 to match a newer -dev. If apt
 # would still upgrade something, deps.sh names it and stops. Before it
-# installs, it prints every package apt will install and the download size.
+# installs, it prints every package apt will install and the download size,
+# and in a terminal asks to go on (DEPS_YES=1 does not ask; CI has no
+# terminal).
 set -eu
 cd "$(dirname "$0")/.."
 
@@ -139,6 +141,12 @@ else
     # shellcheck disable=SC2086
     apt-get install -q --print-uris -y --no-upgrade --no-install-recommends $args 2>/dev/null |
         awk '/^Need to get/ { print "deps: " $0 }'
+    # In a terminal, the user accepts the list first (DEPS_YES=1: do not ask).
+    if [ -t 0 ] && [ -t 1 ] && [ -z "${DEPS_YES:-}" ]; then
+        printf 'deps: install them? [Y/n] '
+        read -r answer || answer=n
+        case "$answer" in [nN]*) echo "deps: nothing installed" >&2; exit 1 ;; esac
+    fi
     # tshark asks whether non-root users may capture; the default (no) is fine.
     case "$missing" in *tshark*)
         echo "wireshark-common wireshark-common/install-setuid boolean false" | debconf-set-selections ;;
