@@ -190,7 +190,7 @@ GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 .PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
-        check-dep-split check-demo check-install dissector check-dissector deb
+        check-dep-split check-demo check-install dissector check-dissector deb check-deb
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -498,6 +498,11 @@ check-dissector: $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
 # ---- Debian packages (work in progress, not in make check) -----------------
 deb:
 	@sh mk/deb.sh $(B)
+
+# The packages installed, run and purged in a clean bookworm root made with
+# mmdebstrap (root, network; about 2 minutes).
+check-deb: deb
+	@sh mk/check-deb.sh $(B) "$(RESULTS)"
 
 # make install PREFIX=/usr into a staging root: paths follow the prefix,
 # what the manual pages name is installed, uninstall removes it all

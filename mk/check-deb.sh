@@ -1,0 +1,68 @@
+#!/bin/sh
+# SPDX-License-Identifier: MIT
+# make check-deb: the packages of `make deb` in a clean Debian bookworm root
+# made with mmdebstrap (--variant=apt, the packages' runtime libraries
+# included): dpkg -i the four, the files are there, the service is not
+# enabled, `drgatewayd --check-config` refuses the commented conffile (78,
+# "no robot section") and takes one with a robot, `drcli list` runs; then
+# dpkg --purge, and nothing of them is left (the root's file list equals
+# the one before the install, dpkg's own records aside).
+# Needs root, mmdebstrap and the network (deb.debian.org); about 2 minutes.
+# Not in make check (issue 24, section 2: work in progress).
+# usage: check-deb.sh BUILD_DIR [RESULTS]
+set -u
+cd "$(dirname "$0")/.."
+. tests/skip.sh
+b=${1:-build} res=${2:-}
+skip_name=check-deb
+label="Debian packages install, run and purge in a clean bookworm root (mk/check-deb.sh)"
+[ "$(id -u)" = 0 ] || skip "not root (chroot)"
+command -v mmdebstrap >/dev/null || skip "no mmdebstrap (apt-get install mmdebstrap)"
+ls "$b"/deb/drgate_*.deb >/dev/null 2>&1 || { echo "check-deb: no $b/deb/drgate_*.deb (make deb)" >&2; exit 1; }
+pass=0 fail=0
+ok() { pass=$((pass + 1)); echo "  ok: $*"; }
+bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
+root=$(mktemp -d /tmp/drgate-deb-root.XXXXXX)
+trap 'rm -rf "$root"' EXIT
+inroot() { chroot "$root" "$@"; }
+files() { (cd "$root" && find . -xdev \( -path ./var/lib/dpkg -o -path ./var/log -o -path ./var/cache \
+          -o -path ./tmp -o -path ./debs -o -path ./var/lib/systemd \) -prune -o -print | sort); }
+
+if ! mmdebstrap --quiet --variant=apt --include=libinih1,libgpiod2,libjansson4,libsystemd0 \
+        bookworm "$root" > "$root.log" 2>&1; then
+    bad "mmdebstrap failed: $(tail -3 "$root.log")"
+else
+    files > "$root.before"
+    mkdir -p "$root/debs"
+    cp "$b"/deb/drgate_*.deb "$b"/deb/drgate-sim_*.deb "$b"/deb/libdrgate1_*.deb \
+       "$b"/deb/libdrgate-dev_*.deb "$root/debs/"
+    if inroot sh -c 'dpkg -i /debs/*.deb' > "$root.log" 2>&1; then ok "dpkg -i drgate drgate-sim libdrgate1 libdrgate-dev"
+    else bad "dpkg -i: $(tail -5 "$root.log")"; fi
+    for f in /usr/bin/drgatewayd /usr/bin/drcli /usr/bin/drsim /etc/drgate/drgatewayd.ini \
+             /usr/lib/systemd/system/drgatewayd.service /usr/share/doc/drgate/deployment.md \
+             /usr/share/man/man8/drgatewayd.8.gz /usr/share/drgate/examples/minimal.ini \
+             /usr/include/drgate/codec.h; do
+        [ -e "$root$f" ] || missing="${missing:-} $f"
+    done
+    [ -z "${missing:-}" ] && ok "the packages' files are in place" || bad "not installed:$missing"
+    [ -z "$(find "$root/etc/systemd/system" -name 'drgatewayd*' 2>/dev/null)" ] &&
+        ok "the service is not enabled after install" || bad "the service was enabled"
+    out=$(inroot drgatewayd --check-config /etc/drgate/drgatewayd.ini 2>&1); st=$?
+    [ $st -eq 78 ] && echo "$out" | grep -q 'no robot section' &&
+        ok "--check-config refuses the commented conffile: $out" || bad "--check-config: $st $out"
+    printf '[robot arm1]\nhost = 192.168.137.100\n' > "$root/tmp/one.ini"
+    out=$(inroot drgatewayd --check-config /tmp/one.ini 2>&1) &&
+        ok "--check-config takes a robot: $out" || bad "--check-config: $out"
+    n=$(inroot drcli list 2>/dev/null | grep -c .)
+    [ "$n" -gt 10 ] && ok "drcli list runs ($n lines)" || bad "drcli list: $n lines"
+    if inroot dpkg --purge drgate drgate-sim libdrgate-dev libdrgate1 > "$root.log" 2>&1; then
+        ok "dpkg --purge"
+    else bad "dpkg --purge: $(tail -5 "$root.log")"; fi
+    rm -rf "$root/debs" "$root/tmp/one.ini"
+    left=$(files | comm -13 "$root.before" - | tr '\n' ' ')
+    [ -z "$left" ] && ok "nothing left after purge" || bad "left after purge: $left"
+fi
+rm -f "$root.log" "$root.before"
+echo "$label: $pass passed, $fail failed"
+[ -n "$res" ] && echo "$pass $fail $label" >> "$res"
+[ "$fail" -eq 0 ]
