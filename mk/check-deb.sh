@@ -3,7 +3,7 @@
 # make check-deb: the packages of `make deb` in a clean Debian bookworm root
 # made with mmdebstrap (--variant=apt, the packages' runtime libraries
 # included): dpkg -i the four, the files are there, the service is not
-# enabled, `drgatewayd --check-config` refuses the commented conffile (78,
+# enabled, the system user drgate is in dialout, `drgatewayd --check-config` refuses the commented conffile (78,
 # "no robot section") and takes one with a robot, `drcli list` runs; then
 # dpkg --purge, and nothing of them is left (the root's file list equals
 # the one before the install, dpkg's own records aside).
@@ -26,7 +26,9 @@ root=$(mktemp -d /tmp/drgate-deb-root.XXXXXX)
 trap 'rm -rf "$root"' EXIT
 inroot() { chroot "$root" "$@"; }
 files() { (cd "$root" && find . -xdev \( -path ./var/lib/dpkg -o -path ./var/log -o -path ./var/cache \
-          -o -path ./tmp -o -path ./debs -o -path ./var/lib/systemd \) -prune -o -print | sort); }
+          -o -path ./tmp -o -path ./debs -o -path ./var/lib/systemd -o -path ./run \) -prune -o -print |
+          grep -v '^\./etc/[a-z]*-$' | sort); }
+# (the user's files: shadow's backups /etc/passwd- ..., adduser's lock in /run)
 
 if ! mmdebstrap --quiet --variant=apt --include=libinih1,libgpiod2,libjansson4,libsystemd0 \
         bookworm "$root" > "$root.log" 2>&1; then
@@ -45,6 +47,11 @@ else
         [ -e "$root$f" ] || missing="${missing:-} $f"
     done
     [ -z "${missing:-}" ] && ok "the packages' files are in place" || bad "not installed:$missing"
+    u=$(inroot id -nG drgate 2>&1)
+    case " $u " in *" dialout "*) ok "system user drgate, groups: $u" ;;
+        *) bad "no system user drgate in dialout: $u" ;; esac
+    grep -qx 'User=drgate' "$root/usr/lib/systemd/system/drgatewayd.service.d/drgate-user.conf" 2>/dev/null &&
+        ok "the unit's drop-in runs the service as drgate" || bad "no User=drgate drop-in"
     [ -z "$(find "$root/etc/systemd/system" -name 'drgatewayd*' 2>/dev/null)" ] &&
         ok "the service is not enabled after install" || bad "the service was enabled"
     out=$(inroot drgatewayd --check-config /etc/drgate/drgatewayd.ini 2>&1); st=$?
@@ -58,6 +65,8 @@ else
     if inroot dpkg --purge drgate drgate-sim libdrgate-dev libdrgate1 > "$root.log" 2>&1; then
         ok "dpkg --purge"
     else bad "dpkg --purge: $(tail -5 "$root.log")"; fi
+    inroot getent passwd drgate >/dev/null && bad "the user drgate is left after purge" ||
+        ok "purge removes the user drgate"
     rm -rf "$root/debs" "$root/tmp/one.ini"
     left=$(files | comm -13 "$root.before" - | tr '\n' ' ')
     [ -z "$left" ] && ok "nothing left after purge" || bad "left after purge: $left"
