@@ -535,4 +535,6 @@ include $(sort $(wildcard mk/*.mk))
 # The header lists written by -MMD (see DEPFLAGS), of this build and of
 # the builds nested in it ($(B)/asan, $(B)/cov, ...): each only names
 # targets in its own directory.
--include $(shell find $(B) -name '*.d' 2>/dev/null)
+# (Not $(B)/deb: make deb's copy of the tree, whose own build and package
+# directories, drgatewayd.service.d among them, are none of this build's.)
+-include $(shell find $(B) -path $(B)/deb -prune -o -name '*.d' -type f -print 2>/dev/null)
