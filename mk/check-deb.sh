@@ -1,27 +1,49 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
-# make check-deb: the packages of `make deb` in a clean Debian bookworm root
+# make check-deb (in make check): builds the packages (mk/deb.sh), lintian
+# on them (no error, no warning), then installs them in a clean Debian bookworm root
 # made with mmdebstrap (--variant=apt, the packages' runtime libraries
 # included): dpkg -i the four, the files are there, the service is not
 # enabled, the system user drgate is in dialout, `drgatewayd --check-config` refuses the commented conffile (78,
 # "no robot section") and takes one with a robot, `drcli list` runs; then
 # dpkg --purge, and nothing of them is left (the root's file list equals
 # the one before the install, dpkg's own records aside).
-# Needs root, mmdebstrap and the network (deb.debian.org); about 2 minutes.
-# Not in make check (issue 24, section 2: work in progress).
+# Needs root, debhelper, lintian, mmdebstrap (make test-deps) and the
+# network (deb.debian.org); SKIPPED with a banner where one is missing.
+# About 40 s.
 # usage: check-deb.sh BUILD_DIR [RESULTS]
 set -u
 cd "$(dirname "$0")/.."
 . tests/skip.sh
 b=${1:-build} res=${2:-}
-skip_name=check-deb
-label="Debian packages install, run and purge in a clean bookworm root (mk/check-deb.sh)"
+skip_name=check-deb skip_results=$res
+label="Debian packages: lintian, install, run and purge in a clean bookworm root (mk/check-deb.sh)"
+skip_label=$label
 [ "$(id -u)" = 0 ] || skip "not root (chroot)"
-command -v mmdebstrap >/dev/null || skip "no mmdebstrap (apt-get install mmdebstrap)"
-ls "$b"/deb/drgate_*.deb >/dev/null 2>&1 || { echo "check-deb: no $b/deb/drgate_*.deb (make deb)" >&2; exit 1; }
+for t in dpkg-buildpackage:dpkg-dev dh:debhelper lintian:lintian mmdebstrap:mmdebstrap; do
+    command -v "${t%%:*}" >/dev/null || skip "no ${t%%:*} (make test-deps, or apt-get install ${t#*:})"
+done
+sh mk/debian-reachable.sh || skip "no network to the Debian archive (deb.debian.org)"
 pass=0 fail=0
 ok() { pass=$((pass + 1)); echo "  ok: $*"; }
 bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
+done_() {
+    echo "$label: $pass passed, $fail failed"
+    [ -n "$res" ] && echo "$pass $fail $label" >> "$res"
+    [ "$fail" -eq 0 ]; exit
+}
+
+mkdir -p "$b"
+if DEB_LINTIAN=no sh mk/deb.sh "$b" > "$b/deb.log" 2>&1; then
+    ok "make deb: $(cd "$b/deb" && ls drgate*.deb libdrgate*.deb | grep -vc dbgsym) packages built"
+else
+    tail -20 "$b/deb.log"; bad "make deb failed (log: $b/deb.log)"; done_
+fi
+if (cd "$b/deb" && lintian --fail-on error,warning --tag-display-limit 0 ./*.changes) > "$b/lintian.log" 2>&1; then
+    ok "lintian: no error, no warning"
+else
+    cat "$b/lintian.log"; bad "lintian reports errors or warnings"
+fi
 root=$(mktemp -d /tmp/drgate-deb-root.XXXXXX)
 trap 'rm -rf "$root"' EXIT
 inroot() { chroot "$root" "$@"; }
@@ -72,6 +94,4 @@ else
     [ -z "$left" ] && ok "nothing left after purge" || bad "left after purge: $left"
 fi
 rm -f "$root.log" "$root.before"
-echo "$label: $pass passed, $fail failed"
-[ -n "$res" ] && echo "$pass $fail $label" >> "$res"
-[ "$fail" -eq 0 ]
+done_

@@ -6,7 +6,7 @@
 #   2. a dry run of the demo set on this machine plans none of the test set
 #      and no dpkg architecture;
 #   3. a dry run against a fresh minimal bookworm (mk/minimal-root.sh) plans
-#      none of the test tools, nothing for s390x and no upgrade.
+#      none of the test tools, nothing for s390x or arm64 and no upgrade.
 # usage: check-dep-split.sh [RESULTS]
 set -u
 cd "$(dirname "$0")/.."
@@ -20,7 +20,7 @@ bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
 
 # Test tools by name, whatever the lists say (a test tool moved into the
 # demo set is caught here even if it also left the test-only set).
-TOOLS='^(clang|clang-tidy|libclang-rt-.*|cppcheck|valgrind|gcovr|tshark|wireshark.*|qemu-.*|gcc-arm-none-eabi|libnewlib-arm-none-eabi|gcc-s390x-linux-gnu|.*-s390x-cross|libcmocka-dev|socat|mosquitto|liblwip-dev|python3-venv|gpiod)$'
+TOOLS='^(clang|clang-tidy|libclang-rt-.*|cppcheck|valgrind|gcovr|tshark|wireshark.*|qemu-.*|gcc-arm-none-eabi|libnewlib-arm-none-eabi|gcc-s390x-linux-gnu|.*-s390x-cross|libcmocka-dev|socat|mosquitto|liblwip-dev|python3-venv|gpiod|debhelper|lintian|mmdebstrap|gcc-aarch64-linux-gnu|.*-arm64-cross)$'
 
 sh mk/deps.sh --list demo > "$tmp/demo"
 sh mk/deps.sh --list test-only | sort -u > "$tmp/test"
@@ -39,7 +39,7 @@ check_plan() { # FILE WHERE
     hit2=$(names "$1" | sort -u | comm -12 - "$tmp/test" | tr '\n' ' ')
     [ -z "$hit$hit2" ] && ok "$2: plans no test package ($(names "$1" | wc -l) packages)" ||
         bad "$2: would install test packages: $hit $hit2"
-    grep -qi 's390x\|architecture' "$1" && bad "$2: would touch s390x / the dpkg architectures" ||
+    grep -qi 's390x\|arm64\|architecture' "$1" && bad "$2: would touch s390x, arm64 / the dpkg architectures" ||
         ok "$2: no foreign architecture"
     up=$(grep '^deps: would: Inst [^ ]* \[' "$1" | cut -d' ' -f4 | tr '\n' ' ')
     [ -z "$up" ] && ok "$2: upgrades nothing installed" || bad "$2: would upgrade $up"

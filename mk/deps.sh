@@ -8,8 +8,9 @@
 #                            link, mbpoll for the demo's Modbus client
 #        deps.sh test        demo + the test toolchain (make test-deps, which
 #                            make check runs): cross compilers, s390x
-#                            runtime (adds the dpkg architecture), qemu,
-#                            sanitizers, tshark, ..., and the Python test
+#                            runtime and arm64 -dev libraries (adds the
+#                            dpkg architectures), qemu, sanitizers, tshark,
+#                            debhelper, lintian, mmdebstrap, ..., and the Python test
 #                            peers into .venv (tests/requirements.txt)
 #        deps.sh --list SET  print the packages of SET (demo, test-only,
 #                            test), one a line; installs nothing
@@ -33,14 +34,21 @@ cd "$(dirname "$0")/.."
 DEMO_PKGS="build-essential pkg-config libjansson-dev libmodbus-dev libgpiod-dev \
  libinih-dev libsystemd-dev libmosquitto-dev mbpoll"
 # What make check adds: unit tests, cross and big-endian builds, firmware,
-# sanitizers, static analysis, coverage, captures, peers.
+# sanitizers, static analysis, coverage, captures, peers, the Debian
+# packages (check-deb: debhelper, lintian, mmdebstrap; check-arm64: the
+# arm64 cross compiler).
 TEST_PKGS="libcmocka-dev gpiod \
  clang libclang-rt-14-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
  tshark socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
- liblwip-dev mosquitto openssl"
-# The big-endian test runtime (check-be): needs `dpkg --add-architecture`.
-CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x"
+ liblwip-dev mosquitto openssl \
+ debhelper lintian mmdebstrap gcc-aarch64-linux-gnu"
+# Need `dpkg --add-architecture`: the big-endian test runtime (check-be),
+# and the packages' arm64 build dependencies (check-arm64: dpkg-buildpackage
+# -a arm64; pkgconf:arm64 is aarch64-linux-gnu-pkg-config).
+CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x \
+ pkgconf:arm64 libjansson-dev:arm64 libmodbus-dev:arm64 libgpiod-dev:arm64 \
+ libinih-dev:arm64 libsystemd-dev:arm64 libmosquitto-dev:arm64"
 
 # DEPS_ADMINDIR=DIR (a dpkg status in DIR/status, e.g. mk/minimal-root.sh's):
 # --dry-run plans as on the machine DIR describes (check-dep-split).
@@ -106,33 +114,42 @@ case "${1:-}" in
     *) echo "usage: deps.sh demo|test | --list SET | --dry-run SET" >&2; exit 2 ;;
 esac
 
-missing=$(missing_of "$set_arg")
-if [ -z "$missing" ]; then
-    say "the $set_arg packages are installed already: nothing to install"
-else
+# install_missing WHAT OPTIONAL PKG...: install the missing PKGs (see the
+# header). OPTIONAL=yes: if they would upgrade something, say so and go on
+# without them (the check that needs them skips) instead of stopping.
+updated=
+install_missing() {
+    what=$1 optional=$2; shift 2
+    missing=" $*"
     # shellcheck disable=SC2086
     args=$(pins $missing | tr '\n' ' ')
-    say "missing for '$set_arg':$missing"
+    say "missing for '$what':$missing"
     if [ -n "$dry" ]; then
         # shellcheck disable=SC2086
         plan $args | sed 's/^/deps: would: /' || true
-        exit 0
+        return 0
     fi
     if [ "$(id -u)" != 0 ]; then
         echo "deps: run as root, or: sudo apt-get install --no-upgrade --no-install-recommends$args" >&2
         exit 1
     fi
-    case "$missing" in *:s390x*)
-        dpkg --print-foreign-architectures | grep -qx s390x ||
-            { say "adding dpkg architecture s390x (big-endian test runtime)"; dpkg --add-architecture s390x; } ;;
-    esac
+    for arch in s390x arm64; do
+        case "$missing" in *:$arch*)
+            dpkg --print-foreign-architectures | grep -qx $arch ||
+                { say "adding dpkg architecture $arch (test runtime and cross builds)"; dpkg --add-architecture $arch; updated=; } ;;
+        esac
+    done
     export DEBIAN_FRONTEND=noninteractive
-    apt-get update -qq
+    [ -n "$updated" ] || { apt-get update -qq; updated=1; }
     # shellcheck disable=SC2086
     p=$(plan $args) || true
     up=$(printf '%s\n' "$p" | awk '$3 ~ /^\[/ { print $2 }' | tr '\n' ' ')
     if [ -n "$up" ]; then
         echo "deps: installing$args would upgrade installed packages: $up" >&2
+        if [ "$optional" = yes ]; then
+            echo "deps: not done (the checks that need them will say SKIPPED); install them yourself if you accept that" >&2
+            return 0
+        fi
         echo "deps: not done; install them yourself if you accept that" >&2
         exit 1
     fi
@@ -154,7 +171,19 @@ else
     # shellcheck disable=SC2086
     apt-get install -y -qq --no-upgrade --no-install-recommends $args >/dev/null
     say "installed$missing"
-fi
+}
+
+missing=$(missing_of "$set_arg")
+# The arm64 build dependencies (multiarch: each must be at the version of
+# its installed amd64 sibling, which an out-of-date machine does not have
+# in the archive any more) are optional: without them check-arm64 skips.
+main=$(printf '%s\n' $missing | grep . | grep -v ':arm64$' | tr '\n' ' ')
+arm64=$(printf '%s\n' $missing | grep ':arm64$' | tr '\n' ' ')
+[ -n "$missing" ] || say "the $set_arg packages are installed already: nothing to install"
+# shellcheck disable=SC2086
+[ -z "$main" ] || install_missing "$set_arg" no $main
+# shellcheck disable=SC2086
+[ -z "$arm64" ] || install_missing "$set_arg (arm64 build dependencies)" yes $arm64
 
 [ "$set_arg" = test ] || exit 0
 
