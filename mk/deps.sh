@@ -42,7 +42,7 @@ TEST_PKGS="libcmocka-dev gpiod \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
  tshark socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
  liblwip-dev mosquitto openssl \
- debhelper lintian mmdebstrap gcc-aarch64-linux-gnu"
+ debhelper lintian mmdebstrap gcc-aarch64-linux-gnu libc6-dev-arm64-cross"
 # Need `dpkg --add-architecture`: the big-endian test runtime (check-be),
 # and the packages' arm64 build dependencies (check-arm64: dpkg-buildpackage
 # -a arm64; pkgconf:arm64 is aarch64-linux-gnu-pkg-config).
