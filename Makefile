@@ -547,6 +547,6 @@ include $(sort $(wildcard mk/*.mk))
 # The header lists written by -MMD (see DEPFLAGS), of this build and of
 # the builds nested in it ($(B)/asan, $(B)/cov, ...): each only names
 # targets in its own directory.
-# (Not $(B)/deb: make deb's copy of the tree, whose own build and package
+# (Not $(B)/deb and $(B)/deb-arm64: make deb's copies of the tree, whose own build and package
 # directories, drgatewayd.service.d among them, are none of this build's.)
--include $(shell find $(B) -path $(B)/deb -prune -o -name '*.d' -type f -print 2>/dev/null)
+-include $(shell find $(B) \( -path $(B)/deb -o -path $(B)/deb-arm64 \) -prune -o -name '*.d' -type f -print 2>/dev/null)
