@@ -36,9 +36,8 @@ static int setup(void **state)
 static bool add(const char *line, char *err, size_t size)
 {
     gw_umap_entry_t e;
-    e.line = 7;
     err[0] = '\0';
-    return gw_umap_parse(line, &e, err, size) && gw_umap_add(&M, &e, err, size);
+    return gw_umap_parse(line, 7, &e, err, size) && gw_umap_add(&M, &e, err, size);
 }
 
 static void ok(const char *line)

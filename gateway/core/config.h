@@ -83,7 +83,7 @@ typedef struct {
  * of [robot NAME], each a block of consecutive addresses in one table
  * serving one field (or a range of its elements) through a view. The
  * parser and the checks: gateway/modbus/usermap.c; serving: regmap.c. */
-#define GW_MAX_MAP 64
+#define GW_MAX_MAP 64u
 /* The tables, in gw_area_t's order (regmap.h). */
 typedef enum { GW_UMAP_CO = 0, GW_UMAP_DI, GW_UMAP_HR, GW_UMAP_IR, GW_UMAP_TABLES } gw_umap_table_t;
 typedef enum {

@@ -130,8 +130,7 @@ static void robot_map(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     gw_umap_entry_t e;
     char err[400];
     (void)k;
-    e.line = c->lineno;
-    if (!gw_umap_parse(v, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
+    if (!gw_umap_parse(v, c->lineno, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
         gw_cfg_fail(c, c->lineno, "%s: %s", name, err);
 }
 

@@ -221,11 +221,11 @@ static bool parse_option(const char *t, gw_umap_entry_t *e, bool *half, bool *sc
     return true;
 }
 
-bool gw_umap_parse(const char *value, gw_umap_entry_t *e, char *err, size_t errlen)
+bool gw_umap_parse(const char *value, unsigned line, gw_umap_entry_t *e, char *err,
+                   size_t errlen)
 {
     char buf[256], *tok[MAX_TOKENS];
     bool too_many;
-    unsigned line = e->line;
     memset(e, 0, sizeof *e);
     e->line = line;
     e->scale = 1;

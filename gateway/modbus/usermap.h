@@ -19,9 +19,10 @@
 
 #include "core/config.h"
 
-/* One `map` value into *e (e->line is left alone). False with the reason
- * in err[errlen] (no FILE:LINE: the caller adds it). */
-bool gw_umap_parse(const char *value, gw_umap_entry_t *e, char *err, size_t errlen);
+/* One `map` value, written at `line`, into *e. False with the reason in
+ * err[errlen] (no FILE:LINE: the caller adds it). */
+bool gw_umap_parse(const char *value, unsigned line, gw_umap_entry_t *e, char *err,
+                   size_t errlen);
 
 /* Add e to m, kept sorted; refuses a block that overlaps another entry of
  * m or an address of the default map, or a full map. */
