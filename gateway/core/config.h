@@ -27,7 +27,8 @@
 #include "drgate/codec.h"
 
 /* Robots per daemon (32: the robots-per-core goal of issue 15, measured by
- * mk/bench_scale.mk; each costs about 0.2 kB of gw_config_t and 5.6 kB of
+ * mk/bench_scale.mk; each costs about 1.8 kB of gw_config_t (1.5 kB the room of its own
+ * register map, GW_MAX_MAP blocks) and 5.6 kB of
  * mostly untouched bss in the daemon, docs/performance.md). The library's
  * shared UDP port takes as many clients (DR_UDP_PORT_MAX_CLIENTS), so all
  * robots can share 2222. */
