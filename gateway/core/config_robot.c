@@ -9,15 +9,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "modbus/usermap.h"
-
 #define R(m) GW_CFG_AT(gw_robot_config_t, m)
 /* Robot keys of the connection plan (gw_robot_default_plan). */
 #define RK_PLAN (1u << 16)
 #define LINK GW_CFG_LINK
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
 
-static gw_cfg_parse_fn robot_serial, robot_instance, robot_open, robot_map, robot_alias;
+static gw_cfg_parse_fn robot_serial, robot_instance, robot_open;
 static const char *asm_item(unsigned i);
 
 static const gw_cfg_key_t robot_keys[] = {
@@ -28,8 +26,9 @@ static const gw_cfg_key_t robot_keys[] = {
     { .name = "local_udp_port", .type = GW_CFG_UINT, .flags = LINK, R(local_udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "local Class 1 UDP port. If another program has it (`cannot open UDP 0.0.0.0:2222 for Class 1 I/O: address already in use`), set `local_address` to another address of this host or `local_udp_port` to a free port (the robot is told where to send in the Forward Open)" },
     /* 0 is broadcast, 248..255 reserved (Modbus spec 4.1) */
     { .name = "unit_id", .type = GW_CFG_UINT, R(unit_id), .lo = 1, .hi = 247, .def = 1, .doc_allowed = "1..247, unique across robots", .help = "Modbus unit ID under which this robot's registers are served" },
-    { .name = "unit_id_alias", .type = GW_CFG_HOOK, .parse = robot_alias, .allowed = "0, 255, 0,255 or none", .doc_default = "none", .doc_allowed = "`0`, `255`, `0,255`, `none`; one robot per alias", .help = "unit IDs this robot answers to besides `unit_id`: 0 and 255 are what many PLCs and HMIs send by default (a request with another unit ID gets exception 0x0A, logged once per client)" },
-    { .name = "map", .type = GW_CFG_HOOK, .flags = GW_CFG_LIST, .parse = robot_map, .allowed = "TABLE ADDRESS PATH[a..b] VIEW [writable] [saturate] [scale=N] [lo|hi]", .doc_default = "(none: the default map alone)", .doc_allowed = "`TABLE ADDRESS PATH[a..b] VIEW [options]`, repeatable, at most 64", .help = "a block of this robot's own register map, at addresses the default map leaves free: see [Your own map](register-map.md#your-own-map)" },
+    /* the Modbus side's (config_modbus.c) */
+    { .name = "unit_id_alias", .type = GW_CFG_HOOK, .parse = gw_cfg_robot_alias, .allowed = "0, 255, 0,255 or none", .doc_default = "none", .doc_allowed = "`0`, `255`, `0,255`, `none`; one robot per alias", .help = "unit IDs this robot answers to besides `unit_id`: 0 and 255 are what many PLCs and HMIs send by default (a request with another unit ID gets exception 0x0A, logged once per client)" },
+    { .name = "map", .type = GW_CFG_HOOK, .flags = GW_CFG_LIST, .parse = gw_cfg_robot_map, .allowed = "TABLE ADDRESS PATH[a..b] VIEW [writable] [saturate] [scale=N] [lo|hi]", .doc_default = "(none: the default map alone)", .doc_allowed = "`TABLE ADDRESS PATH[a..b] VIEW [options]`, repeatable, at most 64", .help = "a block of this robot's own register map, at addresses the default map leaves free: see [Your own map](register-map.md#your-own-map)" },
     { .name = "mode", .type = GW_CFG_ENUM, .flags = LINK, R(mode), GW_CFG_NAMES("implicit", "explicit"), .def = GW_MODE_IMPLICIT, .help = "`implicit`: Class 1 connections exchanging data every `rpi_ms`. `explicit`: cyclic Get/Set_Attribute_Single over TCP every `rpi_ms` (for networks that block UDP 2222)" },
     { .name = "rpi_ms", .type = GW_CFG_UINT, .flags = LINK, R(rpi_ms), .lo = 1, .hi = 10000, .def = 10, .help = "implicit: requested packet interval. Explicit: poll period" },
     /* CIP's code: timeout = RPI x (4 << code) */
@@ -100,38 +99,6 @@ static void robot_serial(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
                     k->allowed);
     else
         gw_cfg_store(c, k, sec, n);
-}
-
-/* unit_id_alias: 0, 255, both, or none. */
-static void robot_alias(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
-                        const char *name, const char *v)
-{
-    gw_robot_config_t *r = sec;
-    r->alias0 = r->alias255 = false;
-    if (strcmp(v, "none") == 0)
-        return;
-    if (strcmp(v, "0") == 0 || strcmp(v, "0,255") == 0 || strcmp(v, "0, 255") == 0)
-        r->alias0 = true;
-    if (strcmp(v, "255") == 0 || strcmp(v, "0,255") == 0 || strcmp(v, "0, 255") == 0 ||
-        strcmp(v, "255,0") == 0)
-        r->alias255 = true;
-    if (strcmp(v, "255,0") == 0)
-        r->alias0 = true;
-    if (!r->alias0 && !r->alias255)
-        gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
-}
-
-/* One `map` line: parsed, then added to the robot's map, which refuses
- * overlaps (with its other blocks and with the default map). */
-static void robot_map(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
-                      const char *name, const char *v)
-{
-    gw_robot_config_t *r = sec;
-    gw_umap_entry_t e;
-    char err[400];
-    (void)k;
-    if (!gw_umap_parse(v, c->lineno, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
-        gw_cfg_fail(c, c->lineno, "%s: %s", name, err);
 }
 
 /* ---- instance.* and open.* ---------------------------------------------- */
