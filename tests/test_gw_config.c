@@ -396,7 +396,7 @@ typedef struct {
     "on_link_loss, unmapped_read, "                                           \
     "single_writer, writer_watchdog_ms, request_timeout_ms"
 #define ROBOT_KEYS                                                             \
-    "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, unit_id_alias, map, mode, " \
+    "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, unit_id_alias, map, default_map_writes, mode, " \
     "rpi_ms, "                                                                 \
     "timeout_multiplier, timeout_ms, fallback, o2t_timing, config_instance, "  \
     "input_only_heartbeat, listen_only_heartbeat, originator_serial, "        \

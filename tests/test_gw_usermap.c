@@ -206,12 +206,30 @@ static void test_bits(void **state)
     assert_int_equal(gw_regmap_read(&U, GW_COILS, 3000, 4, v), 0);
 }
 
+static void test_default_read_only(void **state)
+{
+    (void)state;
+    unsigned dirty = 0;
+    uint16_t v[2] = {0, 5};
+    ok("hr 2000 int_in[0] int16 writable saturate");
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 310, 2, v, &dirty), 0);
+    U.default_ro = true;
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 312, 2, v, &dirty), GW_EX_ILLEGAL_ADDRESS);
+    assert_int_equal(gw_regmap_write(&U, GW_COILS, 100, 1, v, &dirty), GW_EX_ILLEGAL_ADDRESS);
+    assert_int_equal(get_dint(DR_ASM_INT_IN, 6), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 0, 1, v + 1, &dirty), 0); /* watchdog */
+    assert_int_equal(U.watchdog, 5);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2000, 1, v + 1, &dirty), 0);
+    assert_int_equal(get_dint(DR_ASM_INT_IN, 0), 5);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_parse, setup),
         cmocka_unit_test_setup(test_serve, setup),
         cmocka_unit_test_setup(test_bits, setup),
+        cmocka_unit_test_setup(test_default_read_only, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -154,6 +154,8 @@ typedef struct {
      * a restarted gateway may take its connections back (issue 19). */
     uint32_t originator_serial;
     gw_umap_t map;            /* `map` lines: the user's register map */
+    bool default_map_writes;  /* default yes; no: the default map's robot
+                                 data is read-only over Modbus */
     unsigned line;            /* where the section starts, for messages */
 } gw_robot_config_t;
 

@@ -100,6 +100,7 @@ static void unit_policy(mb_t *m, unsigned r)
     gw_unit_t *u = &m->unit[r];
     u->robot = &m->env->robots[r];
     u->umap = r < cfg->robot_count ? &cfg->robot[r].map : NULL;
+    u->default_ro = r < cfg->robot_count && !cfg->robot[r].default_map_writes;
     u->order = cfg->modbus.word_order;
     u->on_loss = cfg->modbus.on_link_loss;
     u->unmapped = cfg->modbus.unmapped_read;

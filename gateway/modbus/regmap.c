@@ -569,9 +569,13 @@ static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
 static int user_set_bits(gw_unit_t *u, const dr_field_t *f, unsigned first, unsigned n,
                          uint16_t v, unsigned *dirty)
 {
-    if (f->kind == DR_KIND_BIT)
-        return v > 1 && n == 1 ? GW_EX_ILLEGAL_VALUE
-                               : set_ref(u, f, 0, dr_value_uint(v & 1u), dirty);
+    if (f->kind == DR_KIND_BIT) {
+        if (v > 1)
+            return GW_EX_ILLEGAL_VALUE;
+        if (gpio_bits(u, f) != 0 && v != field_value(u, f, 0).u)
+            return GW_EX_ILLEGAL_ADDRESS; /* a GPIO input drives it */
+        return set_ref(u, f, 0, dr_value_uint(v), dirty);
+    }
     uint64_t bits = (n >= 16 ? 0xFFFFu : (1u << n) - 1u);
     if (n == 1 && v > 1)
         return GW_EX_ILLEGAL_VALUE;
@@ -616,6 +620,8 @@ static int user_write(gw_unit_t *u, const gw_umap_entry_t *e, uint32_t a, uint16
     }
     case GW_VIEW_INT16: {
         int32_t sv = v <= 0x7FFF ? (int32_t)v : (int32_t)v - 65536;
+        if (f->kind == DR_KIND_BIT && e->scale == 1 && v <= 1)
+            return user_set_bits(u, f, 0, 1, v, dirty);
         if (e->scale == 1)
             return set_ref(u, f, elem, dr_value_int(sv), dirty);
         return set_ref(u, f, elem, dr_value_real((double)sv / e->scale), dirty);
@@ -709,6 +715,8 @@ int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
     unsigned d = 0;
     for (uint16_t i = 0; i < count; i++) {
         uint32_t a = (uint32_t)addr + i;
+        if (default_slot(area, a) && u->default_ro && map[area][a].kind != SL_CONTROL)
+            return GW_EX_ILLEGAL_ADDRESS; /* default_map_writes = no */
         int ex = default_slot(area, a)
                      ? write_slot(&tmp, area, addr, &i, count, values, &d)
                      : user_write(&tmp, user_at(u, area, a), a, &i, count, values, &d);

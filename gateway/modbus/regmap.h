@@ -73,6 +73,10 @@ typedef struct {
      * daemon runs: unit_policy points here), served at the addresses the
      * default map leaves free. NULL or empty: the default map alone. */
     const gw_umap_t *umap;
+    /* default_map_writes = no: the default map's robot data is read-only
+     * (its control registers stay writable), so that the user's map says
+     * alone what Modbus may write. */
+    bool default_ro;
     uint16_t watchdog;        /* last value written to the watchdog register */
     bool fault_reset;         /* set when a client wrote the reset register */
 } gw_unit_t;

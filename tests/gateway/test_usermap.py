@@ -27,12 +27,12 @@ MBPOLL = shutil.which("mbpoll")
 BASE = 2000  # the example's block
 
 
-def example_lines():
-    """The worked example's unit_id_alias and map lines, as the docs have them."""
+def example_lines(keys=("map ", "unit_id_alias")):
+    """The worked example's lines of these keys, as the docs have them."""
     text = DOC.read_text()
     sec = text[text.index("### Worked example"):]
     ini = re.search(r"```ini\n(.*?)```", sec, re.S).group(1)
-    lines = [l for l in ini.splitlines() if l.startswith(("map ", "unit_id_alias"))]
+    lines = [l for l in ini.splitlines() if l.startswith(keys)]
     assert len([l for l in lines if l.startswith("map ")]) == 6, ini
     return "\n".join(lines) + "\n"
 
@@ -209,6 +209,28 @@ def test_int16_saturates_at_both_ends(gw, regmap):
         assert regs_dint(m.read(3, a, 2), gw.order) == -32768
         m.write_reg(BASE + 39, 0x7FFF)
         assert regs_dint(m.read(3, a, 2), gw.order) == 32767
+
+
+def test_docs_example_writes_nothing_else(regmap):
+    """With the example's default_map_writes = no, int_in[0..3] through the
+    user's map are all a PLC may write (HR 310 = int_in[5] used to take it)."""
+    lines = example_lines(("map ", "unit_id_alias", "default_map_writes"))
+    assert "default_map_writes = no" in lines
+    with running("usermap-only", robot=lines) as g:
+        g.enip = EnipReader("127.0.0.2", g.sim.tcp)
+        try:
+            with g.raw() as m:
+                a = regmap.addr("HR", "int_in[5]")
+                assert m.exception(struct.pack(">BHHB", 0x10, a, 2, 4) +
+                                   struct.pack(">HH", 0, 9)) == EX_ILLEGAL_ADDRESS
+                assert m.exception(struct.pack(">BHH", 0x05, regmap.addr("CO", "bit_in[0]"),
+                                               0xFF00)) == EX_ILLEGAL_ADDRESS
+                m.write_reg(BASE + 36, 99, unit=255)
+                wait_for(lambda: robot_int_in(g, 0) == 99, 10, "int_in[0] = 99")
+                assert robot_int_in(g, 5) == 0
+                m.write_reg(0, 1)  # the watchdog register stays writable
+        finally:
+            g.enip.close()
 
 
 def test_unit_refused_and_logged_once():
