@@ -282,3 +282,34 @@ def test_print_map_json_and_filter(tmp_path):
     assert [r["address"] for r in mine] == [2002, 2004, 2006, 2008, 2010, 2012] + \
         list(range(2030, 2036))
     assert not any(r["writable"] for r in mine)
+
+
+@pytest.mark.skipif(shutil.which("socat") is None, reason="socat is not installed (make deps)")
+def test_rtu_serves_the_same_map():
+    """A Modbus RTU line answers for the robot with its own map, the same
+    rules as on TCP (read, FC 06 to a writable block, 0x02 elsewhere)."""
+    from test_rtu import RawRtu, pty_pair
+    from gwlib import Drsim, Gateway
+    sim = Drsim("usermap-rtu").start()
+    with pty_pair("usermap-rtu") as (dev, master):
+        extra = ("\n[modbus_rtu line1]\ndevice = %s\nbaud = 9600\nparity = none\n"
+                 "stop_bits = 2\nrobots = r0:5\n" % dev)
+        g = Gateway("usermap-rtu", sim, robot=example_lines(), extra=extra)
+        m = None
+        try:
+            g.start()
+            g.enip = EnipReader("127.0.0.2", sim.tcp)
+            m = RawRtu(master)
+            pdu = m.request(5, struct.pack(">BHH", 0x06, BASE + 37, 0xFFFF & -9))
+            assert pdu == struct.pack(">BHH", 0x06, BASE + 37, 0xFFFF & -9)
+            wait_for(lambda: robot_int_in(g, 1) == -9, 10, "int_in[1] = -9 over RTU")
+            regs = m.read(3, BASE, 40, 5)
+            assert int16(regs[37]) == -9
+            assert m.request(5, struct.pack(">BHH", 0x06, BASE, 1)) == \
+                bytes([0x86, EX_ILLEGAL_ADDRESS])
+            g.enip.close()
+        finally:
+            if m is not None:
+                m.close()
+            g.kill()
+            sim.kill()
