@@ -292,7 +292,7 @@ static void rtu_robots(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
 
 /* ---- [robot NAME]'s Modbus keys: unit_id_alias and map ----------------------- */
 
-/* unit_id_alias: 0, 255, both, or none. */
+/* unit_id_alias: 0, 255, both (comma-separated, blanks allowed), or none. */
 void gw_cfg_robot_alias(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
                         const char *name, const char *v)
 {
@@ -300,15 +300,29 @@ void gw_cfg_robot_alias(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     r->alias0 = r->alias255 = false;
     if (strcmp(v, "none") == 0)
         return;
-    if (strcmp(v, "0") == 0 || strcmp(v, "0,255") == 0 || strcmp(v, "0, 255") == 0)
-        r->alias0 = true;
-    if (strcmp(v, "255") == 0 || strcmp(v, "0,255") == 0 || strcmp(v, "0, 255") == 0 ||
-        strcmp(v, "255,0") == 0)
-        r->alias255 = true;
-    if (strcmp(v, "255,0") == 0)
-        r->alias0 = true;
-    if (!r->alias0 && !r->alias255)
-        gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
+    const char *p = v;
+    unsigned n = 0;
+    for (;;) {
+        while (*p == ' ' || *p == '\t')
+            p++;
+        size_t len = strspn(p, "0123456789");
+        bool zero = len == 1 && p[0] == '0', ff = len == 3 && strncmp(p, "255", 3) == 0;
+        if ((!zero && !ff) || (zero && r->alias0) || (ff && r->alias255) || ++n > 2) {
+            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
+            return;
+        }
+        r->alias0 |= zero;
+        r->alias255 |= ff;
+        p += len;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p == '\0')
+            return;
+        if (*p++ != ',') {
+            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
+            return;
+        }
+    }
 }
 
 /* One `map` line: parsed, then added to the robot's map, which refuses

@@ -59,6 +59,21 @@ static bool parse_u(const char *s, unsigned long lo, unsigned long hi, unsigned 
     return *out >= lo && *out <= hi;
 }
 
+/* The indexed field whose paths are stem[i], or NULL. */
+static const dr_field_t *field_named(const char *stem)
+{
+    size_t n = strlen(stem);
+    for (uint16_t i = 0; i < dr_field_count; i++) {
+        const dr_field_t *f = &dr_field_table[i];
+        dr_ref_t ref = {f, 0};
+        char name[128];
+        if (f->indexed && dr_ref_path(ref, name, sizeof name) == DR_OK &&
+            strncmp(name, stem, n) == 0 && name[n] == '[')
+            return f;
+    }
+    return NULL;
+}
+
 /* PATH or PATH[a..b]: the field and its elements. */
 static bool parse_path(const char *path, gw_umap_entry_t *e, char *err, size_t errlen)
 {
@@ -98,7 +113,12 @@ static bool parse_path(const char *path, gw_umap_entry_t *e, char *err, size_t e
         if (st != DR_OK) {
             char best[96] = "", stem[128];
             snprintf(stem, sizeof stem, "%.*s", (int)base, path);
-            if (st == DR_ENOENT && dr_path_closest(stem, best, sizeof best) == DR_OK)
+            const dr_field_t *f = field_named(stem);
+            if (f != NULL)
+                snprintf(err, errlen, "range '%s' invalid: %s (allowed: %s[%u..%u])", path,
+                         dr_strerror(st), stem, (unsigned)f->first_index,
+                         (unsigned)(f->first_index + f->count - 1u));
+            else if (dr_path_closest(stem, best, sizeof best) == DR_OK)
                 snprintf(err, errlen, "unknown field '%s' (did you mean '%s'?)", stem, best);
             else
                 snprintf(err, errlen, "range '%s' invalid: %s", path, dr_strerror(st));
