@@ -8,6 +8,7 @@ unit 255 answered when configured, refused and logged when not; a reload
 that changes the map without dropping the robot's link."""
 import ctypes
 import ctypes.util
+import json
 import math
 import re
 import shutil
@@ -275,7 +276,6 @@ def test_print_map_json_and_filter(tmp_path):
     out = subprocess.run([str(DRGATEWAYD), "-c", str(conf), "--print-map", "--json",
                           "joint_state.position"], check=True, capture_output=True, text=True,
                          timeout=timeout(30)).stdout
-    import json
     rows = json.loads(out)
     assert rows and all("joint_state.position" in r["name"] for r in rows)
     mine = [r for r in rows if r.get("robot") == "arm"]
