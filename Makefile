@@ -2,8 +2,9 @@
 # drgate: `make` builds, `make check` runs every test, `make demo` shows it
 # working, `make install` installs. See README.md.
 
-VERSION      := 0.1.0
-SOVERSION    := 0
+# 1.0.0: the client's API changed (docs/api-changes.md), so did the soname.
+VERSION      := 1.0.0
+SOVERSION    := 1
 
 PREFIX       ?= /usr/local
 BINDIR       ?= $(PREFIX)/bin
@@ -74,6 +75,11 @@ LIB_A         := $(B)/libdrgate.a
 LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
 LIB_SO        := $(B)/libdrgate.so.$(VERSION)
 LIB_HDR       := $(wildcard lib/include/drgate/*.h)
+# The library's private headers (lib/*.h: the wire toolkit cip_internal.h,
+# the client's and the codec's insides): never installed. drsim, the tests,
+# the fuzzers and the benchmarks, which work on the wire themselves, see
+# them with PRIV_CPPFLAGS; applications (cli/, gateway/) do not.
+PRIV_CPPFLAGS := -Ilib
 
 # ---- programs --------------------------------------------------------------
 # Each program is linked from objects compiled once with its own flags
@@ -92,13 +98,13 @@ CLI_OBJ     := $(CLI_SRC:%.c=$(B)/%.o)
 CLI_BIN     := $(B)/drcli
 CLI_CFLAGS   = $(ALL_CPPFLAGS) -DDRGATE_VERSION='"$(VERSION)"' $(JSON_CFLAGS) $(ALL_CFLAGS)
 # drsim: the adapter logic (all of sim/ but main.c) is also linked into the
-# tests/test_sim_* unit tests and bench/enip_io.
+# tests/unit/test_sim_* unit tests and bench/enip_io.
 SIM_SRC     := $(sort $(wildcard sim/*.c))
 SIM_LIB_SRC := $(filter-out sim/main.c,$(SIM_SRC))
 SIM_OBJ     := $(SIM_SRC:%.c=$(B)/%.o)
 SIM_LIB_OBJ := $(SIM_LIB_SRC:%.c=$(B)/%.o)
 SIM_BIN     := $(B)/drsim
-SIM_CFLAGS   = $(ALL_CPPFLAGS) $(ALL_CFLAGS)
+SIM_CFLAGS   = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS)
 
 # ---- drgatewayd ------------------------------------------------------------
 # The daemon is gateway/core/main.c linked with two archives: libgw.a (every
@@ -153,19 +159,19 @@ BINS        := $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
 # ---- tests -----------------------------------------------------------------
 CMOCKA_CFLAGS := $(call pc,--cflags,cmocka)
 CMOCKA_LIBS   := $(call pc,--libs,cmocka)
-TEST_SRC      := $(wildcard tests/test_*.c)
-TEST_BIN      := $(TEST_SRC:tests/%.c=$(B)/tests/%)
+TEST_SRC      := $(wildcard tests/unit/test_*.c)
+TEST_BIN      := $(TEST_SRC:%.c=$(B)/%)
 TEST_SUPPORT  := $(wildcard tests/support/*.c)
 TEST_SUPPORT_OBJ := $(TEST_SUPPORT:%.c=$(B)/%.o)
-TEST_CFLAGS    = $(ALL_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
-# A test of gateway code (the gateway's tests/test_gw_*.c, the GPIO
+TEST_CFLAGS    = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+# A test of gateway code (the gateway's tests/unit/test_gw_*.c, the GPIO
 # layer's tests/gpio/test_*.c and tests/gpio/gateway/test_*.c) is one
 # source: it links the daemon's archives and the fakes (a GPIO backend
 # without hardware; whatever the test defines itself, such as a fake event
 # loop, takes the place of the archive member that would define it). Only
 # the libraries of what the tests reach are linked (no libgpiod, no
 # libsystemd), so that check-be links them for s390x too.
-GW_TEST_SRC   := $(sort $(wildcard tests/test_gw_*.c tests/gpio/test_*.c \
+GW_TEST_SRC   := $(sort $(wildcard tests/unit/test_gw_*.c tests/gpio/test_*.c \
                                    tests/gpio/gateway/test_*.c))
 GW_TEST_BIN   := $(GW_TEST_SRC:%.c=$(B)/%)
 GW_TEST_FAKES := tests/gpio/gpio_fake.c
@@ -252,7 +258,7 @@ $$(GW_OBJ_$(1)): $$(B)/bench/$(1)/%.o: %.c $$(B)/bench/$(1)/%.d
 endef
 
 # A test is one source, compiled and linked in one step.
-SIM_TEST_BIN := $(filter $(B)/tests/test_sim_%,$(TEST_BIN))
+SIM_TEST_BIN := $(filter $(B)/tests/unit/test_sim_%,$(TEST_BIN))
 $(SIM_TEST_BIN): $(B)/%: %.c $(B)/%.d $(SIM_LIB_OBJ) $(TEST_SUPPORT_OBJ) $(LIB_A)
 	@mkdir -p $(dir $@)
 	$(CC) $(TEST_CFLAGS) -Isim $(DEPFLAGS) $(ALL_LDFLAGS) \
@@ -263,7 +269,7 @@ $(GW_TEST_BIN): $(B)/%: %.c $(B)/%.d $(GW_TEST_FAKE_OBJ) $(GW_A) $(GPIO_A) $(COM
 	$(CC) $(GW_TEST_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(GW_TEST_FAKE_OBJ) \
 	    $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_TEST_LIBS)
 
-# (The other tests link the event loop's archive too: tests/test_ev.c
+# (The other tests link the event loop's archive too: tests/unit/test_ev.c
 # needs it, the others take nothing from it.)
 $(filter-out $(SIM_TEST_BIN) $(GW_TEST_BIN),$(TEST_BIN)): $(B)/%: %.c $(B)/%.d $(TEST_SUPPORT_OBJ) \
         $(COMMON_A) $(LIB_A)
@@ -319,7 +325,7 @@ check-unit: $(TEST_BIN) $(if $(CROSS_COMPILE),,$(SIM_BIN))
 	@sh tests/run-tests.sh "$(RESULTS)" "$(TEST_RUNNER)" $(TEST_BIN)
 
 # The configuration loader's unit test alone (also in check-unit).
-check-gw-config: $(B)/tests/test_gw_config
+check-gw-config: $(B)/tests/unit/test_gw_config
 	@sh tests/run-tests.sh "$(RESULTS)" "$(TEST_RUNNER)" $<
 
 # Every header of the tree is a prerequisite of what includes it, so that
@@ -401,7 +407,7 @@ bench: $(B)/bench/bench_codec
 $(patsubst bench/%.c,$(B)/bench/%.d,$(wildcard bench/*.c)):
 $(B)/bench/%: bench/%.c $(B)/bench/%.d $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 demo: deps all
 	@sh mk/demo.sh $(B)
@@ -419,7 +425,10 @@ install: all
 	install -m 755 $(LIB_SO) $(DESTDIR)$(LIBDIR)/
 	ln -sf libdrgate.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(DESTDIR)$(LIBDIR)/libdrgate.so
+	# The public headers only (lib/*.h are private); cip.h was public up to
+	# 0.1.0 and must not outlive it in an upgraded tree.
 	install -m 644 $(LIB_HDR) $(DESTDIR)$(INCLUDEDIR)/drgate/
+	rm -f $(DESTDIR)$(INCLUDEDIR)/drgate/cip.h
 	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
 	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/

@@ -3,7 +3,7 @@
  * make bench: explicit Get_Attribute_Single round trips per second of our
  * client against drsim (bench/bench_enip.py compares them with a bare TCP
  * ping-pong and with pycomm3 in the same run). One session, one request
- * in flight, dr_client_asm_read_sync in a loop for SECONDS.
+ * in flight, dr_client_read_asm_sync in a loop for SECONDS.
  *
  * usage: enip_gets HOST TCP_PORT ASSEMBLY SECONDS
  * prints: sizes REQ_BYTES REP_BYTES   (the encapsulated frames on the wire)
@@ -17,6 +17,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 static double now_s(void)
@@ -43,7 +44,7 @@ int main(int argc, char **argv)
     cfg.host = argv[1];
     cfg.tcp_port = (uint16_t)strtoul(argv[2], NULL, 10);
     cfg.timeout_ms = 2000;
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     if (c == NULL || dr_client_connect_sync(c) != DR_OK) {
         fprintf(stderr, "enip_gets: cannot register a session\n");
         dr_client_free(c);
@@ -76,7 +77,7 @@ int main(int argc, char **argv)
         unsigned long n = 0;
         double t0 = now_s(), t = t0;
         while (t - t0 < secs) {
-            dr_status_t st = dr_client_asm_read_sync(c, a, buf, dr_asm_info(a)->size);
+            dr_status_t st = dr_client_read_asm_sync(c, a, buf, dr_asm_info(a)->size);
             if (st != DR_OK) {
                 fprintf(stderr, "enip_gets: %s\n", dr_strerror(st));
                 status = 1;

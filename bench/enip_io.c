@@ -48,6 +48,7 @@
 #include <unistd.h>
 
 #include "adapter.h"
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 #define ADDR "127.0.0.2"
@@ -707,7 +708,7 @@ int main(int argc, char **argv)
         untimed.timer_arm = NULL;
         cfg.transport.ops = &untimed;
     }
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     static const struct { int o2t; dr_asm_t t2o; } pairs[] = {
         {DR_ASM_IO_CONTROL, DR_ASM_IO_STATE}, {DR_ASM_BIT_IN, DR_ASM_BIT_OUT},
         {DR_ASM_INT_IN, DR_ASM_INT_OUT}, {DR_ASM_FLOAT_IN, DR_ASM_FLOAT_OUT},
@@ -723,16 +724,18 @@ int main(int argc, char **argv)
         cc.o2t_follow_us = follow;
         if (i >= 6)
             cc.o2t_asm = -1; /* O->T instances have one owner each */
-        cn[i] = dr_client_conn_add(c, &cc, NULL);
+        cn[i] = dr_conn_add(c, &cc, NULL);
         if (cn[i] == NULL) {
             fprintf(stderr, "enip_io: cannot add connection %u\n", i);
             return 1;
         }
     }
     int status = 0;
-    if (c == NULL || dr_client_start(c) != DR_OK) {
+    if (c == NULL) {
         fprintf(stderr, "enip_io: client did not start\n");
         status = 1;
+    } else {
+        dr_client_start(c);
     }
     /* open everything (bounded), warm up, then the window */
     uint64_t deadline = now_ns() + 10000000000ull;

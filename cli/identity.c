@@ -169,7 +169,7 @@ static int run_identity(const char *cmd, int argc, char **argv,
     dr_status_t st = dr_client_list_identity_sync(net.client, &listed);
     if (st != DR_OK)
         rc_list = cli_net_fail(&net, st, NULL);
-    st = dr_client_identity_sync(net.client, &object);
+    st = dr_client_read_identity_sync(net.client, &object);
     if (st != DR_OK)
         rc_obj = cli_net_fail(&net, st, "(Identity object, Get_Attributes_All)");
     cli_net_close(&net);
@@ -216,7 +216,7 @@ static int probe_asm(cli_net_t *net, dr_asm_t a, probe_row_t *row)
     memset(row, 0, sizeof *row);
     row->instance = dr_client_instance(net->client, a);
     row->size = -1;
-    row->error = dr_client_asm_size_sync(net->client, row->instance, &size);
+    row->error = dr_client_read_asm_size_sync(net->client, row->instance, &size);
     if (row->error == DR_OK) {
         row->size = size;
     } else if (not_supported(row->error)) {
@@ -305,7 +305,7 @@ static json_t *probe_json(const probe_row_t *rows, const dr_identity_t *id,
 static int probe_identity(cli_net_t *net, dr_identity_t *id, bool *have,
                           char *out, size_t size)
 {
-    dr_status_t st = dr_client_identity_sync(net->client, id);
+    dr_status_t st = dr_client_read_identity_sync(net->client, id);
     if (DR_IS_CIP(st) || st == DR_EMALFORMED)
         st = dr_client_list_identity_sync(net->client, id);
     *have = st == DR_OK;

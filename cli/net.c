@@ -174,10 +174,11 @@ int cli_net_connect(const char *cmd, const dr_client_config_t *cfg,
     net->timeout_ms = cfg->timeout_ms;
     snprintf(net->where, sizeof net->where, "%s:%u", cfg->host,
              (unsigned)cfg->tcp_port);
-    net->client = dr_client_new(cfg);
+    dr_status_t err;
+    net->client = dr_client_new(cfg, &err);
     if (net->client == NULL)
-        return cli_error(CLI_EXIT_FAIL, cmd, "%s: cannot set up the client "
-                         "(out of memory or descriptors)", net->where);
+        return cli_error(CLI_EXIT_FAIL, cmd, "%s: cannot set up the client: %s",
+                         net->where, dr_strerror(err));
     dr_status_t st = dr_client_connect_sync(net->client);
     if (st != DR_OK) {
         int rc = cli_net_fail(net, st, NULL);

@@ -45,7 +45,7 @@ FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
 FUZZ_LIBS_cli        := $(JSON_LIBS)
 # Every harness and every object gets all the packages' flags: they only
 # add include directories.
-FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(JSON_CFLAGS)
+FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(JSON_CFLAGS)
 
 .PHONY: fuzz fuzz-build check-fuzz fuzz-replay fuzz-corpus
 
@@ -97,7 +97,7 @@ fuzz-replay: $(FUZZ_REPLAY_BIN)
 
 $(B)/fuzz-replay/gen_corpus: fuzz/gen_corpus.c $(B)/fuzz-replay/gen_corpus.d $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 fuzz-corpus: $(B)/fuzz-replay/gen_corpus
 	rm -rf fuzz/corpus

@@ -11,7 +11,7 @@
 #include <stdbool.h>
 #include <string.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "drgate/codec.h"
 #include "fuzz.h"
 

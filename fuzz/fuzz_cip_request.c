@@ -12,7 +12,7 @@
  */
 #include <string.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "drgate/codec.h"
 #include "fuzz.h"
 

@@ -8,7 +8,7 @@
  */
 #include <string.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "fuzz.h"
 
 static uint8_t out[0x20000];

@@ -12,7 +12,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "drgate/codec.h"
 #include "drgate/text.h"
 

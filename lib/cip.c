@@ -6,7 +6,7 @@
  */
 #include <string.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "drgate/codec.h" /* dr_get_le16/32, dr_put_le16/32 */
 
 /* ---- bounded reader ------------------------------------------------------ */
@@ -410,6 +410,14 @@ void dr_epath_write(dr_wr_t *w, uint16_t cls, uint16_t inst, int attr)
     epath_logical(w, 0x24, inst);
     if (attr >= 0)
         epath_logical(w, 0x30, (uint16_t)attr);
+}
+
+size_t dr_cip_path(uint8_t *buf, size_t cap, uint16_t cls, uint16_t inst, int attr)
+{
+    dr_wr_t w;
+    dr_wr_init(&w, buf, cap);
+    dr_epath_write(&w, cls, inst, attr);
+    return w.overflow ? 0 : w.len;
 }
 
 /* ---- Message Router request / reply ------------------------------------ */

@@ -36,18 +36,24 @@ uint32_t dr_originator_serial_local(const char *name)
     return dr_originator_serial(id, name);
 }
 
-dr_client_t *dr_client_new(const dr_client_config_t *cfg)
+dr_client_t *dr_client_new(const dr_client_config_t *cfg, dr_status_t *err)
 {
-    if (cfg == NULL)
+    if (cfg == NULL) {
+        if (err != NULL)
+            *err = DR_EINVAL;
         return NULL;
+    }
     dr_client_config_t cc = *cfg;
     if (cc.transport.ops == NULL)
         cc.transport = dr_transport_posix();
     size_t size = dr_client_size();
     void *storage = malloc(size); /* malloc's alignment suits any type */
-    if (storage == NULL)
+    if (storage == NULL) {
+        if (err != NULL)
+            *err = DR_ENOMEM;
         return NULL;
-    dr_client_t *c = dr_client_init(storage, size, &cc, NULL);
+    }
+    dr_client_t *c = dr_client_init(storage, size, &cc, err);
     if (c == NULL)
         free(storage);
     return c;
@@ -68,7 +74,7 @@ dr_udp_port_t *dr_udp_port_new(const char *local_addr, uint16_t port,
     void *storage = malloc(size);
     if (storage == NULL) {
         if (err != NULL)
-            *err = DR_EFULL;
+            *err = DR_ENOMEM;
         return NULL;
     }
     dr_udp_port_t *p = dr_udp_port_init(storage, size, local_addr, port, transport, err);

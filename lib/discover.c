@@ -6,6 +6,7 @@
  */
 #include <string.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 #define REPLY_MAX 600u

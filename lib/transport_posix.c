@@ -16,57 +16,45 @@
 
 #include "drgate/transport.h"
 
-static struct sockaddr_in to_sin(dr_sockaddr_t a)
+/* The socket code shared with the lwIP transport (lib/transport_bsd.h),
+ * with Linux's calls. */
+#define BSD_connect connect
+#define BSD_bind bind
+#define BSD_send send
+#define BSD_recv recv
+#define BSD_sendto sendto
+#define BSD_recvfrom recvfrom
+#define BSD_setsockopt setsockopt
+#define BSD_getsockopt getsockopt
+#define BSD_close close
+#define BSD_htons htons
+#define BSD_htonl htonl
+#define BSD_ntohs ntohs
+#define BSD_ntohl ntohl
+#define BSD_SEND_FLAGS MSG_NOSIGNAL /* a peer gone is an error, not SIGPIPE */
+/* MSG_TRUNC: recvfrom returns a datagram's real length, so one longer
+ * than the buffer is known to be cut. */
+#define BSD_RECV_TRUNC MSG_TRUNC
+#define BSD_TRUNCATED(n, cap) ((size_t)(n) > (cap))
+#define BSD_CONNECT_EINVAL_UNREACH 1
+#define BSD_HAVE_LINGER 1
+
+static int bsd_socket_nb(int type)
 {
-    struct sockaddr_in sin;
-    memset(&sin, 0, sizeof sin);
-    sin.sin_family = AF_INET;
-    sin.sin_port = htons(a.port);
-    sin.sin_addr.s_addr = htonl(a.addr);
-    return sin;
+    return socket(AF_INET, type | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
 }
 
-static dr_sockaddr_t from_sin(const struct sockaddr_in *sin)
+/* A peer name once the connection is made (ENOTCONN until then). */
+static int bsd_connected(int h)
 {
-    dr_sockaddr_t a = {ntohl(sin->sin_addr.s_addr), ntohs(sin->sin_port)};
-    return a;
+    struct sockaddr_in peer;
+    socklen_t len = sizeof peer;
+    if (getpeername(h, (struct sockaddr *)&peer, &len) < 0)
+        return errno == ENOTCONN ? 0 : -1;
+    return 1;
 }
 
-/* Each cause a user can act on has its own status: a refused connection
- * (nothing listens), no route (wrong address or network), TCP's own
- * timeout (nobody answers), an address in use or not on this host. */
-static dr_status_t errno_status(int e)
-{
-    switch (e) {
-    case EAGAIN:
-#if EWOULDBLOCK != EAGAIN
-    case EWOULDBLOCK:
-#endif
-    case EINTR:
-        return DR_EAGAIN;
-    case ECONNREFUSED: return DR_ECONNREFUSED;
-    case ETIMEDOUT: return DR_ENOANSWER;
-    case EHOSTUNREACH:
-    case EHOSTDOWN: return DR_EHOSTUNREACH;
-    case ENETUNREACH:
-    case ENETDOWN: return DR_ENETUNREACH;
-    case EADDRINUSE: return DR_EADDRINUSE;
-    case EADDRNOTAVAIL: return DR_EADDRNOTAVAIL;
-    case EACCES:
-    case EPERM: return DR_EACCES;
-    case EPIPE:
-    case ECONNABORTED:
-    case ECONNRESET: return DR_ECLOSED;
-    default: return DR_EIO;
-    }
-}
-
-/* A failure of a call that never "would block": EAGAIN there is an error. */
-static dr_status_t fail_status(int e)
-{
-    dr_status_t st = errno_status(e);
-    return st == DR_EAGAIN ? DR_EIO : st;
-}
+#include "transport_bsd.h"
 
 static dr_status_t px_resolve(void *ctx, const char *host, uint32_t *addr)
 {
@@ -83,115 +71,6 @@ static dr_status_t px_resolve(void *ctx, const char *host, uint32_t *addr)
         return DR_ENOTFOUND;
     *addr = ntohl(((struct sockaddr_in *)(void *)res->ai_addr)->sin_addr.s_addr);
     freeaddrinfo(res);
-    return DR_OK;
-}
-
-static dr_status_t px_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
-{
-    (void)ctx;
-    int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        return DR_EIO;
-    int one = 1;
-    /* Requests and replies are small: send them at once. */
-    (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    struct sockaddr_in sin = to_sin(to);
-    if (connect(fd, (struct sockaddr *)&sin, sizeof sin) < 0 && errno != EINPROGRESS) {
-        /* EINVAL for a valid IPv4 address: a blackhole route to it */
-        dr_status_t st = errno == EINVAL ? DR_ENETUNREACH : fail_status(errno);
-        close(fd);
-        return st;
-    }
-    *h = fd;
-    return DR_OK;
-}
-
-static dr_status_t px_tcp_finish(void *ctx, int h)
-{
-    (void)ctx;
-    int err = 0;
-    socklen_t len = sizeof err;
-    if (getsockopt(h, SOL_SOCKET, SO_ERROR, &err, &len) < 0)
-        return DR_EIO;
-    if (err != 0)
-        return fail_status(err);
-    struct sockaddr_in peer;
-    len = sizeof peer;
-    if (getpeername(h, (struct sockaddr *)&peer, &len) < 0)
-        return errno == ENOTCONN ? DR_EAGAIN : DR_EIO;
-    return DR_OK;
-}
-
-static dr_status_t px_tcp_send(void *ctx, int h, const uint8_t *buf, size_t len,
-                               size_t *sent)
-{
-    (void)ctx;
-    ssize_t n = send(h, buf, len, MSG_NOSIGNAL);
-    if (n < 0)
-        return errno_status(errno);
-    *sent = (size_t)n;
-    return DR_OK;
-}
-
-static dr_status_t px_tcp_recv(void *ctx, int h, uint8_t *buf, size_t cap,
-                               size_t *got)
-{
-    (void)ctx;
-    ssize_t n = recv(h, buf, cap, 0);
-    if (n < 0)
-        return errno_status(errno);
-    if (n == 0)
-        return DR_ECLOSED;
-    *got = (size_t)n;
-    return DR_OK;
-}
-
-static dr_status_t px_udp_open(void *ctx, dr_sockaddr_t local, int *h)
-{
-    (void)ctx;
-    int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        return DR_EIO;
-    int one = 1;
-    (void)setsockopt(fd, SOL_SOCKET, SO_BROADCAST, &one, sizeof one);
-    struct sockaddr_in sin = to_sin(local);
-    if (bind(fd, (struct sockaddr *)&sin, sizeof sin) < 0) {
-        dr_status_t st = fail_status(errno); /* DR_EADDRINUSE, DR_EADDRNOTAVAIL */
-        close(fd);
-        return st;
-    }
-    *h = fd;
-    return DR_OK;
-}
-
-static dr_status_t px_udp_send(void *ctx, int h, const uint8_t *buf, size_t len,
-                               dr_sockaddr_t to)
-{
-    (void)ctx;
-    struct sockaddr_in sin = to_sin(to);
-    ssize_t n = sendto(h, buf, len, 0, (struct sockaddr *)&sin, sizeof sin);
-    if (n < 0)
-        return errno_status(errno);
-    return (size_t)n == len ? DR_OK : DR_EIO;
-}
-
-static dr_status_t px_udp_recv(void *ctx, int h, uint8_t *buf, size_t cap,
-                               size_t *got, dr_sockaddr_t *from)
-{
-    (void)ctx;
-    struct sockaddr_in sin;
-    socklen_t len = sizeof sin;
-    /* zeroed: clang's analyzer does not see recvfrom or getsockname fill
-     * a sockaddr passed through glibc's transparent union (_GNU_SOURCE) */
-    memset(&sin, 0, sizeof sin);
-    ssize_t n = recvfrom(h, buf, cap, MSG_TRUNC, (struct sockaddr *)&sin, &len);
-    if (n < 0)
-        return errno_status(errno);
-    if ((size_t)n > cap)
-        return DR_ELONG; /* truncated datagram: drop it */
-    *got = (size_t)n;
-    if (from != NULL)
-        *from = from_sin(&sin);
     return DR_OK;
 }
 
@@ -222,23 +101,6 @@ static dr_status_t px_timer_arm(void *ctx, int h, uint64_t deadline_us)
     if (timerfd_settime(h, TFD_TIMER_ABSTIME, &its, NULL) < 0)
         return DR_EIO;
     return DR_OK;
-}
-
-static void px_close(void *ctx, int h)
-{
-    (void)ctx;
-    if (h >= 0)
-        close(h);
-}
-
-/* Linger 0: close() drops the unsent data and resets the connection,
- * instead of going on sending it in the background. */
-static void px_tcp_abort(void *ctx, int h)
-{
-    struct linger lg = {1, 0};
-    if (h >= 0)
-        (void)setsockopt(h, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
-    px_close(ctx, h);
 }
 
 static uint64_t px_now_us(void *ctx)
@@ -333,11 +195,11 @@ static dr_status_t px_udp_recv_batch(void *ctx, int h, dr_udp_msg_t *m,
 }
 
 static const dr_transport_ops_t posix_ops = {
-    px_resolve,  px_tcp_connect, px_tcp_finish, px_tcp_send,
-    px_tcp_recv, px_udp_open,    px_udp_send,   px_udp_recv,
-    px_timer_open, px_timer_arm, px_close,      px_now_us,
+    px_resolve,  bsd_tcp_connect, bsd_tcp_finish, bsd_tcp_send,
+    bsd_tcp_recv, bsd_udp_open,   bsd_udp_send,   bsd_udp_recv,
+    px_timer_open, px_timer_arm,  bsd_close,      px_now_us,
     px_fd,       px_wait,
-    px_udp_send_batch, px_udp_recv_batch, px_tcp_abort,
+    px_udp_send_batch, px_udp_recv_batch, bsd_tcp_abort,
 };
 
 dr_transport_t dr_transport_posix(void)

@@ -25,7 +25,7 @@ ENIP_BENCH_BIN := $(B)/bench/pingpong $(B)/bench/enip_gets $(B)/bench/enip_io
 # receiver.
 $(B)/bench/enip_io: bench/enip_io.c $(B)/bench/enip_io.d $(SIM_LIB_OBJ) $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) -Isim $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) \
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Isim $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) \
 	    -o $@ $< $(SIM_LIB_OBJ) $(LIB_A) -lm
 
 bench-enip: $(ENIP_BENCH_BIN) $(SIM_BIN)

@@ -17,12 +17,13 @@ LWIP_INC    ?= /usr/include/lwip
 LWIP_LIBS   ?= -llwip
 LWIP_SECONDS ?= 5
 # The lwIP program links only the firmware objects of the library: no
-# POSIX transport, no malloc'ing constructors.
+# POSIX transport, no malloc'ing constructors. The port includes the socket
+# code it shares with the POSIX transport from lib/ (transport_bsd.h).
 LIB_FW_OBJ  := $(LIB_FW_SRC:%.c=$(B)/%.o)
 
 .PHONY: check-lwip check-be-client
 
-LWIP_CFLAGS  = $(ALL_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip -Itests/firmware \
+LWIP_CFLAGS  = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -D_DEFAULT_SOURCE -I$(LWIP_INC) -Iport/lwip -Itests/firmware \
                $(ALL_CFLAGS)
 
 $(FW_TEST_OBJ): $(B)/%.o: %.c $(B)/%.d

@@ -24,13 +24,13 @@ INTEROP_RUN      = $(INTEROP_ENV) timeout -k 10 $(INTEROP_TIMEOUT)
 $(B)/tests/interop/test_client_cpppo: tests/interop/test_client_cpppo.c \
         $(B)/tests/interop/test_client_cpppo.d $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) \
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) \
 	    -o $@ $< $(LIB_A) $(CMOCKA_LIBS) -lm
 
 $(B)/tests/interop/enip_session: tests/interop/enip_session.c \
         $(B)/tests/interop/enip_session.d $(LIB_A)
 	@mkdir -p $(dir $@)
-	$(CC) $(ALL_CPPFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
+	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
 check-interop: $(SIM_BIN) $(INTEROP_BIN)
 	@if [ ! -x "$(INTEROP_PY)" ]; then \

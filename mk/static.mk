@@ -51,7 +51,7 @@ STATIC_SRC_gpio   = $(GPIO_ALL_SRC)
 STATIC_FLAGS_gpio = $(GPIO_OBJ_CFLAGS)
 
 STATIC_GROUPS += tests_sim
-STATIC_SRC_tests_sim   = $(sort $(wildcard tests/test_sim_*.c))
+STATIC_SRC_tests_sim   = $(sort $(wildcard tests/unit/test_sim_*.c))
 STATIC_FLAGS_tests_sim = $(TEST_CFLAGS) -Isim
 
 # The tests of gateway code (the Makefile's GW_TEST_SRC) and their fakes.
@@ -61,7 +61,7 @@ STATIC_FLAGS_tests_gw = $(GW_TEST_CFLAGS)
 
 STATIC_GROUPS += tests
 STATIC_SRC_tests   = $(filter-out $(STATIC_SRC_tests_sim) $(STATIC_SRC_tests_gw), \
-                       $(sort $(wildcard tests/*.c tests/support/*.c)))
+                       $(sort $(wildcard tests/unit/*.c tests/support/*.c)))
 STATIC_FLAGS_tests = $(TEST_CFLAGS)
 
 STATIC_GROUPS += tests_gpio
@@ -70,7 +70,7 @@ STATIC_FLAGS_tests_gpio = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(ALL_CFLAGS)
 
 STATIC_GROUPS += tests_interop
 STATIC_SRC_tests_interop   = $(sort $(wildcard tests/interop/*.c))
-STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+STATIC_FLAGS_tests_interop = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 
 # Some harnesses reach into gateway/ (the Modbus and configuration paths).
 STATIC_GROUPS += fuzz

@@ -6,7 +6,7 @@
  * complete encapsulation frames and UDP datagrams to the functions below,
  * together with the monotonic time in nanoseconds, and sends what they
  * return. Keeping the protocol here, deterministic and I/O-free, lets the
- * unit tests (tests/test_sim_*.c) drive every request and every timer.
+ * unit tests (tests/unit/test_sim_*.c) drive every request and every timer.
  *
  * All framing goes through lib/cip.c; all assembly data through the codec.
  */
@@ -17,7 +17,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "drgate/codec.h"
 #include "robot.h"
 

@@ -31,7 +31,7 @@
 #include "common/ev.h"
 #include "log.h"
 
-#define DRSIM_VERSION "0.1.0"
+#define DRSIM_VERSION "1.0.0"
 #define MAX_CLIENTS 64
 /* Bytes a client may leave unread before it is dropped as too slow. */
 #define CLIENT_OUT_CAP 16384u

@@ -393,7 +393,7 @@ static bool add_connections(gw_link_t *l)
         cc.on_state = on_conn_state;
         cc.user = l;
         dr_status_t err;
-        l->conn[i] = dr_client_conn_add(l->client, &cc, &err);
+        l->conn[i] = dr_conn_add(l->client, &cc, &err);
         if (l->conn[i] == NULL)
             return false;
         if (cc.o2t_asm >= 0)
@@ -464,13 +464,12 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
         if (!t2o && !(l->dirty & (1u << a)))
             continue;
         uint8_t path[12];
-        dr_wr_t w;
-        dr_wr_init(&w, path, sizeof path);
-        dr_epath_write(&w, DR_CIP_CLASS_ASSEMBLY, dr_client_instance(l->client, (dr_asm_t)a),
-                       DR_CIP_ASM_ATTR_DATA);
+        size_t path_len = dr_cip_path(path, sizeof path, DR_CIP_CLASS_ASSEMBLY,
+                                      dr_client_instance(l->client, (dr_asm_t)a),
+                                      DR_CIP_ASM_ATTR_DATA);
         dr_status_t st = dr_client_call_async(
             l->client, t2o ? DR_CIP_SVC_GET_ATTRIBUTE_SINGLE : DR_CIP_SVC_SET_ATTRIBUTE_SINGLE,
-            path, w.len, t2o ? NULL : l->data->img[a], t2o ? 0 : info->size, on_poll_reply,
+            path, path_len, t2o ? NULL : l->data->img[a], t2o ? 0 : info->size, on_poll_reply,
             &l->poll_ctx[a]);
         if (st == DR_OK) {
             l->in_flight++;
@@ -635,9 +634,11 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         }
         cc.shared_udp = l->port->port;
     }
-    l->client = dr_client_new(&cc);
+    dr_status_t err = DR_OK;
+    l->client = dr_client_new(&cc, &err);
     if (l->client == NULL || (rc->mode == GW_MODE_IMPLICIT && !add_connections(l))) {
-        gw_log(GW_LOG_ERROR, "robot %s: cannot create the EtherNet/IP client", rc->name);
+        gw_log(GW_LOG_ERROR, "robot %s: cannot create the EtherNet/IP client%s%s", rc->name,
+               l->client == NULL ? ": " : "", l->client == NULL ? dr_strerror(err) : "");
         gw_link_free(l, NULL);
         return NULL;
     }

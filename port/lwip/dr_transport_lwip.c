@@ -18,39 +18,33 @@
 #error "the drgate lwIP transport needs LWIP_SOCKET 1"
 #endif
 
-static dr_status_t errno_status(int e)
-{
-    switch (e) {
-    case EAGAIN:
-#if EWOULDBLOCK != EAGAIN
-    case EWOULDBLOCK:
-#endif
-    case EINPROGRESS:
-    case EINTR:
-        return DR_EAGAIN;
-    case ECONNREFUSED: return DR_ECONNREFUSED;
-    case ETIMEDOUT: return DR_ENOANSWER; /* TCP's: not a request timeout */
-    case EHOSTUNREACH: return DR_EHOSTUNREACH; /* lwIP's ERR_RTE: no route */
-    case EADDRINUSE: return DR_EADDRINUSE;
-    case EPIPE:
-    case ENOTCONN:
-    case ECONNRESET:
-    case ECONNABORTED: return DR_ECLOSED;
-    default: return DR_EIO;
-    }
-}
+/* The socket code shared with the POSIX transport (lib/transport_bsd.h),
+ * with lwIP's calls by their lwip_ names. */
+#define BSD_connect lwip_connect
+#define BSD_bind lwip_bind
+#define BSD_send lwip_send
+#define BSD_recv lwip_recv
+#define BSD_sendto lwip_sendto
+#define BSD_recvfrom lwip_recvfrom
+#define BSD_setsockopt lwip_setsockopt
+#define BSD_getsockopt lwip_getsockopt
+#define BSD_close lwip_close
+#define BSD_htons lwip_htons
+#define BSD_htonl lwip_htonl
+#define BSD_ntohs lwip_ntohs
+#define BSD_ntohl lwip_ntohl
+#define BSD_SEND_FLAGS 0 /* no signals in lwIP */
+/* lwIP cuts a datagram longer than cap (no MSG_TRUNC length): one that
+ * fills the buffer exactly may have been longer, so it is dropped. */
+#define BSD_RECV_TRUNC 0
+#define BSD_TRUNCATED(n, cap) ((size_t)(n) >= (cap))
+#define BSD_CONNECT_EINVAL_UNREACH 0
+/* Linger 0: lwIP aborts the connection (a reset) and drops unsent data.
+ * Without it, tcp_abort is left out: close, and queued requests may
+ * still go out. */
+#define BSD_HAVE_LINGER LWIP_SO_LINGER
 
-static struct sockaddr_in to_sin(dr_sockaddr_t a)
-{
-    struct sockaddr_in sin;
-    memset(&sin, 0, sizeof sin);
-    sin.sin_family = AF_INET;
-    sin.sin_port = lwip_htons(a.port);
-    sin.sin_addr.s_addr = lwip_htonl(a.addr);
-    return sin;
-}
-
-static int nonblocking_socket(int type)
+static int bsd_socket_nb(int type)
 {
     int s = lwip_socket(AF_INET, type, 0);
     if (s < 0)
@@ -62,6 +56,17 @@ static int nonblocking_socket(int type)
     return s;
 }
 
+/* Connected once writable (an error shows in SO_ERROR). */
+static int bsd_connected(int h)
+{
+    struct pollfd p = {h, POLLOUT, 0};
+    if (lwip_poll(&p, 1, 0) < 0)
+        return -1;
+    return (p.revents & POLLOUT) != 0;
+}
+
+#include "transport_bsd.h"
+
 static dr_status_t lw_resolve(void *ctx, const char *host, uint32_t *addr)
 {
     ip4_addr_t a;
@@ -70,123 +75,6 @@ static dr_status_t lw_resolve(void *ctx, const char *host, uint32_t *addr)
         return DR_ENOTFOUND; /* dotted addresses only: no DNS here */
     *addr = lwip_ntohl(ip4_addr_get_u32(&a));
     return DR_OK;
-}
-
-static dr_status_t lw_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
-{
-    (void)ctx;
-    int s = nonblocking_socket(SOCK_STREAM);
-    if (s < 0)
-        return DR_EIO;
-    int one = 1;
-    (void)lwip_setsockopt(s, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    struct sockaddr_in sin = to_sin(to);
-    if (lwip_connect(s, (struct sockaddr *)&sin, sizeof sin) < 0 && errno != EINPROGRESS) {
-        dr_status_t st = errno_status(errno);
-        lwip_close(s);
-        return st == DR_EAGAIN ? DR_EIO : st;
-    }
-    *h = s;
-    return DR_OK;
-}
-
-/* Connected once writable; an error is in SO_ERROR. */
-static dr_status_t lw_tcp_finish(void *ctx, int h)
-{
-    (void)ctx;
-    struct pollfd p = {h, POLLOUT, 0};
-    if (lwip_poll(&p, 1, 0) < 0)
-        return DR_EIO;
-    int err = 0;
-    socklen_t len = sizeof err;
-    if (lwip_getsockopt(h, SOL_SOCKET, SO_ERROR, &err, &len) < 0)
-        return DR_EIO;
-    if (err != 0) {
-        dr_status_t st = errno_status(err);
-        return st == DR_EAGAIN ? DR_EIO : st;
-    }
-    return (p.revents & POLLOUT) ? DR_OK : DR_EAGAIN;
-}
-
-static dr_status_t lw_tcp_send(void *ctx, int h, const uint8_t *buf, size_t len,
-                               size_t *sent)
-{
-    (void)ctx;
-    ssize_t n = lwip_send(h, buf, len, 0);
-    if (n < 0)
-        return errno_status(errno);
-    *sent = (size_t)n;
-    return DR_OK;
-}
-
-static dr_status_t lw_tcp_recv(void *ctx, int h, uint8_t *buf, size_t cap, size_t *got)
-{
-    (void)ctx;
-    ssize_t n = lwip_recv(h, buf, cap, 0);
-    if (n < 0)
-        return errno_status(errno);
-    if (n == 0)
-        return DR_ECLOSED;
-    *got = (size_t)n;
-    return DR_OK;
-}
-
-static dr_status_t lw_udp_open(void *ctx, dr_sockaddr_t local, int *h)
-{
-    (void)ctx;
-    int s = nonblocking_socket(SOCK_DGRAM);
-    if (s < 0)
-        return DR_EIO;
-    int one = 1;
-    (void)lwip_setsockopt(s, SOL_SOCKET, SO_BROADCAST, &one, sizeof one);
-    struct sockaddr_in sin = to_sin(local);
-    if (lwip_bind(s, (struct sockaddr *)&sin, sizeof sin) < 0) {
-        dr_status_t st = errno_status(errno); /* DR_EADDRINUSE */
-        lwip_close(s);
-        return st == DR_EAGAIN ? DR_EIO : st;
-    }
-    *h = s;
-    return DR_OK;
-}
-
-static dr_status_t lw_udp_send(void *ctx, int h, const uint8_t *buf, size_t len,
-                               dr_sockaddr_t to)
-{
-    (void)ctx;
-    struct sockaddr_in sin = to_sin(to);
-    ssize_t n = lwip_sendto(h, buf, len, 0, (struct sockaddr *)&sin, sizeof sin);
-    if (n < 0)
-        return errno_status(errno);
-    return (size_t)n == len ? DR_OK : DR_EIO;
-}
-
-static dr_status_t lw_udp_recv(void *ctx, int h, uint8_t *buf, size_t cap, size_t *got,
-                               dr_sockaddr_t *from)
-{
-    (void)ctx;
-    struct sockaddr_in sin;
-    socklen_t len = sizeof sin;
-    memset(&sin, 0, sizeof sin);
-    /* lwIP cuts a datagram longer than cap (no MSG_TRUNC length): one that
-     * fills the buffer exactly may have been longer, so it is dropped. */
-    ssize_t n = lwip_recvfrom(h, buf, cap, 0, (struct sockaddr *)&sin, &len);
-    if (n < 0)
-        return errno_status(errno);
-    if ((size_t)n >= cap)
-        return DR_ELONG;
-    *got = (size_t)n;
-    if (from != NULL) {
-        from->addr = lwip_ntohl(sin.sin_addr.s_addr);
-        from->port = lwip_ntohs(sin.sin_port);
-    }
-    return DR_OK;
-}
-
-static void lw_close(void *ctx, int h)
-{
-    (void)ctx;
-    if (h >= 0)
-        lwip_close(h);
 }
 
 static uint64_t lw_now_us(void *ctx)
@@ -225,23 +113,15 @@ static dr_status_t lw_wait(void *ctx, const int *h, const bool *want_out, int n,
 #endif
 
 #if LWIP_SO_LINGER
-/* Linger 0: lwIP aborts the connection (a reset) and drops unsent data. */
-static void lw_tcp_abort(void *ctx, int h)
-{
-    struct linger lg = {1, 0};
-    if (h >= 0)
-        (void)lwip_setsockopt(h, SOL_SOCKET, SO_LINGER, &lg, sizeof lg);
-    lw_close(ctx, h);
-}
-#define LW_TCP_ABORT lw_tcp_abort
+#define LW_TCP_ABORT bsd_tcp_abort
 #else
 #define LW_TCP_ABORT NULL /* close: queued requests may still go out */
 #endif
 
 static const dr_transport_ops_t lwip_ops = {
-    lw_resolve,  lw_tcp_connect, lw_tcp_finish, lw_tcp_send,
-    lw_tcp_recv, lw_udp_open,    lw_udp_send,   lw_udp_recv,
-    NULL,        NULL,           lw_close,      lw_now_us,
+    lw_resolve,  bsd_tcp_connect, bsd_tcp_finish, bsd_tcp_send,
+    bsd_tcp_recv, bsd_udp_open,   bsd_udp_send,   bsd_udp_recv,
+    NULL,        NULL,            bsd_close,      lw_now_us,
     NULL,        LW_WAIT,        NULL,          NULL,
     LW_TCP_ABORT,
 };

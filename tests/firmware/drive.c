@@ -39,7 +39,7 @@ static void step(const drive_opts_t *o, dr_client_t *c)
     uint64_t wake = t + o->tick_us < d ? t + o->tick_us : d;
     if (wake > t)
         o->sleep_us((uint32_t)(wake - t));
-    (void)dr_client_process(c);
+    dr_client_process(c);
 }
 
 static void on_found(const dr_identity_t *id, dr_sockaddr_t from, void *user)
@@ -72,7 +72,7 @@ static void explicit_messaging(const drive_opts_t *o, dr_client_t *c)
     unsigned got = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
         const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
-        dr_status_t st = dr_client_asm_read_sync(c, (dr_asm_t)a, buf, info->size);
+        dr_status_t st = dr_client_read_asm_sync(c, (dr_asm_t)a, buf, info->size);
         if (st == DR_OK)
             got++;
         else
@@ -85,9 +85,9 @@ static void explicit_messaging(const drive_opts_t *o, dr_client_t *c)
     size_t len = dr_asm_info(DR_ASM_INT_IN)->size;
     for (size_t i = 0; i < len; i++)
         buf[i] = (uint8_t)(i * 7u + 3u);
-    dr_status_t st = dr_client_asm_write_sync(c, DR_ASM_INT_IN, buf, len);
+    dr_status_t st = dr_client_write_asm_sync(c, DR_ASM_INT_IN, buf, len);
     check(o, st == DR_OK, "explicit Set of int_in", st);
-    st = dr_client_asm_read_sync(c, DR_ASM_INT_OUT, back, len);
+    st = dr_client_read_asm_sync(c, DR_ASM_INT_OUT, back, len);
     check(o, st == DR_OK && memcmp(buf, back, len) == 0, "int_out echoes the Set", st);
 }
 
@@ -108,13 +108,13 @@ static void class1(const drive_opts_t *o, dr_client_t *c)
         cc.t2o_asm = pairs[i].t2o;
         cc.rpi_us = o->rpi_us;
         cc.timeout_mult = 2; /* x16: 160 ms at 10 ms */
-        cn[i] = dr_client_conn_add(c, &cc, NULL);
+        cn[i] = dr_conn_add(c, &cc, NULL);
         if (cn[i] == NULL) {
             check(o, false, "add a Class 1 connection", DR_OK);
             return;
         }
     }
-    (void)dr_client_start(c);
+    dr_client_start(c);
     uint64_t limit = now(o) + 5000000u;
     unsigned up = 0;
     while (up < n && now(o) < limit) {

@@ -23,6 +23,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 #define RPI_US 10000u
@@ -61,7 +62,7 @@ int main(int argc, char **argv)
     cfg.local_addr = argv[3];
     cfg.local_udp_port = (uint16_t)strtoul(argv[4], NULL, 10);
     cfg.timeout_ms = 2000;
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     if (c == NULL)
         return fail("new", DR_EINVAL);
     dr_status_t st = dr_client_connect_sync(c);
@@ -72,24 +73,24 @@ int main(int argc, char **argv)
     for (int a = 0; a < DR_ASM_COUNT; a++) {
         uint16_t inst = dr_client_instance(c, (dr_asm_t)a), size = 0;
         print_request(DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, DR_CIP_CLASS_ASSEMBLY, inst, 3);
-        st = dr_client_asm_read_sync(c, (dr_asm_t)a, buf, dr_asm_info((dr_asm_t)a)->size);
+        st = dr_client_read_asm_sync(c, (dr_asm_t)a, buf, dr_asm_info((dr_asm_t)a)->size);
         if (st != DR_OK)
             return fail("get", st);
         print_request(DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, DR_CIP_CLASS_ASSEMBLY, inst, 4);
-        st = dr_client_asm_size_sync(c, inst, &size);
+        st = dr_client_read_asm_size_sync(c, inst, &size);
         if (st != DR_OK)
             return fail("get size", st);
     }
     dr_identity_t id;
     print_request(DR_CIP_SVC_GET_ATTRIBUTES_ALL, DR_CIP_CLASS_IDENTITY, 1, -1);
-    if ((st = dr_client_identity_sync(c, &id)) != DR_OK)
+    if ((st = dr_client_read_identity_sync(c, &id)) != DR_OK)
         return fail("identity", st);
     uint8_t ints[96];
     for (unsigned i = 0; i < sizeof ints; i++)
         ints[i] = (uint8_t)(i * 3u + 1u);
     print_request(DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, DR_CIP_CLASS_ASSEMBLY,
                   dr_client_instance(c, DR_ASM_INT_IN), 3);
-    if ((st = dr_client_asm_write_sync(c, DR_ASM_INT_IN, ints, sizeof ints)) != DR_OK)
+    if ((st = dr_client_write_asm_sync(c, DR_ASM_INT_IN, ints, sizeof ints)) != DR_OK)
         return fail("set", st);
     if ((st = dr_client_list_identity_sync(c, &id)) != DR_OK)
         return fail("list identity", st);
@@ -103,18 +104,17 @@ int main(int argc, char **argv)
     cc.rpi_us = RPI_US;
     cc.timeout_mult = 2;
     dr_conn_t *cn[2];
-    cn[0] = dr_client_conn_add(c, &cc, &st);
+    cn[0] = dr_conn_add(c, &cc, &st);
     cc.o2t_asm = -1;
     cc.t2o_asm = DR_ASM_JOINT_STATE;
     cc.large = true;
-    cn[1] = dr_client_conn_add(c, &cc, &st);
+    cn[1] = dr_conn_add(c, &cc, &st);
     if (cn[0] == NULL || cn[1] == NULL)
         return fail("conn add", st);
     static const uint8_t ctl[12] = {0x01, 0x80, 0x04, 0x00, 0, 0, 0x80, 0x3F};
     if ((st = dr_conn_set_output(cn[0], ctl, sizeof ctl)) != DR_OK)
         return fail("set output", st);
-    if ((st = dr_client_start(c)) != DR_OK)
-        return fail("start", st);
+    dr_client_start(c);
     /* Open both (bounded), then run 0.5 s of I/O. */
     for (int i = 0; i < 500; i++) {
         if (dr_conn_state(cn[0]) == DR_CONN_ESTABLISHED &&
@@ -143,7 +143,7 @@ int main(int argc, char **argv)
     printf("\n");
     print_request(DR_CIP_SVC_FORWARD_CLOSE, DR_CIP_CLASS_CONNECTION_MANAGER, 1, -1);
     print_request(DR_CIP_SVC_FORWARD_CLOSE, DR_CIP_CLASS_CONNECTION_MANAGER, 1, -1);
-    dr_client_close(c); /* Forward Close both, UnRegisterSession */
+    dr_client_close_sync(c); /* Forward Close both, UnRegisterSession */
     dr_client_free(c);
     printf("done\n");
     return 0;

@@ -39,7 +39,7 @@ static dr_client_t *new_client(bool route, uint16_t io_state_instance)
     cfg.timeout_ms = 2000;
     cfg.route = route;
     cfg.instance[DR_ASM_IO_STATE] = io_state_instance;
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     return c;
 }
@@ -78,7 +78,7 @@ static void test_read_every_assembly(void **state)
     dr_client_t *c = *state;
     for (int a = 0; a < DR_ASM_COUNT; a++) {
         uint8_t buf[DR_ASM_MAX_SIZE];
-        dr_status_t st = dr_client_asm_read_sync(c, (dr_asm_t)a, buf, size_of(a));
+        dr_status_t st = dr_client_read_asm_sync(c, (dr_asm_t)a, buf, size_of(a));
         if (st != DR_OK)
             fail_msg("%s: %s", dr_asm_info((dr_asm_t)a)->name, dr_strerror(st));
     }
@@ -93,10 +93,10 @@ static void test_write_and_read_back_every_assembly(void **state)
         for (int a = 0; a < DR_ASM_COUNT; a++) {
             uint8_t out[DR_ASM_MAX_SIZE], in[DR_ASM_MAX_SIZE];
             pattern(out, size_of(a), a, round);
-            dr_status_t st = dr_client_asm_write_sync(c, (dr_asm_t)a, out, size_of(a));
+            dr_status_t st = dr_client_write_asm_sync(c, (dr_asm_t)a, out, size_of(a));
             if (st != DR_OK)
                 fail_msg("write %s: %s", dr_asm_info((dr_asm_t)a)->name, dr_strerror(st));
-            assert_int_equal(dr_client_asm_read_sync(c, (dr_asm_t)a, in, size_of(a)), DR_OK);
+            assert_int_equal(dr_client_read_asm_sync(c, (dr_asm_t)a, in, size_of(a)), DR_OK);
             assert_memory_equal(out, in, size_of(a));
         }
 }
@@ -107,10 +107,10 @@ static void test_second_session_sees_writes(void **state)
     dr_client_t *c = *state;
     uint8_t out[96], in[96];
     pattern(out, sizeof out, 99, 3);
-    assert_int_equal(dr_client_asm_write_sync(c, DR_ASM_FLOAT_IN, out, sizeof out), DR_OK);
+    assert_int_equal(dr_client_write_asm_sync(c, DR_ASM_FLOAT_IN, out, sizeof out), DR_OK);
     dr_client_t *other = new_client(false, 0);
     assert_int_equal(dr_client_connect_sync(other), DR_OK);
-    assert_int_equal(dr_client_asm_read_sync(other, DR_ASM_FLOAT_IN, in, sizeof in), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(other, DR_ASM_FLOAT_IN, in, sizeof in), DR_OK);
     assert_memory_equal(out, in, sizeof out);
     dr_client_free(other);
 }
@@ -124,8 +124,8 @@ static void test_unconnected_send(void **state)
     assert_int_equal(dr_client_connect_sync(c), DR_OK);
     uint8_t out[12], in[12];
     pattern(out, sizeof out, 6, 9);
-    assert_int_equal(dr_client_asm_write_sync(c, DR_ASM_IO_CONTROL, out, sizeof out), DR_OK);
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_CONTROL, in, sizeof in), DR_OK);
+    assert_int_equal(dr_client_write_asm_sync(c, DR_ASM_IO_CONTROL, out, sizeof out), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_CONTROL, in, sizeof in), DR_OK);
     assert_memory_equal(out, in, sizeof out);
     dr_client_free(c);
 }
@@ -138,7 +138,7 @@ static void test_wrong_size_refused(void **state)
     dr_client_t *c = new_client(false, SHORT_INSTANCE);
     uint8_t buf[36];
     assert_int_equal(dr_client_connect_sync(c), DR_OK);
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_ELENGTH);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_ELENGTH);
     /* the raw attribute still reads, with its 35 bytes */
     size_t len = 0;
     assert_int_equal(dr_client_get_attr_sync(c, DR_CIP_CLASS_ASSEMBLY, SHORT_INSTANCE, 3,
@@ -153,7 +153,7 @@ static void test_identity(void **state)
     dr_identity_t a, b;
     memset(&a, 0, sizeof a);
     memset(&b, 0, sizeof b);
-    assert_int_equal(dr_client_identity_sync(c, &a), DR_OK);
+    assert_int_equal(dr_client_read_identity_sync(c, &a), DR_OK);
     assert_int_equal(dr_client_list_identity_sync(c, &b), DR_OK);
     assert_true(strlen(a.product_name) > 0);
     assert_string_equal(a.product_name, b.product_name);
@@ -177,9 +177,9 @@ static void test_peer_hangs_up_then_reconnect(void **state)
     printf("# unknown instance: %s\n", dr_strerror(st));
     assert_int_not_equal(st, DR_OK);
     assert_int_not_equal(st, DR_ETIMEDOUT);
-    dr_client_close(c);
+    dr_client_close_sync(c);
     assert_int_equal(dr_client_connect_sync(c), DR_OK);
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_BIT_OUT, buf, 8), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_BIT_OUT, buf, 8), DR_OK);
 }
 
 int main(void)

@@ -30,8 +30,8 @@ const char *drsim_path(void)
     if (n <= 0)
         return NULL;
     self[n] = '\0';
-    /* $(B)/tests/test_x -> $(B)/drsim */
-    snprintf(path, sizeof path, "%s/../drsim", dirname(self));
+    /* $(B)/tests/unit/test_x -> $(B)/drsim */
+    snprintf(path, sizeof path, "%s/../../drsim", dirname(self));
     return access(path, X_OK) == 0 ? path : NULL;
 }
 

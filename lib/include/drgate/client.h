@@ -44,9 +44,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "drgate/cip.h"
 #include "drgate/codec.h"
 #include "drgate/config.h"
+#include "drgate/enip.h"
 #include "drgate/status.h"
 #include "drgate/transport.h"
 
@@ -180,7 +180,8 @@ size_t dr_udp_port_size(void);
  * dr_udp_port_init works in `size` bytes at `storage` (aligned like
  * dr_udp_port_storage_t) and needs a transport; NULL on error (*err:
  * DR_EINVAL for storage or transport, DR_ENOTFOUND, DR_EIO, ...).
- * dr_udp_port_new (POSIX only) allocates; transport ops NULL: POSIX. */
+ * dr_udp_port_new (POSIX only) allocates (DR_ENOMEM when it cannot);
+ * transport ops NULL: POSIX. */
 dr_udp_port_t *dr_udp_port_init(void *storage, size_t size, const char *local_addr,
                                 uint16_t port, dr_transport_t transport,
                                 dr_status_t *err);
@@ -189,7 +190,7 @@ dr_udp_port_t *dr_udp_port_new(const char *local_addr, uint16_t port,
                                dr_transport_t transport, dr_status_t *err);
 void dr_udp_port_free(dr_udp_port_t *p);
 int dr_udp_port_fd(const dr_udp_port_t *p);
-dr_status_t dr_udp_port_process(dr_udp_port_t *p);
+void dr_udp_port_process(dr_udp_port_t *p);
 
 /* The clients of one port produce their O->T packets at the same instants
  * (they share the port's time grid). With hold set, the packets a client's
@@ -209,15 +210,16 @@ void dr_udp_port_flush(dr_udp_port_t *p);
  * local_addr or its timer, DR_EFULL (the shared UDP port is full). */
 dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t *cfg,
                             dr_status_t *err);
-/* Closes everything (dr_client_close) and lets go of the storage and the
- * shared UDP port. NULL is fine. */
+/* Closes everything (dr_client_close_sync) and lets go of the storage and
+ * the shared UDP port. NULL is fine. */
 void dr_client_deinit(dr_client_t *c);
 
 /* Linux convenience (lib/client_posix.c, not in firmware builds): the
  * storage from malloc, and transport ops NULL meaning dr_transport_posix().
- * NULL on bad config or no memory. dr_client_free deinits and frees; NULL
- * is fine. */
-dr_client_t *dr_client_new(const dr_client_config_t *cfg);
+ * NULL with *err (when err is not NULL) saying why: DR_ENOMEM, or what
+ * dr_client_init says (DR_EINVAL for no config, ...). dr_client_free
+ * deinits and frees; NULL is fine. */
+dr_client_t *dr_client_new(const dr_client_config_t *cfg, dr_status_t *err);
 void dr_client_free(dr_client_t *c);
 
 /* ---- session and explicit messaging -------------------------------- */
@@ -230,8 +232,9 @@ void dr_client_free(dr_client_t *c);
 dr_status_t dr_client_connect_sync(dr_client_t *c);
 
 /* Start the session in the background (for event loops): the client
- * connects, registers, opens its connections and reconnects by itself. */
-dr_status_t dr_client_start(dr_client_t *c);
+ * connects, registers, opens its connections and reconnects by itself.
+ * Failures are retried with backoff and reported to on_session. */
+void dr_client_start(dr_client_t *c);
 
 /* Close without blocking: Forward Close every open connection (their
  * state callbacks report DR_CONN_CLOSED now), and stop reconnecting. The
@@ -247,7 +250,7 @@ bool dr_client_closed(const dr_client_t *c);
 /* dr_client_close_start, then the loop until dr_client_closed (bounded as
  * said there). Without the transport's wait, what could be sent at once
  * was sent and the sockets close now. */
-void dr_client_close(dr_client_t *c);
+void dr_client_close_sync(dr_client_t *c);
 
 /* Change the explicit request timeout (e.g. shorter for a quick shutdown). */
 void dr_client_set_timeout(dr_client_t *c, uint32_t timeout_ms);
@@ -273,13 +276,13 @@ dr_status_t dr_client_set_attr_sync(dr_client_t *c, uint16_t cls, uint16_t inst,
 
 /* Assembly data (attribute 3) of assembly `a` at its configured instance.
  * A reply of another size than the specification's is DR_ELENGTH. */
-dr_status_t dr_client_asm_read_sync(dr_client_t *c, dr_asm_t a, uint8_t *buf,
+dr_status_t dr_client_read_asm_sync(dr_client_t *c, dr_asm_t a, uint8_t *buf,
                                     size_t len);
-dr_status_t dr_client_asm_write_sync(dr_client_t *c, dr_asm_t a,
+dr_status_t dr_client_write_asm_sync(dr_client_t *c, dr_asm_t a,
                                      const uint8_t *buf, size_t len);
 /* Attribute 4 (size in bytes) of an assembly instance. */
-dr_status_t dr_client_asm_size_sync(dr_client_t *c, uint16_t instance,
-                                    uint16_t *size);
+dr_status_t dr_client_read_asm_size_sync(dr_client_t *c, uint16_t instance,
+                                         uint16_t *size);
 
 /* Asynchronous form for event loops: `done` is called from
  * dr_client_process() with the status and the reply data (valid only
@@ -295,7 +298,7 @@ dr_status_t dr_client_call_async(dr_client_t *c, uint8_t service,
                                  dr_call_cb done, void *user);
 
 /* Identity object (class 1, instance 1) and ListIdentity over TCP. */
-dr_status_t dr_client_identity_sync(dr_client_t *c, dr_identity_t *id);
+dr_status_t dr_client_read_identity_sync(dr_client_t *c, dr_identity_t *id);
 dr_status_t dr_client_list_identity_sync(dr_client_t *c, dr_identity_t *id);
 
 /* Instance number in use for assembly a. */
@@ -369,10 +372,10 @@ typedef struct {
  * open; and a success that comes for a connection removed or closed
  * meanwhile is closed at once. dr_client_close_start waits for the
  * answers of the opens still out, as for its Forward Closes. */
-dr_conn_t *dr_client_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
-                              dr_status_t *err);
+dr_conn_t *dr_conn_add(dr_client_t *c, const dr_conn_config_t *cfg, dr_status_t *err);
 
-/* Forward Close (if open) and release the slot. */
+/* The pair of dr_conn_add: Forward Close (if open) and release the slot.
+ * NULL is fine. */
 void dr_conn_remove(dr_conn_t *conn);
 
 /* Copy new O->T data (the assembly's size exactly); sent from the next
@@ -461,15 +464,15 @@ uint64_t dr_client_next_deadline(dr_client_t *c);
 
 /* Do all that is due: read every socket until it would block, run timers
  * (O->T production, timeouts, reconnects, request timeouts). Never blocks.
- * Returns DR_OK; session problems are reported through the connections'
- * state callbacks and dr_client_ready(). */
-dr_status_t dr_client_process(dr_client_t *c);
+ * Session problems are reported through the connections' state
+ * callbacks, on_session and dr_client_ready(). */
+void dr_client_process(dr_client_t *c);
 
 /* The same, for callers that know which descriptors their poll reported
  * (revents set in fds[0..n) as returned by dr_client_pollfds): sockets
  * that were not ready are not read, which saves a system call each per
  * wake-up at short RPIs. */
-dr_status_t dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n);
+void dr_client_process_ready(dr_client_t *c, const dr_pollfd_t *fds, int n);
 
 /* Wait for the client's descriptors at most timeout_ms and process once.
  * For simple programs that have no loop of their own; needs the

@@ -60,7 +60,8 @@ typedef int32_t dr_status_t;
     X(DR_ENOREGISTER, 27, "connection accepted, but no reply to RegisterSession") \
     X(DR_EADDRINUSE, 28, "address already in use")                             \
     X(DR_EADDRNOTAVAIL, 29, "address not available on this host")              \
-    X(DR_EACCES, 30, "not permitted (firewall rule, prohibit route or privileged port)")
+    X(DR_EACCES, 30, "not permitted (firewall rule, prohibit route or privileged port)") \
+    X(DR_ENOMEM, 31, "out of memory")
 
 enum {
 #define DR_STATUS_ENUM(name, value, text) name = value,

@@ -96,7 +96,7 @@ typedef struct {
      * what it has not yet sent or had acknowledged (POSIX: SO_LINGER 0,
      * the peer gets a reset): the client resets a session whose Forward
      * Open went unanswered, and its queued requests must never reach the
-     * adapter later (see session_reset in lib/client.c). */
+     * adapter later (see session_reset in lib/client_session.c). */
     void (*tcp_abort)(void *ctx, int h);
 } dr_transport_ops_t;
 

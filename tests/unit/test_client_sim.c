@@ -41,7 +41,7 @@ static dr_client_t *new_client(const drsim_proc_t *sim, uint16_t local_udp, bool
     cfg.route = route;
     cfg.backoff_min_ms = 50;
     cfg.backoff_max_ms = 400;
-    return dr_client_new(&cfg);
+    return dr_client_new(&cfg, NULL);
 }
 
 /* Start drsim with `extra` options and a client for it. */
@@ -84,12 +84,12 @@ static void test_read_all_assemblies(void **state)
     for (int a = 0; a < DR_ASM_COUNT; a++) {
         uint8_t buf[DR_ASM_MAX_SIZE];
         uint16_t size = 0;
-        assert_int_equal(dr_client_asm_read_sync(f->c, (dr_asm_t)a, buf, dr_asm_info((dr_asm_t)a)->size), DR_OK);
-        assert_int_equal(dr_client_asm_size_sync(f->c, dr_client_instance(f->c, (dr_asm_t)a), &size), DR_OK);
+        assert_int_equal(dr_client_read_asm_sync(f->c, (dr_asm_t)a, buf, dr_asm_info((dr_asm_t)a)->size), DR_OK);
+        assert_int_equal(dr_client_read_asm_size_sync(f->c, dr_client_instance(f->c, (dr_asm_t)a), &size), DR_OK);
         assert_int_equal(size, dr_asm_info((dr_asm_t)a)->size);
     }
     uint8_t small[8];
-    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_IO_STATE, small, sizeof small), DR_ELENGTH);
+    assert_int_equal(dr_client_read_asm_sync(f->c, DR_ASM_IO_STATE, small, sizeof small), DR_ELENGTH);
 }
 
 static void test_set_and_echo(void **state)
@@ -98,17 +98,17 @@ static void test_set_and_echo(void **state)
     assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
     uint8_t in[96] = {0}, out[96];
     dr_put_le32(in + 4 * 7, (uint32_t)-123456);
-    assert_int_equal(dr_client_asm_write_sync(f->c, DR_ASM_INT_IN, in, sizeof in), DR_OK);
+    assert_int_equal(dr_client_write_asm_sync(f->c, DR_ASM_INT_IN, in, sizeof in), DR_OK);
     /* drsim echoes int_in to int_out on its next model step */
     for (int i = 0; i < 50; i++) {
-        assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_INT_OUT, out, sizeof out), DR_OK);
+        assert_int_equal(dr_client_read_asm_sync(f->c, DR_ASM_INT_OUT, out, sizeof out), DR_OK);
         if (memcmp(in, out, sizeof in) == 0)
             break;
         dr_client_run_once(f->c, 20);
     }
     assert_memory_equal(in, out, sizeof in);
     uint8_t back[96];
-    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_INT_IN, back, sizeof back), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(f->c, DR_ASM_INT_IN, back, sizeof back), DR_OK);
     assert_memory_equal(in, back, sizeof in);
 }
 
@@ -120,8 +120,8 @@ static void test_cip_errors(void **state)
     uint16_t size;
     assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
     /* T->O assemblies are not settable; unknown instances are unknown */
-    assert_int_equal(dr_client_asm_write_sync(f->c, DR_ASM_INT_OUT, buf, 96), DR_CIP(0x0E, 0));
-    assert_int_equal(dr_client_asm_size_sync(f->c, 150, &size), DR_CIP(0x05, 0));
+    assert_int_equal(dr_client_write_asm_sync(f->c, DR_ASM_INT_OUT, buf, 96), DR_CIP(0x0E, 0));
+    assert_int_equal(dr_client_read_asm_size_sync(f->c, 150, &size), DR_CIP(0x05, 0));
     assert_int_equal(dr_client_get_attr_sync(f->c, DR_CIP_CLASS_ASSEMBLY, 101, 9, buf, sizeof buf, &len),
                      DR_CIP(0x14, 0));
     /* wrong sizes for a Set */
@@ -130,7 +130,7 @@ static void test_cip_errors(void **state)
     /* a reply larger than the caller's buffer */
     assert_int_equal(dr_client_get_attr_sync(f->c, DR_CIP_CLASS_ASSEMBLY, 102, 3, buf, 10, &len), DR_ENOSPACE);
     /* the session still works after all that */
-    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_IO_STATE, buf, 36), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(f->c, DR_ASM_IO_STATE, buf, 36), DR_OK);
 }
 
 static void test_identity(void **state)
@@ -138,7 +138,7 @@ static void test_identity(void **state)
     fixture_t *f = *state;
     dr_identity_t a, b;
     assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
-    assert_int_equal(dr_client_identity_sync(f->c, &a), DR_OK);
+    assert_int_equal(dr_client_read_identity_sync(f->c, &a), DR_OK);
     assert_int_equal(dr_client_list_identity_sync(f->c, &b), DR_OK);
     assert_true(strlen(a.product_name) > 0);
     assert_string_equal(a.product_name, b.product_name);
@@ -152,9 +152,9 @@ static void test_unconnected_send_route(void **state)
     dr_client_t *routed = new_client(&f->sim, f->local_udp, true);
     uint8_t a[36], b[36];
     assert_int_equal(dr_client_connect_sync(routed), DR_OK);
-    assert_int_equal(dr_client_asm_read_sync(routed, DR_ASM_IO_STATE, a, sizeof a), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(routed, DR_ASM_IO_STATE, a, sizeof a), DR_OK);
     assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
-    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_IO_STATE, b, sizeof b), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(f->c, DR_ASM_IO_STATE, b, sizeof b), DR_OK);
     /* controller version is constant: same bytes both ways */
     assert_memory_equal(a + 28, b + 28, 3);
     dr_client_free(routed);
@@ -170,7 +170,7 @@ static void test_connect_refused(void **state)
     dr_client_t *c = new_client(&nobody, 0, false);
     assert_int_equal(dr_client_connect_sync(c), DR_ECONNREFUSED);
     uint8_t buf[36];
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ESESSION);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ESESSION);
     dr_client_free(c);
 }
 
@@ -240,7 +240,7 @@ static dr_conn_t *add_conn(dr_client_t *c, int o2t, dr_asm_t t2o, conn_log_t *lo
     cc.on_state = on_state;
     cc.user = log;
     dr_status_t err;
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, &err);
+    dr_conn_t *cn = dr_conn_add(c, &cc, &err);
     assert_non_null(cn);
     return cn;
 }
@@ -268,7 +268,7 @@ static void test_six_connections_and_output(void **state)
     assert_int_equal(dr_conn_set_output(cn[0], ctl, sizeof ctl), DR_OK);
     assert_int_equal(dr_conn_set_output(cn[0], ctl, 11), DR_ELENGTH);
     assert_int_equal(dr_conn_set_output(cn[4], ctl, 12), DR_EINVAL);
-    assert_int_equal(dr_client_start(f->c), DR_OK);
+    dr_client_start(f->c);
     run_for(f->c, 600);
     for (int i = 0; i < 6; i++) {
         assert_int_equal(dr_conn_state(cn[i]), DR_CONN_ESTABLISHED);
@@ -416,7 +416,7 @@ static void test_session_loss_keeps_io(void **state)
     assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
     assert_int_equal(log.timed_out, 0);
     uint8_t buf[8];
-    assert_int_equal(dr_client_asm_read_sync(f->c, DR_ASM_BIT_OUT, buf, sizeof buf), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(f->c, DR_ASM_BIT_OUT, buf, sizeof buf), DR_OK);
 }
 
 static int setup_drop_packets(void **state)
@@ -509,7 +509,7 @@ static dr_conn_t *add_fast_conn(dr_client_t *c, conn_log_t *log)
     cc.on_data = on_data;
     cc.on_state = on_state;
     cc.user = log;
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
     return cn;
 }
@@ -611,7 +611,7 @@ static void test_discover_udp(void **state)
     assert_int_equal(n, 1);
     assert_int_equal(id.sockaddr.addr, 0x7F000002u);
     assert_int_equal(dr_client_connect_sync(f->c), DR_OK);
-    assert_int_equal(dr_client_identity_sync(f->c, &tcp_id), DR_OK);
+    assert_int_equal(dr_client_read_identity_sync(f->c, &tcp_id), DR_OK);
     assert_string_equal(id.product_name, tcp_id.product_name);
     assert_int_equal(id.serial, tcp_id.serial);
     /* nobody on this port: a bounded wait, then DR_ETIMEDOUT */
@@ -646,10 +646,10 @@ static void test_two_robots_share_udp_port(void **state)
         cfg.tcp_port = sims[i]->tcp_port;
         cfg.timeout_ms = 1000;
         cfg.shared_udp = port;
-        c[i] = dr_client_new(&cfg);
+        c[i] = dr_client_new(&cfg, NULL);
         assert_non_null(c[i]);
         cn[i] = add_conn(c[i], DR_ASM_BIT_IN, DR_ASM_BIT_OUT, &log[i], false);
-        assert_int_equal(dr_client_start(c[i]), DR_OK);
+        dr_client_start(c[i]);
     }
     for (int k = 0; k < 150; k++) {
         dr_client_run_once(c[0], 5);

@@ -1,6 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * drgate cip: EtherNet/IP encapsulation, CPF and CIP messages on the wire.
+ * Private to the library and its test peers (drsim, the fuzzers, the
+ * tests, which include it from lib/ with -Ilib): not installed. What an
+ * application needs of it (ports, services, classes, the Identity record,
+ * paths) is public in drgate/enip.h.
  *
  * Builders and parsers only: no sockets, no clock, no malloc. Both ends use
  * them: the client (originator) and drsim (adapter). Every parser checks
@@ -10,13 +14,14 @@
  * References: CIP Vol. 1 (Message Router 2-4, Connection Manager 3-5),
  * Vol. 2 (encapsulation 2-3, CPF 2-6, Class 1 over UDP 3-3).
  */
-#ifndef DRGATE_CIP_H
-#define DRGATE_CIP_H
+#ifndef DRGATE_CIP_INTERNAL_H
+#define DRGATE_CIP_INTERNAL_H
 
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
+#include "drgate/enip.h"
 #include "drgate/status.h"
 #include "drgate/transport.h"
 
@@ -24,10 +29,13 @@
 extern "C" {
 #endif
 
-/* ---- constants ------------------------------------------------------- */
+/* Not part of the shared library's interface: hidden from its dynamic
+ * symbols (the programs that use them link the static library). */
+#if defined(__GNUC__) && !defined(_WIN32)
+#pragma GCC visibility push(hidden)
+#endif
 
-#define DR_ENIP_TCP_PORT 44818u
-#define DR_ENIP_UDP_PORT 2222u
+/* ---- constants ------------------------------------------------------- */
 
 enum {
     DR_ENCAP_NOP = 0x0000,
@@ -51,10 +59,9 @@ enum {
     DR_CPF_SEQUENCED_ADDRESS = 0x8002
 };
 
+/* Services of the Connection Manager and the reply bit (the general ones
+ * are in drgate/enip.h). */
 enum {
-    DR_CIP_SVC_GET_ATTRIBUTES_ALL = 0x01,
-    DR_CIP_SVC_GET_ATTRIBUTE_SINGLE = 0x0E,
-    DR_CIP_SVC_SET_ATTRIBUTE_SINGLE = 0x10,
     DR_CIP_SVC_FORWARD_CLOSE = 0x4E,
     DR_CIP_SVC_UNCONNECTED_SEND = 0x52,
     DR_CIP_SVC_FORWARD_OPEN = 0x54,
@@ -62,19 +69,7 @@ enum {
     DR_CIP_REPLY = 0x80
 };
 
-enum {
-    DR_CIP_CLASS_IDENTITY = 0x01,
-    DR_CIP_CLASS_MESSAGE_ROUTER = 0x02,
-    DR_CIP_CLASS_ASSEMBLY = 0x04,
-    DR_CIP_CLASS_CONNECTION_MANAGER = 0x06
-};
-
-#define DR_CIP_ASM_ATTR_DATA 3u
-#define DR_CIP_ASM_ATTR_SIZE 4u
-
 #define DR_ENCAP_HEADER_LEN 24u
-/* Largest encapsulated message we build or accept (header included). */
-#define DR_ENCAP_MAX_LEN 600u
 
 /* ---- encapsulation ------------------------------------------------------ */
 
@@ -348,15 +343,7 @@ bool dr_seq32_newer(uint32_t a, uint32_t b);
 
 /* ---- Identity ----------------------------------------------------------- */
 
-typedef struct {
-    uint16_t vendor, device_type, product_code;
-    uint8_t rev_major, rev_minor;
-    uint16_t status;
-    uint32_t serial;
-    char product_name[33]; /* SHORT_STRING, NUL-terminated here */
-    uint8_t state;         /* ListIdentity only; 0xFF if unknown */
-    dr_sockaddr_t sockaddr; /* ListIdentity only */
-} dr_identity_t;
+/* dr_identity_t is in drgate/enip.h. */
 
 /* The Identity object's Get_Attributes_All reply data (attributes 1-7). */
 dr_status_t dr_identity_parse_all(const uint8_t *data, size_t len, dr_identity_t *out);
@@ -368,7 +355,11 @@ void dr_identity_write_all(dr_wr_t *w, const dr_identity_t *id);
 dr_status_t dr_list_identity_parse(const uint8_t *body, size_t len, dr_identity_t *out);
 void dr_list_identity_write(dr_wr_t *w, const dr_identity_t *id);
 
+#if defined(__GNUC__) && !defined(_WIN32)
+#pragma GCC visibility pop
+#endif
+
 #ifdef __cplusplus
 }
 #endif
-#endif /* DRGATE_CIP_H */
+#endif /* DRGATE_CIP_INTERNAL_H */

@@ -16,7 +16,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 
 #define N(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -626,6 +626,23 @@ static void test_epath_16bit(void **state)
     assert_int_equal(dr_conn_path_write(buf, sizeof buf, 1, 300, 0x65), sizeof cp16);
     assert_memory_equal(buf, cp16, sizeof cp16);
     assert_int_equal(dr_conn_path_write(buf, 7, 1, 0x6B, 0x65), 0);
+}
+
+/* dr_cip_path, the public form for applications: the same segments as
+ * dr_epath_write, its length, and 0 when the buffer is too small. */
+static void test_cip_path(void **state)
+{
+    (void)state;
+    uint8_t buf[12];
+    static const uint8_t asm8[] = {0x20, 0x04, 0x24, 0x65, 0x30, 0x03};
+    assert_int_equal(dr_cip_path(buf, sizeof buf, DR_CIP_CLASS_ASSEMBLY, 101,
+                                 DR_CIP_ASM_ATTR_DATA), sizeof asm8);
+    assert_memory_equal(buf, asm8, sizeof asm8);
+    static const uint8_t id16[] = {0x20, 0x01, 0x25, 0x00, 0x02, 0x01};
+    assert_int_equal(dr_cip_path(buf, sizeof buf, DR_CIP_CLASS_IDENTITY, 0x0102, -1),
+                     sizeof id16);
+    assert_memory_equal(buf, id16, sizeof id16);
+    assert_int_equal(dr_cip_path(buf, 5, DR_CIP_CLASS_ASSEMBLY, 101, DR_CIP_ASM_ATTR_DATA), 0);
 }
 
 static void test_epath_key_and_data(void **state)
@@ -1587,6 +1604,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_encap_register_session),
+        cmocka_unit_test(test_cip_path),
         cmocka_unit_test(test_encap_status_and_body),
         cmocka_unit_test(test_encap_write_errors),
         cmocka_unit_test(test_encap_frame_len),

@@ -15,6 +15,7 @@
 #include <string.h>
 #include <cmocka.h>
 
+#include "cip_internal.h"
 #include "drgate/client.h"
 
 #define TCP_H 10
@@ -537,7 +538,7 @@ static int setup(void **state)
 static dr_client_t *new_client(void)
 {
     dr_client_config_t cfg = config(&fake_ops);
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     return c;
 }
@@ -577,25 +578,56 @@ static void test_new_refuses(void **state)
     (void)state;
     char host[300];
     dr_client_config_t cfg = config(&fake_ops);
-    assert_null(dr_client_new(NULL));
+    assert_null(dr_client_new(NULL, NULL));
     cfg.host = NULL;
-    assert_null(dr_client_new(&cfg));
+    assert_null(dr_client_new(&cfg, NULL));
     memset(host, 'a', sizeof host - 1);
     host[sizeof host - 1] = '\0';
     cfg.host = host; /* 299 characters: more than a host name can be */
-    assert_null(dr_client_new(&cfg));
+    assert_null(dr_client_new(&cfg, NULL));
     cfg.host = "robot";
     cfg.local_addr = "nowhere";
     F.resolve_st = DR_ENOTFOUND;
-    assert_null(dr_client_new(&cfg));
+    assert_null(dr_client_new(&cfg, NULL));
     F.resolve_st = DR_OK;
     F.timer_st = DR_EIO;
-    assert_null(dr_client_new(&cfg));
+    assert_null(dr_client_new(&cfg, NULL));
     F.timer_st = DR_OK;
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     dr_client_free(c);
     dr_client_free(NULL);
+}
+
+/* dr_client_new says why it refused: the configuration, or what the
+ * transport said of the local address or the timer. */
+static void test_new_says_why(void **state)
+{
+    (void)state;
+    dr_status_t err = DR_OK;
+    dr_client_config_t cfg = config(&fake_ops);
+    assert_null(dr_client_new(NULL, &err));
+    assert_int_equal(err, DR_EINVAL);
+    cfg.host = NULL;
+    err = DR_OK;
+    assert_null(dr_client_new(&cfg, &err));
+    assert_int_equal(err, DR_EINVAL);
+    cfg.host = "robot";
+    cfg.local_addr = "nowhere";
+    F.resolve_st = DR_ENOTFOUND;
+    assert_null(dr_client_new(&cfg, &err));
+    assert_int_equal(err, DR_ENOTFOUND);
+    F.resolve_st = DR_OK;
+    F.timer_st = DR_EIO;
+    assert_null(dr_client_new(&cfg, &err));
+    assert_int_equal(err, DR_EIO);
+    F.timer_st = DR_OK;
+    dr_client_t *c = dr_client_new(&cfg, &err);
+    assert_non_null(c);
+    assert_int_equal(err, DR_OK);
+    dr_client_free(c);
+    /* The out-of-memory status has a text of its own. */
+    assert_string_equal(dr_strerror(DR_ENOMEM), "out of memory");
 }
 
 static void test_shared_port_limits(void **state)
@@ -621,14 +653,14 @@ static void test_shared_port_limits(void **state)
     dr_client_config_t cfg = config(&fake_ops);
     cfg.shared_udp = p;
     for (int i = 0; i < DR_UDP_PORT_MAX_CLIENTS; i++) {
-        c[i] = dr_client_new(&cfg);
+        c[i] = dr_client_new(&cfg, NULL);
         assert_non_null(c[i]);
     }
     unsigned closes = F.closes;
-    assert_null(dr_client_new(&cfg));
+    assert_null(dr_client_new(&cfg, NULL));
     assert_int_equal(F.closes, closes + 1); /* its timer was closed again */
     dr_client_free(c[3]);
-    c[3] = dr_client_new(&cfg);
+    c[3] = dr_client_new(&cfg, NULL);
     assert_non_null(c[3]);
     /* a shared port is the application's to poll: not in the clients' fds */
     dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
@@ -639,7 +671,7 @@ static void test_shared_port_limits(void **state)
     F.udp_in[1].len = 20;
     dr_put_le16(F.udp_in[1].buf, 2);
     F.udp_in_n = 2;
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(F.udp_in_n, 0);
     for (int i = 0; i < DR_UDP_PORT_MAX_CLIENTS; i++)
         dr_client_free(c[i]);
@@ -725,11 +757,11 @@ static void test_session_callback(void **state)
     dr_client_config_t cfg = config(&fake_ops);
     cfg.on_session = on_session_log;
     cfg.session_user = &S_LOG;
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     /* refused at once: told from the first attempt, and from each retry */
     F.connect_st = DR_ECONNREFUSED;
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     assert_int_equal(S_LOG.n, 1);
     assert_int_equal(S_LOG.why[0], DR_ECONNREFUSED);
     run_for(c, 25); /* backoff 10 ms, then 20 ms */
@@ -777,7 +809,7 @@ static void test_overlong_frame(void **state)
     memset(big, 0, sizeof big);
     queue_encap(&F, DR_ENCAP_SEND_RR_DATA, F.session, 0, ctx, big, sizeof big);
     uint8_t buf[36];
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_ELONG);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_ELONG);
     assert_false(dr_client_ready(c));
     dr_client_free(c);
 }
@@ -792,24 +824,24 @@ static void test_reply_sizes(void **state)
     uint16_t size;
     /* a reply of another size than the specification's is refused */
     F.get_len = 35;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ELENGTH);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ELENGTH);
     F.get_len = 36;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_OK);
     assert_int_equal(buf[0], 0xA5);
     /* the caller's length must be the assembly's; unknown assemblies */
-    assert_int_equal(dr_client_asm_read_sync(c, (dr_asm_t)99, buf, 36), DR_EINVAL);
-    assert_int_equal(dr_client_asm_write_sync(c, DR_ASM_INT_IN, buf, 95), DR_ELENGTH);
-    assert_int_equal(dr_client_asm_write_sync(c, (dr_asm_t)99, buf, 96), DR_EINVAL);
-    assert_int_equal(dr_client_asm_write_sync(c, DR_ASM_INT_IN, buf, 96), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(c, (dr_asm_t)99, buf, 36), DR_EINVAL);
+    assert_int_equal(dr_client_write_asm_sync(c, DR_ASM_INT_IN, buf, 95), DR_ELENGTH);
+    assert_int_equal(dr_client_write_asm_sync(c, (dr_asm_t)99, buf, 96), DR_EINVAL);
+    assert_int_equal(dr_client_write_asm_sync(c, DR_ASM_INT_IN, buf, 96), DR_OK);
     /* attribute 4 is two bytes, nothing else */
     F.get_len = 3;
-    assert_int_equal(dr_client_asm_size_sync(c, 101, &size), DR_EMALFORMED);
+    assert_int_equal(dr_client_read_asm_size_sync(c, 101, &size), DR_EMALFORMED);
     F.get_len = 2;
-    assert_int_equal(dr_client_asm_size_sync(c, 101, &size), DR_OK);
+    assert_int_equal(dr_client_read_asm_size_sync(c, 101, &size), DR_OK);
     assert_int_equal(size, 0xA5A5);
     /* the identity needs the whole Get_Attributes_All reply (here: 0x08) */
     dr_identity_t id;
-    assert_int_equal(dr_client_identity_sync(c, &id), DR_CIP(0x08, 0));
+    assert_int_equal(dr_client_read_identity_sync(c, &id), DR_CIP(0x08, 0));
     /* a request too large for one message is refused before it is sent */
     uint8_t huge[700] = {0};
     unsigned rr = F.rr;
@@ -828,25 +860,25 @@ static void test_bad_replies(void **state)
     uint8_t buf[36];
     /* an encapsulation error in the reply */
     F.next_status = 0x0003;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ENCAP(0x0003));
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ENCAP(0x0003));
     assert_true(dr_client_ready(c));
     /* a reply with another command than the request's */
     F.next_cmd = DR_ENCAP_LIST_SERVICES;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMISMATCH);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMISMATCH);
     /* no 0xB2 item */
     F.next_no_b2 = true;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMALFORMED);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMALFORMED);
     /* a reply to nobody's request is ignored: the request times out */
     F.next_unknown_ctx = true;
     uint64_t t0 = F.now;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ETIMEDOUT);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ETIMEDOUT);
     assert_true(F.now - t0 >= 100000u);
     assert_true(dr_client_ready(c));
     /* "invalid session handle": the session is dropped */
     F.next_status = 0x0064;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ENCAP(0x0064));
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ENCAP(0x0064));
     assert_false(dr_client_ready(c));
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ESESSION);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ESESSION);
     dr_client_free(c);
 }
 
@@ -857,18 +889,18 @@ static void test_partial_sends_and_close(void **state)
     F.send_max = 7; /* every frame goes out in pieces */
     assert_int_equal(dr_client_connect_sync(c), DR_OK);
     uint8_t buf[36];
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_OK);
     F.send_max = 0;
     /* the peer closes while a request is out */
     F.cip = cip_silent;
     F.eof_st = DR_ECLOSED;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ECLOSED);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_ECLOSED);
     assert_false(dr_client_ready(c));
     /* and a send that fails */
     F.cip = NULL;
     assert_int_equal(dr_client_connect_sync(c), DR_OK);
     F.send_st = DR_EIO;
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EIO);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EIO);
     assert_false(dr_client_ready(c));
     F.send_st = DR_OK;
     dr_client_free(c);
@@ -943,7 +975,7 @@ static void test_async(void **state)
                                           0, on_async, &a),
                      DR_EFULL);
     uint8_t buf[36];
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EFULL);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EFULL);
     /* they time out, each called back once */
     run_for(c, 150);
     assert_int_equal(a.calls, 9);
@@ -1070,28 +1102,28 @@ static void test_conn_add_refuses(void **state)
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log);
     cc.t2o_asm = DR_ASM_INT_IN; /* not T->O */
-    assert_null(dr_client_conn_add(c, &cc, &err));
+    assert_null(dr_conn_add(c, &cc, &err));
     assert_int_equal(err, DR_EINVAL);
     cc = conn_config(&log);
     cc.o2t_asm = DR_ASM_INT_OUT; /* not O->T */
-    assert_null(dr_client_conn_add(c, &cc, &err));
+    assert_null(dr_conn_add(c, &cc, &err));
     cc = conn_config(&log);
     cc.rpi_us = 0;
-    assert_null(dr_client_conn_add(c, &cc, &err));
+    assert_null(dr_conn_add(c, &cc, &err));
     cc = conn_config(&log);
     cc.timeout_mult = 8;
-    assert_null(dr_client_conn_add(c, &cc, &err));
-    assert_null(dr_client_conn_add(c, NULL, NULL));
+    assert_null(dr_conn_add(c, &cc, &err));
+    assert_null(dr_conn_add(c, NULL, NULL));
     cc = conn_config(&log);
     dr_conn_t *cn[DR_CLIENT_MAX_CONNS];
     for (int i = 0; i < DR_CLIENT_MAX_CONNS; i++)
-        assert_non_null(cn[i] = dr_client_conn_add(c, &cc, &err));
-    assert_null(dr_client_conn_add(c, &cc, &err));
+        assert_non_null(cn[i] = dr_conn_add(c, &cc, &err));
+    assert_null(dr_conn_add(c, &cc, &err));
     assert_int_equal(err, DR_EFULL);
     dr_conn_remove(cn[5]);
     dr_conn_remove(cn[5]); /* twice is harmless */
     dr_conn_remove(NULL);
-    assert_non_null(dr_client_conn_add(c, &cc, &err));
+    assert_non_null(dr_conn_add(c, &cc, &err));
     /* outputs: the assembly's size, and never for an input-only connection */
     uint8_t out[96] = {0};
     assert_int_equal(dr_conn_set_output(cn[0], out, 95), DR_ELENGTH);
@@ -1100,7 +1132,7 @@ static void test_conn_add_refuses(void **state)
     cc.o2t_asm = -1;
     cc.t2o_asm = DR_ASM_JOINT_STATE;
     dr_conn_remove(cn[6]);
-    dr_conn_t *in_only = dr_client_conn_add(c, &cc, &err);
+    dr_conn_t *in_only = dr_conn_add(c, &cc, &err);
     assert_non_null(in_only);
     assert_int_equal(dr_conn_set_output(in_only, out, 96), DR_EINVAL);
     dr_client_free(c);
@@ -1113,12 +1145,12 @@ static void test_class1_io(void **state)
     memset(&log, 0, sizeof log);
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log);
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
     assert_ptr_equal(dr_conn_user(cn), &log);
     assert_null(dr_conn_input(cn, NULL));
     /* the event-loop API: descriptors, then process when they are ready */
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
     int n = dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS);
     assert_int_equal(n, 2); /* TCP (connecting: in and out) and the timer */
@@ -1201,16 +1233,16 @@ static void test_class1_refused_and_batch(void **state)
     conn_log_t log;
     memset(&log, 0, sizeof log);
     dr_client_config_t cfg = config(&fake_batch_ops);
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     dr_conn_config_t cc = conn_config(&log);
-    dr_conn_t *a = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *a = dr_conn_add(c, &cc, NULL);
     cc.o2t_asm = DR_ASM_FLOAT_IN;
     cc.t2o_asm = DR_ASM_FLOAT_OUT;
-    dr_conn_t *b = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *b = dr_conn_add(c, &cc, NULL);
     F.fo_general = 0x01;
     F.fo_ext = 0x0113; /* out of connections */
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     run_for(c, 30);
     assert_int_equal(dr_conn_state(a), DR_CONN_RECONNECTING);
     assert_int_equal(log.why, DR_CIP(0x01, 0x0113));
@@ -1228,10 +1260,10 @@ static void test_class1_refused_and_batch(void **state)
     assert_int_equal(F.udp_batches, batches + 1);
     assert_int_equal(F.udp_sent, sent + 2);
     /* a UDP socket that cannot be opened: the open is retried later */
-    dr_client_close(c);
+    dr_client_close_sync(c);
     assert_int_equal(dr_conn_state(a), DR_CONN_CLOSED);
     F.udp_open_st = DR_EIO;
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     run_for(c, 20);
     assert_int_equal(dr_conn_state(a), DR_CONN_RECONNECTING);
     assert_int_equal(log.why, DR_EIO);
@@ -1260,9 +1292,9 @@ static void test_class1_seq_repeat(void **state)
     memset(&log, 0, sizeof log);
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms, timeout 40 ms */
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     wait_established(c, cn);
     const dr_conn_stats_t *st = dr_conn_stats(cn);
 
@@ -1363,9 +1395,9 @@ static void test_class1_seq_forged(void **state)
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log);
     cc.timeout_mult = 2; /* x16: 160 ms; window max(16 / 2, 8) = 8 */
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     wait_established(c, cn);
     const dr_conn_stats_t *st = dr_conn_stats(cn);
     uint32_t e;
@@ -1433,9 +1465,9 @@ static void test_class1_open_timeout_resets(void **state)
     memset(&log, 0, sizeof log);
     dr_client_t *c = new_client(); /* request timeout 100 ms */
     dr_conn_config_t cc = conn_config(&log); /* T->O timeout 40 ms */
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     wait_established(c, cn);
     push_t2o(F.t2o_cid, 1, 96);
     dr_client_process(c);
@@ -1483,9 +1515,9 @@ static void test_class1_late_open_closed(void **state)
     dr_client_t *c = connected();
     dr_conn_config_t cc = conn_config(&log);
     F.hold_replies = true; /* the adapter is slow */
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     run_for(c, 2);
     assert_int_equal(dr_conn_state(cn), DR_CONN_OPENING);
     assert_int_equal(F.ncm, 1);
@@ -1501,7 +1533,7 @@ static void test_class1_late_open_closed(void **state)
      * reply, closes that connection, and only then unregisters */
     F.hold_replies = true;
     F.ncm = 0;
-    cn = dr_client_conn_add(c, &cc, NULL);
+    cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
     run_for(c, 2);
     assert_int_equal(F.ncm, 1);
@@ -1539,11 +1571,11 @@ static void test_originator_serial(void **state)
     memset(&log, 0, sizeof log);
     dr_client_config_t cfg = config(&fake_ops);
     cfg.serial = 0xC0FFEE01u;
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     dr_conn_config_t cc = conn_config(&log);
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+    dr_client_start(c);
     wait_established(c, cn);
     dr_conn_remove(cn);
     run_for(c, 5);
@@ -1564,12 +1596,12 @@ static void test_class1_trailing_item(void **state)
     memset(&log, 0, sizeof log);
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log);
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
     F.trailing_item = true;
     F.fo_general = 0x01;
     F.fo_ext = 0x0106; /* ownership conflict */
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     run_for(c, 5);
     assert_int_equal(dr_conn_state(cn), DR_CONN_RECONNECTING);
     assert_int_equal(log.why, DR_CIP(0x01, 0x0106));
@@ -1580,7 +1612,7 @@ static void test_class1_trailing_item(void **state)
     /* explicit replies too */
     uint64_t before = dr_client_stats(c)->replies_trailing;
     uint8_t buf[36];
-    assert_int_equal(dr_client_asm_read_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_OK);
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, sizeof buf), DR_OK);
     assert_int_equal(dr_client_stats(c)->replies_trailing, before + 1);
     dr_client_free(c);
 }
@@ -1597,13 +1629,13 @@ static void test_class1_follow(void **state)
     memset(&log, 0, sizeof log);
     dr_client_config_t cfg;
     dr_udp_port_t *p = shared_port(&fake_batch_ops, &cfg);
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms */
     cc.o2t_follow_us = 2500;
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     dr_pollfd_t fds[DR_CLIENT_MAX_FDS];
     (void)dr_client_pollfds(c, fds, DR_CLIENT_MAX_FDS); /* the timer is polled */
     for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++) {
@@ -1619,7 +1651,7 @@ static void test_class1_follow(void **state)
     unsigned sent = F.udp_sent;
     F.now = d - 1000u;
     push_t2o(F.t2o_cid, seq++, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(F.udp_sent, sent + 1);
     assert_int_equal(dr_client_next_deadline(c), d + 10000u);
     assert_int_equal(F.armed, d + 10000u); /* the timer moved past it */
@@ -1663,7 +1695,7 @@ static void test_class1_follow(void **state)
     /* no window: an arrival just before the deadline sends nothing */
     dr_conn_remove(cn);
     cc.o2t_follow_us = 0;
-    cn = dr_client_conn_add(c, &cc, NULL);
+    cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
     for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++) {
         F.now += 1000u;
@@ -1772,7 +1804,7 @@ static void drive(dr_client_t *c, unsigned ms)
     while (F.now < end) {
         uint64_t d = dr_client_next_deadline(c);
         F.now = d > F.now && d < F.now + 1000u ? d : F.now + 1000u;
-        assert_int_equal(dr_client_process(c), DR_OK);
+        dr_client_process(c);
     }
 }
 
@@ -1796,8 +1828,8 @@ static void test_no_descriptors(void **state)
     dr_transport_t tp = {&fake_bare_ops, &F};
     assert_int_equal(dr_discover("robot", 0, 10, tp, NULL, NULL, NULL), DR_EINVAL);
     dr_conn_config_t cc = conn_config(&log);
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+    dr_client_start(c);
     drive(c, 5);
     assert_true(dr_client_ready(c));
     uint8_t buf[64];
@@ -1845,11 +1877,11 @@ static void test_close_start_silent_peer(void **state)
     conn_log_t log;
     memset(&log, 0, sizeof log);
     dr_client_config_t cfg = config(&fake_bare_ops);
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     dr_conn_config_t cc = conn_config(&log);
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+    dr_client_start(c);
     drive(c, 10);
     assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
     F.cip = cip_silent;
@@ -1866,7 +1898,7 @@ static void test_close_start_silent_peer(void **state)
 }
 
 /* T->O packets on a shared port find their connection by the ID alone
- * (lib/client.c, struct dr_udp_port): every one reaches its own among many
+ * (lib/client_internal.h, struct dr_udp_port): every one reaches its own among many
  * clients and connections, a closed connection's ID matches nothing, a
  * freed client's slot is taken again by a new client, IDs nobody owns are
  * dropped, and a target that chose its own T->O ID is still served. */
@@ -1876,9 +1908,9 @@ static void establish_on(dr_client_t *c, dr_conn_t **cn, unsigned n, conn_log_t 
 {
     dr_conn_config_t cc = conn_config(log);
     for (unsigned i = 0; i < n; i++)
-        assert_non_null(cn[i] = dr_client_conn_add(c, &cc, NULL));
+        assert_non_null(cn[i] = dr_conn_add(c, &cc, NULL));
     assert_int_equal(dr_client_connect_sync(c), DR_OK);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     for (unsigned i = 0; i < n; i++)
         wait_established(c, cn[i]);
 }
@@ -1893,7 +1925,7 @@ static void test_cid_lookup(void **state)
     dr_client_t *c[CID_CLIENTS];
     dr_conn_t *cn[CID_CLIENTS][CID_CONNS];
     for (unsigned k = 0; k < CID_CLIENTS; k++) {
-        assert_non_null(c[k] = dr_client_new(&cfg));
+        assert_non_null(c[k] = dr_client_new(&cfg, NULL));
         establish_on(c[k], cn[k], CID_CONNS, &log);
     }
     /* every connection has its own ID; a packet for each, in an order
@@ -1909,7 +1941,7 @@ static void test_cid_lookup(void **state)
         unsigned k = CID_CLIENTS - 1u - j % CID_CLIENTS, i = j / CID_CLIENTS;
         push_t2o(dr_conn_stats(cn[k][i])->t2o_cid, (uint16_t)(100 + k), 96);
         if (F.udp_in_n == MAX_UDP_IN || j + 1 == CID_CLIENTS * CID_CONNS)
-            assert_int_equal(dr_udp_port_process(p), DR_OK);
+            dr_udp_port_process(p);
     }
     for (unsigned k = 0; k < CID_CLIENTS; k++)
         for (unsigned i = 0; i < CID_CONNS; i++) {
@@ -1924,7 +1956,7 @@ static void test_cid_lookup(void **state)
     push_t2o(mine + 20000u, 200, 96);
     push_t2o(0xFFFFFFFFu, 200, 96);
     push_t2o(0, 200, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(F.udp_in_n, 0);
     for (unsigned k = 0; k < CID_CLIENTS; k++)
         for (unsigned i = 0; i < CID_CONNS; i++) {
@@ -1936,17 +1968,17 @@ static void test_cid_lookup(void **state)
     uint32_t gone = dr_conn_stats(cn[7][2])->t2o_cid;
     dr_conn_remove(cn[7][2]);
     push_t2o(gone, 300, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     dr_conn_config_t cc = conn_config(&log);
-    dr_conn_t *again = dr_client_conn_add(c[7], &cc, NULL);
+    dr_conn_t *again = dr_conn_add(c[7], &cc, NULL);
     assert_ptr_equal(again, cn[7][2]); /* the same slot */
     wait_established(c[7], again);
     assert_int_not_equal(dr_conn_stats(again)->t2o_cid, gone);
     push_t2o(gone, 301, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(dr_conn_stats(again)->rx_packets, 0);
     push_t2o(dr_conn_stats(again)->t2o_cid, 302, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(dr_conn_stats(again)->rx_packets, 1);
     /* a freed client's slot goes to the next client; the old IDs of that
      * slot reach nobody, the new ones their connections */
@@ -1954,7 +1986,7 @@ static void test_cid_lookup(void **state)
     for (unsigned i = 0; i < CID_CONNS; i++)
         old[i] = dr_conn_stats(cn[3][i])->t2o_cid;
     dr_client_free(c[3]);
-    assert_non_null(c[3] = dr_client_new(&cfg));
+    assert_non_null(c[3] = dr_client_new(&cfg, NULL));
     establish_on(c[3], cn[3], CID_CONNS, &log);
     for (unsigned i = 0; i < CID_CONNS; i++) {
         assert_int_equal(dr_conn_stats(cn[3][i])->t2o_cid % (DR_UDP_PORT_MAX_CLIENTS * DR_CLIENT_MAX_CONNS),
@@ -1963,7 +1995,7 @@ static void test_cid_lookup(void **state)
         push_t2o(old[i], 400, 96);
         push_t2o(dr_conn_stats(cn[3][i])->t2o_cid, 401, 96);
     }
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     for (unsigned i = 0; i < CID_CONNS; i++) {
         size_t len = 0;
         assert_int_equal(dr_conn_stats(cn[3][i])->rx_packets, 1);
@@ -1972,17 +2004,17 @@ static void test_cid_lookup(void **state)
     /* a target that answers with a T->O ID of its own choosing */
     F.fo_own_t2o = true;
     dr_client_free(c[9]);
-    assert_non_null(c[9] = dr_client_new(&cfg));
+    assert_non_null(c[9] = dr_client_new(&cfg, NULL));
     establish_on(c[9], cn[9], 1, &log);
     uint32_t theirs = dr_conn_stats(cn[9][0])->t2o_cid;
     assert_int_equal(theirs & 0xF000u, 0x7000u);
     push_t2o(theirs, 500, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(dr_conn_stats(cn[9][0])->rx_packets, 1);
     /* once it is closed, its ID reaches nobody */
     dr_conn_remove(cn[9][0]);
     push_t2o(theirs, 501, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(dr_conn_stats(cn[9][0])->rx_packets, 1);
     for (unsigned k = 0; k < CID_CLIENTS; k++)
         dr_client_free(c[k]);
@@ -2006,13 +2038,13 @@ static void follow_run(const follow_case_t *fc)
     memset(&log, 0, sizeof log);
     dr_client_config_t cfg;
     dr_udp_port_t *p = shared_port(&fake_batch_ops, &cfg);
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     dr_conn_config_t cc = conn_config(&log);
     cc.o2t_follow_us = 2500;
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_non_null(cn);
-    assert_int_equal(dr_client_start(c), DR_OK);
+    dr_client_start(c);
     for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++) {
         F.now += 1000u;
         dr_client_process(c);
@@ -2030,7 +2062,7 @@ static void follow_run(const follow_case_t *fc)
         if (arrived) {
             F.now = arrival > F.now ? arrival : F.now;
             push_t2o(F.t2o_cid, seq++, 96);
-            assert_int_equal(dr_udp_port_process(p), DR_OK);
+            dr_udp_port_process(p);
             arrivals++;
             /* the next one: nominal time, jittered by up to +-jitter */
             nominal += fc->period;
@@ -2085,7 +2117,7 @@ static void test_class1_follow_spacing(void **state)
     }
 }
 
-/* dr_client_next_deadline is kept between calls (lib/client.c): after each
+/* dr_client_next_deadline is kept between calls (lib/client_loop.c): after each
  * event that moves it, it is the new one at once, also when a state
  * callback asked in the middle of the change. Shared port, O->T on
  * arrival (o2t_follow_us), RPI 10 ms, timeout 40 ms, backoff 10 ms,
@@ -2098,17 +2130,17 @@ static void test_deadline_cache(void **state)
     dr_client_config_t cfg;
     dr_udp_port_t *p = shared_port(&fake_batch_ops, &cfg);
     uint64_t epoch = F.now;
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     log.ask = c;
     assert_int_equal(dr_client_next_deadline(c), UINT64_MAX);
     assert_int_equal(dr_client_connect_sync(c), DR_OK);
-    assert_int_equal(dr_client_start(c), DR_OK); /* and reconnect by itself */
+    dr_client_start(c); /* and reconnect by itself */
     assert_int_equal(dr_client_next_deadline(c), UINT64_MAX);
     /* a connection added to a ready session is due at once */
     dr_conn_config_t cc = conn_config(&log);
     cc.o2t_follow_us = 2500;
-    dr_conn_t *cn = dr_client_conn_add(c, &cc, NULL);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
     assert_int_equal(dr_client_next_deadline(c), 0);
     /* its Forward Open is out: the request's timeout */
     F.cip = cip_silent;
@@ -2140,7 +2172,7 @@ static void test_deadline_cache(void **state)
     F.now = grid - 1000u;
     unsigned sent = F.udp_sent;
     push_t2o(F.t2o_cid, 1, 96);
-    assert_int_equal(dr_udp_port_process(p), DR_OK);
+    dr_udp_port_process(p);
     assert_int_equal(F.udp_sent, sent + 1);
     assert_int_equal(dr_client_next_deadline(c), grid + 10000u);
     /* the deadline itself: one packet, the next grid point */
@@ -2165,7 +2197,7 @@ static void test_deadline_cache(void **state)
     dr_client_process(c); /* the reply */
     assert_int_equal(dr_client_next_deadline(c), UINT64_MAX);
     /* close: the Forward Close's timeout bounds the wait */
-    assert_non_null(cn = dr_client_conn_add(c, &cc, NULL));
+    assert_non_null(cn = dr_conn_add(c, &cc, NULL));
     wait_established(c, cn);
     F.cip = cip_silent;
     t = F.now;
@@ -2192,7 +2224,7 @@ static void test_loop_timer(void **state)
     memset(&log, 0, sizeof log);
     dr_client_config_t cfg;
     dr_udp_port_t *p = shared_port(&fake_untimed_ops, &cfg);
-    dr_client_t *c = dr_client_new(&cfg);
+    dr_client_t *c = dr_client_new(&cfg, NULL);
     assert_non_null(c);
     dr_conn_t *cn[1];
     establish_on(c, cn, 1, &log);
@@ -2208,7 +2240,7 @@ static void test_loop_timer(void **state)
     for (unsigned i = 0; i < 100; i++) {
         F.now = d - 5000u;
         push_t2o(F.t2o_cid, (uint16_t)(i + 1), 96);
-        assert_int_equal(dr_udp_port_process(p), DR_OK);
+        dr_udp_port_process(p);
         assert_int_equal(dr_client_next_deadline(c), d); /* strict: unmoved */
         assert_int_equal(F.udp_sent, sent + i);
         F.now = d;
@@ -2250,7 +2282,7 @@ static void test_shared_grid(void **state)
     dr_conn_t *cn[3][1];
     for (unsigned k = 0; k < 3; k++) {
         F.now += 3333u * (k + 1u); /* not on any grid point */
-        assert_non_null(c[k] = dr_client_new(&cfg));
+        assert_non_null(c[k] = dr_client_new(&cfg, NULL));
         establish_on(c[k], cn[k], 1, &log);
     }
     uint64_t d = dr_client_next_deadline(c[2]);
@@ -2315,6 +2347,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_state_names, setup),
         cmocka_unit_test_setup(test_new_refuses, setup),
+        cmocka_unit_test_setup(test_new_says_why, setup),
         cmocka_unit_test_setup(test_shared_port_limits, setup),
         cmocka_unit_test_setup(test_connect_failures, setup),
         cmocka_unit_test_setup(test_session_callback, setup),

@@ -8,7 +8,7 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "drgate/cip.h"
+#include "cip_internal.h"
 #include "drgate/codec.h" /* dr_get_le16 */
 
 static void test_register_body(void **state)
