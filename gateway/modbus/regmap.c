@@ -492,21 +492,28 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
          touches_user(u, area, addr, count)))
         return GW_EX_TARGET_FAILED;
     unsigned k = user_first(m, area, addr);
-    for (uint32_t i = 0; i < count; i++) {
-        uint32_t a = (uint32_t)addr + i;
+    uint32_t last = (uint32_t)addr + count;
+    for (uint32_t a = addr; a < last;) {
         if (default_slot(area, a)) {
-            values[i] = read_slot(u, area, &map[area][a]);
+            values[a - addr] = read_slot(u, area, &map[area][a]);
+            a++;
             continue;
         }
         while (k < m->count && m->entry[k].table == (unsigned)area && entry_end(&m->entry[k]) <= a)
             k++;
         const gw_umap_entry_t *e = &m->entry[k];
-        if (k < m->count && e->table == (unsigned)area && e->addr <= a)
-            values[i] = user_read(u, e, a);
-        else if (u->unmapped == GW_UNMAPPED_EXCEPTION)
+        if (k < m->count && e->table == (unsigned)area && e->addr <= a) {
+            /* the rest of the block at once (no default slot inside it:
+             * the loader keeps the maps apart) */
+            uint32_t end = entry_end(e) < last ? entry_end(e) : last;
+            for (; a < end; a++)
+                values[a - addr] = user_read(u, e, a);
+            continue;
+        }
+        if (u->unmapped == GW_UNMAPPED_EXCEPTION)
             return GW_EX_ILLEGAL_ADDRESS;
-        else
-            values[i] = 0;
+        values[a - addr] = 0;
+        a++;
     }
     return 0;
 }
