@@ -188,7 +188,7 @@ static void test_serve(void **state)
 static void test_bits(void **state)
 {
     (void)state;
-    uint16_t v[2];
+    uint16_t v[4];
     unsigned dirty = 0;
     ok("co 3000 bit_in[4..7] writable");
     ok("hr 3000 bit_in[0..19] bits writable");
@@ -204,6 +204,8 @@ static void test_bits(void **state)
     assert_int_equal(R.img[DR_ASM_BIT_IN][0], 0x01);
     assert_int_equal(R.img[DR_ASM_BIT_IN][2], 0x0F);
     assert_int_equal(gw_regmap_read(&U, GW_COILS, 3000, 4, v), 0);
+    assert_int_equal(v[0], 0); /* bit_in[4..7] of 0x01 */
+    assert_int_equal(v[3], 0);
 }
 
 static void test_default_read_only(void **state)
