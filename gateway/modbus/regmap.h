@@ -2,8 +2,9 @@
 /*
  * The Modbus register map, generated from the codec's field table.
  *
- * Every Modbus unit (one per robot) has the same layout; addresses are
- * 0-based PDU offsets. T->O data is read-only (input registers, discrete
+ * Every Modbus unit (one per robot) has the same default layout, and
+ * may have its own map besides, at addresses the default leaves free
+ * (the robot's `map` lines, usermap.h); addresses are 0-based PDU offsets. T->O data is read-only (input registers, discrete
  * inputs), O->T data read/write (holding registers, coils). REAL and DINT
  * take two registers in the configured word order; bit fields appear both
  * as single bits and packed into words; REALs also as scaled INT16.
