@@ -131,12 +131,18 @@ def test_mbpoll_fc06_echo(gw):
     with gw.raw() as m:
         wait_for(lambda: regs_dint(m.read(3, BASE + 14, 2), gw.order) == -77, 10,
                  "int_out[0] = -77 in the user's map")
-    args = [MBPOLL, "-m", "tcp", "-p", str(gw.port), "-a", "1", "-t", "4:float", "-0",
-            "-r", "2106", "-o", "5"] + (["-B"] if gw.order == "abcd" else []) + \
-        ["-c", "1", "-1", GW_ADDR]
-    r = subprocess.run(args, capture_output=True, text=True, timeout=timeout(30),
-                       stdin=subprocess.DEVNULL)
+    # a REAL block in the gateway's word order (mbpoll: -B = high word first)
+    base = [MBPOLL, "-m", "tcp", "-p", str(gw.port), "-a", "1", "-t", "4:float", "-0",
+            "-r", "2106", "-o", "5"] + (["-B"] if gw.order == "abcd" else [])
+    r = subprocess.run(base + [GW_ADDR, "--", "-2.75"], capture_output=True, text=True,
+                       timeout=timeout(30), stdin=subprocess.DEVNULL)
+    assert r.returncode == 0 and "Written 1 references" in r.stdout, r.stdout + r.stderr
+    wait_for(lambda: struct.unpack_from("<f", gw.enip.get(INSTANCE["float_in"]), 0)[0] == -2.75,
+             10, "float_in[0] = -2.75 at the robot")
+    r = subprocess.run(base + ["-c", "1", "-1", GW_ADDR], capture_output=True, text=True,
+                       timeout=timeout(30), stdin=subprocess.DEVNULL)
     assert r.returncode == 0, r.stderr
+    assert re.findall(r"^\[\d+\]:\s+(\S+)", r.stdout, re.M) == ["-2.75"], r.stdout
 
 
 def _libmodbus():
