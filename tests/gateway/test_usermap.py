@@ -7,7 +7,6 @@ write rights (0x02 and nothing changes); INT16 saturation at both ends;
 unit 255 answered when configured, refused and logged when not; a reload
 that changes the map without dropping the robot's link."""
 import ctypes
-import ctypes.util
 import json
 import math
 import re
@@ -19,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from gwlib import (DRGATEWAYD, EX_ILLEGAL_ADDRESS, EX_PATH_UNAVAILABLE, GW_ADDR, INSTANCE,
+from gwlib import (libmodbus, DRGATEWAYD, EX_ILLEGAL_ADDRESS, EX_PATH_UNAVAILABLE, GW_ADDR, INSTANCE,
                    EnipReader, ModbusError, dint_regs, int16, regs_dint, regs_real, running,
                    timeout, wait_for)
 
@@ -145,25 +144,9 @@ def test_mbpoll_fc06_echo(gw):
     assert re.findall(r"^\[\d+\]:\s+(\S+)", r.stdout, re.M) == ["-2.75"], r.stdout
 
 
-def _libmodbus():
-    name = ctypes.util.find_library("modbus")
-    if name is None:
-        pytest.fail("libmodbus not found (libmodbus-dev is a build dependency)")
-    lib = ctypes.CDLL(name, use_errno=True)
-    lib.modbus_new_tcp.restype = ctypes.c_void_p
-    lib.modbus_new_tcp.argtypes = [ctypes.c_char_p, ctypes.c_int]
-    for f in ("modbus_connect", "modbus_close", "modbus_free"):
-        getattr(lib, f).argtypes = [ctypes.c_void_p]
-    lib.modbus_set_slave.argtypes = [ctypes.c_void_p, ctypes.c_int]
-    lib.modbus_set_response_timeout.argtypes = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32]
-    u16p = ctypes.POINTER(ctypes.c_uint16)
-    lib.modbus_read_registers.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, u16p]
-    lib.modbus_write_register.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_uint16]
-    return lib
-
 
 def test_libmodbus_client(gw, regmap):
-    lib = _libmodbus()
+    lib = libmodbus()
     ctx = lib.modbus_new_tcp(GW_ADDR.encode(), gw.port)
     assert ctx
     try:
