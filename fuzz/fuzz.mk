@@ -8,7 +8,7 @@
 #   make fuzz-corpus   regenerate fuzz/corpus/ from the library's builders
 
 FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
-                      sim_request cli
+                      sim_request cli usermap
 FUZZ_SECONDS       ?= 60
 # make check runs every harness this long: 10 x 7 s, two at a time
 # (FUZZ_JOBS, fuzz/run-fuzz.sh), keeps check-fuzz,
@@ -33,7 +33,10 @@ FUZZ_SRC_modbus      := gateway/modbus/mbproto.c gateway/modbus/regmap.c gateway
 FUZZ_LIBS_modbus     := $(MODBUS_LIBS)
 FUZZ_SRC_rtu         := gateway/modbus/mbproto.c gateway/modbus/regmap.c gateway/core/robot.c
 FUZZ_LIBS_rtu        := $(MODBUS_LIBS)
-FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c))
+# config_robot.c's `map` lines: the user's map parser and the default map
+FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c)) gateway/modbus/usermap.c \
+                        gateway/modbus/regmap.c gateway/core/robot.c
+FUZZ_SRC_usermap     := gateway/modbus/usermap.c gateway/modbus/regmap.c gateway/core/robot.c
 FUZZ_LIBS_config     := $(INIH_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 # All of drcli but its main() (cli/drcli.c, on top of the rest).

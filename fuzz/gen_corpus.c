@@ -764,9 +764,38 @@ static void gen_config(void)
         {"indented", "[robot]\n  host = 1.2.3.4\n"},
         {"no_close", "[robot\nhost = x\n"},
         {"empty", ""},
+        {"user_map", "[robot arm]\nhost = 1.2.3.4\nunit_id_alias = 0,255\n"
+                     "map = hr 2000 io_state.robot_state uint16\n"
+                     "map = hr 2001 joint_state.position[1..6] real\n"
+                     "map = hr 2036 int_in[0..3] int16 writable saturate\n"
+                     "map = co 2048 bit_in[0..15] writable\n"},
     };
     for (size_t k = 0; k < sizeof s / sizeof s[0]; k++)
         put("config", s[k].name, (const uint8_t *)s[k].text, strlen(s[k].text));
+}
+
+/* ---- fuzz_usermap: map lines, one per line ---------------------------------- */
+
+static void gen_usermap(void)
+{
+    const struct {
+        const char *name, *text;
+    } s[] = {
+        {"docs_example", "hr 2000 io_state.robot_state uint16\nhr 2001 io_state.servo_on uint16\n"
+                         "hr 2002 joint_state.position[1..6] real\nhr 2014 int_out[0..7] dint\n"
+                         "hr 2030 joint_state.position[1..6] int16 scale=10 saturate\n"
+                         "hr 2036 int_in[0..3] int16 writable saturate\n"},
+        {"views", "hr 3000 int_in[4] uint16 lo writable\nhr 3001 int_in[4] uint16 hi writable\n"
+                  "hr 3002 bit_in[0..63] bits writable\nir 3000 io_state.cb_di bits\n"
+                  "di 3000 bit_out[0..7]\nco 3000 io_control.cb_do[1..4] writable\n"
+                  "hr 3010 float_in[0..1] real writable\nhr 3020 float_in[2] int16 scale=100 saturate writable\n"},
+        {"errors", "hr 300 int_in[0] dint\nhr 2000 int_out[0] dint writable\n"
+                   "hr 65535 int_in[0..1] dint\nhr 2000 joint_state.positon[1] real\n"
+                   "hr 2000 joint_state.position[1] int16 scale=100\nxx 1 a b\n"
+                   "hr 2000 int_in[3..1] dint\nir 2000 int_in[0] dint writable\n"},
+    };
+    for (size_t k = 0; k < sizeof s / sizeof s[0]; k++)
+        put("usermap", s[k].name, (const uint8_t *)s[k].text, strlen(s[k].text));
 }
 
 /* ---- fuzz_sim_request: [config] records ---------------------------------- */
@@ -1052,6 +1081,7 @@ int main(int argc, char **argv)
     gen_modbus();
     gen_rtu();
     gen_config();
+    gen_usermap();
     gen_sim_request();
     gen_cli();
     return failed;

@@ -52,3 +52,14 @@ bench-gw-rtu: $(GW_BIN) $(SIM_BIN)
 # rows, the report of `make bench` does not take them.
 bench-mqtt: $(GW_BIN) $(SIM_BIN)
 	$(GW_BENCH_PY) bench/mqtt_bench.py --build $(B)
+
+# The user's register map (issue 22): a 125-register read of it against
+# the same read of the default map, in-process (bench/gw_umap_bench.c).
+BENCH_STEPS += bench-gw-umap
+.PHONY: bench-gw-umap
+$(B)/bench/gw_umap_bench: bench/gw_umap_bench.c $(B)/bench/gw_umap_bench.d $(GW_A) $(LIB_A)
+	@mkdir -p $(dir $@)
+	$(CC) $(ALL_CPPFLAGS) -Igateway $(ALL_CFLAGS) $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< \
+	    $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
+bench-gw-umap: $(B)/bench/gw_umap_bench
+	$(B)/bench/gw_umap_bench

@@ -27,7 +27,8 @@
 #include "drgate/codec.h"
 
 /* Robots per daemon (32: the robots-per-core goal of issue 15, measured by
- * mk/bench_scale.mk; each costs about 0.2 kB of gw_config_t and 5.6 kB of
+ * mk/bench_scale.mk; each costs about 1.8 kB of gw_config_t (1.5 kB the room of its own
+ * register map, GW_MAX_MAP blocks) and 5.6 kB of
  * mostly untouched bss in the daemon, docs/performance.md). The library's
  * shared UDP port takes as many clients (DR_UDP_PORT_MAX_CLIENTS), so all
  * robots can share 2222. */
@@ -79,6 +80,42 @@ typedef struct {
     unsigned request_timeout_ms; /* default 3000, 100..60000 */
 } gw_modbus_config_t;
 
+/* A user register map (docs/register-map.md "Your own map"): `map` lines
+ * of [robot NAME], each a block of consecutive addresses in one table
+ * serving one field (or a range of its elements) through a view. The
+ * parser and the checks: gateway/modbus/usermap.c; serving: regmap.c. */
+#define GW_MAX_MAP 64u
+/* The tables, in gw_area_t's order (regmap.h). */
+typedef enum { GW_UMAP_CO = 0, GW_UMAP_DI, GW_UMAP_HR, GW_UMAP_IR, GW_UMAP_TABLES } gw_umap_table_t;
+typedef enum {
+    GW_VIEW_BIT = 0, /* coils / discrete inputs: one bit per element */
+    GW_VIEW_REAL,    /* REAL: 2 registers per element, the word order */
+    GW_VIEW_DINT,    /* DINT: 2 registers per element, the word order */
+    GW_VIEW_INT16,   /* any number x scale, rounded half away from zero */
+    GW_VIEW_UINT16,  /* BIT/USINT/ENUM as is; DINT: one half (lo/hi) */
+    GW_VIEW_BITS     /* BIT/BITS elements packed 16 per register */
+} gw_view_t;
+
+typedef struct {
+    uint8_t table;     /* gw_umap_table_t */
+    uint8_t view;      /* gw_view_t */
+    bool writable;     /* the entry says so (O->T fields in HR/coils only) */
+    bool saturate;     /* INT16: clamping is expected */
+    uint8_t half;      /* UINT16 of a DINT: 0 low half, 1 high half */
+    uint16_t field;    /* index into dr_field_table */
+    uint16_t elem;     /* first element (0-based) */
+    uint16_t count;    /* elements */
+    uint16_t scale;    /* INT16: the factor (1..10000) */
+    uint16_t addr;     /* first address (0-based PDU address) */
+    uint32_t size;     /* addresses taken (addr + size <= 65536) */
+    unsigned line;     /* where it was written, for messages */
+} gw_umap_entry_t;
+
+typedef struct {
+    unsigned count;
+    gw_umap_entry_t entry[GW_MAX_MAP]; /* sorted by table, then address */
+} gw_umap_t;
+
 typedef struct {
     char name[GW_NAME_MAX];   /* section name */
     char host[64];
@@ -87,6 +124,7 @@ typedef struct {
     char local_addr[64];      /* local UDP address, "" = any */
     uint16_t local_udp_port;  /* default 2222 */
     uint8_t unit_id;          /* Modbus unit ID, 1..247, unique */
+    bool alias0, alias255;    /* unit_id_alias: also answers to 0 / 255 */
     gw_robot_mode_t mode;     /* default implicit */
     uint32_t rpi_ms;          /* default 10 (implicit) / poll period (explicit) */
     uint8_t timeout_mult;     /* code 0..7, default 2 */
@@ -115,6 +153,9 @@ typedef struct {
      * host name) and the section name, the same at every start, so that
      * a restarted gateway may take its connections back (issue 19). */
     uint32_t originator_serial;
+    gw_umap_t map;            /* `map` lines: the user's register map */
+    bool default_map_writes;  /* default yes; no: the default map's robot
+                                 data is read-only over Modbus */
     unsigned line;            /* where the section starts, for messages */
 } gw_robot_config_t;
 

@@ -35,6 +35,14 @@ static bool robot_unique(gw_cfg_ctx_t *c, unsigned i)
                         line_or(gw_cfg_line(c, s, j, "unit_id"), o->line));
             return false;
         }
+        if ((o->alias0 && r->alias0) || (o->alias255 && r->alias255)) {
+            gw_cfg_fail(c, line_or(gw_cfg_line(c, s, i, "unit_id_alias"), r->line),
+                        "robot '%s': unit_id_alias %u is already robot '%s''s "
+                        "(line %u; one robot per alias)",
+                        r->name, o->alias0 && r->alias0 ? 0u : 255u, o->name,
+                        line_or(gw_cfg_line(c, s, j, "unit_id_alias"), o->line));
+            return false;
+        }
         if (strcmp(o->host, r->host) == 0 && o->tcp_port == r->tcp_port) {
             gw_cfg_fail(c, line_or(gw_cfg_line(c, s, i, "host"), r->line),
                         "robot '%s': %s:%u is already robot '%s' (line %u)",

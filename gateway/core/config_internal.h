@@ -16,7 +16,8 @@
  *   config_ini.c     reading the file through libinih (its workarounds)
  *   config_check.c   what spans sections, once the whole file is read
  *   config_robot.c   [robot NAME] (core): table, instance.* and open.*
- *   config_modbus.c  [modbus] and [modbus_rtu NAME] (the Modbus side)
+ *   config_modbus.c  [modbus] and [modbus_rtu NAME] (the Modbus side), and
+ *                    [robot NAME]'s unit_id_alias and map lines
  *   config_gpio.c    [gpio NAME] (the GPIO side)
  *   config_mqtt.c    [mqtt] (the MQTT side)
  *   config_doc.c     the docs' key tables, printed from the tables
@@ -246,6 +247,11 @@ void gw_cfg_check_rtu(gw_cfg_ctx_t *c);
 
 /* Robot i's instances and connection plan; false after the message. */
 bool gw_cfg_robot_check(gw_cfg_ctx_t *c, unsigned i);
+
+/* ---- config_modbus.c: [robot NAME]'s Modbus keys ------------------------- */
+
+/* unit_id_alias, and a `map` line (modbus/usermap.c parses and checks). */
+gw_cfg_parse_fn gw_cfg_robot_alias, gw_cfg_robot_map;
 
 /* ---- config_doc.c --------------------------------------------------------- */
 

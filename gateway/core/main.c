@@ -404,7 +404,7 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: drgatewayd [-c FILE] [-v]\n"
             "       drgatewayd --check-config FILE\n"
-            "       drgatewayd --print-map [--json | --markdown]\n"
+            "       drgatewayd [-c FILE] --print-map [--json | --markdown] [FILTER]\n"
             "       drgatewayd --help-config SECTION\n"
             "       drgatewayd --print-errors [--markdown]\n"
             "Serves Doosan robots' EtherNet/IP assemblies as Modbus TCP registers, as a\n"
@@ -412,7 +412,8 @@ static void usage(FILE *out)
             "MQTT broker ([mqtt], docs/mqtt.md).\n\n"
             "  -c, --config FILE      configuration (default " DEFAULT_CONFIG ")\n"
             "      --check-config FILE  validate FILE and exit (0 valid, 78 invalid)\n"
-            "      --print-map        print the Modbus register map and exit\n"
+            "      --print-map        print the Modbus register map and exit: with -c, each\n"
+            "                         robot's own map too; FILTER: rows whose name has it\n"
             "      --print-errors     print every value of the status block's last_error\n"
             "                         (IR 12, with IR 30) and exit\n"
             "      --json, --markdown   format of --print-map (--print-errors: --markdown)\n"
@@ -445,12 +446,12 @@ int main(int argc, char **argv)
         {NULL, 0, NULL, 0},
     };
     const char *config = DEFAULT_CONFIG, *check = NULL, *help_config = NULL;
-    bool print_map = false, print_errors = false, verbose = false;
+    bool print_map = false, print_errors = false, verbose = false, config_given = false;
     gw_print_fmt_t fmt = GW_PRINT_TEXT;
     int c;
     while ((c = getopt_long(argc, argv, "c:vhV", opts, NULL)) != -1) {
         switch (c) {
-        case 'c': config = optarg; break;
+        case 'c': config = optarg; config_given = true; break;
         case OPT_CHECK: check = optarg; break;
         case OPT_MAP: print_map = true; break;
         case OPT_ERRORS: print_errors = true; break;
@@ -463,6 +464,9 @@ int main(int argc, char **argv)
         default: usage(stderr); return 2;
         }
     }
+    const char *map_filter = NULL;
+    if (print_map && optind + 1 == argc)
+        map_filter = argv[optind++]; /* --print-map joint_state.position */
     if (optind != argc) {
         fprintf(stderr, "drgatewayd: unexpected argument '%s'\n", argv[optind]);
         return 2;
@@ -483,7 +487,14 @@ int main(int argc, char **argv)
         return 0;
     }
     if (print_map) {
-        gw_regmap_print(stdout, fmt);
+        /* with -c: each robot's own map too */
+        char perr[512];
+        bool with_cfg = config_given;
+        if (with_cfg && !gw_config_load(config, &G.cfg, perr, sizeof perr)) {
+            fprintf(stderr, "drgatewayd: %s\n", perr);
+            return EX_CONFIG;
+        }
+        gw_regmap_print_all(stdout, fmt, map_filter, with_cfg ? &G.cfg : NULL);
         return 0;
     }
     char err[512];

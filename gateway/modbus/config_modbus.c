@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "modbus/usermap.h"
+
 /* ---- [modbus] -------------------------------------------------------------- */
 
 #define M(m) GW_CFG_AT(gw_modbus_config_t, m)
@@ -286,4 +288,52 @@ static void rtu_robots(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     if (u->slave_count == 0)
         gw_cfg_fail(c, c->lineno, "robots has no value (allowed: %s)",
                     k->allowed);
+}
+
+/* ---- [robot NAME]'s Modbus keys: unit_id_alias and map ----------------------- */
+
+/* unit_id_alias: 0, 255, both (comma-separated, blanks allowed), or none. */
+void gw_cfg_robot_alias(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                        const char *name, const char *v)
+{
+    gw_robot_config_t *r = sec;
+    r->alias0 = r->alias255 = false;
+    if (strcmp(v, "none") == 0)
+        return;
+    const char *p = v;
+    unsigned n = 0;
+    for (;;) {
+        while (*p == ' ' || *p == '\t')
+            p++;
+        size_t len = strspn(p, "0123456789");
+        bool zero = len == 1 && p[0] == '0', ff = len == 3 && strncmp(p, "255", 3) == 0;
+        if ((!zero && !ff) || (zero && r->alias0) || (ff && r->alias255) || ++n > 2) {
+            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
+            return;
+        }
+        r->alias0 |= zero;
+        r->alias255 |= ff;
+        p += len;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p == '\0')
+            return;
+        if (*p++ != ',') {
+            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
+            return;
+        }
+    }
+}
+
+/* One `map` line: parsed, then added to the robot's map, which refuses
+ * overlaps (with its other blocks and with the default map). */
+void gw_cfg_robot_map(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                      const char *name, const char *v)
+{
+    gw_robot_config_t *r = sec;
+    gw_umap_entry_t e;
+    char err[400];
+    (void)k;
+    if (!gw_umap_parse(v, c->lineno, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
+        gw_cfg_fail(c, c->lineno, "%s: %s", name, err);
 }

@@ -27,6 +27,7 @@ typedef struct {
     uint32_t addr;
     uint16_t port;
     bool rw;
+    bool unit_logged; /* a refused unit ID of this client was logged */
     uint64_t last_us; /* accepted, or its last complete request */
     uint64_t req_us;  /* first byte of the request in buf; 0: none pending */
     uint8_t buf[GW_ADU_MAX];
@@ -235,6 +236,20 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
         fmt_addr(cl->addr, cl->port, who, sizeof who);
         gw_log(GW_LOG_INFO, "modbus: client %s reset the write fault of unit %u", who,
                s->result.unit_id);
+    }
+    if (ex == 0x0A && s->result.unit == NULL && !cl->unit_logged) {
+        /* once per client: a PLC that polls the wrong unit ID would
+         * otherwise fill the log */
+        char who[32];
+        fmt_addr(cl->addr, cl->port, who, sizeof who);
+        gw_log(GW_LOG_WARNING,
+               "modbus: client %s asked for unit ID %u, which no robot answers to "
+               "(exception 0x0A): set the PLC's unit ID to a robot's unit_id, or give "
+               "the robot unit_id_alias = %s (logged once per client)",
+               who, s->result.unit_id,
+               s->result.unit_id == 0 || s->result.unit_id == 255 ? (s->result.unit_id == 0 ? "0" : "255")
+                                                                  : "0 or 255 for those IDs");
+        cl->unit_logged = true;
     }
     if (ex == 0 && s->result.write && s->result.dirty != 0)
         s->hooks.on_write(s->hooks.user, s->result.unit, s->result.dirty);

@@ -71,7 +71,8 @@ static gw_unit_t *unit_for(void *user, uint8_t unit_id)
     const mb_ctx_t *c = user;
     const gw_config_t *cfg = c->mb->env->cfg;
     for (unsigned i = 0; i < cfg->robot_count; i++)
-        if (cfg->robot[i].unit_id == unit_id) {
+        if (cfg->robot[i].unit_id == unit_id || (unit_id == 0 && cfg->robot[i].alias0) ||
+            (unit_id == 255 && cfg->robot[i].alias255)) {
             unit_refresh(c->mb, i);
             return &c->mb->unit[i];
         }
@@ -98,6 +99,8 @@ static void unit_policy(mb_t *m, unsigned r)
     const gw_config_t *cfg = m->env->cfg;
     gw_unit_t *u = &m->unit[r];
     u->robot = &m->env->robots[r];
+    u->umap = r < cfg->robot_count ? &cfg->robot[r].map : NULL;
+    u->default_ro = r < cfg->robot_count && !cfg->robot[r].default_map_writes;
     u->order = cfg->modbus.word_order;
     u->on_loss = cfg->modbus.on_link_loss;
     u->unmapped = cfg->modbus.unmapped_read;

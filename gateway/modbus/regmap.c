@@ -320,6 +320,130 @@ static bool in_range(uint16_t addr, uint16_t count)
     return count > 0 && (uint32_t)addr + count <= GW_AREA_SIZE;
 }
 
+/* ---- the user's map ---------------------------------------------------------- */
+
+static uint32_t entry_end(const gw_umap_entry_t *e)
+{
+    return (uint32_t)e->addr + e->size;
+}
+
+/* The index of the first entry of `area` that ends after addr (entries
+ * are sorted by table, then address, and do not overlap); m->count if
+ * none. */
+static unsigned user_first(const gw_umap_t *m, gw_area_t area, uint32_t addr)
+{
+    unsigned lo = 0, hi = m->count;
+    while (lo < hi) {
+        unsigned mid = lo + (hi - lo) / 2u;
+        const gw_umap_entry_t *e = &m->entry[mid];
+        if (e->table < (unsigned)area || (e->table == (unsigned)area && entry_end(e) <= addr))
+            lo = mid + 1u;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* The entry that holds area/addr, or NULL. */
+static const gw_umap_entry_t *user_at(const gw_unit_t *u, gw_area_t area, uint32_t addr)
+{
+    const gw_umap_t *m = u->umap;
+    if (m == NULL)
+        return NULL;
+    unsigned i = user_first(m, area, addr);
+    if (i < m->count && m->entry[i].table == (unsigned)area && m->entry[i].addr <= addr)
+        return &m->entry[i];
+    return NULL;
+}
+
+static uint32_t unit_extent(const gw_unit_t *u, gw_area_t area)
+{
+    uint32_t x = extent[area];
+    const gw_umap_t *m = u->umap;
+    if (m != NULL)
+        for (unsigned i = 0; i < m->count; i++)
+            if (m->entry[i].table == (unsigned)area && entry_end(&m->entry[i]) > x)
+                x = entry_end(&m->entry[i]);
+    return x;
+}
+
+static bool default_slot(gw_area_t area, uint32_t a)
+{
+    return a < GW_AREA_SIZE && map[area][a].kind != SL_NONE;
+}
+
+static dr_value_t field_value(const gw_unit_t *u, const dr_field_t *f, int elem)
+{
+    dr_ref_t ref = {f, (int16_t)elem};
+    dr_value_t v = dr_value_uint(0);
+    (void)dr_field_get(asm_img(u, f), asm_size(f), ref, &v);
+    return v;
+}
+
+/* x rounded half away from zero, clamped to INT16; NaN reads -32768. */
+static uint16_t to_int16(double x)
+{
+    if (x != x)
+        return 0x8000;
+    x = x < 0 ? ceil(x - 0.5) : floor(x + 0.5);
+    if (x > 32767.0)
+        x = 32767.0;
+    if (x < -32768.0)
+        x = -32768.0;
+    return (uint16_t)(int16_t)x;
+}
+
+/* Elements first..first+n-1 of a BIT/BITS field as bits 0..n-1. */
+static uint16_t user_bits(const gw_unit_t *u, const dr_field_t *f, unsigned first, unsigned n)
+{
+    if (f->kind == DR_KIND_BIT)
+        return (uint16_t)(field_value(u, f, 0).u & 1u);
+    uint64_t mask = field_value(u, f, -1).u >> first;
+    return (uint16_t)(mask & ((n >= 16 ? 0x10000u : 1u << n) - 1u));
+}
+
+static uint16_t user_read(const gw_unit_t *u, const gw_umap_entry_t *e, uint32_t addr)
+{
+    const dr_field_t *f = &dr_field_table[e->field];
+    unsigned off = (unsigned)(addr - e->addr);
+    switch ((gw_view_t)e->view) {
+    case GW_VIEW_BIT:
+        return user_bits(u, f, e->elem + off, 1);
+    case GW_VIEW_BITS: {
+        unsigned first = 16u * off, left = e->count - first;
+        return user_bits(u, f, e->elem + first, left > 16 ? 16 : left);
+    }
+    case GW_VIEW_REAL:
+    case GW_VIEW_DINT: {
+        uint16_t w[2];
+        gw_words_from_u32(dr_get_le32(asm_img(u, f) + f->offset + 4u * (e->elem + off / 2u)),
+                          u->order, w);
+        return w[off % 2u];
+    }
+    case GW_VIEW_INT16: {
+        dr_value_t v = field_value(u, f, (int)(e->elem + off));
+        return to_int16(dr_value_as_double(&v) * e->scale);
+    }
+    case GW_VIEW_UINT16: {
+        dr_value_t v = field_value(u, f, (int)(e->elem + off));
+        if (f->kind == DR_KIND_DINT)
+            return (uint16_t)((uint32_t)(int32_t)v.i >> (e->half ? 16 : 0));
+        return (uint16_t)v.u;
+    }
+    }
+    return 0;
+}
+
+static bool touches_user(const gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count)
+{
+    const gw_umap_t *m = u->umap;
+    if (m == NULL)
+        return false;
+    unsigned i = user_first(m, area, addr);
+    return i < m->count && m->entry[i].table == (unsigned)area &&
+           m->entry[i].addr < (uint32_t)addr + count;
+}
+
 bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count)
 {
     if (!in_range(addr, count))
@@ -343,19 +467,54 @@ uint16_t gw_regmap_extent(gw_area_t area)
 int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
                    uint16_t count, uint16_t *values)
 {
-    if ((unsigned)area >= GW_AREAS || !in_range(addr, count) ||
-        (uint32_t)addr + count > extent[area])
+    if ((unsigned)area >= GW_AREAS || count == 0 ||
+        (uint32_t)addr + count > unit_extent(u, area))
         return GW_EX_ILLEGAL_ADDRESS;
-    if (u->unmapped == GW_UNMAPPED_EXCEPTION)
-        for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
-            if (map[area][a].kind == SL_NONE)
-                return GW_EX_ILLEGAL_ADDRESS;
+    const gw_umap_t *m = u->umap != NULL && u->umap->count > 0 ? u->umap : NULL;
+    if (m == NULL) { /* the default map alone: a slot per address */
+        if (u->unmapped == GW_UNMAPPED_EXCEPTION)
+            for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
+                if (map[area][a].kind == SL_NONE)
+                    return GW_EX_ILLEGAL_ADDRESS;
+        if (u->on_loss == GW_LOSS_EXCEPTION && u->robot->link.link_state != 2 &&
+            (area == GW_INPUT || area == GW_DISCRETE) &&
+            gw_regmap_touches_robot_data(area, addr, count))
+            return GW_EX_TARGET_FAILED;
+        for (uint16_t i = 0; i < count; i++)
+            values[i] = read_slot(u, area, &map[area][addr + i]);
+        return 0;
+    }
+    /* Both maps: the default's slot, else the user's entry (walked in
+     * address order from the first one that can hold addr). */
     if (u->on_loss == GW_LOSS_EXCEPTION && u->robot->link.link_state != 2 &&
-        (area == GW_INPUT || area == GW_DISCRETE) &&
-        gw_regmap_touches_robot_data(area, addr, count))
+        (((area == GW_INPUT || area == GW_DISCRETE) &&
+          gw_regmap_touches_robot_data(area, addr, count)) ||
+         touches_user(u, area, addr, count)))
         return GW_EX_TARGET_FAILED;
-    for (uint16_t i = 0; i < count; i++)
-        values[i] = read_slot(u, area, &map[area][addr + i]);
+    unsigned k = user_first(m, area, addr);
+    uint32_t last = (uint32_t)addr + count;
+    for (uint32_t a = addr; a < last;) {
+        if (default_slot(area, a)) {
+            values[a - addr] = read_slot(u, area, &map[area][a]);
+            a++;
+            continue;
+        }
+        while (k < m->count && m->entry[k].table == (unsigned)area && entry_end(&m->entry[k]) <= a)
+            k++;
+        const gw_umap_entry_t *e = &m->entry[k];
+        if (k < m->count && e->table == (unsigned)area && e->addr <= a) {
+            /* the rest of the block at once (no default slot inside it:
+             * the loader keeps the maps apart) */
+            uint32_t end = entry_end(e) < last ? entry_end(e) : last;
+            for (; a < end; a++)
+                values[a - addr] = user_read(u, e, a);
+            continue;
+        }
+        if (u->unmapped == GW_UNMAPPED_EXCEPTION)
+            return GW_EX_ILLEGAL_ADDRESS;
+        values[a - addr] = 0;
+        a++;
+    }
     return 0;
 }
 
@@ -394,10 +553,9 @@ static int status_to_exception(dr_status_t st)
     return st == DR_OK ? 0 : (st == DR_EREADONLY ? GW_EX_ILLEGAL_ADDRESS : GW_EX_ILLEGAL_VALUE);
 }
 
-static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
-                     unsigned *dirty)
+static int set_ref(gw_unit_t *u, const dr_field_t *f, int16_t elem, dr_value_t v,
+                   unsigned *dirty)
 {
-    const dr_field_t *f = slot_field(s);
     dr_ref_t ref = {f, elem};
     if (u->robot->o2t_unsent & (1u << f->assembly))
         return GW_EX_ILLEGAL_ADDRESS;
@@ -406,6 +564,87 @@ static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
     if (ex == 0)
         *dirty |= 1u << f->assembly;
     return ex;
+}
+
+static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
+                     unsigned *dirty)
+{
+    return set_ref(u, slot_field(s), elem, v, dirty);
+}
+
+/* Bits first..first+n-1 of a BIT/BITS field from v's bits 0..n-1. */
+static int user_set_bits(gw_unit_t *u, const dr_field_t *f, unsigned first, unsigned n,
+                         uint16_t v, unsigned *dirty)
+{
+    if (f->kind == DR_KIND_BIT) {
+        if (v > 1)
+            return GW_EX_ILLEGAL_VALUE;
+        if (gpio_bits(u, f) != 0 && v != field_value(u, f, 0).u)
+            return GW_EX_ILLEGAL_ADDRESS; /* a GPIO input drives it */
+        return set_ref(u, f, 0, dr_value_uint(v), dirty);
+    }
+    uint64_t bits = (n >= 16 ? 0xFFFFu : (1u << n) - 1u);
+    if (n == 1 && v > 1)
+        return GW_EX_ILLEGAL_VALUE;
+    uint64_t mask = field_value(u, f, -1).u;
+    uint64_t next = (mask & ~(bits << first)) | (((uint64_t)v & bits) << first);
+    uint64_t owned = gpio_bits(u, f);
+    if (((next ^ mask) & owned) != 0)
+        return GW_EX_ILLEGAL_ADDRESS; /* a GPIO input drives it */
+    return set_ref(u, f, -1, dr_value_uint(next), dirty);
+}
+
+/* One write to a user entry at values[*i] (a 32-bit view takes two). */
+static int user_write(gw_unit_t *u, const gw_umap_entry_t *e, uint32_t a, uint16_t *i,
+                      uint16_t count, const uint16_t *values, unsigned *dirty)
+{
+    const dr_field_t *f = &dr_field_table[e->field];
+    unsigned off = (unsigned)(a - e->addr);
+    uint16_t v = values[*i];
+    int16_t elem = (int16_t)(e->elem + off);
+    if (!e->writable)
+        return GW_EX_ILLEGAL_ADDRESS;
+    switch ((gw_view_t)e->view) {
+    case GW_VIEW_BIT:
+        return user_set_bits(u, f, e->elem + off, 1, v, dirty);
+    case GW_VIEW_BITS: {
+        unsigned first = 16u * off, left = e->count - first;
+        return user_set_bits(u, f, e->elem + first, left > 16 ? 16 : left, v, dirty);
+    }
+    case GW_VIEW_REAL:
+    case GW_VIEW_DINT: {
+        if (off % 2u != 0 || *i + 1u >= count)
+            return GW_EX_ILLEGAL_ADDRESS; /* half a value would be torn */
+        uint16_t w[2] = {v, values[*i + 1u]};
+        uint32_t bits = gw_words_to_u32(w, u->order);
+        (*i)++;
+        elem = (int16_t)(e->elem + off / 2u);
+        if (f->kind == DR_KIND_DINT)
+            return set_ref(u, f, elem, dr_value_int((int32_t)bits), dirty);
+        float fl;
+        memcpy(&fl, &bits, 4);
+        return set_ref(u, f, elem, dr_value_real((double)fl), dirty);
+    }
+    case GW_VIEW_INT16: {
+        int32_t sv = v <= 0x7FFF ? (int32_t)v : (int32_t)v - 65536;
+        if (f->kind == DR_KIND_BIT && e->scale == 1 && v <= 1)
+            return user_set_bits(u, f, 0, 1, v, dirty);
+        if (e->scale == 1)
+            return set_ref(u, f, elem, dr_value_int(sv), dirty);
+        return set_ref(u, f, elem, dr_value_real((double)sv / e->scale), dirty);
+    }
+    case GW_VIEW_UINT16:
+        if (f->kind == DR_KIND_DINT) {
+            uint32_t old = (uint32_t)(int32_t)field_value(u, f, elem).i;
+            uint32_t next = e->half ? (old & 0xFFFFu) | (uint32_t)v << 16
+                                    : (old & 0xFFFF0000u) | v;
+            return set_ref(u, f, elem, dr_value_int((int32_t)next), dirty);
+        }
+        if (f->kind == DR_KIND_BIT && v <= 1)
+            return user_set_bits(u, f, 0, 1, v, dirty);
+        return set_ref(u, f, elem, dr_value_uint(v), dirty);
+    }
+    return GW_EX_ILLEGAL_ADDRESS;
 }
 
 /* Apply one write at map[area][*i] (a 32-bit value takes two). */
@@ -469,10 +708,11 @@ static int write_slot(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t *i,
 int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
                     const uint16_t *values, unsigned *dirty)
 {
-    if ((area != GW_HOLDING && area != GW_COILS) || !in_range(addr, count))
+    if ((area != GW_HOLDING && area != GW_COILS) || count == 0 ||
+        (uint32_t)addr + count > 65536u)
         return GW_EX_ILLEGAL_ADDRESS;
     for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
-        if (map[area][a].kind == SL_NONE)
+        if (!default_slot(area, a) && user_at(u, area, a) == NULL)
             return GW_EX_ILLEGAL_ADDRESS;
     /* Work on copies: the unit and the robot's images change only if
      * every value passes; of the robot, only the O->T images written. */
@@ -481,7 +721,12 @@ int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
     tmp.robot = &img;
     unsigned d = 0;
     for (uint16_t i = 0; i < count; i++) {
-        int ex = write_slot(&tmp, area, addr, &i, count, values, &d);
+        uint32_t a = (uint32_t)addr + i;
+        if (default_slot(area, a) && u->default_ro && map[area][a].kind != SL_CONTROL)
+            return GW_EX_ILLEGAL_ADDRESS; /* default_map_writes = no */
+        int ex = default_slot(area, a)
+                     ? write_slot(&tmp, area, addr, &i, count, values, &d)
+                     : user_write(&tmp, user_at(u, area, a), a, &i, count, values, &d);
         if (ex != 0)
             return ex;
     }
@@ -492,6 +737,17 @@ int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
     *u = tmp;
     *dirty |= d;
     return 0;
+}
+
+bool gw_regmap_default_used(gw_area_t area, uint32_t addr, uint32_t n, uint16_t *at)
+{
+    gw_regmap_init();
+    for (uint32_t a = addr; a < addr + n && a < GW_AREA_SIZE; a++)
+        if (map[area][a].kind != SL_NONE) {
+            *at = (uint16_t)a;
+            return true;
+        }
+    return false;
 }
 
 /* ---- printing ---------------------------------------------------------------- */
@@ -593,12 +849,49 @@ static void slot_text(const slot_t *s, gw_area_t area, unsigned words, char *nam
     }
 }
 
-void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
+void gw_regmap_slot_name(gw_area_t area, uint16_t addr, char *buf, size_t size)
 {
+    char type[96], unit[16];
     gw_regmap_init();
-    bool first = true;
-    if (fmt == GW_PRINT_JSON)
-        fputs("[\n", out);
+    buf[0] = '\0';
+    if (addr < GW_AREA_SIZE && map[area][addr].kind != SL_NONE)
+        slot_text(&map[area][addr], area, 1, buf, size, type, sizeof type, unit, sizeof unit);
+}
+
+/* One printed row: area, addresses a..end-1. */
+static void print_row(FILE *out, gw_print_fmt_t fmt, bool *first, unsigned area, unsigned a,
+                      unsigned end, const char *name, const char *type, const char *unit,
+                      const char *robot, bool writable)
+{
+    unsigned p = area_prefix[area];
+    switch (fmt) {
+    case GW_PRINT_TEXT:
+        fprintf(out, "%s %4u-%-4u %u%04u  %-40s %s %s\n", area_short[area], a, end - 1, p,
+                a + 1, name, type, unit);
+        break;
+    case GW_PRINT_MARKDOWN:
+        if (end - 1 > a)
+            fprintf(out, "| %u-%u | %u%04u-%u%04u | `%s` | %s | %s |\n", a, end - 1, p, a + 1,
+                    p, end, name, type, unit);
+        else
+            fprintf(out, "| %u | %u%04u | `%s` | %s | %s |\n", a, p, a + 1, name, type, unit);
+        break;
+    case GW_PRINT_JSON:
+        fprintf(out, "%s  {\"area\": \"%s\", \"address\": %u, \"count\": %u, \"name\": \"%s\", "
+                     "\"type\": \"%s\", \"unit\": \"%s\"",
+                first != NULL && *first ? "" : ",\n", area_short[area], a, end - a, name, type,
+                unit);
+        if (robot != NULL)
+            fprintf(out, ", \"robot\": \"%s\", \"writable\": %s", robot,
+                    writable ? "true" : "false");
+        fputs("}", out);
+        *first = false;
+        break;
+    }
+}
+
+static void print_default(FILE *out, gw_print_fmt_t fmt, const char *filter, bool *first)
+{
     for (unsigned area = 0; area < GW_AREAS; area++) {
         if (fmt == GW_PRINT_MARKDOWN)
             fprintf(out, "\n### %ss\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
@@ -615,28 +908,77 @@ void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
             char name[96], type[96], unit[16];
             slot_text(s, (gw_area_t)area, end - a, name, sizeof name, type, sizeof type, unit,
                       sizeof unit);
-            unsigned p = area_prefix[area];
-            switch (fmt) {
-            case GW_PRINT_TEXT:
-                fprintf(out, "%s %4u-%-4u %u%04u  %-40s %s %s\n", area_short[area], a, end - 1,
-                        p, a + 1, name, type, unit);
-                break;
-            case GW_PRINT_MARKDOWN:
-                if (end - 1 > a)
-                    fprintf(out, "| %u-%u | %u%04u-%u%04u | `%s` | %s | %s |\n", a, end - 1, p,
-                            a + 1, p, end, name, type, unit);
-                else
-                    fprintf(out, "| %u | %u%04u | `%s` | %s | %s |\n", a, p, a + 1, name, type, unit);
-                break;
-            case GW_PRINT_JSON:
-                fprintf(out, "%s  {\"area\": \"%s\", \"address\": %u, \"count\": %u, \"name\": \"%s\", "
-                             "\"type\": \"%s\", \"unit\": \"%s\"}",
-                        first ? "" : ",\n", area_short[area], a, end - a, name, type, unit);
-                first = false;
-                break;
-            }
+            if (filter == NULL || strstr(name, filter) != NULL)
+                print_row(out, fmt, first, area, a, end, name, type, unit, NULL, false);
             a = end;
         }
+    }
+}
+
+void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
+{
+    gw_regmap_print_all(out, fmt, NULL, NULL);
+}
+
+/* A user entry's rows: one per element (a 32-bit view: two addresses). */
+static void print_user(FILE *out, gw_print_fmt_t fmt, const char *filter, bool *first,
+                       const char *robot, const gw_umap_entry_t *e)
+{
+    const dr_field_t *f = &dr_field_table[e->field];
+    unsigned per = e->view == GW_VIEW_REAL || e->view == GW_VIEW_DINT ? 2u : 1u;
+    unsigned rows = e->view == GW_VIEW_BITS ? e->size : e->count;
+    for (unsigned r = 0; r < rows; r++) {
+        char name[96], type[96];
+        unsigned a = e->addr + r * per;
+        if (e->view == GW_VIEW_BITS) {
+            unsigned lo = e->elem + 16u * r, n = e->count - 16u * r;
+            dr_ref_t r0 = {f, (int16_t)lo};
+            (void)dr_ref_path(r0, name, sizeof name);
+            snprintf(type, sizeof type, "%u bit(s) packed, bit 0 = the first",
+                     n > 16 ? 16 : n);
+        } else {
+            dr_ref_t ref = {f, (int16_t)(f->kind == DR_KIND_BIT ? 0 : e->elem + r)};
+            (void)dr_ref_path(ref, name, sizeof name);
+            if (e->view == GW_VIEW_INT16)
+                snprintf(type, sizeof type, "INT16 = %s x %u%s", dr_kind_name((dr_kind_t)f->kind),
+                         (unsigned)e->scale, e->saturate ? ", saturated" : "");
+            else if (e->view == GW_VIEW_UINT16 && f->kind == DR_KIND_DINT)
+                snprintf(type, sizeof type, "UINT16, %s half of the DINT",
+                         e->half ? "high" : "low");
+            else if (e->view == GW_VIEW_REAL || e->view == GW_VIEW_DINT)
+                snprintf(type, sizeof type, "%s, 2 registers in word order",
+                         e->view == GW_VIEW_REAL ? "REAL" : "DINT");
+            else
+                snprintf(type, sizeof type, "%s", e->view == GW_VIEW_BIT ? "bit" : "UINT16");
+        }
+        if (e->writable && fmt != GW_PRINT_JSON)
+            snprintf(type + strlen(type), sizeof type - strlen(type), ", writable");
+        if (filter == NULL || strstr(name, filter) != NULL)
+            print_row(out, fmt, first, e->table, a, a + per, name, type, f->unit, robot,
+                      e->writable);
+    }
+}
+
+void gw_regmap_print_all(FILE *out, gw_print_fmt_t fmt, const char *filter,
+                         const gw_config_t *cfg)
+{
+    gw_regmap_init();
+    bool first = true;
+    if (fmt == GW_PRINT_JSON)
+        fputs("[\n", out);
+    print_default(out, fmt, filter, &first);
+    for (unsigned r = 0; cfg != NULL && r < cfg->robot_count; r++) {
+        const gw_umap_t *m = &cfg->robot[r].map;
+        if (m->count == 0)
+            continue;
+        if (fmt == GW_PRINT_MARKDOWN)
+            fprintf(out, "\n### Robot %s (unit %u): its own map\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
+                    cfg->robot[r].name, (unsigned)cfg->robot[r].unit_id);
+        else if (fmt == GW_PRINT_TEXT)
+            fprintf(out, "# robot %s (unit %u): its own map\n", cfg->robot[r].name,
+                    (unsigned)cfg->robot[r].unit_id);
+        for (unsigned i = 0; i < m->count; i++)
+            print_user(out, fmt, filter, &first, cfg->robot[r].name, &m->entry[i]);
     }
     if (fmt == GW_PRINT_JSON)
         fputs("\n]\n", out);

@@ -2,8 +2,9 @@
 /*
  * The Modbus register map, generated from the codec's field table.
  *
- * Every Modbus unit (one per robot) has the same layout; addresses are
- * 0-based PDU offsets. T->O data is read-only (input registers, discrete
+ * Every Modbus unit (one per robot) has the same default layout, and
+ * may have its own map besides, at addresses the default leaves free
+ * (the robot's `map` lines, usermap.h); addresses are 0-based PDU offsets. T->O data is read-only (input registers, discrete
  * inputs), O->T data read/write (holding registers, coils). REAL and DINT
  * take two registers in the configured word order; bit fields appear both
  * as single bits and packed into words; REALs also as scaled INT16.
@@ -69,6 +70,14 @@ typedef struct {
      * refused (0x02). */
     dr_ref_t gpio_in[GW_MAX_GPIO];
     unsigned gpio_in_count;
+    /* The robot's own map (its `map` lines, in the configuration the
+     * daemon runs: unit_policy points here), served at the addresses the
+     * default map leaves free. NULL or empty: the default map alone. */
+    const gw_umap_t *umap;
+    /* default_map_writes = no: the default map's robot data is read-only
+     * (its control registers stay writable), so that the user's map says
+     * alone what Modbus may write. */
+    bool default_ro;
     uint16_t watchdog;        /* last value written to the watchdog register */
     bool fault_reset;         /* set when a client wrote the reset register */
 } gw_unit_t;
@@ -103,12 +112,22 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
 int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
                     const uint16_t *values, unsigned *dirty);
 
+/* Does the default map use any address of area in addr..addr+n-1? The
+ * first one used into *at. (The user's map must stay out of them.) */
+bool gw_regmap_default_used(gw_area_t area, uint32_t addr, uint32_t n, uint16_t *at);
+/* The name of what the default map has at area/addr ("" if nothing). */
+void gw_regmap_slot_name(gw_area_t area, uint16_t addr, char *buf, size_t size);
+
 /* The scale of a REAL field's INT16 view (10 or 100). */
 unsigned gw_regmap_scale(const dr_field_t *f);
 
 /* Print the map: plain text, Markdown (docs/register-map.md) or JSON. */
 typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
 void gw_regmap_print(FILE *out, gw_print_fmt_t fmt);
+/* The same, of the default map's entries whose name contains `filter`
+ * (NULL: all), then, for each robot that has one, its own map. */
+void gw_regmap_print_all(FILE *out, gw_print_fmt_t fmt, const char *filter,
+                         const gw_config_t *cfg);
 /* Every value of the status block's last_error (IR 12) with
  * last_cip_general (IR 30): text or Markdown (docs/register-map.md). */
 void gw_regmap_print_errors(FILE *out, gw_print_fmt_t fmt);

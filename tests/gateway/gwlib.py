@@ -11,6 +11,7 @@ Everything that waits polls for a condition with a generous deadline
 """
 import contextlib
 import ctypes
+import ctypes.util
 import json
 import math
 import os
@@ -723,3 +724,29 @@ def between(x, a, b, tol):
     if any(math.isnan(t) for t in (x, a, b)):
         return math.isnan(x) and (math.isnan(a) or math.isnan(b))
     return min(a, b) - tol <= x <= max(a, b) + tol
+
+
+# ---- libmodbus's own client, through ctypes ---------------------------------
+
+
+def libmodbus():
+    """libmodbus (a build dependency) with the prototypes of the client calls
+    the tests use: a C client of the ecosystem most PLC tools build on."""
+    name = ctypes.util.find_library("modbus")
+    if name is None:
+        raise RuntimeError("libmodbus not found (libmodbus-dev is a build dependency)")
+    lib = ctypes.CDLL(name, use_errno=True)
+    lib.modbus_new_tcp.restype = ctypes.c_void_p
+    lib.modbus_new_tcp.argtypes = [ctypes.c_char_p, ctypes.c_int]
+    for f in ("modbus_connect", "modbus_close", "modbus_free"):
+        getattr(lib, f).argtypes = [ctypes.c_void_p]
+    lib.modbus_set_slave.argtypes = [ctypes.c_void_p, ctypes.c_int]
+    lib.modbus_set_response_timeout.argtypes = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32]
+    u16p = ctypes.POINTER(ctypes.c_uint16)
+    lib.modbus_read_registers.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, u16p]
+    lib.modbus_write_register.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_uint16]
+    lib.modbus_write_and_read_registers.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int,
+                                                    u16p, ctypes.c_int, ctypes.c_int, u16p]
+    lib.modbus_strerror.restype = ctypes.c_char_p
+    lib.modbus_strerror.argtypes = [ctypes.c_int]
+    return lib

@@ -5,13 +5,12 @@ identification), issue 11 item 5: through pymodbus, through pyModbusTCP
 (C, via ctypes), and as raw frames for the exact exceptions. A FC 23 whose
 write or read part is refused applies nothing."""
 import ctypes
-import ctypes.util
 import struct
 import subprocess
 
 import pytest
 
-from gwlib import (DRGATEWAYD, EX_ILLEGAL_ADDRESS, EX_ILLEGAL_FUNCTION, EX_ILLEGAL_VALUE,
+from gwlib import (libmodbus, DRGATEWAYD, EX_ILLEGAL_ADDRESS, EX_ILLEGAL_FUNCTION, EX_ILLEGAL_VALUE,
                    EX_PATH_UNAVAILABLE, GW_ADDR, INSTANCE, EnipReader, dint_regs, regs_dint,
                    running, timeout, wait_for)
 
@@ -87,28 +86,10 @@ def test_fc23_pymodbustcp(gw, regmap):
         c.close()
 
 
-def _libmodbus():
-    name = ctypes.util.find_library("modbus")
-    if name is None:
-        pytest.fail("libmodbus not found (libmodbus-dev is a build dependency)")
-    lib = ctypes.CDLL(name, use_errno=True)
-    lib.modbus_new_tcp.restype = ctypes.c_void_p
-    lib.modbus_new_tcp.argtypes = [ctypes.c_char_p, ctypes.c_int]
-    for f in ("modbus_connect", "modbus_close", "modbus_free"):
-        getattr(lib, f).argtypes = [ctypes.c_void_p]
-    lib.modbus_set_slave.argtypes = [ctypes.c_void_p, ctypes.c_int]
-    lib.modbus_set_response_timeout.argtypes = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32]
-    u16p = ctypes.POINTER(ctypes.c_uint16)
-    lib.modbus_write_and_read_registers.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int,
-                                                    u16p, ctypes.c_int, ctypes.c_int, u16p]
-    lib.modbus_strerror.restype = ctypes.c_char_p
-    lib.modbus_strerror.argtypes = [ctypes.c_int]
-    return lib
-
 
 def test_fc23_libmodbus_client(gw, regmap):
     """libmodbus's modbus_write_and_read_registers, a C client."""
-    lib = _libmodbus()
+    lib = libmodbus()
     a = regmap.addr("HR", "int_in[3]")
     ctx = lib.modbus_new_tcp(GW_ADDR.encode(), gw.port)
     assert ctx

@@ -396,7 +396,7 @@ typedef struct {
     "on_link_loss, unmapped_read, "                                           \
     "single_writer, writer_watchdog_ms, request_timeout_ms"
 #define ROBOT_KEYS                                                             \
-    "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, mode, " \
+    "host, tcp_port, udp_port, local_address, local_udp_port, unit_id, unit_id_alias, map, default_map_writes, mode, " \
     "rpi_ms, "                                                                 \
     "timeout_multiplier, timeout_ms, fallback, o2t_timing, config_instance, "  \
     "input_only_heartbeat, listen_only_heartbeat, originator_serial, "        \
@@ -440,6 +440,26 @@ static const err_case_t err_cases[] = {
       "4: unknown key 'foo' in [modbus] (allowed: " MODBUS_KEYS ")" },
     { ROBOT "hots = x\n", "3: unknown key 'hots' in [robot a] (did you mean "
                           "'host'? allowed: " ROBOT_KEYS ")" },
+    /* the user's register map and unit ID aliases (issue 22) */
+    { ROBOT "map = hr 2000 int_in[0..3] dint\nmap = hr 2006 int_in[4] dint\n",
+      "4: map: hr 2006-2007 overlaps the block at hr 2000-2007 (line 3)" },
+    { ROBOT "map = hr 310 int_in[0] int16 saturate\n",
+      "3: map: hr 310 is int_in[5] in the default map (place the block where "
+      "drgatewayd --print-map shows nothing, e.g. hr 2048 and up)" },
+    { ROBOT "map = hr 2000 int_out[0] dint writable\n",
+      "3: map: 'int_out[0]' is written by the robot (T->O int_out): it cannot be "
+      "writable (only O->T fields: io_control, bit_in, int_in, float_in)" },
+    { ROBOT "map = hr 65534 float_in[0..1] real\n",
+      "3: map: block hr 65534 takes 4 addresses: past the table's last, 65535" },
+    { ROBOT "map = hr 2000 float_in[0] int16 scale=10\n",
+      "3: map: int16 x 10 cannot hold every value of a REAL field (add 'saturate' "
+      "to clamp to -32768..32767, or a smaller scale)" },
+    { ROBOT "map = hr 2000 int_in[0..30] dint\n",
+      "3: map: range 'int_in[0..30]' invalid: index out of range (allowed: "
+      "int_in[0..23])" },
+    { ROBOT "unit_id_alias = 0,255\n[robot b]\nhost = 10.0.0.2\nunit_id = 2\n"
+            "unit_id_alias = 255\n",
+      "7: robot 'b': unit_id_alias 255 is already robot 'a''s (line 3; one robot per alias)" },
     { ROBOT "instanse.io_state = 5\n",
       "3: unknown key 'instanse.io_state' in [robot a] (did you mean "
       "'instance.io_state'? "
