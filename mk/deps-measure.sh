@@ -17,7 +17,7 @@ sh mk/minimal-root.sh "$tmp"
 base=$(grep -c '^Package:' "$tmp/status")
 echo "minimal bookworm root: $base packages (Priority required, Essential, apt and their dependencies)"
 for set in demo test; do
-    pk=$(sh mk/deps.sh --list "$set" | grep -v ':s390x' | tr '\n' ' ')
+    pk=$(sh mk/deps.sh --list "$set" | grep -v ':s390x\|:arm64' | tr '\n' ' ')
     apt="apt-get -q -o Dir::State::status=$tmp/status -o APT::Architectures=amd64 \
          install --no-install-recommends"
     # shellcheck disable=SC2086
@@ -28,5 +28,5 @@ for set in demo test; do
     disk=$($apt --print-uris -y $pk 2>/dev/null | sed -n 's/^After this operation, \(.*\) of additional.*/\1/p')
     printf '%-5s %3d packages, %5.1f MB to download, %s on disk%s\n' "$set" "$n" \
         "$(echo "$bytes" | awk '{ print $1 / 1e6 }')" "${disk:-?}" \
-        "$([ "$set" = test ] && echo ' (amd64 only: + the s390x runtime)')"
+        "$([ "$set" = test ] && echo ' (amd64 only: + the s390x and arm64 libraries)')"
 done
