@@ -24,6 +24,8 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
+
 TOP = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("GW_BUILD", TOP / "build"))
 DRGATEWAYD = Path(os.environ.get("DRGATEWAYD", BUILD / "drgatewayd"))
@@ -750,3 +752,39 @@ def libmodbus():
     lib.modbus_strerror.restype = ctypes.c_char_p
     lib.modbus_strerror.argtypes = [ctypes.c_int]
     return lib
+
+
+# ---- network namespaces -------------------------------------------------------
+
+CLONE_NEWNET = 0x40000000
+_libc = ctypes.CDLL(None, use_errno=True)
+
+
+@contextlib.contextmanager
+def in_netns(path):
+    """This thread in the network namespace at path (/proc/PID/ns/net or
+    /run/netns/NAME), and back in its own afterwards: sockets made
+    meanwhile stay in that namespace whoever uses them."""
+    mine = os.open("/proc/thread-self/ns/net", os.O_RDONLY)
+    theirs = os.open(path, os.O_RDONLY)
+    try:
+        if _libc.setns(theirs, CLONE_NEWNET) != 0:
+            raise OSError(ctypes.get_errno(), "setns %s" % path)
+        try:
+            yield
+        finally:
+            if _libc.setns(mine, CLONE_NEWNET) != 0:
+                raise OSError(ctypes.get_errno(), "setns back")
+    finally:
+        os.close(mine)
+        os.close(theirs)
+
+
+def skip(name, reason):
+    """The SKIPPED banner of tests/skip.sh for a test this machine cannot
+    run; under CI (CI set) a failure, since CI machines run every check."""
+    banner = "#" * 67
+    print("\n%s\n### %s SKIPPED: %s\n%s" % (banner, name, reason, banner))
+    if os.environ.get("CI"):
+        pytest.fail("skipped in CI: %s" % reason)
+    pytest.skip(reason)

@@ -10,8 +10,6 @@ connection / nothing answering ARP (in a network namespace of the test's
 own, where routes and a veth pair are set up without touching the host),
 refused reconnects after the link was up, and the Class 1 port taken by
 another program."""
-import contextlib
-import ctypes
 import os
 import shutil
 import socket
@@ -22,7 +20,7 @@ import types
 import pytest
 
 from gwlib import (DRGATEWAYD, EXIT_RUNTIME, GW_ADDR, LOGDIR, SIM_ADDR, Gateway, RawModbus,
-                   free_port, read_text, running, spawn, timeout, wait_for)
+                   free_port, in_netns, read_text, running, skip, spawn, timeout, wait_for)
 
 LINK_STATE, LAST_ERROR, CIP_GENERAL = 1, 12, 30
 
@@ -190,29 +188,6 @@ def test_class1_port_in_use():
 
 # ---- in a network namespace of our own -----------------------------------------
 
-CLONE_NEWNET = 0x40000000
-_libc = ctypes.CDLL(None, use_errno=True)
-
-
-@contextlib.contextmanager
-def netns_of(pid):
-    """This thread in process pid's network namespace (sockets made meanwhile
-    stay there), and back in its own afterwards."""
-    mine = os.open("/proc/thread-self/ns/net", os.O_RDONLY)
-    theirs = os.open("/proc/%d/ns/net" % pid, os.O_RDONLY)
-    try:
-        if _libc.setns(theirs, CLONE_NEWNET) != 0:
-            raise OSError(ctypes.get_errno(), "setns")
-        try:
-            yield
-        finally:
-            if _libc.setns(mine, CLONE_NEWNET) != 0:
-                raise OSError(ctypes.get_errno(), "setns back")
-    finally:
-        os.close(mine)
-        os.close(theirs)
-
-
 def can_unshare():
     if os.geteuid() != 0 or not shutil.which("unshare") or not shutil.which("ip"):
         return False
@@ -246,10 +221,11 @@ ip neigh add 10.8.0.9 lladdr 02:00:00:00:00:09 dev v0 nud permanent
 """
 
 
-@pytest.mark.skipif(not can_unshare(), reason="needs root, unshare(1) and ip(8)")
 def test_no_route_and_no_answer():
     """In a network namespace of its own: each robot's cause in its log
     line and its own code in its last_error."""
+    if not can_unshare():
+        skip("test_unreachable.py", "needs root, unshare(1) and ip(8)")
     LOGDIR.mkdir(parents=True, exist_ok=True)
     conf = LOGDIR / "unreach-netns.ini"
     log_path = LOGDIR / "unreach-netns.gateway.log"
@@ -269,7 +245,7 @@ def test_no_route_and_no_answer():
         assert proc.poll() is None, read_text(log_path)
 
         def status(unit):
-            with netns_of(proc.pid):
+            with in_netns("/proc/%d/ns/net" % proc.pid):
                 m = RawModbus("127.0.0.1", port)
             with m:
                 return m.read(4, 0, 31, unit=unit)
