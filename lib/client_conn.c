@@ -279,7 +279,7 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
     cn->stats.o2t_api_us = rp->o2t_api_us ? rp->o2t_api_us : cn->cfg.rpi_us;
     cn->stats.t2o_api_us = rp->t2o_api_us ? rp->t2o_api_us : cn->cfg.rpi_us;
     /* Timers run from the APIs the target granted, not what we asked. */
-    cn->timeout_us = cn->stats.t2o_api_us * (4u << cn->cfg.timeout_mult);
+    cn->stats.timeout_us = cn->stats.t2o_api_us * (4u << cn->cfg.timeout_mult);
     cn->o2t_to.addr = c->peer.addr;
     cn->o2t_to.port = c->cfg.udp_port;
     const dr_cpf_item_t *it = cpf ? dr_cpf_find(cpf, DR_CPF_SOCKADDR_O2T) : NULL;
@@ -295,7 +295,7 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
     cn->next_tx_us = grid_after(c, t, cn->stats.o2t_api_us);
     cn->last_tx_us = 0;
     cn->follow_misses = 0;
-    cn->rx_deadline_us = t + cn->timeout_us + FIRST_PACKET_GRACE_US;
+    cn->rx_deadline_us = t + cn->stats.timeout_us + FIRST_PACKET_GRACE_US;
     cn->backoff_ms = c->cfg.backoff_min_ms;
     cn->dup_retries = 0;
     drc_conn_set_state(cn, DR_CONN_ESTABLISHED, DR_OK);
@@ -633,7 +633,7 @@ void drc_conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
     cn->t2o_seq32 = f.encap_seq;
     cn->stats.rx_packets++;
     cn->stats.last_rx_us = t;
-    cn->rx_deadline_us = t + cn->timeout_us;
+    cn->rx_deadline_us = t + cn->stats.timeout_us;
     /* The 16-bit CIP sequence count says whether the data is new: a
      * producer may keep it while its data is unchanged, and only the
      * encapsulation sequence number moves (seen on a real adapter). A

@@ -112,7 +112,6 @@ struct dr_conn {
     bool have_t2o_seq;
     uint64_t next_tx_us, rx_deadline_us, retry_us;
     uint64_t last_tx_us; /* when the last O->T packet was produced; 0: none yet */
-    uint32_t timeout_us;
     uint32_t backoff_ms;
     unsigned dup_retries;
     unsigned follow_misses; /* T->O arrivals in a row outside the window */

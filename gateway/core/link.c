@@ -292,16 +292,6 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
     }
 }
 
-/* The T->O silence after which conn timed out: its API (as the robot
- * granted it) x (4 << timeout_multiplier). */
-static unsigned conn_timeout_ms(const gw_link_t *l, const dr_conn_t *conn)
-{
-    uint64_t api = dr_conn_stats(conn)->t2o_api_us;
-    if (api == 0)
-        api = (uint64_t)l->cfg.rpi_ms * 1000u;
-    return (unsigned)(api * (4u << l->cfg.timeout_mult) / 1000u);
-}
-
 /* "robot R: io_state (owner io_control): reconnecting: Forward Open refused:
  * CIP 0x01/0x0129 invalid configuration application path (path: config 1,
  * O->T 107, T->O 101)", at most as often as the link's rate limit lets
@@ -339,7 +329,8 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
         /* not "timed out: timed out": say what timed out */
         gw_log_limited(GW_LOG_WARNING, &l->log_limit,
                        "robot %s: %s (%s): timed out: no packet from the robot for %u ms",
-                       l->cfg.name, dr_asm_info(a)->name, how, conn_timeout_ms(l, conn));
+                       l->cfg.name, dr_asm_info(a)->name, how,
+                       (unsigned)(dr_conn_stats(conn)->timeout_us / 1000u));
     else
         gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s (%s): %s: %s",
                        l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),

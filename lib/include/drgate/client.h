@@ -409,6 +409,8 @@ typedef struct {
     uint64_t rx_repeats;       /* packets taken that repeat the CIP count */
     uint64_t last_rx_us;       /* monotonic time of the last packet taken */
     uint32_t o2t_api_us, t2o_api_us; /* from the Forward Open reply */
+    uint32_t timeout_us;  /* T->O silence that times the connection out:
+                             t2o_api_us x (4 << timeout_mult) */
     uint32_t o2t_cid, t2o_cid;
     uint32_t opens, timeouts;
     uint16_t size_wanted; /* from a 0x0109 refusal: the target's size */
