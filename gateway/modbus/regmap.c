@@ -184,26 +184,38 @@ static const uint8_t *asm_img(const gw_unit_t *u, const dr_field_t *f)
     return u->robot->img[f->assembly];
 }
 
-static dr_value_t get_value(const gw_unit_t *u, const slot_t *s, int16_t elem)
+/* Element elem of field f in the robot's image (-1: the whole field). */
+static dr_value_t field_value(const gw_unit_t *u, const dr_field_t *f, int elem)
 {
-    const dr_field_t *f = slot_field(s);
-    dr_ref_t ref = {f, elem};
+    dr_ref_t ref = {f, (int16_t)elem};
     dr_value_t v = dr_value_uint(0);
     (void)dr_field_get(asm_img(u, f), asm_size(f), ref, &v);
     return v;
 }
 
-static uint16_t scaled(double f, unsigned scale)
+static dr_value_t get_value(const gw_unit_t *u, const slot_t *s, int16_t elem)
 {
-    if (f != f)
-        return 0x8000; /* -32768 marks "not a number" */
-    double x = f * scale;
+    return field_value(u, slot_field(s), elem);
+}
+
+/* x rounded half away from zero, clamped to [lo, 32767]; NaN reads
+ * -32768. */
+static uint16_t round_int16(double x, double lo)
+{
+    if (x != x)
+        return 0x8000;
     x = x < 0 ? ceil(x - 0.5) : floor(x + 0.5);
     if (x > 32767.0)
         x = 32767.0;
-    if (x < -32767.0)
-        x = -32767.0;
+    if (x < lo)
+        x = lo;
     return (uint16_t)(int16_t)x;
+}
+
+/* The default map's scaled view: -32768 is kept for "not a number". */
+static uint16_t scaled(double f, unsigned scale)
+{
+    return round_int16(f * scale, -32767.0);
 }
 
 /* The block is assembled here from both owners: the robot's facts (its
@@ -372,26 +384,6 @@ static bool default_slot(gw_area_t area, uint32_t a)
     return a < GW_AREA_SIZE && map[area][a].kind != SL_NONE;
 }
 
-static dr_value_t field_value(const gw_unit_t *u, const dr_field_t *f, int elem)
-{
-    dr_ref_t ref = {f, (int16_t)elem};
-    dr_value_t v = dr_value_uint(0);
-    (void)dr_field_get(asm_img(u, f), asm_size(f), ref, &v);
-    return v;
-}
-
-/* x rounded half away from zero, clamped to INT16; NaN reads -32768. */
-static uint16_t to_int16(double x)
-{
-    if (x != x)
-        return 0x8000;
-    x = x < 0 ? ceil(x - 0.5) : floor(x + 0.5);
-    if (x > 32767.0)
-        x = 32767.0;
-    if (x < -32768.0)
-        x = -32768.0;
-    return (uint16_t)(int16_t)x;
-}
 
 /* Elements first..first+n-1 of a BIT/BITS field as bits 0..n-1. */
 static uint16_t user_bits(const gw_unit_t *u, const dr_field_t *f, unsigned first, unsigned n)
@@ -422,7 +414,7 @@ static uint16_t user_read(const gw_unit_t *u, const gw_umap_entry_t *e, uint32_t
     }
     case GW_VIEW_INT16: {
         dr_value_t v = field_value(u, f, (int)(e->elem + off));
-        return to_int16(dr_value_as_double(&v) * e->scale);
+        return round_int16(dr_value_as_double(&v) * e->scale, -32768.0);
     }
     case GW_VIEW_UINT16: {
         dr_value_t v = field_value(u, f, (int)(e->elem + off));
