@@ -32,7 +32,7 @@ cd "$(dirname "$0")/.."
 # What `make` (all) and `make demo` need. No test tool here: check-dep-split
 # (mk/check-dep-split.sh, in make check) fails if one appears.
 DEMO_PKGS="build-essential pkg-config libjansson-dev libmodbus-dev libgpiod-dev \
- libinih-dev libsystemd-dev libmosquitto-dev mbpoll"
+ libinih-dev libsystemd-dev libmosquitto-dev libmicrohttpd-dev libnanopb-dev mbpoll"
 # What make check adds: unit tests, cross and big-endian builds, firmware,
 # sanitizers, static analysis, coverage, captures, peers, the Debian
 # packages (check-deb: debhelper, lintian, mmdebstrap; check-arm64: the
@@ -42,13 +42,15 @@ TEST_PKGS="libcmocka-dev gpiod \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
  tshark socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
  liblwip-dev mosquitto openssl \
- debhelper lintian mmdebstrap gcc-aarch64-linux-gnu libc6-dev-arm64-cross"
+ debhelper lintian mmdebstrap gcc-aarch64-linux-gnu libc6-dev-arm64-cross \
+ chromium chromium-driver prometheus nanopb"
 # Need `dpkg --add-architecture`: the big-endian test runtime (check-be),
 # and the packages' arm64 build dependencies (check-arm64: dpkg-buildpackage
 # -a arm64; pkgconf:arm64 is aarch64-linux-gnu-pkg-config).
 CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x \
  pkgconf:arm64 libjansson-dev:arm64 libmodbus-dev:arm64 libgpiod-dev:arm64 \
- libinih-dev:arm64 libsystemd-dev:arm64 libmosquitto-dev:arm64"
+ libinih-dev:arm64 libsystemd-dev:arm64 libmosquitto-dev:arm64 \
+ libmicrohttpd-dev:arm64 libnanopb-dev:arm64"
 
 # DEPS_ADMINDIR=DIR (a dpkg status in DIR/status, e.g. mk/minimal-root.sh's):
 # --dry-run plans as on the machine DIR describes (check-dep-split).

@@ -58,13 +58,13 @@ class Plant:
         self.msgs = []
         self.times = []  # time.monotonic() of each message's arrival
         self.lock = threading.Lock()
-        self.c = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2)
+        self.c = mqtt.Client()
         if tls_ca:
             self.c.tls_set(ca_certs=str(tls_ca))
         self.subscribed = threading.Event()
         self.c.on_message = self._on_message
-        self.c.on_connect = lambda c, u, f, rc, p: c.subscribe(PREFIX + "/#", qos=1)
-        self.c.on_subscribe = lambda c, u, mid, rcs, p: self.subscribed.set()
+        self.c.on_connect = lambda c, u, f, rc: c.subscribe(PREFIX + "/#", qos=1)
+        self.c.on_subscribe = lambda c, u, mid, qos: self.subscribed.set()
         self.c.connect(GW_ADDR, broker.port, 30)
         self.c.loop_start()
         # what the gateway publishes from now on (its snapshot) is seen
