@@ -35,6 +35,7 @@
 
 #include "common/ev.h"
 #include "drgate/text.h"
+#include "core/json.h"
 #include "core/log.h"
 #include "mqtt/mqtt_lib.h"
 #include "core/north.h"
@@ -47,12 +48,6 @@
 #define MQ_SET_MAX 64u               /* a write's value text */
 #define MQ_READS_PER_EVENT 64        /* packets read per readiness event */
 #define MQ_ERR_QUEUE 32u             /* error replies queued at once */
-
-typedef struct {
-    char buf[MQ_JSON_MAX];
-    size_t len;
-    bool full; /* something did not fit: not published */
-} mq_json_t;
 
 typedef struct {
     bool have;
@@ -86,7 +81,8 @@ typedef struct {
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     unsigned err_queued;   /* error replies given since libmosquitto's queue was empty */
     unsigned long dropped; /* error replies dropped (queue bound) */
-    mq_json_t json;
+    gw_json_t json; /* over json_buf */
+    char json_buf[MQ_JSON_MAX];
 } mq_t;
 
 static unsigned lib_users; /* mosquitto_lib_init/cleanup around the sides */
@@ -94,64 +90,6 @@ static unsigned lib_users; /* mosquitto_lib_init/cleanup around the sides */
  * side's mq_new, then kept for the life of the process; every call below
  * is made by an enabled side, so after the load. */
 static const gw_mqttlib_t *ml;
-
-/* ---- JSON, written by hand: keys are canonical paths (fixed identifiers),
- * strings from outside are escaped ----------------------------------------------- */
-
-static void js_raw(mq_json_t *j, const char *s, size_t n)
-{
-    if (j->full || n > sizeof j->buf - 1 - j->len) {
-        j->full = true;
-        return;
-    }
-    memcpy(j->buf + j->len, s, n);
-    j->len += n;
-    j->buf[j->len] = '\0';
-}
-
-static void js_str(mq_json_t *j, const char *s)
-{
-    js_raw(j, s, strlen(s));
-}
-
-/* A JSON string of `n` arbitrary bytes: quotes, backslashes, control
- * characters and bytes above 0x7e escaped (\u00XX: the byte's value). */
-static void js_quote(mq_json_t *j, const char *s, size_t n)
-{
-    js_raw(j, "\"", 1);
-    for (size_t i = 0; i < n; i++) {
-        unsigned char ch = (unsigned char)s[i];
-        char esc[8];
-        if (ch == '"' || ch == '\\') {
-            esc[0] = '\\', esc[1] = (char)ch;
-            js_raw(j, esc, 2);
-        } else if (ch < 0x20 || ch > 0x7e) {
-            snprintf(esc, sizeof esc, "\\u%04x", ch);
-            js_raw(j, esc, 6);
-        } else {
-            js_raw(j, (const char *)&s[i], 1);
-        }
-    }
-    js_raw(j, "\"", 1);
-}
-
-/* A value as a JSON number: REALs shortest round-trip (dr_text_real),
- * non-finite ones null (JSON has no NaN). */
-static void js_value(mq_json_t *j, const dr_value_t *v)
-{
-    char t[48];
-    switch (v->type) {
-    case DR_VAL_REAL:
-        if (!isfinite(v->f) || dr_text_real((float)v->f, t, sizeof t) != DR_OK)
-            snprintf(t, sizeof t, "null");
-        break;
-    case DR_VAL_INT: snprintf(t, sizeof t, "%lld", (long long)v->i); break;
-    case DR_VAL_BOOL:
-    case DR_VAL_UINT:
-    default: snprintf(t, sizeof t, "%llu", (unsigned long long)v->u); break;
-    }
-    js_str(j, t);
-}
 
 /* ---- topics and publishing ------------------------------------------------------ */
 
@@ -199,9 +137,9 @@ static const char *type_name(const dr_field_t *f)
 /* Every leaf with its type, unit and direction: the units of data. */
 static bool publish_meta(mq_t *t, unsigned robot)
 {
-    mq_json_t *j = &t->json;
-    j->len = 0, j->full = false;
-    js_raw(j, "{", 1);
+    gw_json_t *j = &t->json;
+    gw_json_init(j, t->json_buf, sizeof t->json_buf);
+    gw_json_raw(j, "{", 1);
     for (unsigned i = 0; i < t->leaves; i++) {
         dr_ref_t ref;
         char path[96];
@@ -210,15 +148,15 @@ static bool publish_meta(mq_t *t, unsigned robot)
         const dr_field_t *f = ref.field;
         bool o2t = dr_asm_info((dr_asm_t)f->assembly)->dir == DR_DIR_O2T;
         if (j->len > 1)
-            js_raw(j, ",", 1);
-        js_quote(j, path, strlen(path));
-        js_str(j, ":{\"type\":");
-        js_quote(j, type_name(f), strlen(type_name(f)));
-        js_str(j, ",\"unit\":");
-        js_quote(j, f->unit, strlen(f->unit));
-        js_str(j, o2t ? ",\"dir\":\"O->T\"}" : ",\"dir\":\"T->O\"}");
+            gw_json_raw(j, ",", 1);
+        gw_json_quote(j, path, strlen(path));
+        gw_json_str(j, ":{\"type\":");
+        gw_json_quote(j, type_name(f), strlen(type_name(f)));
+        gw_json_str(j, ",\"unit\":");
+        gw_json_quote(j, f->unit, strlen(f->unit));
+        gw_json_str(j, o2t ? ",\"dir\":\"O->T\"}" : ",\"dir\":\"T->O\"}");
     }
-    js_raw(j, "}", 1);
+    gw_json_raw(j, "}", 1);
     if (j->full)
         return true; /* cannot fit: not retried */
     char top[256];
@@ -246,10 +184,10 @@ static bool changed(const mq_t *t, const mq_last_t *l, const dr_value_t *v)
 static bool publish_data(mq_t *t, unsigned robot, bool full)
 {
     const gw_robot_t *rb = &t->env->robots[robot];
-    mq_json_t *j = &t->json;
+    gw_json_t *j = &t->json;
     mq_last_t *last = t->last[robot];
-    j->len = 0, j->full = false;
-    js_raw(j, "{", 1);
+    gw_json_init(j, t->json_buf, sizeof t->json_buf);
+    gw_json_raw(j, "{", 1);
     unsigned n = 0;
     for (unsigned i = 0; i < t->leaves; i++) {
         dr_ref_t ref;
@@ -266,12 +204,12 @@ static bool publish_data(mq_t *t, unsigned robot, bool full)
         t->pick[n] = (uint16_t)i;
         t->pick_v[n] = dr_value_as_double(&v);
         if (n++ > 0)
-            js_raw(j, ",", 1);
-        js_quote(j, path, strlen(path));
-        js_raw(j, ":", 1);
-        js_value(j, &v);
+            gw_json_raw(j, ",", 1);
+        gw_json_quote(j, path, strlen(path));
+        gw_json_raw(j, ":", 1);
+        gw_json_value(j, &v);
     }
-    js_raw(j, "}", 1);
+    gw_json_raw(j, "}", 1);
     if (n == 0 || j->full)
         return true;
     char top[256];
@@ -306,16 +244,16 @@ static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, c
         return;
     }
     t->err_queued++;
-    mq_json_t *j = &t->json;
-    j->len = 0, j->full = false;
-    js_str(j, "{\"topic\":");
-    js_quote(j, m->topic, strlen(m->topic));
-    js_str(j, ",\"payload\":");
-    js_quote(j, m->payload != NULL ? m->payload : "",
+    gw_json_t *j = &t->json;
+    gw_json_init(j, t->json_buf, sizeof t->json_buf);
+    gw_json_str(j, "{\"topic\":");
+    gw_json_quote(j, m->topic, strlen(m->topic));
+    gw_json_str(j, ",\"payload\":");
+    gw_json_quote(j, m->payload != NULL ? m->payload : "",
              m->payloadlen > 0 ? (size_t)m->payloadlen : 0u);
-    js_str(j, ",\"error\":");
-    js_quote(j, why, strlen(why));
-    js_raw(j, "}", 1);
+    gw_json_str(j, ",\"error\":");
+    gw_json_quote(j, why, strlen(why));
+    gw_json_raw(j, "}", 1);
     if (!j->full) {
         char top[256];
         topic(t, top, sizeof top, (int)robot, "error");
