@@ -83,8 +83,15 @@ class Plant:
         ms = self.all(topic)
         return ms[-1][1] if ms else None
 
+    def messages(self, robot="r0", leaf="data"):
+        """The robot's data (or snapshot) messages as sent: time, quality,
+        age_ms, values, names."""
+        return [json.loads(p) for _, p, _ in self.all("%s/%s/%s" % (PREFIX, robot, leaf))
+                if p]
+
     def data(self, robot="r0"):
-        return [json.loads(p) for _, p, _ in self.all("%s/%s/data" % (PREFIX, robot))]
+        """The values of each data message (canonical path: value)."""
+        return [m["values"] for m in self.messages(robot)]
 
     def merged(self, robot="r0"):
         """The robot's fields as the plant knows them from all data so far."""
