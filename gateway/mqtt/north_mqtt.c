@@ -178,7 +178,7 @@ static bool publish_named(mq_t *t, const char *robot, const char *leaf, const ch
 /* meta's type names, by dr_kind_t. The codec's own names (dr_kind_name:
  * "BOOL", "USINT enum") are those of the specification's tables, which
  * drcli and the register map show; a plant reads one word per kind.
- * docs/mqtt.md lists these (test_mqtt_meta.py compares the two). */
+ * docs/mqtt.md lists these (test_mqtt_plant.py compares the two). */
 static const char *const mq_type_names[] = {"BIT", "BITS", "USINT", "ENUM", "DINT", "REAL"};
 typedef char mq_type_names_cover_kinds[sizeof mq_type_names / sizeof mq_type_names[0] ==
                                                DR_KIND_REAL + 1

@@ -57,6 +57,7 @@ class Plant:
     def __init__(self, broker, tls_ca=None):
         self.msgs = []
         self.times = []  # time.monotonic() of each message's arrival
+        self.walls = []  # time.time() of the same
         self.lock = threading.Lock()
         self.c = mqtt.Client()
         if tls_ca:
@@ -74,6 +75,7 @@ class Plant:
         with self.lock:
             self.msgs.append((m.topic, m.payload.decode("utf-8", "replace"), m.retain))
             self.times.append(time.monotonic())
+            self.walls.append(time.time())
 
     def all(self, topic=None):
         with self.lock:
