@@ -38,6 +38,7 @@
 #include "core/json.h"
 #include "core/log.h"
 #include "mqtt/mqtt_lib.h"
+#include "mqtt/sparkplug.h"
 #include "core/north.h"
 
 #define MQ_BACKOFF_MIN_US 500000u    /* first reconnect after 0.5 s ... */
@@ -81,6 +82,7 @@ typedef struct {
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     unsigned err_queued;   /* error replies given since libmosquitto's queue was empty */
     unsigned long dropped; /* error replies dropped (queue bound) */
+    spb_t *spb;     /* payload = sparkplug (sparkplug.h), else NULL */
     gw_json_t json; /* over json_buf */
     char json_buf[MQ_JSON_MAX];
 } mq_t;
@@ -274,14 +276,39 @@ static bool gpio_driven(const gw_config_t *cfg, unsigned robot, dr_ref_t ref)
     return false;
 }
 
+/* A parsed plant write into the robot's O->T image (JSON's set topics and
+ * Sparkplug's DCMD alike), with the checks of a Modbus write: in
+ * single-writer mode the outputs belong to the one Modbus writer, the
+ * latched write fault, GPIO inputs' bits, the codec's checks. */
+static bool write_checked(mq_t *t, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                          char *why, size_t whylen)
+{
+    const gw_config_t *cfg = t->env->cfg;
+    gw_robot_t *rb = &t->env->robots[robot];
+    dr_asm_t a = (dr_asm_t)ref.field->assembly;
+    dr_status_t st;
+    if (cfg->modbus.single_writer)
+        snprintf(why, whylen, "single-writer mode: the outputs belong to the Modbus writer");
+    else if (rb->fault)
+        snprintf(why, whylen, "write fault latched (reset it through Modbus)");
+    else if (gpio_driven(cfg, robot, ref))
+        snprintf(why, whylen, "driven by a GPIO input");
+    else if ((st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, v, DR_SET_O2T_ONLY)) !=
+             DR_OK)
+        snprintf(why, whylen, "invalid value: %s", dr_strerror(st));
+    else {
+        t->env->outputs_changed(t->env->user, robot, 1u << a);
+        return true;
+    }
+    return false;
+}
+
 /* <prefix>/<robot>/set/<path>, the payload the value as text: the same
  * checks as a Modbus write (the codec's range and finiteness checks, GPIO
  * inputs' bits, the latched write fault), and in single-writer mode the
  * outputs belong to the one Modbus writer: refused. */
 static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosquitto_message *m)
 {
-    const gw_config_t *cfg = t->env->cfg;
-    gw_robot_t *rb = &t->env->robots[robot];
     char text[MQ_SET_MAX + 1], why[160];
     dr_ref_t ref;
     dr_value_t v;
@@ -302,33 +329,27 @@ static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosqu
     }
     memcpy(text, m->payload, (size_t)m->payloadlen);
     text[m->payloadlen] = '\0';
-    dr_asm_t a = (dr_asm_t)ref.field->assembly;
     st = dr_text_parse(ref, text, DR_SET_O2T_ONLY, &v);
     if (st == DR_EREADONLY)
         refuse(t, robot, m, "read-only: a T->O field");
     else if (st != DR_OK) {
         snprintf(why, sizeof why, "invalid value: %s", dr_strerror(st));
         refuse(t, robot, m, why);
-    } else if (cfg->modbus.single_writer)
-        refuse(t, robot, m, "single-writer mode: the outputs belong to the Modbus writer");
-    else if (rb->fault)
-        refuse(t, robot, m, "write fault latched (reset it through Modbus)");
-    else if (gpio_driven(cfg, robot, ref))
-        refuse(t, robot, m, "driven by a GPIO input");
-    else if ((st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, &v, DR_SET_O2T_ONLY)) !=
-             DR_OK) {
-        snprintf(why, sizeof why, "invalid value: %s", dr_strerror(st));
+    } else if (!write_checked(t, robot, ref, &v, why, sizeof why))
         refuse(t, robot, m, why);
-    } else {
+    else
         gw_log(GW_LOG_DEBUG, "mqtt: %s = %s", m->topic, text);
-        t->env->outputs_changed(t->env->user, robot, 1u << a);
-    }
 }
 
 static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto_message *m)
 {
     mq_t *t = obj;
     (void)mosq;
+    if (t->spb != NULL) {
+        (void)spb_message(t->spb, m->topic, m->payload,
+                          m->payloadlen > 0 ? (size_t)m->payloadlen : 0u);
+        return;
+    }
     size_t pl = strlen(t->prefix);
     if (!t->cfg.writes || strncmp(m->topic, t->prefix, pl) != 0 || m->topic[pl] != '/')
         return;
@@ -359,6 +380,10 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     t->connected = true;
     t->backoff_us = MQ_BACKOFF_MIN_US;
     t->inflight = 0;
+    if (t->spb != NULL) {
+        spb_connected(t->spb);
+        return;
+    }
     t->status_due = true;
     for (unsigned r = 0; r < t->env->cfg->robot_count; r++) {
         t->state_due[r] = t->meta_due[r] = t->full_due[r] = true;
@@ -381,6 +406,8 @@ static void on_disconnect(struct mosquitto *mosq, void *obj, int rc)
         gw_log(GW_LOG_WARNING, "mqtt: connection to %s:%u lost (%s)", t->cfg.host, t->cfg.port,
                rc == 0 ? "closed" : ml->strerror(rc));
     t->connected = false;
+    if (t->spb != NULL)
+        spb_disconnected(t->spb);
 }
 
 static void on_publish(struct mosquitto *mosq, void *obj, int mid)
@@ -426,10 +453,14 @@ static void drop_connection(mq_t *t, uint64_t now)
     sync_watch(t, now);
 }
 
+static void spb_set_will(mq_t *t);
+
 static void try_connect(mq_t *t, uint64_t now)
 {
     t->retry_us = 0;
     ev_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
+    if (t->spb != NULL)
+        spb_set_will(t);
     /* Non-blocking connect; the host name (if not an address) is resolved
      * here, the one blocking step (docs/mqtt.md). */
     int rc = ml->connect_async(t->mosq, t->cfg.host, t->cfg.port, (int)t->cfg.keepalive_s);
@@ -461,6 +492,59 @@ static void on_ready(void *obj, uint32_t events)
     if ((events & EPOLLOUT) && ml->socket(t->mosq) >= 0)
         (void)ml->loop_write(t->mosq, 1);
     sync_watch(t, now);
+}
+
+/* ---- Sparkplug B (sparkplug.h): what it asks of the connection --------------------- */
+
+static bool spb_io_publish(void *user, const char *top, const void *p, size_t len, bool retain)
+{
+    return publish(user, top, p, len, retain);
+}
+
+static bool spb_io_subscribe(void *user, const char *top, int qos)
+{
+    const mq_t *t = user;
+    int e = ml->subscribe(t->mosq, NULL, top, qos);
+    if (e != MOSQ_ERR_SUCCESS)
+        gw_log(GW_LOG_WARNING, "mqtt: subscribe %s: %s", top, ml->strerror(e));
+    return e == MOSQ_ERR_SUCCESS;
+}
+
+static bool spb_io_room(void *user)
+{
+    return room(user);
+}
+
+static bool spb_io_write(void *user, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                         char *why, size_t whylen)
+{
+    return write_checked(user, robot, ref, v, why, whylen);
+}
+
+static void spb_io_reconnect(void *user)
+{
+    drop_connection(user, ev_now_us());
+}
+
+static bool spb_attach(mq_t *t, const char *host, char *err, size_t errlen)
+{
+    const spb_io_t io = {t, spb_io_publish, spb_io_subscribe, spb_io_room, spb_io_write,
+                         spb_io_reconnect};
+    t->spb = spb_new(&t->cfg, t->env, &io, host, err, errlen);
+    return t->spb != NULL;
+}
+
+/* NDEATH with the next bdSeq as the Will of the connection being made
+ * (Sparkplug: QoS 1, not retained). */
+static void spb_set_will(mq_t *t)
+{
+    const char *top;
+    const void *p;
+    size_t len;
+    spb_will(t->spb, &top, &p, &len);
+    int rc = ml->will_set(t->mosq, top, (int)len, p, 1, false);
+    if (rc != MOSQ_ERR_SUCCESS)
+        gw_log(GW_LOG_ERROR, "mqtt: sparkplug: the Will (NDEATH): %s", ml->strerror(rc));
 }
 
 /* ---- the side ------------------------------------------------------------------------ */
@@ -544,9 +628,14 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
         mq_free(t);
         return NULL;
     }
+    if (q->payload == GW_MQTT_SPARKPLUG && !spb_attach(t, host, err, errlen)) {
+        mq_free(t);
+        return NULL;
+    }
     char will[200];
     snprintf(will, sizeof will, "%s/status", t->prefix);
-    int rc = ml->will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
+    int rc = t->spb != NULL ? MOSQ_ERR_SUCCESS /* its Will is set at each connect */
+                            : ml->will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
     if (rc == MOSQ_ERR_SUCCESS && q->username[0] != '\0')
         rc = ml->username_pw_set(t->mosq, q->username,
                                        q->password_file[0] ? t->password : NULL);
@@ -586,6 +675,8 @@ static void mq_sync_robots(mq_t *t, bool links)
             memset(t->last[r], 0, t->leaves * sizeof *t->last[r]);
     }
     t->status_due = true;
+    if (t->spb != NULL)
+        spb_sync(t->spb, links);
 }
 
 /* Shutdown or replacement: "offline" and a clean DISCONNECT (the broker
@@ -594,7 +685,10 @@ static void mq_goodbye(mq_t *t)
 {
     if (!t->connected)
         return;
-    (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
+    if (t->spb != NULL)
+        spb_goodbye(t->spb); /* NDEATH */
+    else
+        (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
     (void)ml->disconnect(t->mosq);
     uint64_t end = ev_now_us() + 1000000u;
     int fd;
@@ -621,6 +715,7 @@ static void mq_free(mq_t *t)
         ml->destroy(t->mosq);
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         free(t->last[r]);
+    spb_free(t->spb);
     free(t->pick);
     free(t->pick_v);
     if (t->cfg.enabled && --lib_users == 0)
@@ -648,7 +743,10 @@ static bool same_config(const gw_mqtt_config_t *a, const gw_mqtt_config_t *b)
            strcmp(a->key_file, b->key_file) == 0 && a->keepalive_s == b->keepalive_s &&
            a->qos == b->qos && strcmp(a->topic_prefix, b->topic_prefix) == 0 &&
            a->retain == b->retain && a->publish_interval_ms == b->publish_interval_ms &&
-           !(a->deadband < b->deadband || a->deadband > b->deadband) && a->writes == b->writes;
+           !(a->deadband < b->deadband || a->deadband > b->deadband) && a->writes == b->writes &&
+           a->payload == b->payload && strcmp(a->group_id, b->group_id) == 0 &&
+           strcmp(a->edge_node_id, b->edge_node_id) == 0 &&
+           strcmp(a->primary_host_id, b->primary_host_id) == 0;
 }
 
 /* An unchanged [mqtt] keeps its connection; a changed one is prepared
@@ -728,6 +826,11 @@ static void mq_tick(void *self, uint64_t now)
         return;
     }
     (void)ml->loop_misc(t->mosq); /* keepalive: PINGREQ, or a dead broker */
+    if (t->spb != NULL) {
+        spb_tick(t->spb, now);
+        sync_watch(t, now);
+        return;
+    }
     if (t->status_due && room(t))
         t->status_due = !publish_text(t, -1, "status", "online", t->cfg.retain);
     const gw_config_t *cfg = t->env->cfg;
@@ -766,6 +869,8 @@ static uint64_t mq_deadline(const void *self)
         return t->connect_deadline_us;
     if (!room(t))
         return UINT64_MAX; /* EPOLLOUT, or the broker's acknowledgements, first */
+    if (t->spb != NULL)
+        return spb_deadline(t->spb, ev_now_us());
     /* Wake for a robot whose data arrived, when its interval allows it;
      * other robots' O->T images are looked at with the 10 Hz tick. */
     uint64_t d = UINT64_MAX, now = ev_now_us();
@@ -788,11 +893,15 @@ static void mq_on_data(void *self, unsigned robot, dr_asm_t a)
         t->data_seen[robot] = true;
         t->asm_seen[robot] |= 1u << a;
     }
+    if (t->spb != NULL)
+        spb_on_data(t->spb, robot, a);
 }
 
 static void mq_on_link(void *self, unsigned robot, bool up)
 {
     mq_t *t = self;
+    if (t->spb != NULL)
+        spb_on_link(t->spb, robot, up);
     if (robot >= GW_MAX_ROBOTS || t->link[robot] == up)
         return;
     t->link[robot] = up;
