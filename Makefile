@@ -191,7 +191,7 @@ GW_TEST_FAKES := tests/gpio/gpio_fake.c
 GW_TEST_FAKE_OBJ := $(GW_TEST_FAKES:%.c=$(B)/%.o)
 GW_TEST_CFLAGS = $(ALL_CPPFLAGS) -Igateway -Itests -Itests/gpio -DGW_TEST_TOP='"$(CURDIR)"' \
                  $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
-GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) $(NANOPB_LIBS) -ldl -lm
+GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 
 .PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
