@@ -16,8 +16,9 @@
  *
  * seq runs 0..255 over every message but NDEATH, NBIRTH being 0; bdSeq
  * 0..255 is new for every connection (a restart of the daemon starts at
- * 0 again: docs/mqtt.md). Aliases are unique over the node: a robot's
- * field is (robot index + 1) * 65536 + its leaf number, Rebirth is 1.
+ * 0 again: docs/mqtt.md). Aliases are unique over the node and small (a
+ * DDATA metric is mostly its alias): Rebirth is 1, a robot's field
+ * 2 + robot index * leaves + its leaf number.
  */
 #include "mqtt/sparkplug.h"
 
@@ -38,7 +39,7 @@
 #define SPB_NS "spBv1.0"
 #define SPB_BUF 65536u           /* a DBIRTH of every field is ~25 kB */
 #define SPB_ALIAS_REBIRTH 1u
-#define SPB_ALIAS_ROBOT(r) (((uint64_t)(r) + 1u) << 16)
+#define SPB_ALIAS_FIRST 2u /* a robot's fields: 2 + robot * leaves + leaf */
 #define SPB_SNAPSHOT_WAIT_US 1000000u /* DBIRTH waits for every T->O image, at most 1 s */
 
 typedef struct {
@@ -217,10 +218,13 @@ static bool enc_robot(pb_ostream_t *st, const pb_field_iter_t *field, enc_t *e)
         if (e->kind == ENC_DDATA && !changed(s, &last[i], &v))
             continue;
         *m = (Payload_Metric)Payload_Metric_init_zero;
-        m->has_alias = m->has_timestamp = true;
-        m->alias = SPB_ALIAS_ROBOT(e->robot) | i;
-        m->timestamp = s->data_ms[e->robot];
+        m->has_alias = true;
+        m->alias = SPB_ALIAS_FIRST + (uint64_t)e->robot * s->leaves + i;
         if (e->kind == ENC_DBIRTH) {
+            /* DDATA's metrics have the payload's timestamp (the robot
+             * packet's): 7 bytes less for each, half a small metric */
+            m->has_timestamp = true;
+            m->timestamp = s->data_ms[e->robot];
             m->has_name = m->has_datatype = true;
             if (dr_ref_path(ref, m->name, sizeof m->name) != DR_OK)
                 continue;
@@ -265,12 +269,14 @@ static bool enc_metrics(pb_ostream_t *st, const pb_field_iter_t *field, void *co
     return true;
 }
 
-/* The payload into buf; 0 if it does not fit (logged). `seq` < 0: none. */
+/* The payload into buf; 0 if it does not fit (logged). `seq` < 0: none.
+ * Its timestamp: now, but a DDATA's is the time of the robot packet its
+ * values come from. */
 static size_t encode(spb_t *s, enc_t *e, uint8_t *buf, size_t size, int seq)
 {
     Payload p = Payload_init_zero;
     p.has_timestamp = true;
-    p.timestamp = wall_ms();
+    p.timestamp = e->kind == ENC_DDATA ? s->data_ms[e->robot] : wall_ms();
     p.has_seq = seq >= 0;
     p.seq = seq >= 0 ? (uint64_t)seq : 0u;
     p.metrics.funcs.encode = enc_metrics;
@@ -641,9 +647,9 @@ static void dcmd_metric(spb_t *s, unsigned robot, const Payload_Metric *m)
     if (m->has_name) {
         if (dr_path_parse(m->name, &ref) == DR_OK)
             leaf = leaf_of(ref, s->leaves);
-    } else if (m->has_alias && (m->alias >> 16) == (uint64_t)robot + 1u &&
-               (m->alias & 0xffffu) < s->leaves) {
-        leaf = (int)(m->alias & 0xffffu);
+    } else if (m->has_alias && m->alias >= SPB_ALIAS_FIRST + (uint64_t)robot * s->leaves &&
+               m->alias < SPB_ALIAS_FIRST + (uint64_t)(robot + 1u) * s->leaves) {
+        leaf = (int)(m->alias - SPB_ALIAS_FIRST - (uint64_t)robot * s->leaves);
         if (dr_leaf_at((uint16_t)leaf, &ref) != DR_OK)
             leaf = -1;
     }
