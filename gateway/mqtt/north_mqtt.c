@@ -50,6 +50,7 @@
 #include "core/json.h"
 #include "core/log.h"
 #include "mqtt/mqtt_lib.h"
+#include "mqtt/sparkplug.h"
 #include "core/north.h"
 
 #define MQ_BACKOFF_MIN_US 500000u    /* first reconnect after 0.5 s ... */
@@ -118,6 +119,7 @@ typedef struct {
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     unsigned err_queued;   /* error replies given since libmosquitto's queue was empty */
     unsigned long dropped; /* error replies dropped (queue bound) */
+    spb_t *spb;     /* payload = sparkplug (sparkplug.h), else NULL */
     gw_json_t json; /* over json_buf */
     char json_buf[MQ_JSON_MAX];
 } mq_t;
@@ -457,17 +459,55 @@ static void value_error(dr_ref_t ref, const char *text, dr_status_t st, char *wh
              type_name(ref.field));
 }
 
+/* A parsed plant write into the robot's O->T image (JSON's set topics and
+ * Sparkplug's DCMD alike), with the checks of a Modbus write: in
+ * single-writer mode the outputs belong to the one Modbus writer, the
+ * latched write fault, GPIO inputs' bits, the codec's checks. Returns
+ * the kind of refusal (why says it), MQ_REF_KINDS when written. */
+static mq_refusal_t write_into(mq_t *t, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                               char *why, size_t whylen)
+{
+    const gw_config_t *cfg = t->env->cfg;
+    gw_robot_t *rb = &t->env->robots[robot];
+    dr_asm_t a = (dr_asm_t)ref.field->assembly;
+    dr_status_t st;
+    if (cfg->modbus.single_writer) {
+        snprintf(why, whylen, "single-writer mode: the outputs belong to the Modbus writer");
+        return MQ_REF_SINGLE;
+    }
+    if (rb->fault) {
+        snprintf(why, whylen, "write fault latched (reset it through Modbus)");
+        return MQ_REF_FAULT;
+    }
+    if (gpio_driven(cfg, robot, ref)) {
+        snprintf(why, whylen, "driven by a GPIO input");
+        return MQ_REF_GPIO;
+    }
+    st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, v, DR_SET_O2T_ONLY);
+    if (st != DR_OK) {
+        snprintf(why, whylen, "invalid value: %s", dr_strerror(st));
+        return MQ_REF_VALUE;
+    }
+    t->env->outputs_changed(t->env->user, robot, 1u << a);
+    return MQ_REF_KINDS;
+}
+
+static bool write_checked(mq_t *t, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                          char *why, size_t whylen)
+{
+    return write_into(t, robot, ref, v, why, whylen) == MQ_REF_KINDS;
+}
+
 /* <prefix>/<robot>/set/<path>, the payload the value as text: the same
  * checks as a Modbus write (the codec's range and finiteness checks, GPIO
  * inputs' bits, the latched write fault), and in single-writer mode the
  * outputs belong to the one Modbus writer: refused. */
 static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosquitto_message *m)
 {
-    const gw_config_t *cfg = t->env->cfg;
-    gw_robot_t *rb = &t->env->robots[robot];
     char text[MQ_SET_MAX + 1], why[160];
     dr_ref_t ref;
     dr_value_t v;
+    mq_refusal_t kind;
     dr_status_t st = dr_path_parse(path, &ref);
     if (st != DR_OK) {
         char near[96];
@@ -485,34 +525,27 @@ static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosqu
     }
     memcpy(text, m->payload, (size_t)m->payloadlen);
     text[m->payloadlen] = '\0';
-    dr_asm_t a = (dr_asm_t)ref.field->assembly;
     st = dr_text_parse(ref, text, DR_SET_O2T_ONLY, &v);
     if (st == DR_EREADONLY)
         refuse(t, robot, m, MQ_REF_READONLY, "read-only: a T->O field");
     else if (st != DR_OK) {
         value_error(ref, text, st, why, sizeof why);
         refuse(t, robot, m, MQ_REF_VALUE, why);
-    } else if (cfg->modbus.single_writer)
-        refuse(t, robot, m, MQ_REF_SINGLE,
-               "single-writer mode: the outputs belong to the Modbus writer");
-    else if (rb->fault)
-        refuse(t, robot, m, MQ_REF_FAULT, "write fault latched (reset it through Modbus)");
-    else if (gpio_driven(cfg, robot, ref))
-        refuse(t, robot, m, MQ_REF_GPIO, "driven by a GPIO input");
-    else if ((st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, &v, DR_SET_O2T_ONLY)) !=
-             DR_OK) {
-        value_error(ref, text, st, why, sizeof why);
-        refuse(t, robot, m, MQ_REF_VALUE, why);
-    } else {
+    } else if ((kind = write_into(t, robot, ref, &v, why, sizeof why)) != MQ_REF_KINDS)
+        refuse(t, robot, m, kind, why);
+    else
         gw_log(GW_LOG_DEBUG, "mqtt: %s = %s", m->topic, text);
-        t->env->outputs_changed(t->env->user, robot, 1u << a);
-    }
 }
 
 static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto_message *m)
 {
     mq_t *t = obj;
     (void)mosq;
+    if (t->spb != NULL) {
+        (void)spb_message(t->spb, m->topic, m->payload,
+                          m->payloadlen > 0 ? (size_t)m->payloadlen : 0u);
+        return;
+    }
     size_t pl = strlen(t->prefix);
     if (!t->cfg.writes || strncmp(m->topic, t->prefix, pl) != 0 || m->topic[pl] != '/')
         return;
@@ -543,6 +576,10 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     t->connected = true;
     t->backoff_us = MQ_BACKOFF_MIN_US;
     t->inflight = 0;
+    if (t->spb != NULL) {
+        spb_connected(t->spb);
+        return;
+    }
     t->status_due = true;
     for (unsigned r = 0; r < t->env->cfg->robot_count; r++) {
         t->state_due[r] = t->meta_due[r] = t->full_due[r] = true;
@@ -568,6 +605,8 @@ static void on_disconnect(struct mosquitto *mosq, void *obj, int rc)
         gw_log(GW_LOG_WARNING, "mqtt: connection to %s:%u lost (%s)", t->cfg.host, t->cfg.port,
                rc == 0 ? "closed" : ml->strerror(rc));
     t->connected = false;
+    if (t->spb != NULL)
+        spb_disconnected(t->spb);
 }
 
 /* Why a connection attempt failed, in fail_why; the first cause found
@@ -650,11 +689,15 @@ static void drop_connection(mq_t *t, uint64_t now)
     sync_watch(t, now);
 }
 
+static void spb_set_will(mq_t *t);
+
 static void try_connect(mq_t *t, uint64_t now)
 {
     t->retry_us = 0;
     t->fail_why[0] = '\0';
     ev_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
+    if (t->spb != NULL)
+        spb_set_will(t);
     /* Non-blocking connect; the host name (if not an address) is resolved
      * here, the one blocking step (docs/mqtt.md). */
     errno = 0;
@@ -695,6 +738,59 @@ static void on_ready(void *obj, uint32_t events)
             note_failure(t, rc);
     }
     sync_watch(t, now);
+}
+
+/* ---- Sparkplug B (sparkplug.h): what it asks of the connection --------------------- */
+
+static bool spb_io_publish(void *user, const char *top, const void *p, size_t len, bool retain)
+{
+    return publish(user, top, p, len, retain);
+}
+
+static bool spb_io_subscribe(void *user, const char *top, int qos)
+{
+    const mq_t *t = user;
+    int e = ml->subscribe(t->mosq, NULL, top, qos);
+    if (e != MOSQ_ERR_SUCCESS)
+        gw_log(GW_LOG_WARNING, "mqtt: subscribe %s: %s", top, ml->strerror(e));
+    return e == MOSQ_ERR_SUCCESS;
+}
+
+static bool spb_io_room(void *user)
+{
+    return room(user);
+}
+
+static bool spb_io_write(void *user, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                         char *why, size_t whylen)
+{
+    return write_checked(user, robot, ref, v, why, whylen);
+}
+
+static void spb_io_reconnect(void *user)
+{
+    drop_connection(user, ev_now_us());
+}
+
+static bool spb_attach(mq_t *t, const char *host, char *err, size_t errlen)
+{
+    const spb_io_t io = {t, spb_io_publish, spb_io_subscribe, spb_io_room, spb_io_write,
+                         spb_io_reconnect};
+    t->spb = spb_new(&t->cfg, t->env, &io, host, err, errlen);
+    return t->spb != NULL;
+}
+
+/* NDEATH with the next bdSeq as the Will of the connection being made
+ * (Sparkplug: QoS 1, not retained). */
+static void spb_set_will(mq_t *t)
+{
+    const char *top;
+    const void *p;
+    size_t len;
+    spb_will(t->spb, &top, &p, &len);
+    int rc = ml->will_set(t->mosq, top, (int)len, p, 1, false);
+    if (rc != MOSQ_ERR_SUCCESS)
+        gw_log(GW_LOG_ERROR, "mqtt: sparkplug: the Will (NDEATH): %s", ml->strerror(rc));
 }
 
 /* ---- the side ------------------------------------------------------------------------ */
@@ -778,9 +874,14 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
         mq_free(t);
         return NULL;
     }
+    if (q->payload == GW_MQTT_SPARKPLUG && !spb_attach(t, host, err, errlen)) {
+        mq_free(t);
+        return NULL;
+    }
     char will[200];
     snprintf(will, sizeof will, "%s/status", t->prefix);
-    int rc = ml->will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
+    int rc = t->spb != NULL ? MOSQ_ERR_SUCCESS /* its Will is set at each connect */
+                            : ml->will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
     if (rc == MOSQ_ERR_SUCCESS && q->username[0] != '\0')
         rc = ml->username_pw_set(t->mosq, q->username,
                                        q->password_file[0] ? t->password : NULL);
@@ -824,6 +925,8 @@ static void mq_sync_robots(mq_t *t, bool links)
         snprintf(t->pub_name[r], sizeof t->pub_name[r], "%s", env->cfg->robot[r].name);
     t->pub_count = env->cfg->robot_count;
     t->status_due = true;
+    if (t->spb != NULL)
+        spb_sync(t->spb, links);
 }
 
 static bool has_robot(const gw_config_t *cfg, const char *name)
@@ -859,9 +962,9 @@ static void queue_gone(mq_t *t)
  * when the prefix moves (or MQTT goes): nothing else will clear them. */
 static void retire_for(mq_t *t, const mq_t *next)
 {
-    if (!t->cfg.enabled || !t->connected)
-        return;
-    bool all = !next->cfg.enabled || strcmp(t->prefix, next->prefix) != 0;
+    if (!t->cfg.enabled || !t->connected || t->spb != NULL)
+        return; /* Sparkplug's NDEATH (the goodbye) ends its devices */
+    bool all = !next->cfg.enabled || next->spb != NULL || strcmp(t->prefix, next->prefix) != 0;
     for (unsigned i = 0; i < t->gone_count; i++)
         retire(t, t->gone[i]);
     t->gone_count = 0;
@@ -878,7 +981,10 @@ static void mq_goodbye(mq_t *t, const char *why)
     if (!t->connected)
         return;
     t->closing = why;
-    (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
+    if (t->spb != NULL)
+        spb_goodbye(t->spb); /* NDEATH */
+    else
+        (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
     (void)ml->disconnect(t->mosq);
     uint64_t end = ev_now_us() + 1000000u;
     int fd;
@@ -907,6 +1013,7 @@ static void mq_free(mq_t *t)
         ml->destroy(t->mosq);
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         free(t->last[r]);
+    spb_free(t->spb);
     free(t->pick);
     free(t->pick_v);
     if (t->cfg.enabled && --lib_users == 0)
@@ -934,7 +1041,10 @@ static bool same_config(const gw_mqtt_config_t *a, const gw_mqtt_config_t *b)
            strcmp(a->key_file, b->key_file) == 0 && a->keepalive_s == b->keepalive_s &&
            a->qos == b->qos && strcmp(a->topic_prefix, b->topic_prefix) == 0 &&
            a->retain == b->retain && a->publish_interval_ms == b->publish_interval_ms &&
-           !(a->deadband < b->deadband || a->deadband > b->deadband) && a->writes == b->writes;
+           !(a->deadband < b->deadband || a->deadband > b->deadband) && a->writes == b->writes &&
+           a->payload == b->payload && strcmp(a->group_id, b->group_id) == 0 &&
+           strcmp(a->edge_node_id, b->edge_node_id) == 0 &&
+           strcmp(a->primary_host_id, b->primary_host_id) == 0;
 }
 
 /* An unchanged [mqtt] keeps its connection; a changed one is prepared
@@ -969,7 +1079,7 @@ static void *mq_commit(void *self, void *out, const gw_north_env_t *env)
         mq_free(t);
         if (n->cfg.enabled)
             try_connect(n, ev_now_us());
-    } else if (n->cfg.enabled)
+    } else if (n->cfg.enabled && n->spb == NULL)
         queue_gone(n);
     if (n->cfg.enabled)
         mq_sync_robots(n, true); /* robots may have moved, come or gone */
@@ -1044,6 +1154,11 @@ static void mq_tick(void *self, uint64_t now)
         return;
     }
     (void)ml->loop_misc(t->mosq); /* keepalive: PINGREQ, or a dead broker */
+    if (t->spb != NULL) {
+        spb_tick(t->spb, now);
+        sync_watch(t, now);
+        return;
+    }
     if (t->status_due && room(t))
         t->status_due = !publish_text(t, -1, "status", "online", t->cfg.retain);
     if (!t->status_due && t->gone_count > 0 && room(t)) {
@@ -1067,6 +1182,8 @@ static uint64_t mq_deadline(const void *self)
         return t->connect_deadline_us;
     if (!room(t))
         return UINT64_MAX; /* EPOLLOUT, or the broker's acknowledgements, first */
+    if (t->spb != NULL)
+        return spb_deadline(t->spb, ev_now_us());
     /* Wake for a robot whose data arrived, when its interval allows it;
      * other robots' O->T images are looked at with the 10 Hz tick. */
     uint64_t d = UINT64_MAX, now = ev_now_us();
@@ -1091,11 +1208,15 @@ static void mq_on_data(void *self, unsigned robot, dr_asm_t a)
         t->data_seen[robot] = true;
         t->asm_seen[robot] |= 1u << a;
     }
+    if (t->spb != NULL)
+        spb_on_data(t->spb, robot, a);
 }
 
 static void mq_on_link(void *self, unsigned robot, bool up)
 {
     mq_t *t = self;
+    if (t->spb != NULL)
+        spb_on_link(t->spb, robot, up);
     if (robot >= GW_MAX_ROBOTS || t->link[robot] == up)
         return;
     t->link[robot] = up;

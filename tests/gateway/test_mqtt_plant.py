@@ -78,9 +78,11 @@ def test_late_subscriber_gets_the_full_state(cell):
     # every field at once, the same keys as meta (and as the first data)
     assert set(snap["values"]) == set(meta)
     assert set(snap["values"]) == set(plant.messages()[0]["values"])
+    # fields that do not move (the snapshot may be a second behind drsim,
+    # whose state and DI1 change during its first 3 s)
     robot = robot_now(g)
-    for name in ("io_state.version.major", "io_state.version.minor", "int_out[3]",
-                 "io_state.cb_di[1]"):
+    for name in ("io_state.version.major", "io_state.version.minor", "io_state.version.patch",
+                 "int_out[3]"):
         assert snap["values"][name] == robot[name], name
     assert snap["quality"] == "fresh"
     assert snap["names"]["io_state.robot_state"] == \
