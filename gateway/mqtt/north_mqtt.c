@@ -454,9 +454,11 @@ static void value_error(dr_ref_t ref, const char *text, dr_status_t st, char *wh
         what = "not an integer";
     else if (number)
         what = "an integer is written in decimal or 0x hex";
-    snprintf(why, size, "invalid value: %s (%s is %s %s)", what, path,
-             ref.field->kind == DR_KIND_ENUM || ref.field->kind == DR_KIND_USINT ? "an" : "a",
-             type_name(ref.field));
+    /* A long path may cut the text; the reason comes first. */
+    if (snprintf(why, size, "invalid value: %s (%s is %s %s)", what, path,
+                 ref.field->kind == DR_KIND_ENUM || ref.field->kind == DR_KIND_USINT ? "an" : "a",
+                 type_name(ref.field)) < 0)
+        snprintf(why, size, "invalid value: %s", what);
 }
 
 /* A parsed plant write into the robot's O->T image (JSON's set topics and
