@@ -262,8 +262,9 @@ static void write_time(gw_json_t *j, uint64_t rx_us)
     gw_json_str(j, text);
 }
 
-/* {"time":...,"quality":"fresh"|"stale","age_ms":N,"values":{ */
-static void open_message(mq_t *t, const gw_robot_t *rb)
+/* {"time":...,"quality":"fresh"|"stale","age_ms":N,"values":{ : stale
+ * when the data is older than the link's timeout, or the link is down. */
+static void open_message(mq_t *t, const gw_robot_t *rb, bool up)
 {
     gw_json_t *j = &t->json;
     char text[64];
@@ -271,7 +272,7 @@ static void open_message(mq_t *t, const gw_robot_t *rb)
     gw_json_str(j, "{\"time\":");
     write_time(j, rb->link.rx_us);
     snprintf(text, sizeof text, ",\"quality\":\"%s\",\"age_ms\":%lu,\"values\":{",
-             rb->link.fresh ? "fresh" : "stale", (unsigned long)rb->link.age_ms);
+             up && rb->link.fresh ? "fresh" : "stale", (unsigned long)rb->link.age_ms);
     gw_json_str(j, text);
 }
 
@@ -308,7 +309,7 @@ static unsigned build_message(mq_t *t, unsigned robot, bool full)
     const gw_robot_t *rb = &t->env->robots[robot];
     gw_json_t *j = &t->json;
     const mq_last_t *last = t->last[robot];
-    open_message(t, rb);
+    open_message(t, rb, t->link[robot]);
     unsigned n = 0;
     for (unsigned i = 0; i < t->leaves; i++) {
         dr_ref_t ref;
@@ -1124,8 +1125,13 @@ static void tick_robot(mq_t *t, unsigned r, uint64_t now)
         t->state_due[r] = !publish_state(t, r);
     if (t->meta_due[r] && room(t))
         t->meta_due[r] = !publish_meta(t, r);
-    if (!t->link[r])
+    if (!t->link[r]) {
+        /* The link went down: the retained snapshot says stale, so that
+         * a subscriber that comes later does not take it as current. */
+        if (t->snap_due[r] && room(t) && publish_snapshot(t, r))
+            t->snap_due[r] = false;
         return;
+    }
     bool full = t->full_due[r];
     if (now >= t->next_pub_us[r] && room(t) && (!full || snapshot_ready(t, r, now)) &&
         publish_data(t, r, full)) {
@@ -1223,6 +1229,8 @@ static void mq_on_link(void *self, unsigned robot, bool up)
         return;
     t->link[robot] = up;
     t->state_due[robot] = true;
+    if (!up)
+        t->snap_due[robot] = true; /* the retained snapshot: stale now */
     if (up) {
         t->full_due[robot] = true; /* the plant gets every field afresh */
         t->next_snap_us[robot] = 0;  /* and the snapshot with it */

@@ -161,6 +161,31 @@ def test_dint_written_as_a_fraction_is_not_an_integer(cell):
     assert "malformed" not in err
 
 
+def test_snapshot_goes_stale_when_the_link_drops(request):
+    b = Broker(request.node.name).start()
+    try:
+        with running("mqtt_stale", extra=mqtt_section(b), start=False) as g:
+            plant = Plant(b)
+            g.start()
+            try:
+                wait_up(plant)
+                wait_for(lambda: plant.last(PREFIX + "/r0/snapshot"), 10, "a snapshot")
+                g.sim.kill()
+                wait_for(lambda: plant.last(PREFIX + "/r0/state").startswith("down"), 20,
+                         "state down")
+                snap = wait_for(lambda: [s for s in plant.messages(leaf="snapshot")
+                                         if s["quality"] == "stale"], 10, "a stale snapshot")[0]
+                assert isinstance(snap["age_ms"], int) and snap["time"] is not None
+                assert len(snap["values"]) == len(plant.messages()[0]["values"])
+                # what a subscriber that comes now gets: stale, not current
+                late = json.loads(retained(b, PREFIX + "/r0/snapshot")[PREFIX + "/r0/snapshot"])
+                assert late["quality"] == "stale"
+            finally:
+                plant.close()
+    finally:
+        b.stop()
+
+
 def test_removed_robot_and_moved_prefix_are_retired(request):
     b = Broker(request.node.name).start()
     try:
