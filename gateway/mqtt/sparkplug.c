@@ -34,7 +34,6 @@
 #include "common/ev.h"
 #include "core/log.h"
 #include "drgate/text.h"
-#include "mqtt/sparkplug_b.pb.h"
 
 #define SPB_NS "spBv1.0"
 #define SPB_BUF 65536u           /* a DBIRTH of every field is ~25 kB */
