@@ -63,6 +63,9 @@ struct spb {
     bool born;        /* NBIRTH published on this connection */
     bool link[GW_MAX_ROBOTS];
     bool dev_born[GW_MAX_ROBOTS];  /* DBIRTH published, no DDEATH since */
+    char born_as[GW_MAX_ROBOTS][GW_NAME_MAX]; /* the device ID of that DBIRTH */
+    char gone[GW_MAX_ROBOTS][GW_NAME_MAX]; /* born devices a reload removed: DDEATH due */
+    unsigned gone_count;
     bool ddeath_due[GW_MAX_ROBOTS];
     unsigned asm_seen[GW_MAX_ROBOTS];
     uint64_t up_us[GW_MAX_ROBOTS];
@@ -166,6 +169,7 @@ typedef struct {
     enc_kind_t kind;
     unsigned robot;
     uint16_t echo_leaf; /* ENC_ECHO: the one field */
+    const char *device; /* the topic's device ID, if not the robot's name now */
     unsigned count;     /* metrics written */
 } enc_t;
 
@@ -299,7 +303,12 @@ static bool publish_seq(spb_t *s, enc_t *e, const char *type, int robot)
         return false;
     if (e->kind == ENC_DDATA && e->count == 0)
         return true; /* nothing changed */
-    if (!s->io.publish(s->io.user, topic(s, type, robot), s->buf, n, false)) {
+    const char *top = topic(s, type, e->device != NULL ? -1 : robot);
+    if (e->device != NULL) {
+        size_t used = strlen(s->topic);
+        snprintf(s->topic + used, sizeof s->topic - used, "/%s", e->device);
+    }
+    if (!s->io.publish(s->io.user, top, s->buf, n, false)) {
         /* what the plant has is unknown now: every field again */
         if (robot >= 0)
             memset(s->last[robot], 0, s->leaves * sizeof *s->last[robot]);
@@ -380,6 +389,7 @@ void spb_will(spb_t *s, const char **top, const void **payload, size_t *len)
 static void all_dead(spb_t *s)
 {
     s->born = false;
+    s->gone_count = 0;
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         s->dev_born[r] = s->ddeath_due[r] = false;
 }
@@ -407,9 +417,27 @@ void spb_disconnected(spb_t *s)
     all_dead(s);
 }
 
+/* Born devices whose name the configuration no longer has: a DDEATH
+ * each before the next births (a host would keep them alive otherwise). */
+static void note_gone(spb_t *s)
+{
+    const gw_config_t *cfg = s->env->cfg;
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++) {
+        bool kept = false;
+        if (!s->dev_born[r])
+            continue;
+        for (unsigned k = 0; k < cfg->robot_count && !kept; k++)
+            kept = strcmp(cfg->robot[k].name, s->born_as[r]) == 0;
+        if (!kept && s->gone_count < GW_MAX_ROBOTS)
+            memcpy(s->gone[s->gone_count++], s->born_as[r], sizeof s->gone[0]);
+        s->dev_born[r] = s->ddeath_due[r] = false;
+    }
+}
+
 void spb_sync(spb_t *s, bool links)
 {
     const gw_north_env_t *env = s->env;
+    note_gone(s);
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++) {
         s->link[r] = links && r < env->cfg->robot_count && env->link_up(env->user, r);
         s->asm_seen[r] = ~0u; /* a link up now has its images */
@@ -494,6 +522,7 @@ static void tick_robot(spb_t *s, unsigned r, uint64_t now)
         memset(s->last[r], 0, s->leaves * sizeof *s->last[r]);
         if (publish_seq(s, &e, "DBIRTH", (int)r)) {
             s->dev_born[r] = true;
+            snprintf(s->born_as[r], sizeof s->born_as[r], "%s", s->env->cfg->robot[r].name);
             s->next_pub_us[r] = now + (uint64_t)s->interval_ms * 1000u;
         }
         return;
@@ -511,6 +540,12 @@ void spb_tick(spb_t *s, uint64_t now)
 {
     if (!s->connected || !s->host_online)
         return;
+    while (s->born && s->gone_count > 0) {
+        enc_t e = {.kind = ENC_NONE, .device = s->gone[s->gone_count - 1]};
+        if (!s->io.room(s->io.user) || !publish_seq(s, &e, "DDEATH", -1))
+            return;
+        s->gone_count--;
+    }
     if (s->nbirth_due) {
         if (!s->io.room(s->io.user) || !publish_nbirth(s))
             return;
@@ -524,7 +559,7 @@ uint64_t spb_deadline(const spb_t *s, uint64_t now)
 {
     if (!s->connected || !s->host_online)
         return UINT64_MAX;
-    if (s->nbirth_due)
+    if (s->nbirth_due || s->gone_count > 0)
         return now;
     uint64_t d = UINT64_MAX;
     for (unsigned r = 0; r < s->env->cfg->robot_count; r++) {

@@ -342,6 +342,30 @@ def test_robot_link_gives_ddeath_and_dbirth(broker):
             host.close()
 
 
+def test_reload_that_removes_a_robot_kills_its_device(broker):
+    """SIGHUP with r0 renamed arm: r0's device gets a DDEATH (else a host
+    would keep it alive for ever), then new births name arm."""
+    import signal
+    with running("spb_reload", extra=spb_section(broker), start=False) as g:
+        host = Host(broker)
+        g.start()
+        try:
+            wait_born(host)
+            g.write_config(g.config_text().replace("[robot r0]", "[robot arm]"))
+            g.signal(signal.SIGHUP)
+            wait_for(lambda: "reloaded (generation 1)" in g.log(), 10, "the reload")
+            wait_for(lambda: host.all("DDEATH", "r0"), 10, "r0's DDEATH")
+            wait_for(lambda: host.all("DBIRTH", "arm"), 20, "arm's DBIRTH")
+            kinds = [(k, d) for k, d in zip(host.kinds(), [m[1] for m in host.msgs])]
+            assert kinds.index(("DDEATH", "r0")) < kinds.index(("DBIRTH", "arm"))
+            seqs = [p.seq for p in host.all() if hasattr(p, "seq")]
+            nb = [i for i, k in enumerate(host.kinds()) if k == "NBIRTH"]
+            assert len(nb) == 2 and seqs[nb[1]] == 0
+            assert not host.all("NDEATH")  # the same connection
+        finally:
+            host.close()
+
+
 def test_primary_host_state_holds_births(broker):
     import paho.mqtt.client as mqtt
     with running("spb_primary", extra=spb_section(broker, "primary_host_id = scada1"),
