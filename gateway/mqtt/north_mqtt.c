@@ -63,6 +63,8 @@
 #define MQ_ERR_QUEUE 32u             /* error replies queued at once */
 #define MQ_SNAPSHOT_US 1000000u      /* the retained snapshot at most once a second */
 #define MQ_RETIRED "down: removed from the configuration"
+#define MQ_BASE_MAX 200u             /* "<prefix>/<robot>" */
+#define MQ_GONE_MAX (2u * GW_MAX_ROBOTS) /* robots to retire: a prefix's and removed ones */
 
 /* Why a write was refused: each kind its own log rate limit. */
 typedef enum {
@@ -108,7 +110,10 @@ typedef struct {
      * a reload that drops one retires its topics by this name. */
     char pub_name[GW_MAX_ROBOTS][GW_NAME_MAX];
     unsigned pub_count;
-    char gone[GW_MAX_ROBOTS][GW_NAME_MAX]; /* removed robots still to retire */
+    /* Robots still to retire, as "<prefix>/<robot>": removed by a reload
+     * that kept this side, or handed over by the side this one replaced
+     * (its own retirement may be lost, see retire_for). */
+    char gone[MQ_GONE_MAX][MQ_BASE_MAX];
     unsigned gone_count;
     const char *closing;  /* why this side disconnects on purpose (NULL: it does not) */
     char fail_why[160];   /* why the connection attempt failed, once known */
@@ -168,12 +173,13 @@ static bool publish_text(mq_t *t, int robot, const char *leaf, const char *text,
     return publish(t, top, text, strlen(text), retain);
 }
 
-/* A topic of a robot by name (one that may have left the configuration). */
-static bool publish_named(mq_t *t, const char *robot, const char *leaf, const char *payload,
+/* A topic under "<prefix>/<robot>" (one that may have left the
+ * configuration, or another prefix's). */
+static bool publish_under(mq_t *t, const char *base, const char *leaf, const char *payload,
                           bool retain)
 {
     char top[256];
-    snprintf(top, sizeof top, "%s/%s/%s", t->prefix, robot, leaf);
+    snprintf(top, sizeof top, "%s/%s", base, leaf);
     return publish(t, top, payload, strlen(payload), retain);
 }
 
@@ -262,9 +268,29 @@ static void write_time(gw_json_t *j, uint64_t rx_us)
     gw_json_str(j, text);
 }
 
-/* {"time":...,"quality":"fresh"|"stale","age_ms":N,"values":{ : stale
- * when the data is older than the link's timeout, or the link is down. */
-static void open_message(mq_t *t, const gw_robot_t *rb, bool up)
+/* Has every T->O assembly arrived since the link came up? */
+static bool all_seen(const mq_t *t, unsigned r)
+{
+    unsigned all = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
+            all |= 1u << a;
+    return (t->asm_seen[r] & all) == all;
+}
+
+/* Fresh: the link is up and its data younger than the link's timeout.
+ * The link refreshes its `fresh` once a millisecond, and a link that has
+ * just come up is not fresh until every assembly is in: the data that
+ * completes them may be published before that refresh, so a link that is
+ * up with every assembly received since counts as fresh too (the link
+ * goes down when its data gets older than the timeout). */
+static bool data_fresh(const mq_t *t, unsigned r)
+{
+    return t->link[r] && (t->env->robots[r].link.fresh || all_seen(t, r));
+}
+
+/* {"time":...,"quality":"fresh"|"stale","age_ms":N,"values":{ */
+static void open_message(mq_t *t, const gw_robot_t *rb, bool fresh)
 {
     gw_json_t *j = &t->json;
     char text[64];
@@ -272,7 +298,7 @@ static void open_message(mq_t *t, const gw_robot_t *rb, bool up)
     gw_json_str(j, "{\"time\":");
     write_time(j, rb->link.rx_us);
     snprintf(text, sizeof text, ",\"quality\":\"%s\",\"age_ms\":%lu,\"values\":{",
-             up && rb->link.fresh ? "fresh" : "stale", (unsigned long)rb->link.age_ms);
+             fresh ? "fresh" : "stale", (unsigned long)rb->link.age_ms);
     gw_json_str(j, text);
 }
 
@@ -309,7 +335,7 @@ static unsigned build_message(mq_t *t, unsigned robot, bool full)
     const gw_robot_t *rb = &t->env->robots[robot];
     gw_json_t *j = &t->json;
     const mq_last_t *last = t->last[robot];
-    open_message(t, rb, t->link[robot]);
+    open_message(t, rb, data_fresh(t, robot));
     unsigned n = 0;
     for (unsigned i = 0; i < t->leaves; i++) {
         dr_ref_t ref;
@@ -376,13 +402,14 @@ static bool publish_snapshot(mq_t *t, unsigned robot)
  * it, or moved the prefix): its state says so, retained, so that no plant
  * application reads it as live; its meta and snapshot, which describe a
  * robot that is not there, are cleared (an empty retained message). */
-static void retire(mq_t *t, const char *robot)
+static void retire(mq_t *t, const char *base, bool quiet)
 {
-    (void)publish_named(t, robot, "state", MQ_RETIRED, t->cfg.retain);
-    (void)publish_named(t, robot, "meta", "", true);
-    (void)publish_named(t, robot, "snapshot", "", true);
-    gw_log(GW_LOG_INFO, "mqtt: %s/%s: removed from the configuration, its topics retired",
-           t->prefix, robot);
+    (void)publish_under(t, base, "state", MQ_RETIRED, t->cfg.retain);
+    (void)publish_under(t, base, "meta", "", true);
+    (void)publish_under(t, base, "snapshot", "", true);
+    if (!quiet)
+        gw_log(GW_LOG_INFO, "mqtt: %s: removed from the configuration, its topics retired",
+               base);
 }
 
 /* ---- plant writes ---------------------------------------------------------------- */
@@ -940,40 +967,69 @@ static bool has_robot(const gw_config_t *cfg, const char *name)
     return false;
 }
 
+/* "<prefix>/<robot>" into the list to retire, once. */
+static void gone_add(mq_t *t, const char *base)
+{
+    for (unsigned i = 0; i < t->gone_count; i++)
+        if (strcmp(t->gone[i], base) == 0)
+            return;
+    if (t->gone_count < MQ_GONE_MAX)
+        snprintf(t->gone[t->gone_count++], MQ_BASE_MAX, "%s", base);
+}
+
+/* Is "<prefix>/<robot>" one this side publishes under the configuration
+ * now (env->cfg)? */
+static bool publishes(const mq_t *t, const char *base)
+{
+    size_t pl = strlen(t->prefix);
+    return strncmp(base, t->prefix, pl) == 0 && base[pl] == '/' &&
+           has_robot(t->env->cfg, base + pl + 1);
+}
+
 /* A reload that keeps this side: the robots it published that the new
  * configuration (env->cfg) has no more are retired from the next tick on
  * (once connected); one that comes back before is not. */
 static void queue_gone(mq_t *t)
 {
-    const gw_config_t *cfg = t->env->cfg;
+    char base[MQ_BASE_MAX];
     unsigned n = 0;
     for (unsigned i = 0; i < t->gone_count; i++)
-        if (!has_robot(cfg, t->gone[i]))
+        if (!publishes(t, t->gone[i]))
             memmove(t->gone[n++], t->gone[i], sizeof t->gone[i]);
-    for (unsigned r = 0; r < t->pub_count && n < GW_MAX_ROBOTS; r++) {
-        bool queued = false;
-        for (unsigned i = 0; i < n && !queued; i++)
-            queued = strcmp(t->gone[i], t->pub_name[r]) == 0;
-        if (!queued && !has_robot(cfg, t->pub_name[r]))
-            memcpy(t->gone[n++], t->pub_name[r], sizeof t->gone[0]);
-    }
     t->gone_count = n;
+    for (unsigned r = 0; r < t->pub_count; r++) {
+        snprintf(base, sizeof base, "%s/%s", t->prefix, t->pub_name[r]);
+        if (!publishes(t, base))
+            gone_add(t, base);
+    }
 }
 
-/* A reload that replaces this side by `next`: retired now, before the
- * goodbye, are the robots the new configuration drops, and all of them
- * when the prefix moves (or MQTT goes): nothing else will clear them. */
-static void retire_for(mq_t *t, const mq_t *next)
+/* A reload that replaces this side by `next`: the robots the new
+ * configuration drops, and all of them when the prefix moves (or MQTT
+ * goes), are retired now, before the goodbye. On the same broker they
+ * are handed to `next` as well, which retires them again once connected:
+ * `next` connects with the same client ID at once, and the broker, which
+ * then closes this connection, may drop what it has not read of it yet. */
+static void retire_for(mq_t *t, mq_t *next)
 {
-    if (!t->cfg.enabled || !t->connected || t->spb != NULL)
+    if (!t->cfg.enabled || t->spb != NULL)
         return; /* Sparkplug's NDEATH (the goodbye) ends its devices */
     bool all = !next->cfg.enabled || next->spb != NULL || strcmp(t->prefix, next->prefix) != 0;
-    for (unsigned i = 0; i < t->gone_count; i++)
-        retire(t, t->gone[i]);
-    t->gone_count = 0;
+    bool hand = next->cfg.enabled && next->spb == NULL && t->cfg.port == next->cfg.port &&
+                strcmp(t->cfg.host, next->cfg.host) == 0;
+    char base[MQ_BASE_MAX];
     for (unsigned r = 0; r < t->pub_count; r++)
-        if (all || !has_robot(t->env->cfg, t->pub_name[r]))
-            retire(t, t->pub_name[r]);
+        if (all || !has_robot(t->env->cfg, t->pub_name[r])) {
+            snprintf(base, sizeof base, "%s/%s", t->prefix, t->pub_name[r]);
+            gone_add(t, base);
+        }
+    for (unsigned i = 0; i < t->gone_count; i++) {
+        if (t->connected)
+            retire(t, t->gone[i], hand);
+        if (hand)
+            gone_add(next, t->gone[i]);
+    }
+    t->gone_count = 0;
 }
 
 /* Shutdown or replacement (`why`, logged): "offline" and a clean
@@ -1094,11 +1150,7 @@ static void *mq_commit(void *self, void *out, const gw_north_env_t *env)
  * second (an explicit-mode robot may not poll them all). */
 static bool snapshot_ready(const mq_t *t, unsigned r, uint64_t now)
 {
-    unsigned all = 0;
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
-            all |= 1u << a;
-    return (t->asm_seen[r] & all) == all || now >= t->up_us[r] + 1000000u;
+    return all_seen(t, r) || now >= t->up_us[r] + 1000000u;
 }
 
 /* "up", or "down" with the cause the status block has (last_error), in
@@ -1171,7 +1223,7 @@ static void mq_tick(void *self, uint64_t now)
         t->status_due = !publish_text(t, -1, "status", "online", t->cfg.retain);
     if (!t->status_due && t->gone_count > 0 && room(t)) {
         for (unsigned i = 0; i < t->gone_count; i++)
-            retire(t, t->gone[i]); /* a few small messages: queued at once */
+            retire(t, t->gone[i], false); /* a few small messages: queued at once */
         t->gone_count = 0;
     }
     for (unsigned r = 0; r < t->env->cfg->robot_count && !t->status_due; r++)
