@@ -68,6 +68,7 @@ struct spb {
     unsigned gone_count;
     bool ddeath_due[GW_MAX_ROBOTS];
     unsigned asm_seen[GW_MAX_ROBOTS];
+    bool data_seen[GW_MAX_ROBOTS]; /* robot data since the last DDATA look */
     uint64_t up_us[GW_MAX_ROBOTS];
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     uint64_t data_ms[GW_MAX_ROBOTS]; /* wall clock of the robot's last packet */
@@ -459,6 +460,7 @@ void spb_on_data(spb_t *s, unsigned robot, dr_asm_t a)
 {
     if (robot < GW_MAX_ROBOTS) {
         s->asm_seen[robot] |= 1u << a;
+        s->data_seen[robot] = true;
         s->data_ms[robot] = wall_ms();
     }
 }
@@ -532,7 +534,10 @@ static void tick_robot(spb_t *s, unsigned r, uint64_t now)
     if (now < s->next_pub_us[r])
         return;
     enc_t e = {.kind = ENC_DDATA, .robot = r};
-    if (publish_seq(s, &e, "DDATA", (int)r) && e.count > 0)
+    if (!publish_seq(s, &e, "DDATA", (int)r))
+        return;
+    s->data_seen[r] = false;
+    if (e.count > 0)
         s->next_pub_us[r] = now + (uint64_t)s->interval_ms * 1000u;
 }
 
@@ -568,8 +573,8 @@ uint64_t spb_deadline(const spb_t *s, uint64_t now)
             x = now;
         else if (s->link[r] && !s->dev_born[r])
             x = snapshot_ready(s, r, now) ? now : s->up_us[r] + SPB_SNAPSHOT_WAIT_US;
-        else if (s->link[r] && s->data_ms[r] != 0)
-            x = s->next_pub_us[r] > now ? s->next_pub_us[r] : UINT64_MAX;
+        else if (s->link[r] && s->data_seen[r])
+            x = s->next_pub_us[r]; /* new data: when the rate allows */
         if (x < d)
             d = x;
     }
