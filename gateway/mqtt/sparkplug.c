@@ -54,7 +54,7 @@ struct spb {
     double deadband;
     bool writes;
     unsigned leaves;
-    uint8_t bd_next;  /* the bdSeq of the next connection's Will */
+    uint8_t bd_next;  /* the bdSeq of the next accepted connection */
     uint8_t bd;       /* this connection's (NBIRTH) */
     uint8_t seq;      /* of the last message published */
     bool connected;
@@ -376,9 +376,11 @@ void spb_free(spb_t *s)
     free(s);
 }
 
+/* An attempt that the broker never accepts does not use a bdSeq up: no
+ * host can have seen it, and a host then sees them 0, 1, 2, ... */
 void spb_will(spb_t *s, const char **top, const void **payload, size_t *len)
 {
-    s->bd = s->bd_next++;
+    s->bd = s->bd_next;
     enc_t e = {.kind = ENC_NDEATH};
     s->will_len = encode(s, &e, s->will, sizeof s->will, -1);
     snprintf(s->will_topic, sizeof s->will_topic, "%s", topic(s, "NDEATH", -1));
@@ -398,6 +400,7 @@ static void all_dead(spb_t *s)
 void spb_connected(spb_t *s)
 {
     s->connected = true;
+    s->bd_next = (uint8_t)(s->bd + 1u);
     s->host_online = s->host_id[0] == '\0';
     s->nbirth_due = true;
     all_dead(s);
