@@ -54,7 +54,7 @@ struct spb {
     double deadband;
     bool writes;
     unsigned leaves;
-    uint8_t bd_next;  /* the bdSeq of the next connection's Will */
+    uint8_t bd_next;  /* the bdSeq of the next accepted connection */
     uint8_t bd;       /* this connection's (NBIRTH) */
     uint8_t seq;      /* of the last message published */
     bool connected;
@@ -68,6 +68,7 @@ struct spb {
     unsigned gone_count;
     bool ddeath_due[GW_MAX_ROBOTS];
     unsigned asm_seen[GW_MAX_ROBOTS];
+    bool data_seen[GW_MAX_ROBOTS]; /* robot data since the last DDATA look */
     uint64_t up_us[GW_MAX_ROBOTS];
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     uint64_t data_ms[GW_MAX_ROBOTS]; /* wall clock of the robot's last packet */
@@ -375,9 +376,11 @@ void spb_free(spb_t *s)
     free(s);
 }
 
+/* An attempt that the broker never accepts does not use a bdSeq up: no
+ * host can have seen it, and a host then sees them 0, 1, 2, ... */
 void spb_will(spb_t *s, const char **top, const void **payload, size_t *len)
 {
-    s->bd = s->bd_next++;
+    s->bd = s->bd_next;
     enc_t e = {.kind = ENC_NDEATH};
     s->will_len = encode(s, &e, s->will, sizeof s->will, -1);
     snprintf(s->will_topic, sizeof s->will_topic, "%s", topic(s, "NDEATH", -1));
@@ -397,6 +400,7 @@ static void all_dead(spb_t *s)
 void spb_connected(spb_t *s)
 {
     s->connected = true;
+    s->bd_next = (uint8_t)(s->bd + 1u);
     s->host_online = s->host_id[0] == '\0';
     s->nbirth_due = true;
     all_dead(s);
@@ -459,6 +463,7 @@ void spb_on_data(spb_t *s, unsigned robot, dr_asm_t a)
 {
     if (robot < GW_MAX_ROBOTS) {
         s->asm_seen[robot] |= 1u << a;
+        s->data_seen[robot] = true;
         s->data_ms[robot] = wall_ms();
     }
 }
@@ -532,7 +537,10 @@ static void tick_robot(spb_t *s, unsigned r, uint64_t now)
     if (now < s->next_pub_us[r])
         return;
     enc_t e = {.kind = ENC_DDATA, .robot = r};
-    if (publish_seq(s, &e, "DDATA", (int)r) && e.count > 0)
+    if (!publish_seq(s, &e, "DDATA", (int)r))
+        return;
+    s->data_seen[r] = false;
+    if (e.count > 0)
         s->next_pub_us[r] = now + (uint64_t)s->interval_ms * 1000u;
 }
 
@@ -568,8 +576,8 @@ uint64_t spb_deadline(const spb_t *s, uint64_t now)
             x = now;
         else if (s->link[r] && !s->dev_born[r])
             x = snapshot_ready(s, r, now) ? now : s->up_us[r] + SPB_SNAPSHOT_WAIT_US;
-        else if (s->link[r] && s->data_ms[r] != 0)
-            x = s->next_pub_us[r] > now ? s->next_pub_us[r] : UINT64_MAX;
+        else if (s->link[r] && s->data_seen[r])
+            x = s->next_pub_us[r]; /* new data: when the rate allows */
         if (x < d)
             d = x;
     }

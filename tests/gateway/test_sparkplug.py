@@ -314,6 +314,8 @@ def test_broker_restart_gives_new_bdseq(broker):
         mark = len(g.log())
         broker.stop()
         g.log_wait("mqtt: connection to", start=mark)
+        # at least one refused attempt meanwhile: it uses no bdSeq up
+        g.log_wait("mqtt: cannot connect to", 20, start=mark)
         broker.start(same_port=True)
         host = Host(broker)
         try:
@@ -382,7 +384,21 @@ def test_primary_host_state_holds_births(broker):
             state = json.dumps({"online": True, "timestamp": get_current_timestamp()})
             c.publish("spBv1.0/STATE/scada1", state, qos=1, retain=True).wait_for_publish(
                 timeout(5))
-            wait_born(host)
+            nb, _ = wait_born(host)
+            # the host goes offline: NDEATH, a new connection, and no
+            # birth until it is back; then births with the next bdSeq
+            off = json.dumps({"online": False, "timestamp": get_current_timestamp()})
+            c.publish("spBv1.0/STATE/scada1", off, qos=1, retain=True).wait_for_publish(
+                timeout(5))
+            death = wait_for(lambda: host.all("NDEATH"), 10, "NDEATH")[0]
+            assert death.bd_seq_metric.value == metric(nb, "bdSeq").value
+            wait_for(lambda: g.log().count("mqtt: connected to") >= 2, 20, "a new connection")
+            time.sleep(timeout(1.0))
+            assert len(host.all("NBIRTH")) == 1
+            c.publish("spBv1.0/STATE/scada1", state, qos=1, retain=True).wait_for_publish(
+                timeout(5))
+            nb2, _ = wait_born(host, 2)
+            assert metric(nb2, "bdSeq").value == (metric(nb, "bdSeq").value + 1) % 256
             c.loop_stop()
             c.disconnect()
         finally:
