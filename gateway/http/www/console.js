@@ -304,14 +304,22 @@
   var TREND_MS = 30000;
 
   // "IR 200-201 30201 real cdab", "IR 1200 31201 int16 x10", "IR 100 30101 bit 2"
+  // (a coil or discrete input needs no view: the table says it is a bit)
   function locText(l) {
     var a = l.table + " " + l.address + (l.count > 1 ? "-" + (l.address + l.count - 1) : "");
-    var v = l.view;
+    var v = l.view === "bit" ? "" : l.view === "bits" ? "bit" : l.view.toUpperCase();
     if (l.order) v += " " + l.order;
-    if (l.scale) v += " \u00d7" + l.scale + (l.saturate ? " sat" : "");
+    if (l.scale) v += " \u00d7" + l.scale + (l.saturate ? " saturated" : "");
     if (typeof l.bit === "number") v += " " + l.bit;
-    if (l.half) v += " " + l.half;
-    return a + " " + l.ref + " " + v;
+    if (l.half) v += " " + l.half + " half";
+    return a + " " + l.ref + (v ? " " + v : "");
+  }
+
+  // Registers before bits, the default map before the robot's own.
+  var TABLE_ORDER = { HR: 0, IR: 0, CO: 1, DI: 1 };
+  function locOrder(a, b) {
+    return (a.user ? 1 : 0) - (b.user ? 1 : 0) || TABLE_ORDER[a.table] - TABLE_ORDER[b.table] ||
+      a.address - b.address;
   }
 
   function fieldValue(f, v) {
@@ -356,7 +364,7 @@
           frag.appendChild(g.tr);
         }
         var mb = el("td", { class: "mb" }), mbText = [];
-        (f.modbus || []).forEach(function (l) {
+        (f.modbus || []).slice().sort(locOrder).forEach(function (l) {
           var t = locText(l);
           mbText.push(t);
           mb.appendChild(el("span", { class: "loc" }, t, l.user ? el("span", { class: "tag user" }, "map") : null,
