@@ -150,7 +150,7 @@ GW_HDR      := $(filter-out $(GPIO_HDR),$(wildcard gateway/*/*.h))
 GW_LIB_SRC  := $(filter-out gateway/core/main.c,$(GW_SRC))
 GW_LIB_OBJ  := $(GW_LIB_SRC:%.c=$(B)/%.o)
 # The console's files (gateway/http/www/: pages, script, style sheet) built
-# into the daemon as a C table (gateway/http/assets.h) that
+# into the daemon as a C table (gateway/http/asset.h) that
 # mk/gen-assets.sh writes with POSIX tools; it goes into libgw.a with the
 # rest. Adding, removing or changing a file of www/ writes it again.
 GW_WWW        := $(sort $(wildcard gateway/http/www/*))
