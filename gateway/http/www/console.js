@@ -227,7 +227,7 @@
           .map(function (x) { return x.replace(/_packets$/, "") + " " + k[x]; }).join(", ");
         var st = String(k.state);
         line.appendChild(el("span", { class: "conn", "data-assembly": k.assembly },
-          k.assembly + " ", el("span", { class: "badge " + (/establish|open|up/.test(st) ? "ok" : /pend|connect|open/.test(st) ? "connecting" : "down") }, st),
+          k.assembly + " ", el("span", { class: "badge " + (/^(connected|established|open|up)$/.test(st) ? "ok" : /pend|connecting|opening/.test(st) ? "connecting" : "down") }, st),
           extra ? " " + extra : ""));
       });
       conns.appendChild(line);
@@ -406,6 +406,7 @@
         var v = vals[p], old = values[p], row = rows[p];
         values[p] = v;
         if (!row) return;
+        row.v.setAttribute("data-updated", now); // when the gateway last said it (tests read it)
         var t = fieldValue(fields[p], v);
         if (row.v.textContent === t) return;
         row.v.textContent = t;
@@ -501,6 +502,7 @@
     var lastValues = 0, es = null;
     function stream() {
       if (!window.EventSource) return;
+      lastValues = Date.now(); // its first event carries every value
       es = new EventSource(base.replace("/robots/" + encodeURIComponent(name), "/events?robot=" + encodeURIComponent(name)));
       es.addEventListener("values", function (e) { lastValues = Date.now(); live("live"); apply(JSON.parse(e.data)); });
       es.addEventListener("status", function (e) { status(JSON.parse(e.data)); });
@@ -508,11 +510,15 @@
       es.onerror = function () { live("stale", "event stream interrupted: reconnecting"); };
     }
     function poll() {
-      var jobs = [getJSON(base).then(status)];
-      if (Date.now() - lastValues > 2000) jobs.push(getJSON(base + "/values").then(apply));
-      Promise.all(jobs).then(function () { if (!es || es.readyState !== 1) live("live"); },
+      getJSON(base).then(function (r) { status(r); if (!es || es.readyState !== 1) live("live"); },
         function (e) { live("stale", String(e.message || e)); })
         .then(function () { setTimeout(poll, document.hidden ? 5000 : 2000); });
+    }
+    // (nothing to ask while the stream brings values)
+    function pollValues() {
+      var job = Date.now() - lastValues > 1500 && !document.hidden ?
+        getJSON(base + "/values").then(apply, function () {}) : Promise.resolve();
+      job.then(function () { setTimeout(pollValues, 1000); });
     }
 
     $("filter").addEventListener("input", filter);
@@ -521,6 +527,7 @@
       status(res[1]);
       stream();
       poll();
+      pollValues();
     }, function (e) {
       live("stale");
       fail(e.status === 404 ? "no robot named \"" + name + "\" in this gateway" : String(e.message || e));
