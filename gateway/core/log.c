@@ -49,12 +49,54 @@ static const char *time_stamp(char *buf, size_t size)
     return buf;
 }
 
+static const char *const words[8] = {"", "", "", "error", "warning", "", "info", "debug"};
+
+/* ---- the ring of the last events (for the console) --------------------------- */
+
+static gw_log_event_t ring[GW_LOG_RING];
+static uint64_t ring_total; /* events ever put in */
+
+static void ring_put(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
+{
+    struct timespec ts;
+    gw_log_event_t *e = &ring[ring_total % GW_LOG_RING];
+    ring_total++;
+    e->time_us = clock_gettime(CLOCK_REALTIME, &ts) == 0
+                     ? (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u
+                     : 0;
+    e->level = level;
+    int n = vsnprintf(e->text, sizeof e->text, fmt, ap);
+    if (n >= 0 && (size_t)n < sizeof e->text && suppressed > 0)
+        snprintf(e->text + n, sizeof e->text - (size_t)n, " [%u similar message%s suppressed]",
+                 suppressed, suppressed == 1 ? "" : "s");
+}
+
+void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user)
+{
+    uint64_t first = ring_total > GW_LOG_RING ? ring_total - GW_LOG_RING : 0;
+    for (uint64_t i = first; i < ring_total; i++)
+        fn(user, &ring[i % GW_LOG_RING]);
+}
+
+uint64_t gw_log_ring_total(void)
+{
+    return ring_total;
+}
+
+const char *gw_log_level_name(gw_log_level_t level)
+{
+    return (unsigned)level < 8u ? words[level] : "";
+}
+
 /* suppressed: a count of the same kind to end the line with (0: none). */
 static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
 {
-    static const char *const words[8] = {"", "", "", "error", "warning", "", "info", "debug"};
     if (level > max_level)
         return;
+    va_list aq;
+    va_copy(aq, ap);
+    ring_put(level, suppressed, fmt, aq);
+    va_end(aq);
     if (getenv("JOURNAL_STREAM") != NULL) {
         fprintf(stderr, "<%d>", (int)level);
     } else {

@@ -20,6 +20,22 @@ int gw_log_level_parse(const char *name, gw_log_level_t *out);
 
 void gw_log(gw_log_level_t level, const char *fmt, ...) GW_PRINTF(2, 3);
 
+/* The last GW_LOG_RING lines logged (those the level lets through, as
+ * printed, without the time stamp), kept for the console's /api/v1/log. */
+#define GW_LOG_RING 200
+#define GW_LOG_TEXT 256 /* a longer line is kept cut to this */
+typedef struct {
+    uint64_t time_us; /* wall clock (CLOCK_REALTIME), microseconds since 1970 */
+    gw_log_level_t level;
+    char text[GW_LOG_TEXT];
+} gw_log_event_t;
+/* fn for each event in the ring, the oldest first. */
+void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user);
+/* Events ever logged (those beyond GW_LOG_RING have left the ring). */
+uint64_t gw_log_ring_total(void);
+/* "error", "warning", "info", "debug". */
+const char *gw_log_level_name(gw_log_level_t level);
+
 /* One kind of message that may repeat (one per call site and object):
  * zero-initialised. */
 typedef struct {

@@ -133,4 +133,5 @@ static void gpio_free(void *self)
 const gw_north_ops_t gw_north_gpio = {
     "gpio",       gpio_create,  gpio_prepare,  gpio_abort,  gpio_commit, gpio_tick, gpio_deadline,
     gpio_on_data, gpio_on_link, gpio_on_fault, gpio_refresh, gpio_safe, gpio_free,
+    NULL,         NULL,
 };

@@ -508,4 +508,5 @@ static void mb_safe(void *self)
 const gw_north_ops_t gw_north_modbus = {
     "modbus",   mb_create,  mb_prepare,  mb_abort,   mb_commit, mb_tick, mb_deadline,
     mb_on_data, mb_on_link, mb_on_fault, mb_refresh, mb_safe,   mb_free,
+    NULL,       NULL,
 };

@@ -831,4 +831,5 @@ static void mq_side_free(void *self)
 const gw_north_ops_t gw_north_mqtt = {
     "mqtt",     mq_create,  mq_prepare,  mq_abort,  mq_commit, mq_tick,      mq_deadline,
     mq_on_data, mq_on_link, mq_on_fault, mq_refresh, mq_safe,  mq_side_free,
+    NULL,       NULL,
 };
