@@ -132,12 +132,19 @@ void gw_log(gw_log_level_t level, const char *fmt, ...)
 typedef struct {
     const gw_log_limit_t *limit; /* identity only, never dereferenced */
     uint64_t due_us;             /* end of the kind's window */
+    uint64_t window_us;          /* its length (window_of) */
     gw_log_level_t level;
     unsigned count;              /* suppressed in this window */
     char text[TEXT_MAX];         /* the latest of them */
 } pending_t;
 
 static pending_t pending[PENDING_MAX];
+
+/* A kind's window: 10 s unless it says otherwise. */
+static uint64_t window_of(const gw_log_limit_t *limit)
+{
+    return limit->window_ms != 0 ? (uint64_t)limit->window_ms * 1000u : LIMIT_US;
+}
 
 static pending_t *pending_of(const gw_log_limit_t *limit)
 {
@@ -159,7 +166,8 @@ static pending_t *pending_new(gw_log_limit_t *limit, uint64_t due_us, gw_log_lev
         at_exit = atexit(flush_at_exit) == 0;
     for (unsigned i = 0; i < PENDING_MAX; i++)
         if (pending[i].limit == NULL) {
-            pending[i] = (pending_t){.limit = limit, .due_us = due_us, .level = level};
+            pending[i] = (pending_t){.limit = limit, .due_us = due_us,
+                                     .window_us = window_of(limit), .level = level};
             limit->slot = i + 1;
             return &pending[i];
         }
@@ -176,7 +184,7 @@ void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt
 {
     uint64_t now = ev_now_us();
     pending_t *p = pending_of(limit);
-    uint64_t end = p != NULL ? p->due_us : limit->last_us + LIMIT_US;
+    uint64_t end = p != NULL ? p->due_us : limit->last_us + window_of(limit);
     va_list ap;
     va_start(ap, fmt);
     if (limit->last_us != 0 && now < end) {
@@ -215,9 +223,11 @@ void gw_log_flush(uint64_t now)
             p->limit = NULL; /* a quiet window: the kind is free again */
             continue;
         }
-        pending_print(p, "in 10 s");
+        char in[32];
+        snprintf(in, sizeof in, "in %llu s", (unsigned long long)(p->window_us / 1000000u));
+        pending_print(p, in);
         p->count = 0;
-        p->due_us = now + LIMIT_US;
+        p->due_us = now + p->window_us;
     }
 }
 

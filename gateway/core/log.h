@@ -42,6 +42,7 @@ typedef struct {
     uint64_t last_us;    /* when one was last printed */
     unsigned suppressed; /* of this kind since, when log.c had no room for them */
     unsigned slot;       /* log.c's entry for the ones it holds (0: none) */
+    uint32_t window_ms;  /* at most one line per window_ms (whole seconds); 0: 10 s */
 } gw_log_limit_t;
 
 /* At most one line every 10 s per limit; the lines in between are counted
