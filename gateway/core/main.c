@@ -435,7 +435,9 @@ static int run(gw_t *g)
             break;
         }
         uint64_t now = ev_now_us();
-        if (now >= due) /* a deadline was due: how late did we wake up? */
+        /* A deadline was due: how late did we wake up? (The first turn's
+         * tick is due at 0, not late.) */
+        if (now >= due && due >= g->start_us)
             gw_lag_observe(&g->lag, now - due);
         tick(g, now, n > 1);
         notify_watchdog(g, now);
