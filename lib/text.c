@@ -133,6 +133,50 @@ dr_status_t dr_text_format(dr_ref_t ref, const dr_value_t *v, unsigned flags,
     return DR_OK;
 }
 
+/* %.9g of the double nearest the shortest text, with a '.' or an 'e' in
+ * it, and the exponent without '+' or leading zeros: what jansson prints
+ * for it with JSON_REAL_PRECISION(9) (drcli's CLI_JSON_FLAGS), so that
+ * drcli and the gateway print the same tokens. */
+static dr_status_t json_real(float f, char *out, size_t size)
+{
+    char text[32];
+    dr_status_t st = dr_text_real(f, text, sizeof text);
+    if (st != DR_OK)
+        return st;
+    if (!isfinite(f))
+        return fit(snprintf(out, size, "\"%s\"", text), size);
+    int n = snprintf(out, size, "%.9g", strtod(text, NULL));
+    if (fit(n, size) != DR_OK)
+        return DR_ENOSPACE;
+    char *e = strchr(out, 'e');
+    if (e == NULL && strchr(out, '.') == NULL)
+        return fit(snprintf(out + n, size - (size_t)n, ".0"), size - (size_t)n);
+    if (e != NULL) {
+        char *d = e + 1, *from = e + 1;
+        if (*from == '+')
+            from++;
+        else if (*from == '-')
+            d++, from++;
+        while (*from == '0' && from[1] != '\0')
+            from++;
+        memmove(d, from, strlen(from) + 1);
+    }
+    return DR_OK;
+}
+
+dr_status_t dr_text_json(const dr_value_t *v, char *out, size_t size)
+{
+    if (size == 0)
+        return DR_ENOSPACE;
+    switch (v->type) {
+    case DR_VAL_BOOL: return fit(snprintf(out, size, "%s", v->u != 0 ? "true" : "false"), size);
+    case DR_VAL_UINT: return fit(snprintf(out, size, "%" PRIu64, v->u), size);
+    case DR_VAL_INT: return fit(snprintf(out, size, "%" PRId64, v->i), size);
+    case DR_VAL_REAL: return json_real((float)v->f, out, size);
+    }
+    return DR_EINVAL;
+}
+
 /* Whole-string integer in decimal or 0x hex. */
 static dr_status_t parse_int(const char *s, bool is_signed, dr_value_t *v)
 {

@@ -799,6 +799,11 @@ uint64_t gw_link_next_deadline(const gw_link_t *l)
     return d;
 }
 
+int gw_link_slot_asm(unsigned i)
+{
+    return i < NPAIRS ? (int)slot_t2o[i] : -1;
+}
+
 bool gw_link_up(const gw_link_t *l)
 {
     return l->up;

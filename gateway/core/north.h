@@ -109,9 +109,10 @@ typedef struct {
  * write fault latch, the status counters) are one. */
 extern const gw_north_ops_t gw_north_modbus, gw_north_gpio;
 extern const gw_north_ops_t gw_north_mqtt; /* north_mqtt.c */
+extern const gw_north_ops_t gw_north_http; /* http/north_http.c: the console */
 
 /* The sides the daemon runs, in this order (GPIO last, see above). */
 extern const gw_north_ops_t *const gw_north_sides[];
-#define GW_NORTH_SIDES 3u
+#define GW_NORTH_SIDES 4u
 
 #endif /* DRGATE_GW_NORTH_H */

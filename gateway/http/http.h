@@ -1,0 +1,19 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The console side's own calls beside its north.h ops (north_http.c):
+ * for the daemon's command line.
+ */
+#ifndef GW_HTTP_HTTP_H
+#define GW_HTTP_HTTP_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "core/config.h"
+
+/* --check-config: do [http]'s tls_cert and tls_key load into the TLS
+ * library (a certificate and its key)? True without TLS; false with
+ * "FILE:LINE: ..." in err. Loads libmicrohttpd (only with TLS). */
+bool gw_http_check_tls(const gw_config_t *cfg, char *err, size_t errlen);
+
+#endif
