@@ -96,12 +96,12 @@ static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
 
 /* ---- what the console is told (north.h: env->report, env->metrics) ---------- */
 
-/* {"modbus": {...}, ...}: each running side's member, commas between. */
+/* "modbus": {...}, ...: each running side's member, commas between (the
+ * caller writes the braces around them). */
 static void report(void *user, gw_json_t *j)
 {
     const gw_t *g = user;
     bool first = true;
-    gw_json_str(j, "{");
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         if (g->side[i] == NULL || gw_north_sides[i]->report == NULL)
             continue;
@@ -117,7 +117,6 @@ static void report(void *user, gw_json_t *j)
             first = false;
         }
     }
-    gw_json_str(j, "}");
 }
 
 static void metrics(void *user, gw_prom_t *m)

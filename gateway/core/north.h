@@ -53,9 +53,9 @@ typedef struct {
     void *user;
     const char *version; /* the gateway's */
     /* What the daemon tells the console (gateway/http), asking every side
-     * in turn. report: one JSON object, the value of /api/v1/status's
-     * "sides": {"modbus": {...}, "gpio": {...}, "mqtt": {...}} (a side
-     * with nothing to say is left out). metrics: the Prometheus text of
+     * in turn. report: the members of /api/v1/status's "sides" object,
+     * "modbus": {...}, "gpio": {...}, "mqtt": {...}, commas between, no
+     * braces around (a side with nothing to say is left out). metrics: the Prometheus text of
      * the core (robots, the loop's lag) and of every side. NULL in a
      * daemon that has none (tests). */
     void (*report)(void *user, gw_json_t *j);
