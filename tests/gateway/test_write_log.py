@@ -1,11 +1,13 @@
 # SPDX-License-Identifier: MIT
-"""Writes are logged (issue 21): each accepted Modbus write is logged at
-info with its client (IP:port) and the fields it changed by canonical
-path, at most one line per client per second, the writes held back in
+"""Writes are logged (issue 21): each accepted Modbus or MQTT write is
+logged at info with its client (IP:port, the MQTT topic) and the fields it
+changed by canonical path, at most one line per client per second, the writes held back in
 between counted, so that a PLC writing every cycle does not fill the log
 and no write goes unaccounted for. A refused write is no write."""
 import re
 import time
+
+import pytest
 
 from gwlib import EX_ILLEGAL_ADDRESS, ModbusError, running, wait_for
 
@@ -67,3 +69,32 @@ def test_write_log_rate_limited():
         assert len(lines) < n // 4, lines
         assert any(h > 0 for _, h, _ in lines), lines
         assert all(f == "int_in[1]" for f, _, _ in lines), lines
+
+
+def test_mqtt_write_logged():
+    """A plant write on MQTT: logged with its topic and field; the next
+    within the second held back and summed up; a refused one not at all."""
+    pytest.importorskip("paho.mqtt.client")
+    from mqttlib import PREFIX, Broker, Plant, mqtt_section
+    b = Broker("wlog_mqtt").start()
+    try:
+        with running("wlog_mqtt", extra=mqtt_section(b, "writes = yes"), start=False) as g:
+            plant = Plant(b)
+            g.start()
+            try:
+                wait_for(lambda: plant.last(PREFIX + "/r0/state") is not None and
+                         plant.last(PREFIX + "/r0/state").startswith("up"), 20, "state up")
+                mark = len(g.log())
+                plant.set("float_in[3]", "2.5")
+                plant.set("float_in[4]", "not a number")  # refused: no write
+                plant.set("int_in[5]", "-7")
+                first = "robot r0: write by mqtt %s/r0/set/float_in[3]: float_in[3]" % PREFIX
+                g.log_wait(first, start=mark)
+                held = ("robot r0: write by mqtt %s/r0/set/int_in[5]: int_in[5] "
+                        "[1 similar message suppressed in 1 s, the last shown]" % PREFIX)
+                g.log_wait(held, start=mark)
+                assert "set/float_in[4]: float_in[4]" not in g.log()[mark:]
+            finally:
+                plant.close()
+    finally:
+        b.stop()
