@@ -45,7 +45,8 @@ typedef struct {
     uint32_t window_ms;  /* at most one line per window_ms (whole seconds); 0: 10 s */
 } gw_log_limit_t;
 
-/* At most one line every 10 s per limit; the lines in between are counted
+/* At most one line every 10 s per limit (window_ms: another window, such
+ * as the write log's second); the lines in between are counted
  * for that kind, and when its 10 s are over gw_log_flush prints the latest
  * of them with the count ("... [N similar messages suppressed in 10 s, the
  * last shown]"). A line of the kind that comes after the 10 s and before

@@ -37,8 +37,7 @@ void gw_robot_wrote(gw_robot_t *r, const char *client)
 void gw_robot_write_field(gw_robot_t *r, const char *path)
 {
     gw_robot_write_t *w = &r->last_write;
-    unsigned kept = w->nfields < GW_WRITE_FIELDS ? w->nfields : GW_WRITE_FIELDS;
-    for (unsigned i = 0; i < kept; i++)
+    for (unsigned i = 0; i < w->nfields && i < GW_WRITE_FIELDS; i++)
         if (strcmp(w->fields[i], path) == 0)
             return;
     if (w->nfields < GW_WRITE_FIELDS)
