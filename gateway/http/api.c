@@ -8,6 +8,7 @@
 #include "core/link.h"
 #include "drgate/client.h"
 #include "drgate/text.h"
+#include "http/metrics.h"
 #include "http/report.h"
 
 #define NUM(j, fmt, x)                                 \
@@ -91,8 +92,10 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
         qstr(j, why);
         gw_json_str(j, "}");
     }
-    /* The last accepted write: the report part's (core/robot.h). */
-    gw_json_str(j, ",\"last_write\":null}");
+    /* The last accepted write (core/robot.h, http/metrics.h). */
+    gw_json_str(j, ",\"last_write\":");
+    gw_http_last_write_json(j, rb);
+    gw_json_str(j, "}");
 }
 
 void gw_http_api_robots(gw_json_t *j, const gw_http_api_t *a)

@@ -851,6 +851,46 @@ void gw_regmap_slot_name(gw_area_t area, uint16_t addr, char *buf, size_t size)
         slot_text(&map[area][addr], area, 1, buf, size, type, sizeof type, unit, sizeof unit);
 }
 
+/* One address's field, written as its canonical path into buf ("" for
+ * none: a control, status or reserved address). */
+static void field_at(const gw_unit_t *u, gw_area_t area, uint32_t a, char *buf, size_t size)
+{
+    buf[0] = '\0';
+    if (default_slot(area, a)) {
+        const slot_t *s = &map[area][a];
+        if (s->kind == SL_CONTROL || s->kind == SL_STATUS || s->kind == SL_TEST)
+            return;
+        dr_ref_t ref = {slot_field(s), (int16_t)(s->kind == SL_PACKED ? -1 : s->elem)};
+        (void)dr_ref_path(ref, buf, size);
+        return;
+    }
+    const gw_umap_entry_t *e = user_at(u, area, a);
+    if (e == NULL)
+        return;
+    unsigned off = (unsigned)(a - e->addr), elem = e->elem + off;
+    if (e->view == GW_VIEW_BITS)
+        elem = e->elem + 16u * off;
+    else if (e->view == GW_VIEW_REAL || e->view == GW_VIEW_DINT)
+        elem = e->elem + off / 2u;
+    const dr_field_t *f = &dr_field_table[e->field];
+    dr_ref_t ref = {f, (int16_t)(f->indexed ? elem : 0)};
+    (void)dr_ref_path(ref, buf, size);
+}
+
+void gw_regmap_write_fields(const gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                            void (*fn)(void *user, const char *path), void *user)
+{
+    char path[64], last[64] = "";
+    gw_regmap_init();
+    for (uint32_t a = addr; a < (uint32_t)addr + count; a++) {
+        field_at(u, area, a, path, sizeof path);
+        if (path[0] == '\0' || strcmp(path, last) == 0)
+            continue; /* the other half of a REAL, or another part of a mask */
+        memcpy(last, path, sizeof last);
+        fn(user, path);
+    }
+}
+
 /* One printed row: area, addresses a..end-1. */
 static void print_row(FILE *out, gw_print_fmt_t fmt, bool *first, unsigned area, unsigned a,
                       unsigned end, const char *name, const char *type, const char *unit,

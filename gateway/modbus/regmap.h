@@ -113,6 +113,11 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
 int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
                     const uint16_t *values, unsigned *dirty);
 
+/* The fields a write of area/addr..addr+count-1 reaches, each once by
+ * its canonical path (control registers left out), for the write log. */
+void gw_regmap_write_fields(const gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                            void (*fn)(void *user, const char *path), void *user);
+
 /* Does the default map use any address of area in addr..addr+n-1? The
  * first one used into *at. (The user's map must stay out of them.) */
 bool gw_regmap_default_used(gw_area_t area, uint32_t addr, uint32_t n, uint16_t *at);
