@@ -203,6 +203,15 @@
     return robotRows[name];
   }
 
+  // A connection's state: established green, on its way amber, idle grey,
+  // anything else (failed, timed out, refused) red.
+  function connClass(st) {
+    if (/^(connected|established|open|up)$/.test(st)) return "ok";
+    if (/pend|connecting|opening|closing/.test(st)) return "connecting";
+    if (/^(idle|none|closed|off)$/.test(st)) return "idle";
+    return "down";
+  }
+
   function renderRobots(robots) {
     var body = $("robots").tBodies[0], seen = {};
     var conns = document.createDocumentFragment();
@@ -227,7 +236,7 @@
           .map(function (x) { return x.replace(/_packets$/, "") + " " + k[x]; }).join(", ");
         var st = String(k.state);
         line.appendChild(el("span", { class: "conn", "data-assembly": k.assembly },
-          k.assembly + " ", el("span", { class: "badge " + (/^(connected|established|open|up)$/.test(st) ? "ok" : /pend|connecting|opening/.test(st) ? "connecting" : "down") }, st),
+          k.assembly + " ", el("span", { class: "badge " + connClass(st) }, st),
           extra ? " " + extra : ""));
       });
       conns.appendChild(line);
