@@ -564,5 +564,7 @@ include $(sort $(wildcard mk/*.mk))
 # the builds nested in it ($(B)/asan, $(B)/cov, ...): each only names
 # targets in its own directory.
 # (Not $(B)/deb and $(B)/deb-arm64: make deb's copies of the tree, whose own build and package
-# directories, drgatewayd.service.d among them, are none of this build's.)
--include $(shell find $(B) \( -path $(B)/deb -o -path $(B)/deb-arm64 \) -prune -o -name '*.d' -type f -print 2>/dev/null)
+# directories, drgatewayd.service.d among them, are none of this build's; nor
+# $(B)/bench/noconsole, the tree before the console, mk/console.mk.)
+-include $(shell find $(B) \( -path $(B)/deb -o -path $(B)/deb-arm64 -o -path $(B)/bench/noconsole \) \
+    -prune -o -name '*.d' -type f -print 2>/dev/null)
