@@ -98,3 +98,31 @@ def test_mqtt_write_logged():
                 plant.close()
     finally:
         b.stop()
+
+
+def test_rtu_write_logged():
+    """A write from the RTU master: its line and unit name the client."""
+    import shutil
+    import struct
+    if shutil.which("socat") is None:
+        pytest.skip("socat is not installed (make test-deps)")
+    from gwlib import Drsim, Gateway
+    from test_rtu import RawRtu, pty_pair
+    sim = Drsim("wlog-rtu").start()
+    try:
+        with pty_pair("wlog-rtu") as (dev, master):
+            g = Gateway("wlog-rtu", [sim], extra="\n[modbus_rtu line1]\ndevice = %s\n"
+                        "baud = 9600\nparity = none\nstop_bits = 2\nrobots = r0:5\n" % dev)
+            try:
+                g.start()
+                rtu = RawRtu(master)
+                mark = len(g.log())
+                rsp = rtu.request(5, struct.pack(">BHHBHHHH", 0x10, 300, 4, 8, 0, 1, 0, 2))
+                assert rsp[0] == 0x10, rsp.hex()
+                g.log_wait("robot r0: write by modbus_rtu line1 unit 1: int_in[0], int_in[1]",
+                           start=mark)
+                rtu.close()
+            finally:
+                g.kill()
+    finally:
+        sim.kill()
