@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from gwlib import EX_ILLEGAL_ADDRESS, ModbusError, running, wait_for
+from gwlib import EX_ILLEGAL_ADDRESS, ModbusError, running, skip, wait_for
 
 LINE = re.compile(r"robot r0: write by modbus (\S+): (.*?)( \[(\d+) similar messages? "
                   r"suppressed( in 1 s, the last shown)?\])?$")
@@ -105,7 +105,7 @@ def test_rtu_write_logged():
     import shutil
     import struct
     if shutil.which("socat") is None:
-        pytest.skip("socat is not installed (make test-deps)")
+        skip("socat", "socat is not installed (make test-deps)")
     from gwlib import Drsim, Gateway
     from test_rtu import RawRtu, pty_pair
     sim = Drsim("wlog-rtu").start()
