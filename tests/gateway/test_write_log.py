@@ -4,6 +4,7 @@ logged at info with its client (IP:port, the MQTT topic) and the fields it
 changed by canonical path, at most one line per client per second, the writes held back in
 between counted, so that a PLC writing every cycle does not fill the log
 and no write goes unaccounted for. A refused write is no write."""
+import json
 import re
 import time
 
@@ -76,9 +77,12 @@ def test_mqtt_write_logged():
     within the second held back and summed up; a refused one not at all."""
     pytest.importorskip("paho.mqtt.client")
     from mqttlib import PREFIX, Broker, Plant, mqtt_section
+    from test_metrics import get, http_section, samples, val
     b = Broker("wlog_mqtt").start()
+    port, sect = http_section()
     try:
-        with running("wlog_mqtt", extra=mqtt_section(b, "writes = yes"), start=False) as g:
+        with running("wlog_mqtt", extra=mqtt_section(b, "writes = yes") + sect,
+                     start=False) as g:
             plant = Plant(b)
             g.start()
             try:
@@ -94,6 +98,16 @@ def test_mqtt_write_logged():
                         "[1 similar message suppressed in 1 s, the last shown]" % PREFIX)
                 g.log_wait(held, start=mark)
                 assert "set/float_in[4]: float_in[4]" not in g.log()[mark:]
+                # the MQTT side's counters (/metrics) and report (/api/v1/status)
+                s = samples(get(port, "/metrics")[2])
+                assert val(s, "drgate_mqtt_connected") == 1
+                assert val(s, "drgate_mqtt_writes_total", result="accepted") == 2
+                assert val(s, "drgate_mqtt_writes_total", result="refused") == 1
+                assert val(s, "drgate_mqtt_published_total") > 0
+                assert val(s, "drgate_mqtt_reconnects_total") == 0
+                side = json.loads(get(port, "/api/v1/status")[2])["sides"]["mqtt"]
+                assert side["connected"] is True and side["writes"]["accepted"] == 2, side
+                assert side["broker"].endswith(":%d" % b.port), side
             finally:
                 plant.close()
     finally:
