@@ -4,12 +4,13 @@ logged at info with its client (IP:port, the MQTT topic) and the fields it
 changed by canonical path, at most one line per client per second, the writes held back in
 between counted, so that a PLC writing every cycle does not fill the log
 and no write goes unaccounted for. A refused write is no write."""
+import json
 import re
 import time
 
 import pytest
 
-from gwlib import EX_ILLEGAL_ADDRESS, ModbusError, running, wait_for
+from gwlib import EX_ILLEGAL_ADDRESS, ModbusError, running, skip, wait_for
 
 LINE = re.compile(r"robot r0: write by modbus (\S+): (.*?)( \[(\d+) similar messages? "
                   r"suppressed( in 1 s, the last shown)?\])?$")
@@ -76,9 +77,12 @@ def test_mqtt_write_logged():
     within the second held back and summed up; a refused one not at all."""
     pytest.importorskip("paho.mqtt.client")
     from mqttlib import PREFIX, Broker, Plant, mqtt_section
+    from test_metrics import get, http_section, samples, val
     b = Broker("wlog_mqtt").start()
+    port, sect = http_section()
     try:
-        with running("wlog_mqtt", extra=mqtt_section(b, "writes = yes"), start=False) as g:
+        with running("wlog_mqtt", extra=mqtt_section(b, "writes = yes") + sect,
+                     start=False) as g:
             plant = Plant(b)
             g.start()
             try:
@@ -94,7 +98,45 @@ def test_mqtt_write_logged():
                         "[1 similar message suppressed in 1 s, the last shown]" % PREFIX)
                 g.log_wait(held, start=mark)
                 assert "set/float_in[4]: float_in[4]" not in g.log()[mark:]
+                # the MQTT side's counters (/metrics) and report (/api/v1/status)
+                s = samples(get(port, "/metrics")[2])
+                assert val(s, "drgate_mqtt_connected") == 1
+                assert val(s, "drgate_mqtt_writes_total", result="accepted") == 2
+                assert val(s, "drgate_mqtt_writes_total", result="refused") == 1
+                assert val(s, "drgate_mqtt_published_total") > 0
+                assert val(s, "drgate_mqtt_reconnects_total") == 0
+                side = json.loads(get(port, "/api/v1/status")[2])["sides"]["mqtt"]
+                assert side["connected"] is True and side["writes"]["accepted"] == 2, side
+                assert side["broker"].endswith(":%d" % b.port), side
             finally:
                 plant.close()
     finally:
         b.stop()
+
+
+def test_rtu_write_logged():
+    """A write from the RTU master: its line and unit name the client."""
+    import shutil
+    import struct
+    if shutil.which("socat") is None:
+        skip("socat", "socat is not installed (make test-deps)")
+    from gwlib import Drsim, Gateway
+    from test_rtu import RawRtu, pty_pair
+    sim = Drsim("wlog-rtu").start()
+    try:
+        with pty_pair("wlog-rtu") as (dev, master):
+            g = Gateway("wlog-rtu", [sim], extra="\n[modbus_rtu line1]\ndevice = %s\n"
+                        "baud = 9600\nparity = none\nstop_bits = 2\nrobots = r0:5\n" % dev)
+            try:
+                g.start()
+                rtu = RawRtu(master)
+                mark = len(g.log())
+                rsp = rtu.request(5, struct.pack(">BHHBHHHH", 0x10, 300, 4, 8, 0, 1, 0, 2))
+                assert rsp[0] == 0x10, rsp.hex()
+                g.log_wait("robot r0: write by modbus_rtu line1 unit 1: int_in[0], int_in[1]",
+                           start=mark)
+                rtu.close()
+            finally:
+                g.kill()
+    finally:
+        sim.kill()
