@@ -149,6 +149,13 @@ GW_SRC      := $(filter-out $(GPIO_ALL_SRC),$(sort $(wildcard gateway/*/*.c)))
 GW_HDR      := $(filter-out $(GPIO_HDR),$(wildcard gateway/*/*.h))
 GW_LIB_SRC  := $(filter-out gateway/core/main.c,$(GW_SRC))
 GW_LIB_OBJ  := $(GW_LIB_SRC:%.c=$(B)/%.o)
+# The console's files (gateway/http/www/: pages, script, style sheet) built
+# into the daemon as a C table (gateway/http/asset.h) that
+# mk/gen-assets.sh writes with POSIX tools; it goes into libgw.a with the
+# rest. Adding, removing or changing a file of www/ writes it again.
+GW_WWW        := $(sort $(wildcard gateway/http/www/*))
+GW_ASSETS_C   := $(B)/gateway/http/assets_gen.c
+GW_ASSETS_OBJ := $(B)/gateway/http/assets_gen.o
 GW_A        := $(B)/gateway/libgw.a
 GW_BIN      := $(B)/drgatewayd
 GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBUS_CFLAGS) \
@@ -215,6 +222,14 @@ $(GW_LIB_OBJ) $(B)/gateway/core/main.o: $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(GW_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
 
+# (The folder is a prerequisite too: its time changes when a file is added
+# or removed, so a removed file leaves the table as well.)
+$(GW_ASSETS_C): mk/gen-assets.sh $(GW_WWW) gateway/http/www
+	sh mk/gen-assets.sh $@ $(GW_WWW)
+
+$(GW_ASSETS_OBJ): $(GW_ASSETS_C) $(B)/gateway/http/assets_gen.d
+	$(CC) $(GW_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
+
 $(GPIO_OBJ): $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(GPIO_OBJ_CFLAGS) $(DEPFLAGS) -c $< -o $@
@@ -244,7 +259,7 @@ $(COMMON_A): $(COMMON_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
-$(GW_A): $(GW_LIB_OBJ)
+$(GW_A): $(GW_LIB_OBJ) $(GW_ASSETS_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
@@ -264,6 +279,7 @@ GW_OBJ_$(1) := $$(patsubst %.c,$$(B)/bench/$(1)/%.o,$$(GW_SRC) $$(COMMON_SRC) $(
 $$(GW_OBJ_$(1)): $$(B)/bench/$(1)/%.o: %.c $$(B)/bench/$(1)/%.d
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$(GW_CFLAGS) $(2) -fPIE $$(DEPFLAGS) -c $$< -o $$@
+GW_OBJ_$(1) += $$(GW_ASSETS_OBJ)
 endef
 
 # A test is one source, compiled and linked in one step.
@@ -548,5 +564,7 @@ include $(sort $(wildcard mk/*.mk))
 # the builds nested in it ($(B)/asan, $(B)/cov, ...): each only names
 # targets in its own directory.
 # (Not $(B)/deb and $(B)/deb-arm64: make deb's copies of the tree, whose own build and package
-# directories, drgatewayd.service.d among them, are none of this build's.)
--include $(shell find $(B) \( -path $(B)/deb -o -path $(B)/deb-arm64 \) -prune -o -name '*.d' -type f -print 2>/dev/null)
+# directories, drgatewayd.service.d among them, are none of this build's; nor
+# $(B)/bench/noconsole, the tree before the console, mk/console.mk.)
+-include $(shell find $(B) \( -path $(B)/deb -o -path $(B)/deb-arm64 -o -path $(B)/bench/noconsole \) \
+    -prune -o -name '*.d' -type f -print 2>/dev/null)

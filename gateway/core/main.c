@@ -19,6 +19,7 @@
 #include "core/north.h"
 #include "http/api.h"  /* STATUS= for systemd: the console's summary line */
 #include "http/http.h" /* drgatewayd status, --check-config of [http]'s TLS */
+#include "core/report.h"
 #include "modbus/regmap.h" /* --print-map and --print-errors only */
 #include "core/robot.h"
 
@@ -46,6 +47,7 @@ typedef struct {
     uint16_t generation;
     uint32_t serial; /* the last robot's (gw_robot_t serial) */
     int exit_status; /* 0 after a signal, 1 after a failure */
+    gw_lag_t lag;    /* how late the loop woke up (report.h) */
 } gw_t;
 
 static gw_t G; /* the daemon's state: large, one per process */
@@ -109,6 +111,50 @@ static void notify_status(gw_t *g)
         return;
     memcpy(g->status_line, line, j.len + 1);
     sd_notify(0, line);
+}
+
+/* ---- what the console is told (north.h: env->report, env->metrics) ---------- */
+
+/* "modbus": {...}, ...: each running side's member, commas between (the
+ * caller writes the braces around them). */
+static void report(void *user, gw_json_t *j)
+{
+    const gw_t *g = user;
+    bool first = true;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        if (g->side[i] == NULL || gw_north_sides[i]->report == NULL)
+            continue;
+        size_t at = j->len;
+        if (!first)
+            gw_json_str(j, ",");
+        size_t mark = j->len;
+        gw_north_sides[i]->report(g->side[i], j);
+        if (j->len == mark && !j->full) { /* nothing to say: no comma either */
+            j->len = at;
+            j->buf[at] = '\0';
+        } else {
+            first = false;
+        }
+    }
+}
+
+static void metrics(void *user, gw_prom_t *m)
+{
+    const gw_t *g = user;
+    gw_prom_family(m, "drgate_info", GW_PROM_GAUGE, "The gateway's version (always 1)");
+    gw_prom_label_t v = {"version", DRGATE_VERSION};
+    gw_prom_sample(m, "drgate_info", &v, 1, 1);
+    gw_prom_one(m, "drgate_uptime_seconds", GW_PROM_GAUGE, "Seconds since the daemon started",
+                (double)(ev_now_us() - g->start_us) / 1e6);
+    gw_prom_one(m, "drgate_config_generation", GW_PROM_GAUGE,
+                "Configuration generation: +1 at every reload that was applied", g->generation);
+    gw_prom_one(m, "drgate_log_events_total", GW_PROM_COUNTER,
+                "Lines the daemon logged (at its log level)", (double)gw_log_ring_total());
+    gw_lag_metrics(m, &g->lag);
+    gw_report_robot_metrics(m, g->robots, g->cfg.robot_count);
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (g->side[i] != NULL && gw_north_sides[i]->metrics != NULL)
+            gw_north_sides[i]->metrics(g->side[i], m);
 }
 
 /* ---- status block and timers ------------------------------------------------- */
@@ -330,7 +376,7 @@ static bool start_sides(gw_t *g)
 {
     char err[512];
     g->env = (gw_north_env_t){g->loop.epfd, &g->cfg, g->robots, outputs_changed, robot_link_up,
-                              fault, g, DRGATE_VERSION};
+                              fault, g, DRGATE_VERSION, report, metrics};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
         if (g->side[i] == NULL) {
@@ -400,13 +446,18 @@ static int run(gw_t *g)
            g->cfg.robot_count, g->cfg.gpio_count);
 
     while (!g->stop) {
-        int n = ev_run(&g->loop, deadline_ns(next_deadline(g)));
+        uint64_t due = next_deadline(g);
+        int n = ev_run(&g->loop, deadline_ns(due));
         if (n < 0) {
             gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
             g->exit_status = 1;
             break;
         }
         uint64_t now = ev_now_us();
+        /* A deadline was due: how late did we wake up? (The first turn's
+         * tick is due at 0, not late.) */
+        if (now >= due && due >= g->start_us)
+            gw_lag_observe(&g->lag, now - due);
         tick(g, now, n > 1);
         notify_watchdog(g, now);
         if (g->reload)

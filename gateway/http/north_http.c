@@ -965,6 +965,7 @@ static void ht_side_free(void *self)
 const gw_north_ops_t gw_north_http = {
     "http",     ht_create,  ht_prepare,  ht_abort,   ht_commit, ht_tick,      ht_deadline,
     ht_on_data, ht_on_link, ht_on_fault, ht_refresh, ht_safe,   ht_side_free,
+    NULL,       NULL,
 };
 
 /* ---- --check-config -------------------------------------------------------------------- */

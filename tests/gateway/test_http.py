@@ -247,6 +247,42 @@ def test_status_command(gw):
     assert "Robots: 1 of 2 linked" in p.stdout
     assert re.search(r"^\s+r0\s+linked \(", p.stdout, re.M)
     assert re.search(r"^\s+down\s+down: connection refused \(", p.stdout, re.M)
+    assert "Modbus: 127.0.0.1:%d, 0 clients\n" % gw.port in p.stdout
+    with gw.raw():
+        p = subprocess.run([str(DRGATEWAYD), "status", "-c", str(gw.conf)],
+                           capture_output=True, text=True, timeout=timeout(30))
+        assert re.search(r"Modbus: 127\.0\.0\.1:%d, 1 client: 127\.0\.0\.1:\d+\n" % gw.port,
+                         p.stdout), p.stdout
+
+
+def test_systemd_status_line(tmp_path):
+    """STATUS= to systemd (NOTIFY_SOCKET) when it changes: each robot's
+    link in words and the Modbus clients."""
+    path = str(tmp_path / "notify")
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    sock.bind(path)
+    sock.settimeout(0.2)
+    got = []
+
+    def status_lines():
+        while True:
+            try:
+                got.append(sock.recv(4096).decode())
+            except socket.timeout:
+                break
+        return [m for m in got if m.startswith("STATUS=")]
+
+    env = dict(os.environ, NOTIFY_SOCKET=path)
+    try:
+        with running("http_notify", start=False, extra=down_robot()) as g:
+            g.start(wait_link=False, env=env)
+            wait_for(lambda: "STATUS=r0 linked, down down: connection refused; 0 Modbus clients"
+                     in status_lines(), 20, "STATUS= with r0 linked")
+            with g.raw():
+                wait_for(lambda: any(m.endswith("; 1 Modbus client") for m in status_lines()),
+                         10, "STATUS= with one Modbus client")
+    finally:
+        sock.close()
 
 
 def test_status_command_unreachable_and_no_http(tmp_path):
