@@ -402,6 +402,20 @@ def test_reload_moves_the_port_and_keeps_the_link(tmp_path):
         p = subprocess.run([str(DRGATEWAYD), "status", "-c", str(g.conf)],
                            capture_output=True, text=True, timeout=timeout(30))
         assert p.returncode == 0 and "generation 1" in p.stdout
+        # a port that is taken refuses the reload: the console stays where it is
+        taken = socket.socket()
+        taken.bind((GW_ADDR, 0))
+        taken.listen(1)
+        try:
+            mark = len(g.log())
+            g.extra = "\n[http]\nport = %d\n" % taken.getsockname()[1]
+            g.write_config()
+            g.signal(signal.SIGHUP)
+            g.log_wait("reload refused, keeping the running configuration: http: cannot "
+                       "listen on 127.0.0.1:%d" % taken.getsockname()[1], start=mark)
+            assert get_json(port2, "/api/v1/status")["config"]["generation"] == 1
+        finally:
+            taken.close()
 
 
 # ---- TLS and authentication -----------------------------------------------------------
