@@ -17,6 +17,8 @@
 #include "core/link.h"
 #include "core/log.h"
 #include "core/north.h"
+#include "http/api.h"  /* STATUS= for systemd: the console's summary line */
+#include "http/http.h" /* drgatewayd status, --check-config of [http]'s TLS */
 #include "core/report.h"
 #include "modbus/regmap.h" /* --print-map and --print-errors only */
 #include "core/robot.h"
@@ -41,6 +43,7 @@ typedef struct {
     uint64_t start_us, next_tick_us, next_beat_us;
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
     uint64_t last_notify_us;
+    char status_line[1024]; /* the last STATUS= sent to systemd */
     uint16_t generation;
     uint32_t serial; /* the last robot's (gw_robot_t serial) */
     int exit_status; /* 0 after a signal, 1 after a failure */
@@ -93,6 +96,22 @@ static void on_data(void *user, unsigned robot, dr_asm_t a)
 }
 
 static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
+
+/* systemd's STATUS= (systemctl status shows it) when it changes: each
+ * robot's link in words, as drgatewayd status says it. */
+static void notify_status(gw_t *g)
+{
+    char line[sizeof g->status_line];
+    gw_json_t j;
+    gw_http_api_t a = {&g->env, 0, g->generation};
+    gw_json_init(&j, line, sizeof line);
+    gw_json_str(&j, "STATUS=");
+    gw_http_api_notify(&j, &a);
+    if (j.full || strcmp(line, g->status_line) == 0)
+        return;
+    memcpy(g->status_line, line, j.len + 1);
+    sd_notify(0, line);
+}
 
 /* ---- what the console is told (north.h: env->report, env->metrics) ---------- */
 
@@ -155,6 +174,7 @@ static void tick(gw_t *g, uint64_t now, bool busy)
         g->next_beat_us = now + 1000000u;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
         gw_north_sides[i]->refresh(g->side[i]);
+    notify_status(g);
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_robot_t *rb = &g->robots[r];
         rb->uptime_s = (uint32_t)((now - g->start_us) / 1000000u);
@@ -454,6 +474,7 @@ static void usage(FILE *out)
 {
     fprintf(out,
             "usage: drgatewayd [-c FILE] [-v]\n"
+            "       drgatewayd status [-c FILE]\n"
             "       drgatewayd --check-config FILE\n"
             "       drgatewayd [-c FILE] --print-map [--json | --markdown] [FILTER]\n"
             "       drgatewayd --help-config SECTION\n"
@@ -463,6 +484,8 @@ static void usage(FILE *out)
             "MQTT broker ([mqtt], docs/mqtt.md).\n\n"
             "  -c, --config FILE      configuration (default " DEFAULT_CONFIG ")\n"
             "      --check-config FILE  validate FILE and exit (0 valid, 78 invalid)\n"
+            "  status                 the running daemon's summary from its console ([http]):\n"
+            "                         exit 0 every robot linked, 1 one is not, 3 unreachable\n"
             "      --print-map        print the Modbus register map and exit: with -c, each\n"
             "                         robot's own map too; FILTER: rows whose name has it\n"
             "      --print-errors     print every value of the status block's last_error\n"
@@ -515,6 +538,13 @@ int main(int argc, char **argv)
         default: usage(stderr); return 2;
         }
     }
+    if (optind < argc && strcmp(argv[optind], "status") == 0) {
+        if (optind + 1 != argc || check != NULL || print_map || print_errors || help_config) {
+            fprintf(stderr, "drgatewayd: status takes -c FILE only\n");
+            return 2;
+        }
+        return gw_http_status_command(config);
+    }
     const char *map_filter = NULL;
     if (print_map && optind + 1 == argc)
         map_filter = argv[optind++]; /* --print-map joint_state.position */
@@ -550,7 +580,8 @@ int main(int argc, char **argv)
     }
     char err[512];
     if (check != NULL) {
-        if (!gw_config_load(check, &G.cfg, err, sizeof err)) {
+        if (!gw_config_load(check, &G.cfg, err, sizeof err) ||
+            !gw_http_check_tls(&G.cfg, err, sizeof err)) {
             fprintf(stderr, "drgatewayd: %s\n", err);
             return EX_CONFIG;
         }

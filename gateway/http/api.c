@@ -190,6 +190,63 @@ static void robot_state(char *out, size_t size, const gw_robot_t *rb)
                  why[0] ? ": " : "", why);
 }
 
+/* ---- what the sides report, for the summaries ---------------------------------- */
+
+/* The sides' report ("modbus":{...},"mqtt":{...}: env->report) in a
+ * buffer of the caller's; "" when there is none. */
+static const char *sides_text(const gw_http_api_t *a, char *buf, size_t cap)
+{
+    gw_json_t j;
+    gw_json_init(&j, buf, cap);
+    if (a->env->report != NULL)
+        a->env->report(a->env->user, &j);
+    return j.full ? "" : buf;
+}
+
+/* The text of string member `key` after `from` and before `end` (NULL:
+ * the text's end) into out; false if none. The sides' reports write
+ * their strings through gw_json_quote, so a '"' inside is escaped. */
+static bool member_str(const char *from, const char *end, const char *key, char *out,
+                       size_t size)
+{
+    char pat[40];
+    snprintf(pat, sizeof pat, "\"%s\":\"", key);
+    const char *p = from != NULL ? strstr(from, pat) : NULL;
+    if (p == NULL || (end != NULL && p >= end))
+        return false;
+    p += strlen(pat);
+    size_t n = strcspn(p, "\"");
+    snprintf(out, size, "%.*s", (int)n, p);
+    return true;
+}
+
+/* The Modbus TCP clients the report lists: how many, and "address
+ * (writer), ..." into out. */
+static unsigned modbus_clients(const char *sides, char *out, size_t size)
+{
+    const char *p = strstr(sides, "\"modbus\":{");
+    const char *list = p != NULL ? strstr(p, "\"clients\":[") : NULL;
+    const char *end = list != NULL ? strchr(list, ']') : NULL;
+    unsigned n = 0;
+    size_t len = 0;
+    out[0] = '\0';
+    for (const char *c = list; c != NULL && end != NULL && (c = strstr(c, "{\"address\":")) != NULL &&
+                               c < end;
+         c++) {
+        char addr[64];
+        const char *next = strchr(c + 1, '{');
+        (void)member_str(c, end, "address", addr, sizeof addr);
+        const char *w = strstr(c, "\"writer\":true");
+        bool writer = w != NULL && w < end && (next == NULL || next > end || w < next);
+        int k = snprintf(out + len, size - len, "%s%s%s", n > 0 ? ", " : "", addr,
+                         writer ? " (writer)" : "");
+        if (k > 0 && (size_t)k < size - len)
+            len += (size_t)k;
+        n++;
+    }
+    return n;
+}
+
 void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
 {
     const gw_config_t *cfg = a->env->cfg;
@@ -217,6 +274,24 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
                      cfg->robot[r].host, (unsigned)cfg->robot[r].tcp_port);
         gw_json_str(j, line);
     }
+    static char sides[16384];
+    const char *sd = sides_text(a, sides, sizeof sides);
+    char listen[80], list[1024], broker[200];
+    if (member_str(strstr(sd, "\"modbus\":{"), NULL, "listen", listen, sizeof listen)) {
+        unsigned n = modbus_clients(sd, list, sizeof list);
+        snprintf(line, sizeof line, "     Modbus: %s, %u client%s%s", listen, n,
+                 n == 1 ? "" : "s", n > 0 ? ": " : "");
+        gw_json_str(j, line);
+        gw_json_str(j, list);
+        gw_json_str(j, "\n");
+    }
+    const char *mq = strstr(sd, "\"mqtt\":{");
+    if (member_str(mq, NULL, "broker", broker, sizeof broker)) {
+        bool on = strstr(mq, "\"connected\":true") != NULL;
+        snprintf(line, sizeof line, "       MQTT: %s %s\n", on ? "connected to" : "not connected to",
+                 broker);
+        gw_json_str(j, line);
+    }
 }
 
 void gw_http_api_notify(gw_json_t *j, const gw_http_api_t *a)
@@ -233,4 +308,16 @@ void gw_http_api_notify(gw_json_t *j, const gw_http_api_t *a)
         gw_json_str(j, " ");
         gw_json_str(j, st);
     }
+    static char sides[16384];
+    char list[1024], line[64];
+    const char *sd = sides_text(a, sides, sizeof sides);
+    if (strstr(sd, "\"modbus\":{") != NULL) {
+        unsigned n = modbus_clients(sd, list, sizeof list);
+        snprintf(line, sizeof line, "; %u Modbus client%s", n, n == 1 ? "" : "s");
+        gw_json_str(j, line);
+    }
+    const char *mq = strstr(sd, "\"mqtt\":{");
+    if (mq != NULL)
+        gw_json_str(j, strstr(mq, "\"connected\":true") != NULL ? "; MQTT connected"
+                                                              : "; MQTT not connected");
 }

@@ -30,8 +30,8 @@ static const gw_cfg_key_t http_keys[] = {
     { .name = "auth_file", .type = GW_CFG_TEXT, H(auth_file), .valid = gw_cfg_no_blank, .allowed = "a file of user:HASH lines", .doc_default = "(none: no login)", .help = "HTTP Basic authentication for clients not on loopback: `user:HASH` lines, HASH from `openssl passwd -6` or `mkpasswd`. Read at start and reload" },
     { .name = "insecure", .type = GW_CFG_BOOL, H(insecure), .def = 0, .help = "serve a non-loopback `listen` without TLS or without `auth_file` all the same (a closed network, a reverse proxy in front)" },
     { .name = "status_port", .type = GW_CFG_UINT, H(status_port), .lo = 0, .hi = 65535, .def = 0, .allowed = "0..65535, 0 = none", .help = "with TLS: a plain HTTP listener on 127.0.0.1 at this port, for `drgatewayd status` and local tools; `0` = none" },
-    { .name = "max_connections", .type = GW_CFG_UINT, H(max_connections), .lo = 1, .hi = 1024, .def = 32, .help = "connections served at once; more are closed when accepted" },
-    { .name = "timeout_s", .type = GW_CFG_UINT, H(timeout_s), .lo = 1, .hi = 3600, .def = 10, .help = "a connection idle (or sending its request) this long is closed. Live pages (`/api/v1/events`) are kept" },
+    { .name = "max_connections", .type = GW_CFG_UINT, H(max_connections), .lo = 1, .hi = 1024, .def = 32, .help = "connections served at once; more wait unanswered in the kernel's backlog until one closes" },
+    { .name = "timeout_s", .type = GW_CFG_UINT, H(timeout_s), .lo = 1, .hi = 3600, .def = 10, .help = "a client must send each request (its URL and headers) within this many seconds of connecting or of the last answer, and a connection idle this long is closed. Live pages (`/api/v1/events`) are kept" },
     { .name = "max_request_bytes", .type = GW_CFG_UINT, H(max_request_bytes), .lo = 4096, .hi = 1048576, .def = 16384, .help = "room for a request's URL and headers; a longer one is refused (414 or 431)" },
 };
 

@@ -8,8 +8,8 @@
  * a thread of its own (MHD_USE_EPOLL): its epoll descriptor sits in the
  * daemon's epoll set, MHD_run does its work when it is readable, and
  * MHD_get_timeout bounds the loop's wait (its connection timeouts). What a
- * request costs is bounded: connections (max_connections, more are closed
- * when accepted), URL and headers (max_request_bytes: 414 or 431), time
+ * request costs is bounded: connections (max_connections; at the limit
+ * MHD stops accepting, and more wait in the kernel's backlog), URL and headers (max_request_bytes: 414 or 431), time
  * (timeout_s for an idle or slow client), and a response is built in one
  * go from the robots' images without blocking. So a slow or hostile
  * client costs the Modbus and robot sides a few microseconds per turn,
@@ -23,7 +23,7 @@
  * Live values (/api/v1/events?robot=NAME): a response whose body comes
  * from a callback (sse_read). With nothing to send it suspends its
  * connection (off MHD's lists: no busy loop, no timeout), and tick()
- * resumes the suspended ones every SSE_PERIOD_US, when each sends what
+ * resumes it SSE_PERIOD_US after its last look, when it sends what
  * changed since its last event, or a comment line now and then so that a
  * client that went away is found.
  */
@@ -84,6 +84,19 @@ typedef struct sse {
     char buf[SSE_BUF];
 } sse_t;
 
+/* One connection: how long it may take to send a request. MHD's own
+ * timeout is for idleness, which a client sending a byte a second never
+ * is (slowloris); so each request's head must be in within timeout_s of
+ * the connection, or of the end of the previous answer, or the socket is
+ * shut down (MHD then closes it as gone). No deadline while an answer is
+ * being sent (a live page's, for its life). */
+typedef struct hc {
+    struct hc *next;
+    int fd;
+    bool answering;
+    uint64_t deadline_us;
+} hc_t;
+
 struct ht {
     const gw_north_env_t *env;
     gw_http_config_t cfg; /* a copy: a reload compares the new one with it */
@@ -91,9 +104,9 @@ struct ht {
     gw_http_users_t users;
     char *cert, *key; /* PEM texts, for MHD's TLS set-up */
     sse_t *streams;
-    uint64_t next_sse_us;
+    hc_t *conns;
     unsigned generation;
-    gw_log_limit_t mhd_limit;
+    gw_log_limit_t mhd_limit, slow_limit;
 };
 
 static const gw_mhdlib_t *ml; /* loaded by the first enabled side */
@@ -217,6 +230,27 @@ static enum MHD_Result send_asset(struct MHD_Connection *c, const char *name, co
     return send_buf(c, 200, a->type, a->data, a->size, false);
 }
 
+/* /api/v1/status asked for text (drgatewayd status): the summary, and
+ * the robots not linked in X-Robots-Down. */
+static enum MHD_Result send_summary(struct MHD_Connection *c, const gw_http_api_t *a)
+{
+    gw_json_t j;
+    gw_json_init(&j, resp, sizeof resp);
+    gw_http_api_summary(&j, a);
+    struct MHD_Response *r =
+        ml->create_response_from_buffer(j.len, j.buf, MHD_RESPMEM_MUST_COPY);
+    if (r == NULL)
+        return MHD_NO;
+    char down[16];
+    snprintf(down, sizeof down, "%u", gw_http_api_down(a));
+    (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    (void)ml->add_response_header(r, "X-Robots-Down", down);
+    enum MHD_Result ok = ml->queue_response(c, 200, r);
+    ml->destroy_response(r);
+    return ok;
+}
+
 /* ---- live values (Server-Sent Events) ------------------------------------------- */
 
 static void sse_append(sse_t *s, const char *event, const gw_json_t *j)
@@ -337,17 +371,25 @@ static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const cha
     return ok;
 }
 
-/* Every stream that waits gets its turn (tick, every SSE_PERIOD_US);
- * `closing`: they end (the server stops). */
-static void sse_resume_all(ht_t *t, bool closing)
+/* The streams that wait and are due (all of them with `closing`: the
+ * server stops, each ends its stream) get their turn. Without a thread
+ * of its own MHD does not wake up for a resumed connection (its
+ * inter-thread channel is not what the loop watches): MHD_run gives them
+ * their turn now. */
+static void sse_resume(ht_t *t, uint64_t now, bool closing)
 {
+    bool any = false;
     for (sse_t *s = t->streams; s != NULL; s = s->next) {
         s->closing = s->closing || closing;
-        if (s->suspended) {
+        if (s->suspended && (closing || now >= s->next_us)) {
             s->suspended = false;
             ml->resume_connection(s->c);
+            any = true;
         }
     }
+    for (unsigned i = 0; any && i < 2; i++)
+        if (t->srv[i].d != NULL)
+            (void)ml->run(t->srv[i].d);
 }
 
 /* ---- routes ------------------------------------------------------------------------ */
@@ -375,6 +417,10 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
     gw_json_init(&j, resp, sizeof resp);
     const char *p = url + strlen("/api/v1/");
     if (strcmp(p, "status") == 0) {
+        const char *accept = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Accept");
+        if (accept != NULL && strstr(accept, "text/plain") != NULL &&
+            strstr(accept, "json") == NULL)
+            return send_summary(c, &a);
         gw_http_api_status(&j, &a);
     } else if (strcmp(p, "robots") == 0) {
         gw_http_api_robots(&j, &a);
@@ -489,6 +535,10 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
      * no route takes) is not waited for; MHD closes after the answer. */
     *upload_data_size = 0;
     *req_cls = sv;
+    const union MHD_ConnectionInfo *ci =
+        ml->get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    if (ci != NULL && ci->socket_context != NULL)
+        ((hc_t *)ci->socket_context)->answering = true;
     enum MHD_Result ret = MHD_YES;
     if (!authorized(t, c, &ret))
         return ret;
@@ -504,6 +554,61 @@ static enum MHD_Result on_accept(void *cls, const struct sockaddr *addr, socklen
     if (sv->loopback_only)
         return addr_loopback(addr) ? MHD_YES : MHD_NO;
     return allowed(&sv->t->cfg, addr) ? MHD_YES : MHD_NO;
+}
+
+static void on_conn(void *cls, struct MHD_Connection *c, void **ctx,
+                    enum MHD_ConnectionNotificationCode what)
+{
+    srv_t *sv = cls;
+    ht_t *t = sv->t;
+    hc_t *h = *ctx;
+    if (what == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo *ci =
+            ml->get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+        if (ci == NULL || (h = calloc(1, sizeof *h)) == NULL)
+            return; /* not tracked: MHD's idle timeout still applies */
+        h->fd = ci->connect_fd;
+        h->deadline_us = ev_now_us() + (uint64_t)t->cfg.timeout_s * 1000000u;
+        h->next = t->conns;
+        t->conns = h;
+        *ctx = h;
+    } else if (what == MHD_CONNECTION_NOTIFY_CLOSED && h != NULL) {
+        for (hc_t **p = &t->conns; *p != NULL; p = &(*p)->next)
+            if (*p == h) {
+                *p = h->next;
+                break;
+            }
+        free(h);
+        *ctx = NULL;
+    }
+}
+
+/* An answer is sent: the next request's head has timeout_s from now. */
+static void on_completed(void *cls, struct MHD_Connection *c, void **req_cls,
+                         enum MHD_RequestTerminationCode why)
+{
+    srv_t *sv = cls;
+    (void)req_cls, (void)why;
+    const union MHD_ConnectionInfo *ci =
+        ml->get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    hc_t *h = ci != NULL ? ci->socket_context : NULL;
+    if (h != NULL) {
+        h->answering = false;
+        h->deadline_us = ev_now_us() + (uint64_t)sv->t->cfg.timeout_s * 1000000u;
+    }
+}
+
+/* Connections whose request is late: shut down (once). */
+static void cut_slow(ht_t *t, uint64_t now)
+{
+    for (hc_t *h = t->conns; h != NULL; h = h->next)
+        if (!h->answering && now >= h->deadline_us) {
+            (void)shutdown(h->fd, SHUT_RDWR);
+            h->deadline_us = UINT64_MAX;
+            gw_log_limited(GW_LOG_INFO, &t->slow_limit,
+                           "http: a client did not send its request within %u s: closed",
+                           t->cfg.timeout_s);
+        }
 }
 
 static char *mhd_err; /* where MHD's messages go while a server starts */
@@ -581,6 +686,8 @@ static bool srv_start(srv_t *sv, ht_t *t, char *err, size_t errlen)
     mhd_errlen = sizeof why;
     sv->d = ml->start_daemon(flags, 0, on_accept, sv, on_request, sv,
                              MHD_OPTION_EXTERNAL_LOGGER, on_mhd_log, t,
+                             MHD_OPTION_NOTIFY_CONNECTION, on_conn, sv,
+                             MHD_OPTION_NOTIFY_COMPLETED, on_completed, sv,
                              MHD_OPTION_ARRAY, opts, MHD_OPTION_END);
     mhd_err = NULL;
     if (sv->d == NULL) {
@@ -631,10 +738,7 @@ static void ht_free(ht_t *t)
     if (t->streams != NULL && ml != NULL) {
         /* MHD must not be stopped with suspended connections: each ends
          * its stream at its next turn, which MHD_run gives it. */
-        sse_resume_all(t, true);
-        for (unsigned i = 0; i < 2; i++)
-            if (t->srv[i].d != NULL)
-                (void)ml->run(t->srv[i].d);
+        sse_resume(t, UINT64_MAX, true);
     }
     for (unsigned i = 0; i < 2; i++)
         srv_stop(&t->srv[i], t->env->epfd);
@@ -798,10 +902,8 @@ static void ht_tick(void *self, uint64_t now)
     ht_t *t = self;
     if (!t->cfg.enabled)
         return;
-    if (now >= t->next_sse_us) {
-        t->next_sse_us = now + SSE_PERIOD_US;
-        sse_resume_all(t, false);
-    }
+    sse_resume(t, now, false);
+    cut_slow(t, now);
     for (unsigned i = 0; i < 2; i++) {
         MHD_UNSIGNED_LONG_LONG ms;
         if (t->srv[i].d != NULL && ml->get_timeout(t->srv[i].d, &ms) == MHD_YES && ms == 0)
@@ -816,8 +918,11 @@ static uint64_t ht_deadline(const void *self)
         return UINT64_MAX;
     uint64_t d = UINT64_MAX, now = ev_now_us();
     for (const sse_t *s = t->streams; s != NULL; s = s->next)
-        if (s->suspended)
-            d = t->next_sse_us;
+        if (s->suspended && s->next_us < d)
+            d = s->next_us;
+    for (const hc_t *h = t->conns; h != NULL; h = h->next)
+        if (!h->answering && h->deadline_us < d)
+            d = h->deadline_us;
     for (unsigned i = 0; i < 2; i++) {
         MHD_UNSIGNED_LONG_LONG ms;
         if (t->srv[i].d != NULL && ml->get_timeout(t->srv[i].d, &ms) == MHD_YES &&
