@@ -1243,7 +1243,7 @@ bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot)
     snprintf(t, sizeof t, ", \"unit_id\": %u, \"word_order\": \"%s\", \"default_map_writes\": %s, "
              "\"layout_version\": %u, \"fields\": [", (unsigned)rc->unit_id,
              gw_word_order_name(cfg->modbus.word_order),
-             rc->default_map_writes ? "true" : "false", GW_MAP_LAYOUT_VERSION);
+             rc->default_map_writes ? "true" : "false", (unsigned)GW_MAP_LAYOUT_VERSION);
     gw_json_str(j, t);
     bool first = true;
     for (unsigned fi = 0; fi < dr_field_count; fi++)

@@ -264,6 +264,7 @@ def overview_link_down_and_up(console):
 
 
 def test_console_in_a_browser(console):
-    robot_page_value_is_the_robots(console)
-    robot_page_filter(console)
-    overview_link_down_and_up(console)
+    for phase in (robot_page_value_is_the_robots, robot_page_filter, overview_link_down_and_up):
+        t0 = time.monotonic()
+        phase(console)
+        print("%s: %.1f s" % (phase.__name__, time.monotonic() - t0))

@@ -26,7 +26,7 @@ static void same_as_file(const gw_http_asset_t *a)
     if (f == NULL)
         fail_msg("%s: in the table but not in gateway/http/www/", a->name);
     size_t n = fread(buf, 1, sizeof buf, f);
-    fclose(f);
+    (void)fclose(f);
     assert_int_equal(n, a->size);
     assert_memory_equal(buf, a->data, n);
 }
@@ -42,8 +42,10 @@ static void test_pages(void **state)
     };
     for (size_t i = 0; i < sizeof want / sizeof want[0]; i++) {
         const gw_http_asset_t *a = gw_http_asset_find(want[i][0]);
-        if (a == NULL)
+        if (a == NULL) {
             fail_msg("%s: not in the table", want[i][0]);
+            return;
+        }
         assert_string_equal(a->type, want[i][1]);
         same_as_file(a);
     }
@@ -61,8 +63,10 @@ static void test_every_file(void **state)
         if (e->d_name[0] == '.')
             continue;
         const gw_http_asset_t *a = gw_http_asset_find(e->d_name);
-        if (a == NULL)
+        if (a == NULL) {
             fail_msg("%s: in gateway/http/www/ but not in the table", e->d_name);
+            break;
+        }
         same_as_file(a);
         n++;
     }

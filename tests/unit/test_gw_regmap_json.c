@@ -127,6 +127,39 @@ static void test_every_leaf_once(void **state)
     assert_true(strlen(j) < GW_REGMAP_JSON_SIZE / 2);
 }
 
+/* The value after `key` in a --print-map row: a number, or a string up to
+ * its closing quote. */
+static const char *after(const char *row, const char *key)
+{
+    const char *p = strstr(row, key);
+    return p != NULL ? p + strlen(key) : NULL;
+}
+
+/* {"area": "IR", "address": 200, "count": 2, "name": "...", ...} */
+static bool row_fields(const char *row, char area[4], unsigned long *addr, unsigned long *n,
+                       char *name, size_t size)
+{
+    const char *a = after(row, "{\"area\": \""), *d = after(row, "\"address\": ");
+    const char *c = after(row, "\"count\": "), *m = after(row, "\"name\": \"");
+    if (a == NULL || d == NULL || c == NULL || m == NULL || a[0] == '\0' || a[1] == '\0')
+        return false;
+    memcpy(area, a, 2);
+    area[2] = '\0';
+    char *end;
+    *addr = strtoul(d, &end, 10);
+    if (end == d)
+        return false;
+    *n = strtoul(c, &end, 10);
+    if (end == c)
+        return false;
+    const char *q = strchr(m, '"');
+    if (q == NULL || (size_t)(q - m) >= size)
+        return false;
+    memcpy(name, m, (size_t)(q - m));
+    name[q - m] = '\0';
+    return true;
+}
+
 /* Every row --print-map --json prints for a leaf (not the status block,
  * the test registers or a packed mask, which name no leaf) is in that
  * leaf's entry with the same table, address and count. */
@@ -140,18 +173,18 @@ static void test_same_as_print_map(void **state)
     assert_non_null(f);
     gw_regmap_print_all(f, GW_PRINT_JSON, NULL, NULL);
     assert_int_equal(fclose(f), 0);
+    assert_non_null(text);
     unsigned rows = 0, leaves = 0;
     for (char *p = strstr(text, "{\"area\""); p != NULL; p = strstr(p + 1, "{\"area\"")) {
-        char area[4], name[128], want[128];
-        unsigned addr, n;
-        if (sscanf(p, "{\"area\": \"%3[A-Z]\", \"address\": %u, \"count\": %u, \"name\": \"%127[^\"]\"",
-                   area, &addr, &n, name) != 4)
+        char area[4] = "", name[128] = "", want[128];
+        unsigned long addr = 0, n = 0;
+        if (!row_fields(p, area, &addr, &n, name, sizeof name))
             fail_msg("cannot read --print-map row: %.80s", p);
         rows++;
         dr_ref_t ref;
         if (dr_path_parse(name, &ref) != DR_OK || ref.elem < 0)
             continue; /* status, test, control, a whole packed mask */
-        snprintf(want, sizeof want, "{\"table\": \"%s\", \"address\": %u, \"count\": %u, ",
+        snprintf(want, sizeof want, "{\"table\": \"%s\", \"address\": %lu, \"count\": %lu, ",
                  area, addr, n);
         has(j, name, want);
         leaves++;
