@@ -963,9 +963,16 @@ static void ht_on_fault(void *self, unsigned robot, bool latched)
     (void)self, (void)robot, (void)latched;
 }
 
+/* Ten times a second, a turn for MHD whatever its descriptors say: at
+ * max_connections it takes its listening socket out of its epoll set and
+ * puts it back only within MHD_run, which nothing would call once the
+ * last connection is gone (no event, no timeout). One epoll_wait(0). */
 static void ht_refresh(void *self)
 {
-    (void)self;
+    ht_t *t = self;
+    for (unsigned i = 0; t->cfg.enabled && i < 2; i++)
+        if (t->srv[i].d != NULL)
+            (void)ml->run(t->srv[i].d);
 }
 
 static void ht_safe(void *self)
