@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,14 +18,30 @@ static dr_status_t fit(int n, size_t size)
 /* Shortest digits of f: the fewest significant digits (1..9; 9 always
  * do for binary32) whose text reads back to the same float, as "d.ddd"
  * in digits[] without the point, and the decimal exponent of the first. */
+/* Does f printed with prec significant digits read back as f? (Into tmp.) */
+static bool round_trips(float f, int prec, char tmp[32])
+{
+    snprintf(tmp, 32, "%.*e", prec - 1, (double)f);
+    return strtof(tmp, NULL) == f;
+}
+
 static int shortest_digits(float f, char digits[16], int *exp10)
 {
     char tmp[32];
-    for (int prec = 1;; prec++) {
-        snprintf(tmp, sizeof tmp, "%.*e", prec - 1, (double)f);
-        if (strtof(tmp, NULL) == f || prec == 9)
-            break;
+    /* The fewest digits that read back: 9 always do, and if p digits do,
+     * p + 1 do too (the p-digit text is a (p + 1)-digit one, and the
+     * nearest (p + 1)-digit text is no farther from f), so a binary search
+     * finds it in 3 or 4 conversions instead of up to 9 (the console's live
+     * values format every changed REAL of every robot 4 times a second). */
+    int lo = 1, hi = 9;
+    while (lo < hi) {
+        int mid = lo + (hi - lo) / 2;
+        if (round_trips(f, mid, tmp))
+            hi = mid;
+        else
+            lo = mid + 1;
     }
+    snprintf(tmp, sizeof tmp, "%.*e", lo - 1, (double)f);
     /* tmp: [-]d[.ddd]e[+-]xx */
     const char *p = tmp + (tmp[0] == '-');
     int n = 0;

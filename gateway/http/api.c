@@ -132,20 +132,21 @@ unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uin
         dr_ref_t ref;
         dr_value_t v;
         char path[96], tok[40];
-        if (dr_leaf_at((uint16_t)i, &ref) != DR_OK || gw_robot_get(rb, ref, &v) != DR_OK ||
-            dr_ref_path(ref, path, sizeof path) != DR_OK ||
+        if (dr_leaf_at((uint16_t)i, &ref) != DR_OK || gw_robot_get(rb, ref, &v) != DR_OK)
+            continue;
+        /* Compared bit for bit: a NaN equals the NaN sent before it, and
+         * GW_HTTP_API_UNSENT (all bits set) no value. Before the text is
+         * made: a live stream formats only what changed (bench-console). */
+        double x = dr_value_as_double(&v);
+        uint64_t bits;
+        memcpy(&bits, &x, sizeof bits);
+        if (last != NULL && last[i] == bits)
+            continue;
+        if (dr_ref_path(ref, path, sizeof path) != DR_OK ||
             dr_text_json(&v, tok, sizeof tok) != DR_OK)
             continue;
-        if (last != NULL) {
-            /* Compared bit for bit: a NaN equals the NaN sent before it,
-             * and GW_HTTP_API_UNSENT (all bits set) no value. */
-            double x = dr_value_as_double(&v);
-            uint64_t bits;
-            memcpy(&bits, &x, sizeof bits);
-            if (last[i] == bits)
-                continue;
+        if (last != NULL)
             last[i] = bits;
-        }
         gw_json_str(j, n > 0 ? (indent ? ",\n  " : ",") : (indent ? "\n  " : ""));
         qstr(j, path);
         gw_json_str(j, indent ? ": " : ":");
