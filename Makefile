@@ -149,6 +149,13 @@ GW_SRC      := $(filter-out $(GPIO_ALL_SRC),$(sort $(wildcard gateway/*/*.c)))
 GW_HDR      := $(filter-out $(GPIO_HDR),$(wildcard gateway/*/*.h))
 GW_LIB_SRC  := $(filter-out gateway/core/main.c,$(GW_SRC))
 GW_LIB_OBJ  := $(GW_LIB_SRC:%.c=$(B)/%.o)
+# The console's files (gateway/http/www/: pages, script, style sheet) built
+# into the daemon as a C table (gateway/http/asset.h) that
+# mk/gen-assets.sh writes with POSIX tools; it goes into libgw.a with the
+# rest. Adding, removing or changing a file of www/ writes it again.
+GW_WWW        := $(sort $(wildcard gateway/http/www/*))
+GW_ASSETS_C   := $(B)/gateway/http/assets_gen.c
+GW_ASSETS_OBJ := $(B)/gateway/http/assets_gen.o
 GW_A        := $(B)/gateway/libgw.a
 GW_BIN      := $(B)/drgatewayd
 GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBUS_CFLAGS) \
@@ -163,7 +170,8 @@ NANOPB_LIBS := -lprotobuf-nanopb
 # [mqtt] section (gateway/mqtt/mqtt_lib.c, docs/mqtt.md): the daemon is compiled
 # against its header but does not link it. glibc 2.34 and later have
 # dlopen in libc; -ldl is an empty stub there and keeps older C libraries
-# linking.
+# linking. The console's libmicrohttpd and libcrypt are loaded the same
+# way, only with [http] (gateway/http/mhd_lib.c, docs/http.md).
 GW_LIBS     := $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(NANOPB_LIBS) -ldl -lm
 GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
 
@@ -221,6 +229,14 @@ $(GW_LIB_OBJ) $(B)/gateway/core/main.o: $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(GW_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
 
+# (The folder is a prerequisite too: its time changes when a file is added
+# or removed, so a removed file leaves the table as well.)
+$(GW_ASSETS_C): mk/gen-assets.sh $(GW_WWW) gateway/http/www
+	sh mk/gen-assets.sh $@ $(GW_WWW)
+
+$(GW_ASSETS_OBJ): $(GW_ASSETS_C) $(B)/gateway/http/assets_gen.d
+	$(CC) $(GW_CFLAGS) -fPIE $(DEPFLAGS) -c $< -o $@
+
 $(GPIO_OBJ): $(B)/%.o: %.c $(B)/%.d
 	@mkdir -p $(dir $@)
 	$(CC) $(GPIO_OBJ_CFLAGS) $(DEPFLAGS) -c $< -o $@
@@ -250,7 +266,7 @@ $(COMMON_A): $(COMMON_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
-$(GW_A): $(GW_LIB_OBJ)
+$(GW_A): $(GW_LIB_OBJ) $(GW_ASSETS_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
@@ -270,6 +286,7 @@ GW_OBJ_$(1) := $$(patsubst %.c,$$(B)/bench/$(1)/%.o,$$(GW_SRC) $$(COMMON_SRC) $(
 $$(GW_OBJ_$(1)): $$(B)/bench/$(1)/%.o: %.c $$(B)/bench/$(1)/%.d
 	@mkdir -p $$(dir $$@)
 	$$(CC) $$(GW_CFLAGS) $(2) -fPIE $$(DEPFLAGS) -c $$< -o $$@
+GW_OBJ_$(1) += $$(GW_ASSETS_OBJ)
 endef
 
 # A test is one source, compiled and linked in one step.
@@ -554,5 +571,7 @@ include $(sort $(wildcard mk/*.mk))
 # the builds nested in it ($(B)/asan, $(B)/cov, ...): each only names
 # targets in its own directory.
 # (Not $(B)/deb and $(B)/deb-arm64: make deb's copies of the tree, whose own build and package
-# directories, drgatewayd.service.d among them, are none of this build's.)
--include $(shell find $(B) \( -path $(B)/deb -o -path $(B)/deb-arm64 \) -prune -o -name '*.d' -type f -print 2>/dev/null)
+# directories, drgatewayd.service.d among them, are none of this build's; nor
+# $(B)/bench/noconsole, the tree before the console, mk/console.mk.)
+-include $(shell find $(B) \( -path $(B)/deb -o -path $(B)/deb-arm64 -o -path $(B)/bench/noconsole \) \
+    -prune -o -name '*.d' -type f -print 2>/dev/null)

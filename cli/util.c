@@ -90,19 +90,23 @@ void cli_describe_range(dr_ref_t ref, char *out, size_t size)
 /* ---- JSON ------------------------------------------------------------- */
 
 /* jansson prints a real with "%.*g" at the precision given to the dump call
- * (17 by default), which shows 0.1f as 0.10000000149011612, and 0.1 parsed as
- * a double as 0.10000000000000001. So the number is first made the double
- * nearest to the float's shortest text ("0.1"), and printed with 9 digits
- * (CLI_JSON_FLAGS): rounding that double to 9 significant digits gives back
- * exactly the shortest text's digits, as it has at most 9 and the double is
- * within 2^-53 of it. Whole numbers get ".0" from jansson. */
+ * (17 by default), which shows 0.1f as 0.10000000149011612. So the number
+ * is the library's JSON token for it (dr_text_json: the double nearest the
+ * float's shortest text, at 9 digits, which the gateway's console prints
+ * too), printed again with 9 digits (CLI_JSON_FLAGS): the same token, as
+ * %.9g of a number read from a %.9g text gives that text back. Whole
+ * numbers get ".0" from both. Non-finite values are dr_text_json's
+ * strings. */
 json_t *cli_json_real(float f)
 {
     char text[32];
-    if (dr_text_real(f, text, sizeof text) != DR_OK)
+    dr_value_t v = {DR_VAL_REAL, 0, 0, (double)f};
+    if (dr_text_json(&v, text, sizeof text) != DR_OK)
         return NULL; /* not reached: 32 bytes hold any binary32 */
-    if (f != f || f > 3.4028235e38f || f < -3.4028235e38f)
-        return json_string(text);
+    if (text[0] == '"') {
+        text[strlen(text) - 1] = '\0';
+        return json_string(text + 1);
+    }
     return json_real(strtod(text, NULL));
 }
 

@@ -27,7 +27,7 @@
  * and of the checks once the file is read. */
 static const gw_cfg_side_t *const sides[] = {
     &gw_cfg_daemon, &gw_cfg_modbus, &gw_cfg_robot,
-    &gw_cfg_gpio,   &gw_cfg_rtu,    &gw_cfg_mqtt,
+    &gw_cfg_gpio,   &gw_cfg_rtu,    &gw_cfg_mqtt, &gw_cfg_http,
 };
 typedef char sides_fit[GW_CFG_COUNT(sides) <= GW_CFG_MAX_SIDES ? 1 : -1];
 
@@ -284,6 +284,132 @@ void gw_cfg_store(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     if (!store_uint((char *)sec + k->off, k->size, x))
         gw_cfg_fail(c, c->lineno, "internal error: %s is %zu bytes", k->name,
                     k->size);
+}
+
+/* ---- allow lists ([modbus], [http]) ------------------------------------- */
+
+/* Up to n blank-separated words of buf, each cut in place; how many
+ * there were (n + 1 when there are more). */
+static size_t split_words(char *buf, char **word, size_t n)
+{
+    size_t nw = 0;
+    for (char *p = buf; *p != '\0';) {
+        while (gw_cfg_is_space(*p))
+            *p++ = '\0';
+        if (*p == '\0')
+            break;
+        if (nw == n)
+            return n + 1;
+        word[nw++] = p;
+        while (*p != '\0' && !gw_cfg_is_space(*p))
+            p++;
+    }
+    return nw;
+}
+
+/* "/len" of an allow entry: 0..32 into *prefix; false after the message. */
+static bool allow_prefix(gw_cfg_ctx_t *c, const char *v, const char *p,
+                         unsigned long *prefix)
+{
+    size_t digits = strspn(p, "0123456789");
+    *prefix = digits > 0 ? strtoul(p, NULL, 10) : 99;
+    if (digits == 0 || p[digits] != '\0' || *prefix > 32) {
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: prefix length '%s' (allowed: 0..32)", v,
+                    p);
+        return false;
+    }
+    return true;
+}
+
+/* An allow entry, "a.b.c.d/len [ro|rw]" ([modbus] and [http]): the network must be given exactly (no host bits),
+ * and must not be shadowed by an earlier entry, since the first match
+ * decides (mbserver.c, north_http.c) and a shadowed line would silently do
+ * nothing. */
+void gw_cfg_allow(gw_cfg_ctx_t *c, const char *v, gw_allow_t *allow, unsigned *count,
+                  unsigned *lines)
+{
+    if (*count >= GW_MAX_ALLOW) {
+        gw_cfg_fail(c, c->lineno, "too many allow entries (at most %d)",
+                    GW_MAX_ALLOW);
+        return;
+    }
+    /* The value itself is ours to split: libinih has already stripped it
+     * and removed comments. */
+    char buf[128];
+    if (strlen(v) >= sizeof buf) {
+        gw_cfg_fail(c, c->lineno, "allow too long (at most %zu characters)",
+                    sizeof buf - 1);
+        return;
+    }
+    memcpy(buf, v, strlen(v) + 1);
+    char *word[3] = { NULL, NULL, NULL };
+    size_t nw = split_words(buf, word, 3);
+    if (nw > 2) {
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: trailing '%s' (allowed: a.b.c.d/len "
+                    "[ro|rw])",
+                    v, word[2]);
+        return;
+    }
+    if (nw == 0) { /* not reached: an empty value is refused before */
+        gw_cfg_fail(c, c->lineno,
+                    "allow has no value (allowed: a.b.c.d/len [ro|rw])");
+        return;
+    }
+    bool rw = false; /* least privilege: writing must be asked for */
+    if (nw == 2) {
+        if (strcmp(word[1], "rw") == 0) {
+            rw = true;
+        } else if (strcmp(word[1], "ro") != 0) {
+            gw_cfg_fail(c, c->lineno,
+                        "allow '%s' invalid: access '%s' (allowed: ro, rw)", v,
+                        word[1]);
+            return;
+        }
+    }
+    char *slash = strchr(word[0], '/');
+    unsigned long prefix = 32;
+    if (slash != NULL) {
+        *slash = '\0';
+        if (!allow_prefix(c, v, slash + 1, &prefix))
+            return;
+    }
+    struct in_addr a;
+    if (inet_pton(AF_INET, word[0], &a) != 1) {
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: '%s' is not an IPv4 address (allowed: "
+                    "a.b.c.d/len [ro|rw])",
+                    v, word[0]);
+        return;
+    }
+    uint32_t addr = ntohl(a.s_addr);
+    /* A shift by 32 is undefined, hence the /0 case. */
+    uint32_t mask = prefix == 0 ? 0u : 0xFFFFFFFFu << (32u - (unsigned)prefix);
+    if ((addr & ~mask) != 0) {
+        uint32_t n = addr & mask;
+        gw_cfg_fail(c, c->lineno,
+                    "allow '%s' invalid: host bits set in %s/%lu (did you mean "
+                    "%u.%u.%u.%u/%lu?)",
+                    v, word[0], prefix, (unsigned)(n >> 24),
+                    (unsigned)(n >> 16 & 0xFF), (unsigned)(n >> 8 & 0xFF),
+                    (unsigned)(n & 0xFF), prefix);
+        return;
+    }
+    for (unsigned i = 0; i < *count; i++) {
+        const gw_allow_t *e = &allow[i];
+        if ((addr & e->mask) == e->net && mask >= e->mask) {
+            gw_cfg_fail(c, c->lineno,
+                        "allow '%s' never matches: line %u already covers it "
+                        "(the first matching entry decides; put narrower "
+                        "networks first)",
+                        v, lines[i]);
+            return;
+        }
+    }
+    lines[*count] = c->lineno;
+    allow[*count] = (gw_allow_t){ addr, mask, rw };
+    (*count)++;
 }
 
 /* ---- where sections and their key lines are ----------------------------- */

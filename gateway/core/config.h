@@ -8,6 +8,7 @@
  *   [gpio NAME]         one section per GPIO line
  *   [modbus_rtu NAME]   one section per serial line (Modbus RTU slave)
  *   [mqtt]              MQTT northbound side (north_mqtt.c), off without it
+ *   [http]              the console: web pages, JSON API (north_http.c)
  *
  * "[robot NAME]" and "[robot.NAME]" are the same section ("[robot]" alone
  * names the robot "robot"); likewise "[gpio NAME]" and "[gpio.NAME]".
@@ -226,6 +227,29 @@ typedef struct {
 } gw_mqtt_config_t;
 enum { GW_MQTT_JSON = 0, GW_MQTT_SPARKPLUG };
 
+/* [http]: the console (docs/http.md); present = enabled. Strings "" = not
+ * set. */
+typedef struct {
+    bool enabled;             /* the section is present */
+    char listen[64];          /* default "127.0.0.1" */
+    uint16_t port;            /* default 8080 */
+    unsigned allow_count;     /* 0: every address */
+    gw_allow_t allow[GW_MAX_ALLOW]; /* as [modbus] allow; ro/rw alike: the
+                                       console only reads */
+    char tls_cert[256];       /* PEM certificate, with tls_key: HTTPS */
+    char tls_key[256];
+    char auth_file[256];      /* user:crypt(3) hash lines: Basic auth for
+                                 clients not on loopback */
+    bool insecure;            /* plain, open console off loopback, knowingly */
+    uint16_t status_port;     /* with TLS: a plain listener on 127.0.0.1 for
+                                 drgatewayd status (0: none) */
+    unsigned max_connections; /* default 32 */
+    unsigned timeout_s;       /* idle or slow client closed, default 10 */
+    unsigned max_request_bytes; /* URL and headers, default 16384 */
+    unsigned tls_line, auth_line; /* where tls_cert and auth_file are */
+    unsigned line;            /* the section's line */
+} gw_http_config_t;
+
 typedef struct {
     char path[256];
     gw_modbus_config_t modbus;
@@ -237,6 +261,7 @@ typedef struct {
     gw_rtu_config_t rtu[GW_MAX_RTU];
     char log_level[16];       /* [daemon] log_level: error|warning|info|debug */
     gw_mqtt_config_t mqtt;
+    gw_http_config_t http;
 } gw_config_t;
 
 /* Load and validate `path`. On error returns false and writes

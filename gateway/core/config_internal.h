@@ -20,6 +20,7 @@
  *                    [robot NAME]'s unit_id_alias and map lines
  *   config_gpio.c    [gpio NAME] (the GPIO side)
  *   config_mqtt.c    [mqtt] (the MQTT side)
+ *   config_http.c    [http] (the console)
  *   config_doc.c     the docs' key tables, printed from the tables
  *
  * A new key is one line in its side's table. A new side is its table, its
@@ -130,7 +131,7 @@ struct gw_cfg_side {
 #define GW_CFG_KEYS(table) .keys = (table), .nkeys = GW_CFG_COUNT(table)
 
 extern const gw_cfg_side_t gw_cfg_daemon, gw_cfg_modbus, gw_cfg_robot,
-    gw_cfg_gpio, gw_cfg_rtu, gw_cfg_mqtt;
+    gw_cfg_gpio, gw_cfg_rtu, gw_cfg_mqtt, gw_cfg_http;
 
 /* The parse state. */
 struct gw_cfg_ctx {
@@ -202,6 +203,12 @@ bool gw_cfg_get_uint(gw_cfg_ctx_t *c, const char *key, const char *v,
 /* Copy into a fixed field; false after the message if too long. */
 bool gw_cfg_copy(gw_cfg_ctx_t *c, const char *key, const char *v, char *dst,
                  size_t size);
+/* One allow entry "a.b.c.d/len [ro|rw]" (v, at c->lineno) appended to
+ * allow[*count], its line to lines[*count]; refused (with the message)
+ * when it is malformed, has host bits set, is shadowed by an earlier one
+ * or is one too many (GW_MAX_ALLOW). [modbus] and [http] share it. */
+void gw_cfg_allow(gw_cfg_ctx_t *c, const char *v, gw_allow_t *allow, unsigned *count,
+                  unsigned *lines);
 /* Store x into key k's value in sec (a UINT's or ENUM's integer). */
 void gw_cfg_store(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
                   unsigned long x);

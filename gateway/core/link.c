@@ -148,6 +148,8 @@ static void link_set_up(gw_link_t *l, bool up, dr_status_t why)
         return;
     l->up = up;
     l->status_now = true;
+    if (!up && l->closing == NULL)
+        l->data->link.reconnects++; /* it was up: it reconnects from here */
     /* Explicit mode sends an O->T image only when it changed: the robot
      * may come back without it (a restart), so all of them go again. */
     if (!up && l->cfg.mode == GW_MODE_EXPLICIT)
@@ -350,6 +352,8 @@ static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, 
             all = false;
     }
     if (st != DR_CONN_ESTABLISHED) {
+        if (st == DR_CONN_TIMED_OUT)
+            l->data->link.timeouts++;
         if (why != DR_OK) {
             link_record_error(l, why);
             log_conn_error(l, conn, st, why);
@@ -428,6 +432,9 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
     if (info->dir == DR_DIR_T2O) {
         l->last_rx_us[pc->a] = ev_now_us(); /* the link's health: counted anyway */
         l->data->link.rx_packets++;
+        for (unsigned i = 0; i < NPAIRS; i++)
+            if (slot_t2o[i] == pc->a)
+                l->data->link.conn_rx[i]++;
         if (!data_withheld(l)) {
             memcpy(l->data->img[pc->a], data, len);
             l->data->link.rx_us = l->last_rx_us[pc->a];
@@ -593,6 +600,12 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     gw_link_set_robot(l, robot, data);
     l->rx_base = data->link.rx_packets;
     l->lost_base = data->link.lost_packets;
+    for (unsigned i = 0; i < GW_ROBOT_CONNS; i++) {
+        /* the slots the plan fills (explicit mode: the polled assemblies) */
+        bool used = i < NPAIRS && rc->open[slot_t2o[i]].kind != GW_OPEN_NONE;
+        data->link.conn_t2o[i] = (uint16_t)(used ? slot_t2o[i] : DR_ASM_COUNT);
+        data->link.conn_rx[i] = data->link.conn_lost[i] = 0;
+    }
     data->o2t_unsent = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T && !(l->o2t_planned & (1u << a)))
@@ -734,6 +747,8 @@ static void update_status(gw_link_t *l, uint64_t now)
             const dr_conn_stats_t *cs = dr_conn_stats(l->conn[i]);
             rx += (uint32_t)cs->rx_packets;
             lost += (uint32_t)cs->rx_lost;
+            st->conn_rx[i] = (uint32_t)cs->rx_packets;
+            st->conn_lost[i] = (uint32_t)cs->rx_lost;
             if (cs->t2o_api_us > api)
                 api = cs->t2o_api_us;
         }
@@ -745,8 +760,10 @@ static void update_status(gw_link_t *l, uint64_t now)
     } else {
         limit = (uint64_t)l->cfg.rpi_ms * 1000u * 4u + (uint64_t)l->cfg.timeout_ms * 1000u;
         /* explicit: no reply for a while means the link is gone */
-        if (l->up && oldest != UINT64_MAX && age > limit)
+        if (l->up && oldest != UINT64_MAX && age > limit) {
+            st->timeouts++;
             link_set_up(l, false, DR_ETIMEDOUT);
+        }
     }
     st->fresh = oldest != 0 && age <= limit;
     st->link_state = l->up ? 2 : (dr_client_ready(l->client) ? 1 : 0);
@@ -782,6 +799,11 @@ uint64_t gw_link_next_deadline(const gw_link_t *l)
     if (l->cfg.mode == GW_MODE_EXPLICIT && l->next_poll_us < d)
         d = l->next_poll_us;
     return d;
+}
+
+int gw_link_slot_asm(unsigned i)
+{
+    return i < NPAIRS ? (int)slot_t2o[i] : -1;
 }
 
 bool gw_link_up(const gw_link_t *l)

@@ -75,6 +75,9 @@ void gw_link_tick(gw_link_t *l, uint64_t now_us, bool busy);
 uint64_t gw_link_next_deadline(const gw_link_t *l);
 
 bool gw_link_up(const gw_link_t *l);
+/* The T->O assembly of the link's i-th connection slot (the order of
+ * gw_robot_link_t.conn_state), -1 past the last slot. */
+int gw_link_slot_asm(unsigned i);
 const gw_robot_config_t *gw_link_config(const gw_link_t *l);
 /* Point the link at the robot's new place (a reload keeps the link and
  * moves the robot). */

@@ -49,12 +49,54 @@ static const char *time_stamp(char *buf, size_t size)
     return buf;
 }
 
+static const char *const words[8] = {"", "", "", "error", "warning", "", "info", "debug"};
+
+/* ---- the ring of the last events (for the console) --------------------------- */
+
+static gw_log_event_t ring[GW_LOG_RING];
+static uint64_t ring_total; /* events ever put in */
+
+static void ring_put(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
+{
+    struct timespec ts;
+    gw_log_event_t *e = &ring[ring_total % GW_LOG_RING];
+    ring_total++;
+    e->time_us = clock_gettime(CLOCK_REALTIME, &ts) == 0
+                     ? (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u
+                     : 0;
+    e->level = level;
+    int n = vsnprintf(e->text, sizeof e->text, fmt, ap);
+    if (n >= 0 && (size_t)n < sizeof e->text && suppressed > 0)
+        snprintf(e->text + n, sizeof e->text - (size_t)n, " [%u similar message%s suppressed]",
+                 suppressed, suppressed == 1 ? "" : "s");
+}
+
+void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user)
+{
+    uint64_t first = ring_total > GW_LOG_RING ? ring_total - GW_LOG_RING : 0;
+    for (uint64_t i = first; i < ring_total; i++)
+        fn(user, &ring[i % GW_LOG_RING]);
+}
+
+uint64_t gw_log_ring_total(void)
+{
+    return ring_total;
+}
+
+const char *gw_log_level_name(gw_log_level_t level)
+{
+    return (unsigned)level < 8u ? words[level] : "";
+}
+
 /* suppressed: a count of the same kind to end the line with (0: none). */
 static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
 {
-    static const char *const words[8] = {"", "", "", "error", "warning", "", "info", "debug"};
     if (level > max_level)
         return;
+    va_list aq;
+    va_copy(aq, ap);
+    ring_put(level, suppressed, fmt, aq);
+    va_end(aq);
     if (getenv("JOURNAL_STREAM") != NULL) {
         fprintf(stderr, "<%d>", (int)level);
     } else {
@@ -90,12 +132,19 @@ void gw_log(gw_log_level_t level, const char *fmt, ...)
 typedef struct {
     const gw_log_limit_t *limit; /* identity only, never dereferenced */
     uint64_t due_us;             /* end of the kind's window */
+    uint64_t window_us;          /* its length (window_of) */
     gw_log_level_t level;
     unsigned count;              /* suppressed in this window */
     char text[TEXT_MAX];         /* the latest of them */
 } pending_t;
 
 static pending_t pending[PENDING_MAX];
+
+/* A kind's window: 10 s unless it says otherwise. */
+static uint64_t window_of(const gw_log_limit_t *limit)
+{
+    return limit->window_ms != 0 ? (uint64_t)limit->window_ms * 1000u : LIMIT_US;
+}
 
 static pending_t *pending_of(const gw_log_limit_t *limit)
 {
@@ -117,7 +166,8 @@ static pending_t *pending_new(gw_log_limit_t *limit, uint64_t due_us, gw_log_lev
         at_exit = atexit(flush_at_exit) == 0;
     for (unsigned i = 0; i < PENDING_MAX; i++)
         if (pending[i].limit == NULL) {
-            pending[i] = (pending_t){.limit = limit, .due_us = due_us, .level = level};
+            pending[i] = (pending_t){.limit = limit, .due_us = due_us,
+                                     .window_us = window_of(limit), .level = level};
             limit->slot = i + 1;
             return &pending[i];
         }
@@ -134,7 +184,7 @@ void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt
 {
     uint64_t now = ev_now_us();
     pending_t *p = pending_of(limit);
-    uint64_t end = p != NULL ? p->due_us : limit->last_us + LIMIT_US;
+    uint64_t end = p != NULL ? p->due_us : limit->last_us + window_of(limit);
     va_list ap;
     va_start(ap, fmt);
     if (limit->last_us != 0 && now < end) {
@@ -173,9 +223,11 @@ void gw_log_flush(uint64_t now)
             p->limit = NULL; /* a quiet window: the kind is free again */
             continue;
         }
-        pending_print(p, "in 10 s");
+        char in[32];
+        snprintf(in, sizeof in, "in %llu s", (unsigned long long)(p->window_us / 1000000u));
+        pending_print(p, in);
         p->count = 0;
-        p->due_us = now + LIMIT_US;
+        p->due_us = now + p->window_us;
     }
 }
 

@@ -20,15 +20,33 @@ int gw_log_level_parse(const char *name, gw_log_level_t *out);
 
 void gw_log(gw_log_level_t level, const char *fmt, ...) GW_PRINTF(2, 3);
 
+/* The last GW_LOG_RING lines logged (those the level lets through, as
+ * printed, without the time stamp), kept for the console's /api/v1/log. */
+#define GW_LOG_RING 200
+#define GW_LOG_TEXT 256 /* a longer line is kept cut to this */
+typedef struct {
+    uint64_t time_us; /* wall clock (CLOCK_REALTIME), microseconds since 1970 */
+    gw_log_level_t level;
+    char text[GW_LOG_TEXT];
+} gw_log_event_t;
+/* fn for each event in the ring, the oldest first. */
+void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user);
+/* Events ever logged (those beyond GW_LOG_RING have left the ring). */
+uint64_t gw_log_ring_total(void);
+/* "error", "warning", "info", "debug". */
+const char *gw_log_level_name(gw_log_level_t level);
+
 /* One kind of message that may repeat (one per call site and object):
  * zero-initialised. */
 typedef struct {
     uint64_t last_us;    /* when one was last printed */
     unsigned suppressed; /* of this kind since, when log.c had no room for them */
     unsigned slot;       /* log.c's entry for the ones it holds (0: none) */
+    uint32_t window_ms;  /* at most one line per window_ms (whole seconds); 0: 10 s */
 } gw_log_limit_t;
 
-/* At most one line every 10 s per limit; the lines in between are counted
+/* At most one line every 10 s per limit (window_ms: another window, such
+ * as the write log's second); the lines in between are counted
  * for that kind, and when its 10 s are over gw_log_flush prints the latest
  * of them with the count ("... [N similar messages suppressed in 10 s, the
  * last shown]"). A line of the kind that comes after the 10 s and before

@@ -17,6 +17,9 @@
 #include "core/link.h"
 #include "core/log.h"
 #include "core/north.h"
+#include "http/api.h"  /* STATUS= for systemd: the console's summary line */
+#include "http/http.h" /* drgatewayd status, --check-config of [http]'s TLS */
+#include "core/report.h"
 #include "modbus/regmap.h" /* --print-map and --print-errors only */
 #include "core/robot.h"
 
@@ -39,10 +42,13 @@ typedef struct {
     bool stop, reload;
     uint64_t start_us, next_tick_us, next_beat_us;
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
+    bool notify;          /* under systemd (NOTIFY_SOCKET): STATUS= lines */
     uint64_t last_notify_us;
+    char status_line[1024]; /* the last STATUS= sent to systemd */
     uint16_t generation;
     uint32_t serial; /* the last robot's (gw_robot_t serial) */
     int exit_status; /* 0 after a signal, 1 after a failure */
+    gw_lag_t lag;    /* how late the loop woke up (report.h) */
 } gw_t;
 
 static gw_t G; /* the daemon's state: large, one per process */
@@ -92,6 +98,67 @@ static void on_data(void *user, unsigned robot, dr_asm_t a)
 
 static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
 
+/* systemd's STATUS= (systemctl status shows it) when it changes: each
+ * robot's link in words, as drgatewayd status says it, and the Modbus
+ * clients and MQTT from the sides' reports. */
+static void notify_status(gw_t *g)
+{
+    char line[sizeof g->status_line];
+    gw_json_t j;
+    gw_http_api_t a = {&g->env, 0, g->generation};
+    gw_json_init(&j, line, sizeof line);
+    gw_json_str(&j, "STATUS=");
+    gw_http_api_notify(&j, &a);
+    if (j.full || strcmp(line, g->status_line) == 0)
+        return;
+    memcpy(g->status_line, line, j.len + 1);
+    sd_notify(0, line);
+}
+
+/* ---- what the console is told (north.h: env->report, env->metrics) ---------- */
+
+/* "modbus": {...}, ...: each running side's member, commas between (the
+ * caller writes the braces around them). */
+static void report(void *user, gw_json_t *j)
+{
+    const gw_t *g = user;
+    bool first = true;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        if (g->side[i] == NULL || gw_north_sides[i]->report == NULL)
+            continue;
+        size_t at = j->len;
+        if (!first)
+            gw_json_str(j, ",");
+        size_t mark = j->len;
+        gw_north_sides[i]->report(g->side[i], j);
+        if (j->len == mark && !j->full) { /* nothing to say: no comma either */
+            j->len = at;
+            j->buf[at] = '\0';
+        } else {
+            first = false;
+        }
+    }
+}
+
+static void metrics(void *user, gw_prom_t *m)
+{
+    const gw_t *g = user;
+    gw_prom_family(m, "drgate_info", GW_PROM_GAUGE, "The gateway's version (always 1)");
+    gw_prom_label_t v = {"version", DRGATE_VERSION};
+    gw_prom_sample(m, "drgate_info", &v, 1, 1);
+    gw_prom_one(m, "drgate_uptime_seconds", GW_PROM_GAUGE, "Seconds since the daemon started",
+                (double)(ev_now_us() - g->start_us) / 1e6);
+    gw_prom_one(m, "drgate_config_generation", GW_PROM_GAUGE,
+                "Configuration generation: +1 at every reload that was applied", g->generation);
+    gw_prom_one(m, "drgate_log_events_total", GW_PROM_COUNTER,
+                "Lines the daemon logged (at its log level)", (double)gw_log_ring_total());
+    gw_lag_metrics(m, &g->lag);
+    gw_report_robot_metrics(m, g->robots, g->cfg.robot_count);
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (g->side[i] != NULL && gw_north_sides[i]->metrics != NULL)
+            gw_north_sides[i]->metrics(g->side[i], m);
+}
+
 /* ---- status block and timers ------------------------------------------------- */
 
 static void tick(gw_t *g, uint64_t now, bool busy)
@@ -109,6 +176,8 @@ static void tick(gw_t *g, uint64_t now, bool busy)
         g->next_beat_us = now + 1000000u;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
         gw_north_sides[i]->refresh(g->side[i]);
+    if (beat && g->notify)
+        notify_status(g); /* once a second, and only for systemd */
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_robot_t *rb = &g->robots[r];
         rb->uptime_s = (uint32_t)((now - g->start_us) / 1000000u);
@@ -310,7 +379,7 @@ static bool start_sides(gw_t *g)
 {
     char err[512];
     g->env = (gw_north_env_t){g->loop.epfd, &g->cfg, g->robots, outputs_changed, robot_link_up,
-                              fault, g, DRGATE_VERSION};
+                              fault, g, DRGATE_VERSION, report, metrics};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
         if (g->side[i] == NULL) {
@@ -372,6 +441,8 @@ static int run(gw_t *g)
         shutdown_all(g);
         return close_loop(g, 1);
     }
+    const char *ns = getenv("NOTIFY_SOCKET");
+    g->notify = ns != NULL && ns[0] != '\0';
     uint64_t wd = 0;
     if (sd_watchdog_enabled(0, &wd) > 0)
         g->watchdog_us = wd;
@@ -380,13 +451,18 @@ static int run(gw_t *g)
            g->cfg.robot_count, g->cfg.gpio_count);
 
     while (!g->stop) {
-        int n = ev_run(&g->loop, deadline_ns(next_deadline(g)));
+        uint64_t due = next_deadline(g);
+        int n = ev_run(&g->loop, deadline_ns(due));
         if (n < 0) {
             gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
             g->exit_status = 1;
             break;
         }
         uint64_t now = ev_now_us();
+        /* A deadline was due: how late did we wake up? (The first turn's
+         * tick is due at 0, not late.) */
+        if (now >= due && due >= g->start_us)
+            gw_lag_observe(&g->lag, now - due);
         tick(g, now, n > 1);
         notify_watchdog(g, now);
         if (g->reload)
@@ -403,6 +479,7 @@ static void usage(FILE *out)
 {
     fprintf(out,
             "usage: drgatewayd [-c FILE] [-v]\n"
+            "       drgatewayd status [-c FILE]\n"
             "       drgatewayd --check-config FILE\n"
             "       drgatewayd [-c FILE] --print-map [--json | --markdown] [FILTER]\n"
             "       drgatewayd --help-config SECTION\n"
@@ -412,6 +489,8 @@ static void usage(FILE *out)
             "MQTT broker ([mqtt], docs/mqtt.md).\n\n"
             "  -c, --config FILE      configuration (default " DEFAULT_CONFIG ")\n"
             "      --check-config FILE  validate FILE and exit (0 valid, 78 invalid)\n"
+            "  status                 the running daemon's summary from its console ([http]):\n"
+            "                         exit 0 every robot linked, 1 one is not, 3 unreachable\n"
             "      --print-map        print the Modbus register map and exit: with -c, each\n"
             "                         robot's own map too; FILTER: rows whose name has it\n"
             "      --print-errors     print every value of the status block's last_error\n"
@@ -464,6 +543,13 @@ int main(int argc, char **argv)
         default: usage(stderr); return 2;
         }
     }
+    if (optind < argc && strcmp(argv[optind], "status") == 0) {
+        if (optind + 1 != argc || check != NULL || print_map || print_errors || help_config) {
+            fprintf(stderr, "drgatewayd: status takes -c FILE only\n");
+            return 2;
+        }
+        return gw_http_status_command(config);
+    }
     const char *map_filter = NULL;
     if (print_map && optind + 1 == argc)
         map_filter = argv[optind++]; /* --print-map joint_state.position */
@@ -499,7 +585,8 @@ int main(int argc, char **argv)
     }
     char err[512];
     if (check != NULL) {
-        if (!gw_config_load(check, &G.cfg, err, sizeof err)) {
+        if (!gw_config_load(check, &G.cfg, err, sizeof err) ||
+            !gw_http_check_tls(&G.cfg, err, sizeof err)) {
             fprintf(stderr, "drgatewayd: %s\n", err);
             return EX_CONFIG;
         }

@@ -32,6 +32,8 @@
 #include <stdint.h>
 
 #include "core/config.h"
+#include "core/json.h"
+#include "core/prom.h"
 #include "core/robot.h"
 
 typedef struct {
@@ -50,6 +52,14 @@ typedef struct {
     void (*fault)(void *user, unsigned robot, bool latched);
     void *user;
     const char *version; /* the gateway's */
+    /* What the daemon tells the console (gateway/http), asking every side
+     * in turn. report: the members of /api/v1/status's "sides" object,
+     * "modbus": {...}, "gpio": {...}, "mqtt": {...}, commas between, no
+     * braces around (a side with nothing to say is left out). metrics: the Prometheus text of
+     * the core (robots, the loop's lag) and of every side. NULL in a
+     * daemon that has none (tests). */
+    void (*report)(void *user, gw_json_t *j);
+    void (*metrics)(void *user, gw_prom_t *m);
 } gw_north_env_t;
 
 typedef enum {
@@ -84,6 +94,14 @@ typedef struct {
     /* Shutdown, first of all: outputs to their safe state. */
     void (*safe)(void *self);
     void (*free)(void *self);
+    /* For the console (NULL: nothing to say). report: the side's member
+     * of "sides", `"name": {...}`, with no comma before or after (the
+     * daemon writes those); it writes nothing at all when it has nothing
+     * configured. metrics: its families (core/prom.h), each declared and
+     * written in one go, names drgate_<side>_..., counters _total, base
+     * units. */
+    void (*report)(const void *self, gw_json_t *j);
+    void (*metrics)(const void *self, gw_prom_t *m);
 } gw_north_ops_t;
 
 /* Modbus TCP and RTU are one side (north_modbus.c): both answer from the
@@ -91,9 +109,10 @@ typedef struct {
  * write fault latch, the status counters) are one. */
 extern const gw_north_ops_t gw_north_modbus, gw_north_gpio;
 extern const gw_north_ops_t gw_north_mqtt; /* north_mqtt.c */
+extern const gw_north_ops_t gw_north_http; /* http/north_http.c: the console */
 
 /* The sides the daemon runs, in this order (GPIO last, see above). */
 extern const gw_north_ops_t *const gw_north_sides[];
-#define GW_NORTH_SIDES 3u
+#define GW_NORTH_SIDES 4u
 
 #endif /* DRGATE_GW_NORTH_H */

@@ -4,6 +4,7 @@
 
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 void gw_robot_init(gw_robot_t *r, const char *name, uint32_t serial)
 {
@@ -17,6 +18,44 @@ void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old)
     r->heartbeat = old->heartbeat;
     r->link.rx_packets = old->link.rx_packets;
     r->link.lost_packets = old->link.lost_packets;
+    r->link.reconnects = old->link.reconnects;
+    r->link.timeouts = old->link.timeouts;
+    r->last_write = old->last_write;
+}
+
+void gw_robot_wrote(gw_robot_t *r, const char *client)
+{
+    struct timespec ts;
+    gw_robot_write_t *w = &r->last_write;
+    w->time_us = clock_gettime(CLOCK_REALTIME, &ts) == 0
+                     ? (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u
+                     : 1;
+    snprintf(w->client, sizeof w->client, "%s", client);
+    w->nfields = 0;
+}
+
+void gw_robot_write_field(gw_robot_t *r, const char *path)
+{
+    gw_robot_write_t *w = &r->last_write;
+    for (unsigned i = 0; i < w->nfields && i < GW_WRITE_FIELDS; i++)
+        if (strcmp(w->fields[i], path) == 0)
+            return;
+    if (w->nfields < GW_WRITE_FIELDS)
+        snprintf(w->fields[w->nfields], sizeof w->fields[0], "%s", path);
+    w->nfields++;
+}
+
+void gw_robot_write_fields_text(const gw_robot_t *r, char *buf, size_t size)
+{
+    const gw_robot_write_t *w = &r->last_write;
+    size_t n = 0;
+    buf[0] = '\0';
+    for (unsigned i = 0; i < w->nfields && i < GW_WRITE_FIELDS && n < size; i++) {
+        int k = snprintf(buf + n, size - n, "%s%s", i > 0 ? ", " : "", w->fields[i]);
+        n = k < 0 ? size : n + (size_t)k;
+    }
+    if (w->nfields > GW_WRITE_FIELDS && n < size)
+        snprintf(buf + n, size - n, " (+%u more)", w->nfields - GW_WRITE_FIELDS);
 }
 
 uint16_t gw_robot_error_code(dr_status_t why, uint16_t *general)

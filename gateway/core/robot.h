@@ -46,7 +46,29 @@ typedef struct {
     uint16_t last_cip_general; /* CIP general status of last_error, 0: not CIP */
     dr_status_t last_status;   /* why the link last failed, DR_OK: not yet */
     uint16_t conn_state[GW_ROBOT_CONNS]; /* dr_conn_state_t per connection */
+    /* Per connection (implicit mode: by the link's slot, as conn_state;
+     * explicit mode: slot 0 counts the polls): the T->O assembly it
+     * carries (conn_t2o, DR_ASM_COUNT: no connection in the slot) and its
+     * packets received and lost since the link started (counters for the
+     * console's /metrics; rx_packets and lost_packets are their sums). */
+    uint16_t conn_t2o[GW_ROBOT_CONNS];
+    uint32_t conn_rx[GW_ROBOT_CONNS], conn_lost[GW_ROBOT_CONNS];
+    /* Times the link went down after being up (it then reconnects), and
+     * times a connection or poll timed out (no data from the robot). */
+    uint32_t reconnects, timeouts;
 } gw_robot_link_t;
+
+/* The last write a northbound side accepted for the robot (the console
+ * shows it): when, from whom, and the fields it changed by canonical path. */
+#define GW_WRITE_CLIENT 64
+#define GW_WRITE_FIELDS 8
+#define GW_WRITE_PATH 48
+typedef struct {
+    uint64_t time_us;           /* wall clock, microseconds since 1970; 0: none yet */
+    char client[GW_WRITE_CLIENT]; /* "192.0.2.7:50412", "rtu /dev/ttyUSB0 unit 2", "mqtt TOPIC" */
+    unsigned nfields;           /* fields changed; the first GW_WRITE_FIELDS kept */
+    char fields[GW_WRITE_FIELDS][GW_WRITE_PATH];
+} gw_robot_write_t;
 
 typedef struct {
     uint8_t img[DR_ASM_COUNT][DR_ASM_MAX_SIZE]; /* wire images, both ways */
@@ -80,6 +102,7 @@ typedef struct {
     uint16_t heartbeat;
     uint32_t uptime_s;
     uint16_t generation;
+    gw_robot_write_t last_write; /* set by gw_robot_wrote() */
 } gw_robot_t;
 
 /* A robot that has not started: images, link facts and counters zero,
@@ -125,6 +148,15 @@ void gw_robot_link_down(gw_robot_t *r);
 /* May T->O data that arrives now go into the images? (Not while the link
  * is down with clear_while_down.) */
 bool gw_robot_takes_data(const gw_robot_t *r, bool link_up);
+
+/* A side accepted a write from `client` to the robot: last_write holds
+ * it (its time now); add its fields with gw_robot_write_field(). Logging
+ * the write is the caller's (gw_write_log: rate-limited per client). */
+void gw_robot_wrote(gw_robot_t *r, const char *client);
+/* One more field of that write (a path already there is not repeated). */
+void gw_robot_write_field(gw_robot_t *r, const char *path);
+/* The fields of last_write as "a, b, c (+N more)" into buf. */
+void gw_robot_write_fields_text(const gw_robot_t *r, char *buf, size_t size);
 
 /* Field `ref` of the robot's images; DR_OK or why not. */
 dr_status_t gw_robot_get(const gw_robot_t *r, dr_ref_t ref, dr_value_t *v);

@@ -578,3 +578,25 @@ unsigned gw_gpiomap_count(const gw_gpiomap_t *m)
 {
     return m == NULL ? 0 : m->nlines;
 }
+
+void gw_gpiomap_each_line(const gw_gpiomap_t *m,
+                          void (*fn)(void *user, const gw_gpiomap_line_info_t *l), void *user)
+{
+    if (m == NULL)
+        return;
+    for (unsigned i = 0; i < m->nlines; i++) {
+        const line_t *l = m->lines[i];
+        gw_gpiomap_line_info_t info = {l->cfg, l->chip != NULL ? l->chip->name : "", l->offset,
+                                       l->last, l->req != NULL};
+        if (l->cfg->dir == GW_GPIO_INPUT) {
+            const dr_field_t *f = l->cfg->field.field;
+            dr_value_t v;
+            info.level = dr_field_get(m->robots[l->robot].img[f->assembly],
+                                      dr_asm_info((dr_asm_t)f->assembly)->size, l->cfg->field,
+                                      &v) == DR_OK
+                             ? (int)(v.u & 1u)
+                             : -1;
+        }
+        fn(user, &info);
+    }
+}

@@ -77,4 +77,17 @@ void gw_gpiomap_tick(gw_gpiomap_t *m, uint64_t now_us);
 uint64_t gw_gpiomap_next_deadline(const gw_gpiomap_t *m);
 unsigned gw_gpiomap_count(const gw_gpiomap_t *m);
 
+/* The lines as the console shows them: level is what the gateway holds
+ * (an output: the value last written; an input: the debounced value in
+ * its O->T bit), -1 unknown (an output whose last write failed). */
+typedef struct {
+    const gw_gpio_config_t *cfg; /* name, dir, robot, field, active_low */
+    const char *chip;            /* the kernel's name: gpiochipN */
+    unsigned offset;
+    int level;
+    bool requested;              /* false: the line was lost (chip gone) */
+} gw_gpiomap_line_info_t;
+void gw_gpiomap_each_line(const gw_gpiomap_t *m,
+                          void (*fn)(void *user, const gw_gpiomap_line_info_t *l), void *user);
+
 #endif

@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /* The GPIO lines (gpiomap.c) as a northbound side (north.h). */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "gpio/gpiomap.h"
 #include "core/north.h"
@@ -121,6 +123,77 @@ static void gpio_safe(void *self)
     gw_gpiomap_safe_all(t->map);
 }
 
+/* ---- the console ----------------------------------------------------------------- */
+
+typedef struct {
+    gw_json_t *j;
+    bool first;
+} line_json_t;
+
+static void line_report(void *user, const gw_gpiomap_line_info_t *l)
+{
+    line_json_t *lj = user;
+    gw_json_t *j = lj->j;
+    char t[64], path[64];
+    gw_json_str(j, lj->first ? "{\"name\":" : ",{\"name\":");
+    lj->first = false;
+    gw_json_quote(j, l->cfg->name, strlen(l->cfg->name));
+    gw_json_str(j, ",\"chip\":");
+    gw_json_quote(j, l->chip, strlen(l->chip));
+    snprintf(t, sizeof t, ",\"line\":%u,\"line_name\":", l->offset);
+    gw_json_str(j, t);
+    gw_json_quote(j, l->cfg->line_name, strlen(l->cfg->line_name));
+    gw_json_str(j, l->cfg->dir == GW_GPIO_INPUT ? ",\"dir\":\"in\",\"robot\":"
+                                                : ",\"dir\":\"out\",\"robot\":");
+    gw_json_quote(j, l->cfg->robot, strlen(l->cfg->robot));
+    if (dr_ref_path(l->cfg->field, path, sizeof path) != DR_OK)
+        path[0] = '\0';
+    gw_json_str(j, ",\"field\":");
+    gw_json_quote(j, path, strlen(path));
+    if (l->level < 0)
+        snprintf(t, sizeof t, ",\"level\":null,\"active_low\":%s,\"requested\":%s}",
+                 l->cfg->active_low ? "true" : "false", l->requested ? "true" : "false");
+    else
+        snprintf(t, sizeof t, ",\"level\":%d,\"active_low\":%s,\"requested\":%s}", l->level,
+                 l->cfg->active_low ? "true" : "false", l->requested ? "true" : "false");
+    gw_json_str(j, t);
+}
+
+/* "gpio": {"lines": [{"name", "chip", "line", "line_name", "dir", "robot",
+ * "field", "level", "active_low", "requested"}]}; nothing without lines. */
+static void gpio_report(const void *self, gw_json_t *j)
+{
+    const gpio_t *t = self;
+    if (t->map == NULL || gw_gpiomap_count(t->map) == 0)
+        return;
+    line_json_t lj = {j, true};
+    gw_json_str(j, "\"gpio\":{\"lines\":[");
+    gw_gpiomap_each_line(t->map, line_report, &lj);
+    gw_json_str(j, "]}");
+}
+
+static void line_metric(void *user, const gw_gpiomap_line_info_t *l)
+{
+    char off[16];
+    snprintf(off, sizeof off, "%u", l->offset);
+    gw_prom_label_t lb[4] = {{"line", l->cfg->name},
+                             {"chip", l->chip},
+                             {"offset", off},
+                             {"direction", l->cfg->dir == GW_GPIO_INPUT ? "in" : "out"}};
+    /* an unknown level (a failed write) is NaN: a gauge without a value */
+    gw_prom_sample(user, "drgate_gpio_level", lb, 4, l->level < 0 ? NAN : (double)l->level);
+}
+
+static void gpio_metrics(const void *self, gw_prom_t *m)
+{
+    const gpio_t *t = self;
+    if (t->map == NULL || gw_gpiomap_count(t->map) == 0)
+        return;
+    gw_prom_family(m, "drgate_gpio_level", GW_PROM_GAUGE,
+                   "A GPIO line's logical level (outputs: last written; inputs: debounced)");
+    gw_gpiomap_each_line(t->map, line_metric, m);
+}
+
 static void gpio_free(void *self)
 {
     gpio_t *t = self;
@@ -133,4 +206,5 @@ static void gpio_free(void *self)
 const gw_north_ops_t gw_north_gpio = {
     "gpio",       gpio_create,  gpio_prepare,  gpio_abort,  gpio_commit, gpio_tick, gpio_deadline,
     gpio_on_data, gpio_on_link, gpio_on_fault, gpio_refresh, gpio_safe, gpio_free,
+    gpio_report,  gpio_metrics,
 };

@@ -29,6 +29,7 @@ struct gw_rtu {
     gw_rtu_counters_t n;
     gw_mb_result_t result;
     gw_log_limit_t write_log;
+    gw_log_limit_t wrote_log; /* the master's accepted writes (rate-limited) */
     uint64_t reopen_us; /* port lost: when to try it again; 0: open */
 };
 
@@ -90,6 +91,11 @@ static void handle_one(gw_rtu_t *t, uint8_t addr, const uint8_t *pdu, size_t pdu
         return;
     if (ex == 0 && t->result.write && t->result.dirty != 0)
         t->hooks.on_write(t->hooks.user, t->result.unit, t->result.dirty);
+    if (t->hooks.on_request != NULL) {
+        char who[GW_NAME_MAX + 32];
+        snprintf(who, sizeof who, "modbus_rtu %s unit %u", t->cfg.name, t->unit_of[addr]);
+        t->hooks.on_request(t->hooks.user, &t->result, ex, who, &t->wrote_log);
+    }
     if (t->result.reset)
         gw_log(GW_LOG_INFO, "modbus_rtu %s: the master reset the write fault of unit %u",
                t->cfg.name, t->unit_of[addr]);

@@ -28,6 +28,8 @@ typedef struct {
     uint16_t port;
     bool rw;
     bool unit_logged; /* a refused unit ID of this client was logged */
+    uint32_t requests, exceptions; /* answered, and with an exception */
+    gw_log_limit_t write_log;      /* its accepted writes (rate-limited) */
     uint64_t last_us; /* accepted, or its last complete request */
     uint64_t req_us;  /* first byte of the request in buf; 0: none pending */
     uint8_t buf[GW_ADU_MAX];
@@ -46,6 +48,7 @@ struct gw_mbs {
     client_t *writer;       /* single-writer mode: the owner */
     unsigned writer_claims; /* clients that became the owner so far */
     uint32_t exceptions;
+    uint32_t requests;
     gw_log_limit_t refused_log;
 };
 
@@ -253,8 +256,17 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
     }
     if (ex == 0 && s->result.write && s->result.dirty != 0)
         s->hooks.on_write(s->hooks.user, s->result.unit, s->result.dirty);
-    if (ex != 0)
+    s->requests++;
+    cl->requests++;
+    if (ex != 0) {
         s->exceptions++;
+        cl->exceptions++;
+    }
+    if (s->hooks.on_request != NULL) {
+        char who[48] = "modbus ";
+        fmt_addr(cl->addr, cl->port, who + 7, sizeof who - 7);
+        s->hooks.on_request(s->hooks.user, &s->result, ex, who, &cl->write_log);
+    }
     /* All of it or the client is dropped, as libmodbus's send did. */
     uint8_t out[GW_ADU_MAX];
     size_t n = gw_mbap_reply(req, &s->result, out);
@@ -537,4 +549,27 @@ unsigned gw_mbs_writer_claims(const gw_mbs_t *s)
 void gw_mbs_release_writer(gw_mbs_t *s)
 {
     s->writer = NULL;
+}
+
+void gw_mbs_each_client(const gw_mbs_t *s,
+                        void (*fn)(void *user, const gw_mbs_client_info_t *c), void *user)
+{
+    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+        const client_t *cl = &s->clients[i];
+        if (!cl->used)
+            continue;
+        gw_mbs_client_info_t c;
+        memset(&c, 0, sizeof c);
+        fmt_addr(cl->addr, cl->port, c.address, sizeof c.address);
+        c.requests = cl->requests;
+        c.exceptions = cl->exceptions;
+        c.read_write = cl->rw;
+        c.writer = s->writer == cl;
+        fn(user, &c);
+    }
+}
+
+uint32_t gw_mbs_requests(const gw_mbs_t *s)
+{
+    return s->requests;
 }

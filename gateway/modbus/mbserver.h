@@ -14,6 +14,8 @@
 #include <stdint.h>
 
 #include "core/config.h"
+#include "core/log.h"
+#include "modbus/mbproto.h"
 #include "modbus/regmap.h"
 
 typedef struct gw_mbs gw_mbs_t;
@@ -26,6 +28,12 @@ typedef struct {
     void (*on_write)(void *user, gw_unit_t *u, unsigned dirty);
     void *user;
     const char *version; /* the gateway's, for FC 43 device identification */
+    /* Every request answered (r: its result; ex: 0 or the exception code
+     * sent), from `client` ("modbus 192.0.2.7:50412", "modbus_rtu NAME
+     * unit N"), whose own log limiter is `log` (an accepted write is
+     * logged with it, rate-limited per client). NULL: none. */
+    void (*on_request)(void *user, const gw_mb_result_t *r, int ex, const char *client,
+                       gw_log_limit_t *log);
 } gw_mbs_hooks_t;
 
 /* Listen as `cfg` says and register in the epoll set. NULL on error with
@@ -55,5 +63,16 @@ bool gw_mbs_writer_present(const gw_mbs_t *s);
 unsigned gw_mbs_writer_claims(const gw_mbs_t *s);
 /* Drop the current writer (after a watchdog fault). */
 void gw_mbs_release_writer(gw_mbs_t *s);
+
+/* The connected clients, for the console. */
+typedef struct {
+    char address[32]; /* "192.0.2.7:50412" */
+    uint32_t requests, exceptions;
+    bool read_write, writer;
+} gw_mbs_client_info_t;
+void gw_mbs_each_client(const gw_mbs_t *s,
+                        void (*fn)(void *user, const gw_mbs_client_info_t *c), void *user);
+/* Requests answered since the server started (all clients, past ones too). */
+uint32_t gw_mbs_requests(const gw_mbs_t *s);
 
 #endif

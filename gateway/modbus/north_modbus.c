@@ -14,12 +14,14 @@
  * same unit state). The single writer's watchdog is here too: it spans
  * TCP and RTU (a write on either line moves the same register).
  */
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "common/ev.h"
 #include "core/log.h"
+#include "core/report.h"
 #include "modbus/mbrtu.h"
 #include "modbus/mbserver.h"
 #include "core/north.h"
@@ -32,7 +34,19 @@ typedef struct {
     mb_t *mb;
     void (*wrote)(void *side); /* a write reached a robot (single writer) */
     void *side;
+    unsigned transport; /* MB_TCP, MB_RTU: which counters its requests go to */
 } mb_ctx_t;
+
+enum { MB_TCP = 0, MB_RTU = 1, MB_TRANSPORTS = 2 };
+static const char *const transport_name[MB_TRANSPORTS] = {"tcp", "rtu"};
+
+/* For /metrics: requests by function code, exceptions by code, accepted
+ * writes, since the side started (TCP and RTU apart). */
+typedef struct {
+    uint64_t by_fc[MB_TRANSPORTS][128];
+    uint64_t by_ex[MB_TRANSPORTS][256];
+    uint64_t writes[MB_TRANSPORTS];
+} mb_counts_t;
 
 /* Modbus TCP */
 typedef struct {
@@ -62,6 +76,7 @@ struct mb {
     gw_unit_t moving[GW_MAX_ROBOTS]; /* units_move's copy of the old ones */
     tcp_t tcp;
     rtu_t rtu;
+    mb_counts_t n;
 };
 
 static void unit_refresh(mb_t *m, unsigned r);
@@ -89,6 +104,30 @@ static void on_write(void *user, gw_unit_t *u, unsigned dirty)
     if (c->wrote != NULL)
         c->wrote(c->side);
     env->outputs_changed(env->user, (unsigned)(u->robot - env->robots), dirty);
+}
+
+static void write_field(void *user, const char *path)
+{
+    gw_robot_write_field(user, path);
+}
+
+/* Every request: counted; an accepted write that reached robot data is
+ * the robot's last write, and logged (rate-limited per client). */
+static void on_request(void *user, const gw_mb_result_t *r, int ex, const char *client,
+                       gw_log_limit_t *log)
+{
+    const mb_ctx_t *c = user;
+    mb_counts_t *n = &c->mb->n;
+    n->by_fc[c->transport][r->fc & 0x7Fu]++;
+    if (ex > 0)
+        n->by_ex[c->transport][ex & 0xFF]++;
+    if (ex != 0 || !r->write || r->dirty == 0 || r->unit == NULL)
+        return;
+    n->writes[c->transport]++;
+    gw_robot_t *rb = r->unit->robot;
+    gw_robot_wrote(rb, client);
+    gw_regmap_write_fields(r->unit, r->area, r->addr, r->count, write_field, rb);
+    gw_write_log(rb, log);
 }
 
 /* What [modbus] and the [gpio] inputs decide about unit r, and its robot.
@@ -143,14 +182,14 @@ static void writer_wrote(void *side)
 
 static gw_mbs_t *tcp_server(tcp_t *t, char *err, size_t errlen)
 {
-    gw_mbs_hooks_t mh = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version};
+    gw_mbs_hooks_t mh = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version, on_request};
     return gw_mbs_new(&t->ctx.mb->env->cfg->modbus, t->ctx.mb->env->epfd, &mh, err, errlen);
 }
 
 static bool tcp_create(mb_t *m, char *err, size_t errlen)
 {
     tcp_t *t = &m->tcp;
-    t->ctx = (mb_ctx_t){m, writer_wrote, t};
+    t->ctx = (mb_ctx_t){m, writer_wrote, t, MB_TCP};
     t->mbs = tcp_server(t, err, errlen);
     return t->mbs != NULL;
 }
@@ -260,7 +299,7 @@ static void rtu_free(rtu_t *t)
 static gw_rtu_t *rtu_open(rtu_t *t, const gw_rtu_config_t *cfg, const gw_robot_config_t *robots,
                           char *err, size_t errlen)
 {
-    gw_mbs_hooks_t h = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version};
+    gw_mbs_hooks_t h = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version, on_request};
     return gw_rtu_new(cfg, robots, t->ctx.mb->env->epfd, &h, err, errlen);
 }
 
@@ -268,7 +307,7 @@ static bool rtu_create(mb_t *m, char *err, size_t errlen)
 {
     rtu_t *t = &m->rtu;
     const gw_north_env_t *env = m->env;
-    t->ctx = (mb_ctx_t){m, NULL, NULL};
+    t->ctx = (mb_ctx_t){m, NULL, NULL, MB_RTU};
     for (unsigned i = 0; i < env->cfg->rtu_count; i++) {
         t->cfg[i] = env->cfg->rtu[i];
         t->line[i] = rtu_open(t, &t->cfg[i], env->cfg->robot, err, errlen);
@@ -505,7 +544,166 @@ static void mb_safe(void *self)
     (void)self;
 }
 
+/* ---- the console: report and metrics --------------------------------------------- */
+
+static void json_fmt(gw_json_t *j, const char *fmt, ...) GW_PRINTF(2, 3);
+static void json_fmt(gw_json_t *j, const char *fmt, ...)
+{
+    char t[256];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(t, sizeof t, fmt, ap);
+    va_end(ap);
+    if (n < 0 || (size_t)n >= sizeof t)
+        j->full = true; /* never cut a member in half */
+    else
+        gw_json_raw(j, t, (size_t)n);
+}
+
+static void json_name(gw_json_t *j, const char *key, const char *s)
+{
+    json_fmt(j, "\"%s\":", key);
+    gw_json_quote(j, s, strlen(s));
+}
+
+typedef struct {
+    gw_json_t *j;
+    bool first;
+} client_json_t;
+
+static void client_report(void *user, const gw_mbs_client_info_t *c)
+{
+    client_json_t *cj = user;
+    gw_json_str(cj->j, cj->first ? "{" : ",{");
+    cj->first = false;
+    json_name(cj->j, "address", c->address);
+    json_fmt(cj->j, ",\"requests\":%lu,\"exceptions\":%lu,\"read_write\":%s,\"writer\":%s}",
+             (unsigned long)c->requests, (unsigned long)c->exceptions,
+             c->read_write ? "true" : "false", c->writer ? "true" : "false");
+}
+
+/* "modbus": {"listen", "requests", "exceptions", "clients": [...],
+ * "writer_watchdog": {...}, "rtu": [...]} */
+static void mb_report(const void *self, gw_json_t *j)
+{
+    const mb_t *m = self;
+    const gw_config_t *cfg = m->env->cfg;
+    const tcp_t *t = &m->tcp;
+    uint32_t ex = gw_mbs_exceptions(t->mbs);
+    json_fmt(j, "\"modbus\":{\"listen\":\"%s:%u\",\"requests\":%lu,\"exceptions\":%lu,"
+             "\"clients\":[", cfg->modbus.listen, (unsigned)cfg->modbus.port,
+             (unsigned long)gw_mbs_requests(t->mbs), (unsigned long)ex);
+    client_json_t cj = {j, true};
+    gw_mbs_each_client(t->mbs, client_report, &cj);
+    /* The single writer's watchdog: on in single-writer mode; running once
+     * a writer wrote; the robots whose write fault it latched. */
+    uint64_t now = ev_now_us(), limit = (uint64_t)cfg->modbus.writer_watchdog_ms * 1000u;
+    uint64_t left = t->writer_seen && now - t->watchdog_change_us < limit
+                        ? (limit - (now - t->watchdog_change_us)) / 1000u
+                        : 0;
+    json_fmt(j, "],\"writer_watchdog\":{\"single_writer\":%s,\"timeout_ms\":%u,"
+             "\"writer_present\":%s,\"running\":%s,\"remaining_ms\":%llu,\"faults\":[",
+             cfg->modbus.single_writer ? "true" : "false", cfg->modbus.writer_watchdog_ms,
+             gw_mbs_writer_present(t->mbs) ? "true" : "false",
+             t->writer_seen && cfg->modbus.single_writer ? "true" : "false",
+             (unsigned long long)left);
+    bool first = true;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        if (m->unit[r].status.write_fault) {
+            gw_json_str(j, first ? "" : ",");
+            gw_json_quote(j, cfg->robot[r].name, strlen(cfg->robot[r].name));
+            first = false;
+        }
+    gw_json_str(j, "]},\"rtu\":[");
+    for (unsigned i = 0; i < m->rtu.count; i++) {
+        const gw_rtu_counters_t *n = gw_rtu_counters(m->rtu.line[i]);
+        gw_json_str(j, i > 0 ? ",{" : "{");
+        json_name(j, "name", m->rtu.cfg[i].name);
+        gw_json_str(j, ",");
+        json_name(j, "device", m->rtu.cfg[i].device);
+        json_fmt(j, ",\"baud\":%u,\"requests\":%lu,\"exceptions\":%lu,\"dropped\":%lu,"
+                 "\"other\":%lu}", m->rtu.cfg[i].baud, (unsigned long)n->requests,
+                 (unsigned long)n->exceptions, (unsigned long)n->crc_errors,
+                 (unsigned long)n->other);
+    }
+    gw_json_str(j, "]}");
+}
+
+/* Requests by function code or exceptions by code (ex), per transport:
+ * only the codes seen (a counter that appears later starts from 0). */
+static void by_code(gw_prom_t *p, const mb_t *m, bool ex)
+{
+    const char *name = ex ? "drgate_modbus_exceptions_total" : "drgate_modbus_requests_total";
+    gw_prom_family(p, name, GW_PROM_COUNTER,
+                   ex ? "Modbus exception replies sent, by exception code"
+                      : "Modbus requests answered, by function code");
+    for (unsigned t = 0; t < MB_TRANSPORTS; t++)
+        for (unsigned c = 0; c < (ex ? 256u : 128u); c++) {
+            uint64_t v = ex ? m->n.by_ex[t][c] : m->n.by_fc[t][c];
+            if (v == 0)
+                continue;
+            char code[8];
+            snprintf(code, sizeof code, "%u", c);
+            gw_prom_label_t l[2] = {{"transport", transport_name[t]},
+                                    {ex ? "code" : "function_code", code}};
+            gw_prom_sample(p, name, l, 2, (double)v);
+        }
+}
+
+typedef double (*rtu_value_t)(const gw_rtu_counters_t *n);
+static double rtu_requests(const gw_rtu_counters_t *n) { return n->requests; }
+static double rtu_exceptions(const gw_rtu_counters_t *n) { return n->exceptions; }
+static double rtu_dropped(const gw_rtu_counters_t *n) { return n->crc_errors; }
+static double rtu_other(const gw_rtu_counters_t *n) { return n->other; }
+
+static void per_line(gw_prom_t *p, const mb_t *m, const char *name, const char *help,
+                     rtu_value_t value)
+{
+    gw_prom_family(p, name, GW_PROM_COUNTER, help);
+    for (unsigned i = 0; i < m->rtu.count; i++) {
+        gw_prom_label_t l[2] = {{"line", m->rtu.cfg[i].name}, {"device", m->rtu.cfg[i].device}};
+        gw_prom_sample(p, name, l, 2, value(gw_rtu_counters(m->rtu.line[i])));
+    }
+}
+
+static void mb_metrics(const void *self, gw_prom_t *p)
+{
+    const mb_t *m = self;
+    const gw_config_t *cfg = m->env->cfg;
+    gw_prom_one(p, "drgate_modbus_clients", GW_PROM_GAUGE, "Modbus TCP clients connected",
+                gw_mbs_client_count(m->tcp.mbs));
+    by_code(p, m, false);
+    by_code(p, m, true);
+    gw_prom_family(p, "drgate_modbus_writes_total", GW_PROM_COUNTER,
+                   "Modbus writes accepted that changed robot data");
+    for (unsigned t = 0; t < MB_TRANSPORTS; t++) {
+        gw_prom_label_t l = {"transport", transport_name[t]};
+        gw_prom_sample(p, "drgate_modbus_writes_total", &l, 1, (double)m->n.writes[t]);
+    }
+    gw_prom_one(p, "drgate_modbus_writer_present", GW_PROM_GAUGE,
+                "1 while the single writer (single-writer mode) is connected",
+                gw_mbs_writer_present(m->tcp.mbs) ? 1 : 0);
+    gw_prom_family(p, "drgate_modbus_write_fault", GW_PROM_GAUGE,
+                   "1 while the robot's write fault (single writer's watchdog) is latched");
+    for (unsigned r = 0; r < cfg->robot_count; r++) {
+        gw_prom_label_t l = {"robot", cfg->robot[r].name};
+        gw_prom_sample(p, "drgate_modbus_write_fault", &l, 1, m->unit[r].status.write_fault);
+    }
+    if (m->rtu.count == 0)
+        return;
+    per_line(p, m, "drgate_modbus_rtu_requests_total",
+             "Modbus RTU frames for this gateway with a good CRC (broadcasts included)",
+             rtu_requests);
+    per_line(p, m, "drgate_modbus_rtu_exceptions_total", "Modbus RTU exception replies sent",
+             rtu_exceptions);
+    per_line(p, m, "drgate_modbus_rtu_dropped_frames_total",
+             "Modbus RTU frames dropped: bad CRC, too short or too long", rtu_dropped);
+    per_line(p, m, "drgate_modbus_rtu_other_frames_total",
+             "Modbus RTU frames for other slave addresses", rtu_other);
+}
+
 const gw_north_ops_t gw_north_modbus = {
     "modbus",   mb_create,  mb_prepare,  mb_abort,   mb_commit, mb_tick, mb_deadline,
     mb_on_data, mb_on_link, mb_on_fault, mb_refresh, mb_safe,   mb_free,
+    mb_report,  mb_metrics,
 };

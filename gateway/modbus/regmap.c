@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "modbus/regmap.h"
+#include "modbus/usermap.h"
 
 typedef enum {
     SL_NONE = 0,
@@ -850,6 +851,46 @@ void gw_regmap_slot_name(gw_area_t area, uint16_t addr, char *buf, size_t size)
         slot_text(&map[area][addr], area, 1, buf, size, type, sizeof type, unit, sizeof unit);
 }
 
+/* One address's field, written as its canonical path into buf ("" for
+ * none: a control, status or reserved address). */
+static void field_at(const gw_unit_t *u, gw_area_t area, uint32_t a, char *buf, size_t size)
+{
+    buf[0] = '\0';
+    if (default_slot(area, a)) {
+        const slot_t *s = &map[area][a];
+        if (s->kind == SL_CONTROL || s->kind == SL_STATUS || s->kind == SL_TEST)
+            return;
+        dr_ref_t ref = {slot_field(s), (int16_t)(s->kind == SL_PACKED ? -1 : s->elem)};
+        (void)dr_ref_path(ref, buf, size);
+        return;
+    }
+    const gw_umap_entry_t *e = user_at(u, area, a);
+    if (e == NULL)
+        return;
+    unsigned off = (unsigned)(a - e->addr), elem = e->elem + off;
+    if (e->view == GW_VIEW_BITS)
+        elem = e->elem + 16u * off;
+    else if (e->view == GW_VIEW_REAL || e->view == GW_VIEW_DINT)
+        elem = e->elem + off / 2u;
+    const dr_field_t *f = &dr_field_table[e->field];
+    dr_ref_t ref = {f, (int16_t)(f->indexed ? elem : 0)};
+    (void)dr_ref_path(ref, buf, size);
+}
+
+void gw_regmap_write_fields(const gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                            void (*fn)(void *user, const char *path), void *user)
+{
+    char path[64], last[64] = "";
+    gw_regmap_init();
+    for (uint32_t a = addr; a < (uint32_t)addr + count; a++) {
+        field_at(u, area, a, path, sizeof path);
+        if (path[0] == '\0' || strcmp(path, last) == 0)
+            continue; /* the other half of a REAL, or another part of a mask */
+        memcpy(last, path, sizeof last);
+        fn(user, path);
+    }
+}
+
 /* One printed row: area, addresses a..end-1. */
 static void print_row(FILE *out, gw_print_fmt_t fmt, bool *first, unsigned area, unsigned a,
                       unsigned end, const char *name, const char *type, const char *unit,
@@ -974,6 +1015,244 @@ void gw_regmap_print_all(FILE *out, gw_print_fmt_t fmt, const char *filter,
     }
     if (fmt == GW_PRINT_JSON)
         fputs("\n]\n", out);
+}
+
+/* ---- the console's map (/api/v1/robots/NAME/map) ----------------------------- */
+
+/* Where each leaf (one element of one field, as drcli get --json keys
+ * them) sits in the default map, found once from the slots themselves so
+ * that the addresses are the ones served and printed. A leaf has at most
+ * a register view (value, packed bits or 32-bit pair) and a second one (its
+ * bit, or the scaled INT16 of a REAL). */
+#define LEAF_MAX 1024u
+#define LEAF_LOCS 3u
+#define FIELD_MAX 512u
+typedef struct {
+    uint16_t addr;
+    uint8_t area;
+    uint8_t kind; /* slot_kind_t; SL_NONE: unused */
+    uint8_t bit;  /* SL_PACKED: the leaf's bit in the register */
+} leaf_loc_t;
+
+static leaf_loc_t leaf_loc[LEAF_MAX][LEAF_LOCS];
+static uint16_t field_leaf[FIELD_MAX]; /* first leaf of each field */
+static uint16_t leaf_total;
+static bool leaf_built;
+
+static void leaf_add(unsigned leaf, gw_area_t area, uint16_t addr, slot_kind_t kind,
+                     unsigned bit)
+{
+    for (unsigned i = 0; leaf < leaf_total && i < LEAF_LOCS; i++)
+        if (leaf_loc[leaf][i].kind == SL_NONE) {
+            leaf_loc_t l = {addr, (uint8_t)area, (uint8_t)kind, (uint8_t)bit};
+            leaf_loc[leaf][i] = l;
+            return;
+        }
+}
+
+static unsigned leaves_of_field(const dr_field_t *f)
+{
+    return f->indexed ? f->count : 1u;
+}
+
+static bool leaf_index_build(void)
+{
+    if (leaf_built)
+        return true;
+    if (dr_field_count > FIELD_MAX || dr_leaf_count() > LEAF_MAX)
+        return false;
+    gw_regmap_init();
+    unsigned n = 0;
+    for (unsigned fi = 0; fi < dr_field_count; fi++) {
+        field_leaf[fi] = (uint16_t)n;
+        n += leaves_of_field(&dr_field_table[fi]);
+    }
+    leaf_total = (uint16_t)n;
+    for (unsigned area = 0; area < GW_AREAS; area++)
+        for (unsigned a = 0; a < GW_AREA_SIZE; a++) {
+            const slot_t *s = &map[area][a];
+            const dr_field_t *f = slot_field(s);
+            unsigned base = field_leaf[s->field];
+            switch ((slot_kind_t)s->kind) {
+            case SL_VALUE:
+            case SL_SCALED:
+            case SL_BIT:
+                leaf_add(base + (unsigned)s->elem, (gw_area_t)area, (uint16_t)a,
+                         (slot_kind_t)s->kind, 0);
+                break;
+            case SL_WORD32:
+                if (s->part == 0)
+                    leaf_add(base + (unsigned)s->elem, (gw_area_t)area, (uint16_t)a,
+                             SL_WORD32, 0);
+                break;
+            case SL_PACKED:
+                for (unsigned e = 16u * s->part; e < f->count && e < 16u * s->part + 16u; e++)
+                    leaf_add(base + e, (gw_area_t)area, (uint16_t)a, SL_PACKED, e % 16u);
+                break;
+            default:
+                break;
+            }
+        }
+    leaf_built = true;
+    return true;
+}
+
+/* One address of a leaf: {"table": "IR", "address": 102, "count": 2,
+ * "ref": "30103", "view": ..., ...}; `extra` is written before the
+ * closing brace (view-specific members, each starting with ", "). */
+static void json_loc(gw_json_t *j, bool *first, unsigned area, unsigned addr, unsigned count,
+                     const char *view, const char *extra, bool writable, bool user)
+{
+    char t[192];
+    snprintf(t, sizeof t, "%s{\"table\": \"%s\", \"address\": %u, \"count\": %u, "
+             "\"ref\": \"%u%04u\", \"view\": \"%s\"", *first ? "" : ", ", area_short[area],
+             addr, count, area_prefix[area], addr + 1u, view);
+    gw_json_str(j, t);
+    gw_json_str(j, extra);
+    snprintf(t, sizeof t, ", \"writable\": %s%s}", writable ? "true" : "false",
+             user ? ", \"user\": true" : "");
+    gw_json_str(j, t);
+    *first = false;
+}
+
+static void json_default_locs(gw_json_t *j, bool *first, unsigned leaf, const dr_field_t *f,
+                              gw_word_order_t order, bool writable)
+{
+    for (unsigned i = 0; i < LEAF_LOCS; i++) {
+        const leaf_loc_t *l = &leaf_loc[leaf][i];
+        char extra[64] = "";
+        switch ((slot_kind_t)l->kind) {
+        case SL_VALUE:
+            json_loc(j, first, l->area, l->addr, 1, "uint16", "", writable, false);
+            break;
+        case SL_BIT:
+            json_loc(j, first, l->area, l->addr, 1, "bit", "", writable, false);
+            break;
+        case SL_PACKED:
+            snprintf(extra, sizeof extra, ", \"bit\": %u", (unsigned)l->bit);
+            json_loc(j, first, l->area, l->addr, 1, "bits", extra, writable, false);
+            break;
+        case SL_WORD32:
+            snprintf(extra, sizeof extra, ", \"order\": \"%s\"", gw_word_order_name(order));
+            json_loc(j, first, l->area, l->addr, 2, f->kind == DR_KIND_REAL ? "real" : "dint",
+                     extra, writable, false);
+            break;
+        case SL_SCALED:
+            snprintf(extra, sizeof extra, ", \"scale\": %u", gw_regmap_scale(f));
+            json_loc(j, first, l->area, l->addr, 1, "int16", extra, writable, false);
+            break;
+        default:
+            break;
+        }
+    }
+}
+
+/* The user's entries that serve element `elem` of field `fi`. */
+static void json_user_locs(gw_json_t *j, bool *first, const gw_umap_t *m, unsigned fi,
+                           unsigned elem, gw_word_order_t order)
+{
+    for (unsigned i = 0; m != NULL && i < m->count; i++) {
+        const gw_umap_entry_t *e = &m->entry[i];
+        if (e->field != fi || elem < e->elem || elem >= (unsigned)e->elem + e->count)
+            continue;
+        unsigned k = elem - e->elem;
+        char extra[96] = "";
+        const char *view = gw_umap_view_name(e->view);
+        switch ((gw_view_t)e->view) {
+        case GW_VIEW_BITS:
+            snprintf(extra, sizeof extra, ", \"bit\": %u", k % 16u);
+            json_loc(j, first, e->table, e->addr + k / 16u, 1, view, extra, e->writable, true);
+            break;
+        case GW_VIEW_REAL:
+        case GW_VIEW_DINT:
+            snprintf(extra, sizeof extra, ", \"order\": \"%s\"", gw_word_order_name(order));
+            json_loc(j, first, e->table, e->addr + 2u * k, 2, view, extra, e->writable, true);
+            break;
+        case GW_VIEW_INT16:
+            snprintf(extra, sizeof extra, ", \"scale\": %u%s", (unsigned)e->scale,
+                     e->saturate ? ", \"saturate\": true" : "");
+            json_loc(j, first, e->table, e->addr + k, 1, view, extra, e->writable, true);
+            break;
+        case GW_VIEW_UINT16:
+            if (dr_field_table[fi].kind == DR_KIND_DINT)
+                snprintf(extra, sizeof extra, ", \"half\": \"%s\"", e->half ? "high" : "low");
+            json_loc(j, first, e->table, e->addr + k, 1, view, extra, e->writable, true);
+            break;
+        case GW_VIEW_BIT:
+            json_loc(j, first, e->table, e->addr + k, 1, view, "", e->writable, true);
+            break;
+        }
+    }
+}
+
+/* A bit a GPIO input drives: Modbus may not write it (gw_regmap_write). */
+static bool gpio_driven(const gw_config_t *cfg, unsigned r, dr_ref_t ref)
+{
+    for (unsigned g = 0; g < cfg->gpio_count; g++) {
+        const gw_gpio_config_t *gp = &cfg->gpio[g];
+        if (gp->dir == GW_GPIO_INPUT && gp->robot_index == r && gp->field.field == ref.field &&
+            (gp->field.elem == ref.elem || gp->field.elem < 0))
+            return true;
+    }
+    return false;
+}
+
+static void json_leaf(gw_json_t *j, const gw_config_t *cfg, unsigned r, unsigned fi,
+                      unsigned elem, bool first)
+{
+    const dr_field_t *f = &dr_field_table[fi];
+    const gw_robot_config_t *rc = &cfg->robot[r];
+    dr_ref_t ref = {f, (int16_t)elem};
+    bool o2t = dr_asm_info((dr_asm_t)f->assembly)->dir == DR_DIR_O2T;
+    char path[96];
+    (void)dr_ref_path(ref, path, sizeof path);
+    gw_json_str(j, first ? "\n  {\"path\": " : ",\n  {\"path\": ");
+    gw_json_quote(j, path, strlen(path));
+    gw_json_str(j, ", \"type\": \"");
+    gw_json_str(j, f->kind == DR_KIND_BITS ? "BOOL" : dr_kind_name((dr_kind_t)f->kind));
+    gw_json_str(j, "\", \"unit\": ");
+    gw_json_quote(j, f->unit, strlen(f->unit));
+    gw_json_str(j, o2t ? ", \"dir\": \"O->T\"" : ", \"dir\": \"T->O\"");
+    gw_json_str(j, ", \"help\": ");
+    gw_json_quote(j, f->help, strlen(f->help));
+    if (f->kind == DR_KIND_ENUM) {
+        gw_json_str(j, ", \"enum\": [");
+        for (unsigned v = 0; dr_robot_state_name(v) != NULL; v++) {
+            gw_json_str(j, v == 0 ? "\"" : ", \"");
+            gw_json_str(j, dr_robot_state_name(v));
+            gw_json_str(j, "\"");
+        }
+        gw_json_str(j, "]");
+    }
+    gw_json_str(j, ", \"modbus\": [");
+    bool lfirst = true;
+    bool writable = o2t && rc->default_map_writes && !gpio_driven(cfg, r, ref);
+    json_default_locs(j, &lfirst, field_leaf[fi] + elem, f, cfg->modbus.word_order, writable);
+    json_user_locs(j, &lfirst, &rc->map, fi, elem, cfg->modbus.word_order);
+    gw_json_str(j, "]}");
+}
+
+bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot)
+{
+    if (robot >= cfg->robot_count || !leaf_index_build())
+        return false;
+    const gw_robot_config_t *rc = &cfg->robot[robot];
+    char t[160];
+    gw_json_str(j, "{\"robot\": ");
+    gw_json_quote(j, rc->name, strlen(rc->name));
+    snprintf(t, sizeof t, ", \"unit_id\": %u, \"word_order\": \"%s\", \"default_map_writes\": %s, "
+             "\"layout_version\": %u, \"fields\": [", (unsigned)rc->unit_id,
+             gw_word_order_name(cfg->modbus.word_order),
+             rc->default_map_writes ? "true" : "false", (unsigned)GW_MAP_LAYOUT_VERSION);
+    gw_json_str(j, t);
+    bool first = true;
+    for (unsigned fi = 0; fi < dr_field_count; fi++)
+        for (unsigned e = 0; e < leaves_of_field(&dr_field_table[fi]); e++) {
+            json_leaf(j, cfg, robot, fi, e, first);
+            first = false;
+        }
+    gw_json_str(j, "\n]}\n");
+    return !j->full;
 }
 
 /* ---- last_error's codes (drgatewayd --print-errors) ------------------------------ */

@@ -22,6 +22,7 @@
 
 #include "drgate/codec.h"
 #include "core/config.h"
+#include "core/json.h"
 #include "core/robot.h"
 
 #define GW_MAP_LAYOUT_VERSION 1
@@ -112,6 +113,11 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
 int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
                     const uint16_t *values, unsigned *dirty);
 
+/* The fields a write of area/addr..addr+count-1 reaches, each once by
+ * its canonical path (control registers left out), for the write log. */
+void gw_regmap_write_fields(const gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                            void (*fn)(void *user, const char *path), void *user);
+
 /* Does the default map use any address of area in addr..addr+n-1? The
  * first one used into *at. (The user's map must stay out of them.) */
 bool gw_regmap_default_used(gw_area_t area, uint32_t addr, uint32_t n, uint16_t *at);
@@ -128,6 +134,20 @@ void gw_regmap_print(FILE *out, gw_print_fmt_t fmt);
  * (NULL: all), then, for each robot that has one, its own map. */
 void gw_regmap_print_all(FILE *out, gw_print_fmt_t fmt, const char *filter,
                          const gw_config_t *cfg);
+/* The map as the console shows it (/api/v1/robots/NAME/map): robot
+ * `robot` of cfg, every leaf (one element of one field, keyed by its
+ * canonical path as drcli get --json keys it) with its type, unit,
+ * direction, enum names and every Modbus address that serves it: the
+ * default map's views (register, packed bits, 32-bit pair in the word
+ * order, scaled INT16, bit) and the robot's own map, each with its table,
+ * 0-based address, count, reference number (30001-style) and whether
+ * Modbus may write it. From the same slots that serve and print the map.
+ * False if robot is out of range or j is full. GW_REGMAP_JSON_SIZE bytes
+ * always fit: the default map takes about 120 kB, each element a user's
+ * entry serves about 140 bytes more (GW_MAX_MAP entries of 64 elements). */
+#define GW_REGMAP_JSON_SIZE (768u * 1024u)
+bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot);
+
 /* Every value of the status block's last_error (IR 12) with
  * last_cip_general (IR 30): text or Markdown (docs/register-map.md). */
 void gw_regmap_print_errors(FILE *out, gw_print_fmt_t fmt);

@@ -52,6 +52,7 @@
 #include "mqtt/mqtt_lib.h"
 #include "mqtt/sparkplug.h"
 #include "core/north.h"
+#include "core/report.h"
 
 #define MQ_BACKOFF_MIN_US 500000u    /* first reconnect after 0.5 s ... */
 #define MQ_BACKOFF_MAX_US 30000000u  /* ... doubling up to 30 s */
@@ -127,7 +128,11 @@ typedef struct {
     spb_t *spb;     /* payload = sparkplug (sparkplug.h), else NULL */
     gw_json_t json; /* over json_buf */
     char json_buf[MQ_JSON_MAX];
+    /* the console's (mq_report, mq_metrics): counters since the side started */
+    struct { unsigned long long published, received, accepted, connects; gw_log_limit_t write_log[GW_MAX_ROBOTS]; } con;
 } mq_t;
+
+static void mq_wrote(mq_t *t, unsigned robot, const char *topic, dr_ref_t ref);
 
 static unsigned lib_users; /* mosquitto_lib_init/cleanup around the sides */
 /* libmosquitto's functions (mqtt_lib.h): loaded by the first enabled
@@ -163,6 +168,7 @@ static bool publish(mq_t *t, const char *top, const void *payload, size_t len, b
     }
     if (t->cfg.qos > 0)
         t->inflight++;
+    t->con.published++;
     return true;
 }
 
@@ -563,8 +569,10 @@ static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosqu
         refuse(t, robot, m, MQ_REF_VALUE, why);
     } else if ((kind = write_into(t, robot, ref, &v, why, sizeof why)) != MQ_REF_KINDS)
         refuse(t, robot, m, kind, why);
-    else
+    else {
         gw_log(GW_LOG_DEBUG, "mqtt: %s = %s", m->topic, text);
+        mq_wrote(t, robot, m->topic, ref);
+    }
 }
 
 static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto_message *m)
@@ -584,6 +592,7 @@ static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         size_t n = strlen(cfg->robot[r].name);
         if (strncmp(rest, cfg->robot[r].name, n) == 0 && strncmp(rest + n, "/set/", 5) == 0) {
+            t->con.received++;
             on_set(t, r, rest + n + 5, m);
             return;
         }
@@ -604,6 +613,7 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     }
     gw_log(GW_LOG_INFO, "mqtt: connected to %s:%u", t->cfg.host, t->cfg.port);
     t->connected = true;
+    t->con.connects++;
     t->backoff_us = MQ_BACKOFF_MIN_US;
     t->inflight = 0;
     if (t->spb != NULL) {
@@ -794,7 +804,12 @@ static bool spb_io_room(void *user)
 static bool spb_io_write(void *user, unsigned robot, dr_ref_t ref, const dr_value_t *v,
                          char *why, size_t whylen)
 {
-    return write_checked(user, robot, ref, v, why, whylen);
+    mq_t *t = user;
+    t->con.received++; /* a write asked for, as a set topic's message */
+    if (!write_checked(t, robot, ref, v, why, whylen))
+        return false;
+    mq_wrote(t, robot, "Sparkplug DCMD", ref);
+    return true;
 }
 
 static void spb_io_reconnect(void *user)
@@ -1315,7 +1330,67 @@ static void mq_side_free(void *self)
     mq_free(t);
 }
 
+/* ---- the console: last write, report and metrics ------------------------------- */
+
+/* An accepted plant write (a set topic or a Sparkplug DCMD): the robot's
+ * last write, logged (rate-limited per robot: the broker does not say
+ * which plant client sent it, so the topic names the writer). */
+static void mq_wrote(mq_t *t, unsigned robot, const char *topic, dr_ref_t ref)
+{
+    char who[GW_WRITE_CLIENT], path[96];
+    if (dr_ref_path(ref, path, sizeof path) != DR_OK)
+        snprintf(path, sizeof path, "?");
+    snprintf(who, sizeof who, "mqtt %s", topic);
+    t->con.accepted++;
+    gw_write_accepted(&t->env->robots[robot], &t->con.write_log[robot], who, path);
+}
+
+/* "mqtt": {"broker", "client_id", "connected", "published", "writes":
+ * {"accepted", "refused"}, "reconnects"}; nothing without [mqtt]. */
+static void mq_report(const void *self, gw_json_t *j)
+{
+    const mq_t *t = self;
+    char num[192];
+    if (t == NULL || !t->cfg.enabled)
+        return;
+    snprintf(num, sizeof num, "%s:%u", t->cfg.host, t->cfg.port);
+    gw_json_str(j, "\"mqtt\":{\"broker\":");
+    gw_json_quote(j, num, strlen(num));
+    gw_json_str(j, ",\"client_id\":");
+    gw_json_quote(j, t->client_id, strlen(t->client_id));
+    gw_json_str(j, ",\"topic_prefix\":");
+    gw_json_quote(j, t->prefix, strlen(t->prefix));
+    snprintf(num, sizeof num,
+             ",\"connected\":%s,\"published\":%llu,\"writes\":{\"enabled\":%s,"
+             "\"accepted\":%llu,\"refused\":%llu},\"reconnects\":%llu}",
+             t->connected ? "true" : "false", t->con.published, t->cfg.writes ? "true" : "false",
+             t->con.accepted, t->con.received - t->con.accepted,
+             t->con.connects > 0 ? t->con.connects - 1u : 0u);
+    gw_json_str(j, num);
+}
+
+static void mq_metrics(const void *self, gw_prom_t *p)
+{
+    const mq_t *t = self;
+    if (t == NULL || !t->cfg.enabled)
+        return;
+    gw_prom_one(p, "drgate_mqtt_connected", GW_PROM_GAUGE,
+                "1 while the gateway is connected to the MQTT broker", t->connected ? 1 : 0);
+    gw_prom_one(p, "drgate_mqtt_published_total", GW_PROM_COUNTER,
+                "MQTT messages handed to the broker connection", (double)t->con.published);
+    gw_prom_family(p, "drgate_mqtt_writes_total", GW_PROM_COUNTER,
+                   "Plant writes (<prefix>/<robot>/set/<path>) by result");
+    gw_prom_label_t ok = {"result", "accepted"}, no = {"result", "refused"};
+    gw_prom_sample(p, "drgate_mqtt_writes_total", &ok, 1, (double)t->con.accepted);
+    gw_prom_sample(p, "drgate_mqtt_writes_total", &no, 1,
+                   (double)(t->con.received - t->con.accepted));
+    gw_prom_one(p, "drgate_mqtt_reconnects_total", GW_PROM_COUNTER,
+                "Connections to the broker after the first",
+                t->con.connects > 0 ? (double)(t->con.connects - 1u) : 0.0);
+}
+
 const gw_north_ops_t gw_north_mqtt = {
     "mqtt",     mq_create,  mq_prepare,  mq_abort,  mq_commit, mq_tick,      mq_deadline,
     mq_on_data, mq_on_link, mq_on_fault, mq_refresh, mq_safe,  mq_side_free,
+    mq_report,  mq_metrics,
 };

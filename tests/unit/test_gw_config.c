@@ -402,7 +402,7 @@ typedef struct {
     "input_only_heartbeat, listen_only_heartbeat, originator_serial, "        \
     "instance.<assembly>, open.<T->O assembly>"
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
-#define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], [mqtt]"
+#define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], [mqtt], [http]"
 #define NOT_A_BIT                                                        \
     "(a GPIO line follows or drives one bit, e.g. io_state.cb_do[1] or " \
     "bit_in[0])"

@@ -65,6 +65,39 @@ static void test_real_shortest(void **state)
     assert_string_equal(out, "-inf");
 }
 
+static void expect_json(dr_val_type_t type, double x, const char *want)
+{
+    char out[32];
+    dr_value_t v = {type, (uint64_t)(x < 0 ? 0 : x), (int64_t)x, x};
+    assert_int_equal(dr_text_json(&v, out, sizeof out), DR_OK);
+    assert_string_equal(out, want);
+}
+
+/* The JSON tokens drcli's --json prints (jansson at 9 digits) and the
+ * console's API shares (tests/gateway/test_http.py compares the two). */
+static void test_json_golden(void **state)
+{
+    (void)state;
+    expect_json(DR_VAL_BOOL, 1, "true");
+    expect_json(DR_VAL_BOOL, 0, "false");
+    expect_json(DR_VAL_UINT, 255, "255");
+    expect_json(DR_VAL_INT, -2147483648.0, "-2147483648");
+    expect_json(DR_VAL_REAL, 0.1f, "0.1");
+    expect_json(DR_VAL_REAL, 100.0f, "100.0");
+    expect_json(DR_VAL_REAL, 0.0f, "0.0");
+    expect_json(DR_VAL_REAL, -0.0f, "-0.0");
+    expect_json(DR_VAL_REAL, 123456792.0f, "123456790.0");
+    expect_json(DR_VAL_REAL, 1e15f, "1e15");
+    expect_json(DR_VAL_REAL, -1e-7f, "-1e-7");
+    expect_json(DR_VAL_REAL, 3.4028235e38f, "3.4028235e38");
+    expect_json(DR_VAL_REAL, 1.0f / 3.0f, "0.33333334");
+    expect_json(DR_VAL_REAL, (double)NAN, "\"nan\"");
+    expect_json(DR_VAL_REAL, -(double)INFINITY, "\"-inf\"");
+    char tiny[4];
+    dr_value_t v = {DR_VAL_REAL, 0, 0, 100.0};
+    assert_int_equal(dr_text_json(&v, tiny, sizeof tiny), DR_ENOSPACE);
+}
+
 static void expect_real(float f, const char *want)
 {
     char out[32];
@@ -197,6 +230,7 @@ static void test_parse_errors(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_json_golden),
         cmocka_unit_test(test_format),
         cmocka_unit_test(test_real_shortest),
         cmocka_unit_test(test_real_golden),

@@ -27,6 +27,15 @@ extern "C" {
 #define DR_TEXT_PLAIN_MAX_EXP 15
 dr_status_t dr_text_real(float f, char *out, size_t size);
 
+/* A value as a JSON token, as `drcli get --json` prints it (and the
+ * gateway's console API, docs/http.md): bits true/false, integers and
+ * enums in decimal, REALs as the double nearest their dr_text_real text
+ * printed with 9 significant digits and ".0" added to a whole number
+ * ("0.1", "100.0", "1e-7", "3.40282347e38"), non-finite REALs as the
+ * strings "nan", "inf", "-inf" (JSON has no such numbers). Returns DR_OK
+ * or DR_ENOSPACE (32 bytes always do). */
+dr_status_t dr_text_json(const dr_value_t *v, char *out, size_t size);
+
 #define DR_TEXT_UNIT 0x1u /* append " unit" where the field has one */
 
 /* A value of the field `ref` names, as people read it: bits "0"/"1",

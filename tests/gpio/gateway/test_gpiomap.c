@@ -332,6 +332,44 @@ static void test_inputs(void **state)
     gw_gpiomap_free(m);
 }
 
+/* For the console (gw_gpiomap_each_line): every line with its chip's
+ * kernel name, offset, direction and the level the gateway holds: an
+ * output's last written value, an input's debounced bit. */
+typedef struct {
+    unsigned n;
+    char text[512];
+} lines_seen_t;
+
+static void line_seen(void *user, const gw_gpiomap_line_info_t *l)
+{
+    lines_seen_t *s = user;
+    size_t used = strlen(s->text);
+    snprintf(s->text + used, sizeof s->text - used, "%s%s %s/%u %s %d", s->n ? "; " : "",
+             l->cfg->name, l->chip, l->offset, l->cfg->dir == GW_GPIO_INPUT ? "in" : "out",
+             l->level);
+    s->n++;
+}
+
+static void test_each_line(void **state)
+{
+    (void)state;
+    gw_gpiomap_t *m = new_map();
+    set_bit(DR_ASM_BIT_OUT, "bit_out[0]", 1);
+    gw_gpiomap_link(m, 0, true);
+    gw_gpiomap_data(m, 0, DR_ASM_BIT_OUT);
+    fake_edge(3, 1, gw_gpio_now_ns());
+    fire_all();
+    lines_seen_t s = {0, ""};
+    gw_gpiomap_each_line(m, line_seen, &s);
+    assert_int_equal(s.n, 5);
+    assert_string_equal(s.text, "echo gpiochip0/0 out 1; door gpiochip0/1 in 0; "
+                                "lamp gpiochip0/2 out 0; button gpiochip0/3 in 1; "
+                                "relay gpiochip1/0 out 0");
+    gw_gpiomap_free(m);
+    gw_gpiomap_each_line(NULL, line_seen, &s); /* no map: nothing */
+    assert_int_equal(s.n, 5);
+}
+
 static void test_same_line_twice(void **state)
 {
     (void)state;
@@ -509,6 +547,7 @@ int main(void)
         cmocka_unit_test_setup(test_reload_changes, setup),
         cmocka_unit_test_setup(test_reload_refused, setup),
         cmocka_unit_test_setup(test_reload_refused_moved, setup),
+        cmocka_unit_test_setup(test_each_line, setup),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

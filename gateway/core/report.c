@@ -1,0 +1,129 @@
+/* SPDX-License-Identifier: MIT */
+/* The core's part of /metrics: see report.h. */
+#include "core/report.h"
+
+#include <stdio.h>
+
+#include "drgate/codec.h"
+
+/* One gauge or counter per robot, label robot. */
+typedef double (*robot_value_t)(const gw_robot_t *r);
+
+static void per_robot(gw_prom_t *m, const gw_robot_t *robots, unsigned count, const char *name,
+                      gw_prom_type_t type, const char *help, robot_value_t value)
+{
+    gw_prom_family(m, name, type, help);
+    for (unsigned i = 0; i < count; i++) {
+        gw_prom_label_t l = {"robot", robots[i].name};
+        gw_prom_sample(m, name, &l, 1, value(&robots[i]));
+    }
+}
+
+static double link_up(const gw_robot_t *r) { return r->link.link_state == 2 ? 1 : 0; }
+static double link_state(const gw_robot_t *r) { return r->link.link_state; }
+static double reconnects(const gw_robot_t *r) { return r->link.reconnects; }
+static double timeouts(const gw_robot_t *r) { return r->link.timeouts; }
+static double last_error(const gw_robot_t *r) { return r->link.last_error; }
+static double age(const gw_robot_t *r) { return r->link.age_ms / 1000.0; }
+static double fresh(const gw_robot_t *r) { return r->link.fresh ? 1 : 0; }
+static double rpi(const gw_robot_t *r) { return r->link.rpi_ms / 1000.0; }
+
+/* Per connection (by its T->O assembly): received (lost: false) or lost. */
+static void per_conn(gw_prom_t *m, const gw_robot_t *robots, unsigned count, bool lost)
+{
+    const char *name = lost ? "drgate_link_packets_lost_total"
+                            : "drgate_link_packets_received_total";
+    gw_prom_family(m, name, GW_PROM_COUNTER,
+                   lost ? "T->O packets lost (CIP sequence gaps) per connection, by the "
+                          "assembly it carries"
+                        : "T->O packets (explicit mode: poll replies) received per "
+                          "connection, by the assembly it carries");
+    for (unsigned i = 0; i < count; i++) {
+        const gw_robot_link_t *k = &robots[i].link;
+        for (unsigned c = 0; c < GW_ROBOT_CONNS; c++) {
+            if (k->conn_t2o[c] >= DR_ASM_COUNT)
+                continue;
+            gw_prom_label_t l[2] = {{"robot", robots[i].name},
+                                    {"assembly", dr_asm_info((dr_asm_t)k->conn_t2o[c])->name}};
+            gw_prom_sample(m, name, l, 2, lost ? k->conn_lost[c] : k->conn_rx[c]);
+        }
+    }
+}
+
+void gw_report_robot_metrics(gw_prom_t *m, const gw_robot_t *robots, unsigned count)
+{
+    per_robot(m, robots, count, "drgate_link_up", GW_PROM_GAUGE,
+              "1 when every connection of the robot's link is established", link_up);
+    per_robot(m, robots, count, "drgate_link_state", GW_PROM_GAUGE,
+              "The robot's link: 0 down, 1 connecting, 2 up", link_state);
+    per_robot(m, robots, count, "drgate_link_reconnects_total", GW_PROM_COUNTER,
+              "Times the robot's link went down after being up", reconnects);
+    per_robot(m, robots, count, "drgate_link_timeouts_total", GW_PROM_COUNTER,
+              "Connections (explicit mode: polls) that timed out without robot data", timeouts);
+    per_robot(m, robots, count, "drgate_link_last_error_code", GW_PROM_GAUGE,
+              "Why the link last failed, as the status block's last_error (IR 12; "
+              "drgatewayd --print-errors), 0: never", last_error);
+    per_robot(m, robots, count, "drgate_link_data_age_seconds", GW_PROM_GAUGE,
+              "Age of the oldest T->O data of the robot", age);
+    per_robot(m, robots, count, "drgate_link_data_fresh", GW_PROM_GAUGE,
+              "1 when the robot's data is younger than the connection timeout", fresh);
+    per_robot(m, robots, count, "drgate_link_rpi_seconds", GW_PROM_GAUGE,
+              "Packet interval in use (explicit mode: the poll period)", rpi);
+    per_conn(m, robots, count, false);
+    per_conn(m, robots, count, true);
+}
+
+/* Upper bounds of the lag buckets, microseconds. */
+static const uint64_t lag_le_us[GW_LAG_BUCKETS] = {50,    100,    250,    500,    1000,
+                                                   2500,  5000,   10000,  100000, 1000000};
+
+void gw_lag_observe(gw_lag_t *l, uint64_t late_us)
+{
+    unsigned b = 0;
+    while (b < GW_LAG_BUCKETS && late_us > lag_le_us[b])
+        b++;
+    l->bucket[b]++;
+    l->count++;
+    l->sum_us += late_us;
+    if (late_us > l->max_us)
+        l->max_us = late_us;
+}
+
+void gw_lag_metrics(gw_prom_t *m, const gw_lag_t *l)
+{
+    gw_prom_family(m, "drgate_loop_lag_seconds", GW_PROM_HISTOGRAM,
+                   "How late the daemon's loop woke up after the deadline it had set "
+                   "(the next robot packet, timer or tick)");
+    uint64_t cum = 0;
+    for (unsigned b = 0; b <= GW_LAG_BUCKETS; b++) {
+        char le[24];
+        cum += l->bucket[b];
+        if (b < GW_LAG_BUCKETS)
+            snprintf(le, sizeof le, "%g", (double)lag_le_us[b] / 1e6);
+        else
+            snprintf(le, sizeof le, "+Inf");
+        gw_prom_label_t lb = {"le", le};
+        gw_prom_sample(m, "drgate_loop_lag_seconds_bucket", &lb, 1, (double)cum);
+    }
+    gw_prom_sample(m, "drgate_loop_lag_seconds_sum", NULL, 0, (double)l->sum_us / 1e6);
+    gw_prom_sample(m, "drgate_loop_lag_seconds_count", NULL, 0, (double)l->count);
+    gw_prom_one(m, "drgate_loop_lag_max_seconds", GW_PROM_GAUGE,
+                "The largest lag of the loop since the daemon started", (double)l->max_us / 1e6);
+}
+
+void gw_write_log(const gw_robot_t *r, gw_log_limit_t *limit)
+{
+    char fields[GW_WRITE_FIELDS * (GW_WRITE_PATH + 2) + 32];
+    gw_robot_write_fields_text(r, fields, sizeof fields);
+    limit->window_ms = GW_WRITE_LOG_MS;
+    gw_log_limited(GW_LOG_INFO, limit, "robot %s: write by %s: %s", r->name,
+                   r->last_write.client, fields);
+}
+
+void gw_write_accepted(gw_robot_t *r, gw_log_limit_t *limit, const char *client,
+                       const char *path)
+{
+    gw_robot_wrote(r, client);
+    gw_robot_write_field(r, path);
+    gw_write_log(r, limit);
+}

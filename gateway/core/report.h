@@ -1,0 +1,46 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * What the core tells the console's /metrics (core/prom.h): each robot's
+ * link (gw_robot_t link facts) and the daemon loop's lag. The sides write
+ * their own (north.h: report, metrics); the daemon (main.c) puts them
+ * together in env->metrics and env->report.
+ */
+#ifndef DRGATE_GW_REPORT_H
+#define DRGATE_GW_REPORT_H
+
+#include <stdint.h>
+
+#include "core/log.h"
+#include "core/prom.h"
+#include "core/robot.h"
+
+/* The robots' families: drgate_link_up, drgate_link_state,
+ * drgate_link_reconnects_total, drgate_link_timeouts_total,
+ * drgate_link_last_error_code, drgate_link_data_age_seconds,
+ * drgate_link_rpi_seconds, drgate_link_packets_received_total and
+ * drgate_link_packets_lost_total (label assembly: per connection). */
+void gw_report_robot_metrics(gw_prom_t *m, const gw_robot_t *robots, unsigned count);
+
+/* The loop's lag: how late the loop woke up after the deadline it had
+ * set itself (the next robot packet, timer or tick), as a histogram. */
+#define GW_LAG_BUCKETS 10
+typedef struct {
+    uint64_t bucket[GW_LAG_BUCKETS + 1]; /* by upper bound; the last: +Inf */
+    uint64_t count, sum_us, max_us;
+} gw_lag_t;
+void gw_lag_observe(gw_lag_t *l, uint64_t late_us);
+/* drgate_loop_lag_seconds (histogram) and drgate_loop_lag_max_seconds. */
+void gw_lag_metrics(gw_prom_t *m, const gw_lag_t *l);
+
+/* Writes are logged: a side that accepted a write to robot r (and set
+ * its last_write: gw_robot_wrote, gw_robot_write_field) logs it at info,
+ * "robot R: write by CLIENT: FIELDS", at most one line per second per
+ * client (`limit`, the client's own: the writes held back in between are
+ * counted, gw_log_limited). */
+#define GW_WRITE_LOG_MS 1000u
+void gw_write_log(const gw_robot_t *r, gw_log_limit_t *limit);
+/* A write of one field (MQTT): last_write set, and logged as above. */
+void gw_write_accepted(gw_robot_t *r, gw_log_limit_t *limit, const char *client,
+                       const char *path);
+
+#endif /* DRGATE_GW_REPORT_H */

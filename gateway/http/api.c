@@ -1,0 +1,326 @@
+/* SPDX-License-Identifier: MIT */
+/* The console's JSON API and its summaries (api.h). */
+#include "http/api.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "core/link.h"
+#include "drgate/client.h"
+#include "drgate/text.h"
+#include "http/metrics.h"
+#include "http/report.h"
+
+#define NUM(j, fmt, x)                                 \
+    do {                                               \
+        char num_[32];                                 \
+        snprintf(num_, sizeof num_, fmt, x);           \
+        gw_json_str(j, num_);                          \
+    } while (0)
+
+static void qstr(gw_json_t *j, const char *s)
+{
+    gw_json_quote(j, s, strlen(s));
+}
+
+int gw_http_api_find(const gw_http_api_t *a, const char *name)
+{
+    const gw_config_t *cfg = a->env->cfg;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        if (strcmp(cfg->robot[r].name, name) == 0)
+            return (int)r;
+    return -1;
+}
+
+const char *gw_http_api_link_name(const gw_robot_t *rb)
+{
+    return rb->link.link_state == 2 ? "up" : rb->link.link_state == 1 ? "connecting" : "down";
+}
+
+/* "connections": each slot the robot's plan opens, with its state. */
+static void connections(gw_json_t *j, const gw_robot_config_t *rc, const gw_robot_t *rb)
+{
+    gw_json_str(j, "[");
+    bool first = true;
+    int a;
+    for (unsigned i = 0; i < GW_ROBOT_CONNS && (a = gw_link_slot_asm(i)) >= 0; i++) {
+        if (rc->mode == GW_MODE_IMPLICIT && rc->open[a].kind == GW_OPEN_NONE)
+            continue;
+        gw_json_str(j, first ? "{\"assembly\":" : ",{\"assembly\":");
+        first = false;
+        qstr(j, dr_asm_info((dr_asm_t)a)->name);
+        gw_json_str(j, ",\"state\":");
+        qstr(j, rc->mode == GW_MODE_IMPLICIT
+                    ? dr_conn_state_name((dr_conn_state_t)rb->link.conn_state[i])
+                    : "polled");
+        gw_json_str(j, "}");
+    }
+    gw_json_str(j, "]");
+}
+
+void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
+{
+    const gw_robot_t *rb = &a->env->robots[r];
+    const gw_robot_link_t *lk = &rb->link;
+    char why[160];
+    gw_robot_error_text(lk->last_status, why, sizeof why);
+    gw_json_str(j, "{\"name\":");
+    qstr(j, rb->name);
+    gw_json_str(j, ",\"link\":");
+    qstr(j, gw_http_api_link_name(rb));
+    /* Why it is not up, in the log's words; null while up or before the
+     * first failure. */
+    gw_json_str(j, ",\"reason\":");
+    if (lk->link_state != 2 && why[0] != '\0')
+        qstr(j, why);
+    else
+        gw_json_str(j, "null");
+    NUM(j, ",\"rpi_ms\":%u", (unsigned)lk->rpi_ms);
+    NUM(j, ",\"age_ms\":%lu", (unsigned long)lk->age_ms);
+    gw_json_str(j, lk->fresh ? ",\"fresh\":true" : ",\"fresh\":false");
+    NUM(j, ",\"heartbeat\":%u", (unsigned)rb->heartbeat);
+    gw_json_str(j, ",\"connections\":");
+    connections(j, &a->env->cfg->robot[r], rb);
+    NUM(j, ",\"rx_packets\":%lu", (unsigned long)lk->rx_packets);
+    NUM(j, ",\"lost_packets\":%lu", (unsigned long)lk->lost_packets);
+    gw_json_str(j, ",\"last_error\":");
+    if (lk->last_status == DR_OK) {
+        gw_json_str(j, "null");
+    } else {
+        NUM(j, "{\"code\":%u", (unsigned)lk->last_error);
+        NUM(j, ",\"cip_general\":%u,\"text\":", (unsigned)lk->last_cip_general);
+        qstr(j, why);
+        gw_json_str(j, "}");
+    }
+    /* The last accepted write (core/robot.h, http/metrics.h). */
+    gw_json_str(j, ",\"last_write\":");
+    gw_http_last_write_json(j, rb);
+    gw_json_str(j, "}");
+}
+
+void gw_http_api_robots(gw_json_t *j, const gw_http_api_t *a)
+{
+    gw_json_str(j, "[");
+    for (unsigned r = 0; r < a->env->cfg->robot_count; r++) {
+        if (r > 0)
+            gw_json_str(j, ",");
+        gw_http_api_robot(j, a, r);
+    }
+    gw_json_str(j, "]");
+}
+
+void gw_http_api_status(gw_json_t *j, const gw_http_api_t *a)
+{
+    gw_json_str(j, "{\"version\":");
+    qstr(j, a->env->version);
+    NUM(j, ",\"uptime_s\":%llu", (unsigned long long)a->uptime_s);
+    gw_json_str(j, ",\"config\":{\"file\":");
+    qstr(j, a->env->cfg->path);
+    NUM(j, ",\"generation\":%u},\"robots\":", a->generation);
+    gw_http_api_robots(j, a);
+    /* Each side's own object: the report part's (report.h). */
+    gw_json_str(j, ",\"sides\":{");
+    gw_http_report_sides(a->env, j);
+    gw_json_str(j, "}}");
+}
+
+unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uint64_t *last)
+{
+    unsigned n = 0, leaves = dr_leaf_count();
+    gw_json_str(j, "{");
+    for (unsigned i = 0; i < leaves; i++) {
+        dr_ref_t ref;
+        dr_value_t v;
+        char path[96], tok[40];
+        if (dr_leaf_at((uint16_t)i, &ref) != DR_OK || gw_robot_get(rb, ref, &v) != DR_OK)
+            continue;
+        /* Compared bit for bit: a NaN equals the NaN sent before it, and
+         * GW_HTTP_API_UNSENT (all bits set) no value. Before the text is
+         * made: a live stream formats only what changed (bench-console). */
+        double x = dr_value_as_double(&v);
+        uint64_t bits;
+        memcpy(&bits, &x, sizeof bits);
+        if (last != NULL && last[i] == bits)
+            continue;
+        if (dr_ref_path(ref, path, sizeof path) != DR_OK ||
+            dr_text_json(&v, tok, sizeof tok) != DR_OK)
+            continue;
+        if (last != NULL)
+            last[i] = bits;
+        gw_json_str(j, n > 0 ? (indent ? ",\n  " : ",") : (indent ? "\n  " : ""));
+        qstr(j, path);
+        gw_json_str(j, indent ? ": " : ":");
+        gw_json_str(j, tok);
+        n++;
+    }
+    gw_json_str(j, indent && n > 0 ? "\n}\n" : indent ? "}\n" : "}");
+    return n;
+}
+
+unsigned gw_http_api_down(const gw_http_api_t *a)
+{
+    unsigned n = 0;
+    for (unsigned r = 0; r < a->env->cfg->robot_count; r++)
+        n += a->env->robots[r].link.link_state != 2;
+    return n;
+}
+
+/* "3d 04h", "1h 02m", "5m 07s", "12s" */
+static void duration(char *out, size_t size, uint64_t s)
+{
+    if (s >= 86400u)
+        snprintf(out, size, "%llud %02lluh", (unsigned long long)(s / 86400u),
+                 (unsigned long long)(s % 86400u / 3600u));
+    else if (s >= 3600u)
+        snprintf(out, size, "%lluh %02llum", (unsigned long long)(s / 3600u),
+                 (unsigned long long)(s % 3600u / 60u));
+    else if (s >= 60u)
+        snprintf(out, size, "%llum %02llus", (unsigned long long)(s / 60u),
+                 (unsigned long long)(s % 60u));
+    else
+        snprintf(out, size, "%llus", (unsigned long long)s);
+}
+
+/* "linked", "connecting", "down: connection refused" */
+static void robot_state(char *out, size_t size, const gw_robot_t *rb)
+{
+    char why[160];
+    gw_robot_error_text(rb->link.last_status, why, sizeof why);
+    if (rb->link.link_state == 2)
+        snprintf(out, size, "linked");
+    else
+        snprintf(out, size, "%s%s%s", rb->link.link_state == 1 ? "connecting" : "down",
+                 why[0] ? ": " : "", why);
+}
+
+/* ---- what the sides report, for the summaries ---------------------------------- */
+
+/* The sides' report ("modbus":{...},"mqtt":{...}: env->report) in a
+ * buffer of the caller's; "" when there is none. */
+static const char *sides_text(const gw_http_api_t *a, char *buf, size_t cap)
+{
+    gw_json_t j;
+    gw_json_init(&j, buf, cap);
+    if (a->env->report != NULL)
+        a->env->report(a->env->user, &j);
+    return j.full ? "" : buf;
+}
+
+/* The text of string member `key` after `from` and before `end` (NULL:
+ * the text's end) into out; false if none. The sides' reports write
+ * their strings through gw_json_quote, so a '"' inside is escaped. */
+static bool member_str(const char *from, const char *end, const char *key, char *out,
+                       size_t size)
+{
+    char pat[40];
+    snprintf(pat, sizeof pat, "\"%s\":\"", key);
+    const char *p = from != NULL ? strstr(from, pat) : NULL;
+    if (p == NULL || (end != NULL && p >= end))
+        return false;
+    p += strlen(pat);
+    size_t n = strcspn(p, "\"");
+    snprintf(out, size, "%.*s", (int)n, p);
+    return true;
+}
+
+/* The Modbus TCP clients the report lists: how many, and "address
+ * (writer), ..." into out. */
+static unsigned modbus_clients(const char *sides, char *out, size_t size)
+{
+    const char *p = strstr(sides, "\"modbus\":{");
+    const char *list = p != NULL ? strstr(p, "\"clients\":[") : NULL;
+    const char *end = list != NULL ? strchr(list, ']') : NULL;
+    unsigned n = 0;
+    size_t len = 0;
+    out[0] = '\0';
+    for (const char *c = list; c != NULL && end != NULL && (c = strstr(c, "{\"address\":")) != NULL &&
+                               c < end;
+         c++) {
+        char addr[64];
+        const char *next = strchr(c + 1, '{');
+        (void)member_str(c, end, "address", addr, sizeof addr);
+        const char *w = strstr(c, "\"writer\":true");
+        bool writer = w != NULL && w < end && (next == NULL || next > end || w < next);
+        int k = snprintf(out + len, size - len, "%s%s%s", n > 0 ? ", " : "", addr,
+                         writer ? " (writer)" : "");
+        if (k > 0 && (size_t)k < size - len)
+            len += (size_t)k;
+        n++;
+    }
+    return n;
+}
+
+void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
+{
+    const gw_config_t *cfg = a->env->cfg;
+    char line[512], up[32];
+    unsigned down = gw_http_api_down(a);
+    duration(up, sizeof up, a->uptime_s);
+    snprintf(line, sizeof line,
+             "drgatewayd %s: %s\n     Uptime: %s\n     Config: %s (generation %u)\n     Robots: "
+             "%u of %u linked\n",
+             a->env->version, down == 0 ? "running, every robot linked" : "running, robots down",
+             up, cfg->path, a->generation, cfg->robot_count - down, cfg->robot_count);
+    gw_json_str(j, line);
+    for (unsigned r = 0; r < cfg->robot_count; r++) {
+        const gw_robot_t *rb = &a->env->robots[r];
+        char st[200];
+        robot_state(st, sizeof st, rb);
+        if (rb->link.link_state == 2)
+            snprintf(line, sizeof line,
+                     "       %-12s %s (%s:%u, RPI %u ms, data age %lu ms, %lu packets, %lu lost)\n",
+                     rb->name, st, cfg->robot[r].host, (unsigned)cfg->robot[r].tcp_port,
+                     (unsigned)rb->link.rpi_ms, (unsigned long)rb->link.age_ms,
+                     (unsigned long)rb->link.rx_packets, (unsigned long)rb->link.lost_packets);
+        else
+            snprintf(line, sizeof line, "       %-12s %s (%s:%u)\n", rb->name, st,
+                     cfg->robot[r].host, (unsigned)cfg->robot[r].tcp_port);
+        gw_json_str(j, line);
+    }
+    static char sides[16384];
+    const char *sd = sides_text(a, sides, sizeof sides);
+    char listen[80], list[1024], broker[200];
+    if (member_str(strstr(sd, "\"modbus\":{"), NULL, "listen", listen, sizeof listen)) {
+        unsigned n = modbus_clients(sd, list, sizeof list);
+        snprintf(line, sizeof line, "     Modbus: %s, %u client%s%s", listen, n,
+                 n == 1 ? "" : "s", n > 0 ? ": " : "");
+        gw_json_str(j, line);
+        gw_json_str(j, list);
+        gw_json_str(j, "\n");
+    }
+    const char *mq = strstr(sd, "\"mqtt\":{");
+    if (member_str(mq, NULL, "broker", broker, sizeof broker)) {
+        bool on = strstr(mq, "\"connected\":true") != NULL;
+        snprintf(line, sizeof line, "       MQTT: %s %s\n", on ? "connected to" : "not connected to",
+                 broker);
+        gw_json_str(j, line);
+    }
+}
+
+void gw_http_api_notify(gw_json_t *j, const gw_http_api_t *a)
+{
+    const gw_config_t *cfg = a->env->cfg;
+    if (cfg->robot_count == 0)
+        gw_json_str(j, "no robot");
+    for (unsigned r = 0; r < cfg->robot_count; r++) {
+        char st[200];
+        robot_state(st, sizeof st, &a->env->robots[r]);
+        if (r > 0)
+            gw_json_str(j, ", ");
+        gw_json_str(j, a->env->robots[r].name);
+        gw_json_str(j, " ");
+        gw_json_str(j, st);
+    }
+    static char sides[16384];
+    char list[1024], line[64];
+    const char *sd = sides_text(a, sides, sizeof sides);
+    if (strstr(sd, "\"modbus\":{") != NULL) {
+        unsigned n = modbus_clients(sd, list, sizeof list);
+        snprintf(line, sizeof line, "; %u Modbus client%s", n, n == 1 ? "" : "s");
+        gw_json_str(j, line);
+    }
+    const char *mq = strstr(sd, "\"mqtt\":{");
+    if (mq != NULL)
+        gw_json_str(j, strstr(mq, "\"connected\":true") != NULL ? "; MQTT connected"
+                                                              : "; MQTT not connected");
+}

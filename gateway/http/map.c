@@ -1,0 +1,15 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * /api/v1/robots/NAME/map (asset.h): the robot's register map as the
+ * robot page shows it, written by the Modbus side's map itself
+ * (gw_regmap_json), from the slots that serve requests and that
+ * `drgatewayd --print-map` prints: the addresses are never worked out
+ * twice.
+ */
+#include "http/asset.h"
+#include "modbus/regmap.h"
+
+bool gw_http_api_map(gw_json_t *j, const gw_config_t *cfg, unsigned robot)
+{
+    return gw_regmap_json(j, cfg, robot);
+}

@@ -1,0 +1,1033 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The console as a northbound side (north.h): the web pages, the JSON API,
+ * live values as Server-Sent Events, /metrics ([http], docs/http.md).
+ * Read-only: nothing here writes a robot's image.
+ *
+ * libmicrohttpd (loaded by mhd_lib.c only when [http] exists) runs without
+ * a thread of its own (MHD_USE_EPOLL): its epoll descriptor sits in the
+ * daemon's epoll set, MHD_run does its work when it is readable, and
+ * MHD_get_timeout bounds the loop's wait (its connection timeouts). What a
+ * request costs is bounded: connections (max_connections; at the limit
+ * MHD stops accepting, and more wait in the kernel's backlog), URL and headers (max_request_bytes: 414 or 431), time
+ * (timeout_s for an idle or slow client), and a response is built in one
+ * go from the robots' images without blocking. So a slow or hostile
+ * client costs the Modbus and robot sides a few microseconds per turn,
+ * never a wait.
+ *
+ * The listening sockets are ours (MHD_OPTION_LISTEN_SOCKET): a reload that
+ * keeps the address and port hands a duplicate of the socket to the new
+ * server, so the port never closes; one that changes them binds the new
+ * one at prepare, and a port taken refuses the reload.
+ *
+ * Live values (/api/v1/events?robot=NAME): a response whose body comes
+ * from a callback (sse_read). With nothing to send it suspends its
+ * connection (off MHD's lists: no busy loop, no timeout), and tick()
+ * resumes it SSE_PERIOD_US after its last look, when it sends what
+ * changed since its last event, or a comment line now and then so that a
+ * client that went away is found.
+ */
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "common/ev.h"
+#include "core/json.h"
+#include "core/log.h"
+#include "core/north.h"
+#include "drgate/codec.h"
+#include "http/api.h"
+#include "http/asset.h"
+#include "http/http.h"
+#include "http/mhd_lib.h"
+#include "http/passwd.h"
+#include "http/report.h"
+
+#define SSE_PERIOD_US 250000u      /* live values at most this often */
+#define SSE_KEEPALIVE_US 10000000u /* a comment line when nothing changed */
+#define SSE_BUF 65536u             /* one stream's pending event text */
+#define RESP_MAX 262144u           /* the largest response built */
+#define REALM "drgatewayd"
+
+typedef struct ht ht_t;
+
+/* One listening server: the console, or the plain loopback one for
+ * `drgatewayd status` beside a TLS console (status_port). */
+typedef struct {
+    ht_t *t;
+    struct MHD_Daemon *d;
+    ev_t ev;  /* MHD's epoll descriptor in the loop */
+    int lfd;  /* the listening socket we made (MHD closes it) */
+    bool tls, loopback_only;
+} srv_t;
+
+/* One live-values stream. */
+typedef struct sse {
+    struct sse *next;
+    ht_t *t;
+    struct MHD_Connection *c;
+    char robot[GW_NAME_MAX];
+    uint32_t serial;     /* the robot's: a new one starts over */
+    uint16_t link_state; /* as last sent */
+    bool suspended, closing, started;
+    uint64_t next_us, quiet_since_us;
+    size_t len, off; /* buf[off..len): not yet taken by MHD */
+    uint64_t *last;  /* per leaf: the value last sent (api.h) */
+    char buf[SSE_BUF];
+} sse_t;
+
+/* One connection: how long it may take to send a request. MHD's own
+ * timeout is for idleness, which a client sending a byte a second never
+ * is (slowloris); so each request's head must be in within timeout_s of
+ * the connection, or of the end of the previous answer, or the socket is
+ * shut down (MHD then closes it as gone). No deadline while an answer is
+ * being sent (a live page's, for its life). */
+typedef struct hc {
+    struct hc *next;
+    int fd;
+    bool answering;
+    uint64_t deadline_us;
+} hc_t;
+
+struct ht {
+    const gw_north_env_t *env;
+    gw_http_config_t cfg; /* a copy: a reload compares the new one with it */
+    srv_t srv[2];         /* [0] the console, [1] status_port's (or none) */
+    gw_http_users_t users;
+    char *cert, *key; /* PEM texts, for MHD's TLS set-up */
+    sse_t *streams;
+    hc_t *conns;
+    unsigned generation;
+    gw_log_limit_t mhd_limit, slow_limit;
+};
+
+static const gw_mhdlib_t *ml; /* loaded by the first enabled side */
+static uint64_t start_us;     /* the daemon's start, for uptime_s */
+static char resp[RESP_MAX];   /* the response being built (copied by MHD) */
+
+/* ---- helpers -------------------------------------------------------------------- */
+
+static gw_http_api_t api_of(const ht_t *t)
+{
+    gw_http_api_t a = {t->env, (ev_now_us() - start_us) / 1000000u, t->generation};
+    return a;
+}
+
+static bool addr_loopback(const struct sockaddr *sa)
+{
+    if (sa == NULL || sa->sa_family != AF_INET)
+        return false;
+    struct sockaddr_in in;
+    memcpy(&in, sa, sizeof in);
+    return (ntohl(in.sin_addr.s_addr) >> 24) == 127u;
+}
+
+static bool allowed(const gw_http_config_t *h, const struct sockaddr *sa)
+{
+    if (h->allow_count == 0)
+        return true;
+    if (sa == NULL || sa->sa_family != AF_INET)
+        return false;
+    struct sockaddr_in in;
+    memcpy(&in, sa, sizeof in);
+    uint32_t a = ntohl(in.sin_addr.s_addr);
+    for (unsigned i = 0; i < h->allow_count; i++)
+        if ((a & h->allow[i].mask) == h->allow[i].net)
+            return true;
+    return false;
+}
+
+/* A whole file into a new NUL-terminated buffer; NULL with err. */
+static char *read_file(const char *path, const char *key, char *err, size_t errlen)
+{
+    FILE *f = fopen(path, "r");
+    char *buf = NULL;
+    if (f == NULL) {
+        snprintf(err, errlen, "http: %s %s: %s", key, path, strerror(errno));
+        return NULL;
+    }
+    buf = malloc(GW_HTTP_PASSWD_FILE_MAX + 1);
+    size_t n = buf != NULL ? fread(buf, 1, GW_HTTP_PASSWD_FILE_MAX, f) : 0;
+    if (buf == NULL || ferror(f)) {
+        snprintf(err, errlen, "http: %s %s: %s", key, path,
+                 buf == NULL ? "out of memory" : strerror(errno));
+        free(buf);
+        buf = NULL;
+    } else {
+        buf[n] = '\0';
+    }
+    (void)fclose(f);
+    return buf;
+}
+
+/* ---- responses -------------------------------------------------------------------- */
+
+/* MHD's buffer responses take a `void *` they only read (PERSISTENT) or
+ * copy (MUST_COPY). */
+static void *unconst(const void *p)
+{
+    void *q;
+    memcpy(&q, &p, sizeof q);
+    return q;
+}
+
+static enum MHD_Result send_buf(struct MHD_Connection *c, unsigned status, const char *type,
+                                const void *data, size_t len, bool copy)
+{
+    struct MHD_Response *r = ml->create_response_from_buffer(
+        len, unconst(data), copy ? MHD_RESPMEM_MUST_COPY : MHD_RESPMEM_PERSISTENT);
+    if (r == NULL)
+        return MHD_NO;
+    (void)ml->add_response_header(r, "Content-Type", type);
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    (void)ml->add_response_header(r, "X-Content-Type-Options", "nosniff");
+    if (status == 405)
+        (void)ml->add_response_header(r, "Allow", "GET, HEAD");
+    enum MHD_Result ok = ml->queue_response(c, status, r);
+    ml->destroy_response(r);
+    return ok;
+}
+
+static enum MHD_Result send_json(struct MHD_Connection *c, unsigned status, const gw_json_t *j)
+{
+    if (j->full) {
+        static const char e[] = "{\"error\":\"response too large\"}\n";
+        return send_buf(c, 500, "application/json", e, sizeof e - 1, false);
+    }
+    return send_buf(c, status, "application/json", j->buf, j->len, true);
+}
+
+/* An error: {"error": what, "method", "path"} under /api/, text elsewhere;
+ * both say what was asked. */
+static enum MHD_Result send_error(struct MHD_Connection *c, unsigned status, const char *method,
+                                  const char *url, const char *what)
+{
+    gw_json_t j;
+    gw_json_init(&j, resp, sizeof resp);
+    if (strncmp(url, "/api/", 5) == 0) {
+        gw_json_str(&j, "{\"error\":");
+        gw_json_quote(&j, what, strlen(what));
+        gw_json_str(&j, ",\"method\":");
+        gw_json_quote(&j, method, strlen(method) > 16 ? 16 : strlen(method));
+        gw_json_str(&j, ",\"path\":");
+        gw_json_quote(&j, url, strlen(url) > 512 ? 512 : strlen(url));
+        gw_json_str(&j, "}\n");
+        return send_json(c, status, &j);
+    }
+    char line[768];
+    snprintf(line, sizeof line, "%u %s: %.16s %.512s\n", status, what, method, url);
+    for (char *p = line; *p; p++) /* a URL's bytes as they came: no control characters */
+        if ((unsigned char)*p < 0x20 && *p != '\n')
+            *p = '?';
+    return send_buf(c, status, "text/plain; charset=utf-8", line, strlen(line), true);
+}
+
+static enum MHD_Result send_asset(struct MHD_Connection *c, const char *name, const char *method,
+                                  const char *url)
+{
+    const gw_http_asset_t *a = gw_http_asset_find(name);
+    if (a == NULL)
+        return send_error(c, 404, method, url, "not found");
+    return send_buf(c, 200, a->type, a->data, a->size, false);
+}
+
+/* /api/v1/status asked for text (drgatewayd status): the summary, and
+ * the robots not linked in X-Robots-Down. */
+static enum MHD_Result send_summary(struct MHD_Connection *c, const gw_http_api_t *a)
+{
+    gw_json_t j;
+    gw_json_init(&j, resp, sizeof resp);
+    gw_http_api_summary(&j, a);
+    struct MHD_Response *r =
+        ml->create_response_from_buffer(j.len, j.buf, MHD_RESPMEM_MUST_COPY);
+    if (r == NULL)
+        return MHD_NO;
+    char down[16];
+    snprintf(down, sizeof down, "%u", gw_http_api_down(a));
+    (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    (void)ml->add_response_header(r, "X-Robots-Down", down);
+    enum MHD_Result ok = ml->queue_response(c, 200, r);
+    ml->destroy_response(r);
+    return ok;
+}
+
+/* ---- live values (Server-Sent Events) ------------------------------------------- */
+
+static void sse_append(sse_t *s, const char *event, const gw_json_t *j)
+{
+    size_t need = strlen(event) + j->len + 16;
+    if (j->full || s->len + need > sizeof s->buf)
+        return; /* cannot be: one robot's values are ~15 kB; dropped, not cut */
+    s->len += (size_t)snprintf(s->buf + s->len, sizeof s->buf - s->len, "event: %s\ndata: %s\n\n",
+                               event, j->buf);
+}
+
+/* What this stream has to say now, into its buffer: its robot's link
+ * when it changed (or first), the values that changed since the last
+ * event (all of them first), else now and then a comment. False: the
+ * stream ends (its robot is gone). */
+static bool sse_fill(sse_t *s, uint64_t now)
+{
+    ht_t *t = s->t;
+    gw_http_api_t a = api_of(t);
+    int r = gw_http_api_find(&a, s->robot);
+    if (r < 0)
+        return false;
+    const gw_robot_t *rb = &t->env->robots[r];
+    static char text[SSE_BUF];
+    gw_json_t j;
+    if (!s->started || rb->serial != s->serial) {
+        memset(s->last, GW_HTTP_API_UNSENT, dr_leaf_count() * sizeof *s->last);
+        s->serial = rb->serial;
+    }
+    if (!s->started || rb->link.link_state != s->link_state) {
+        gw_json_init(&j, text, sizeof text);
+        gw_http_api_robot(&j, &a, (unsigned)r);
+        sse_append(s, "status", &j);
+        s->link_state = rb->link.link_state;
+    }
+    s->started = true;
+    gw_json_init(&j, text, sizeof text);
+    if (gw_http_api_values(&j, rb, false, s->last) > 0)
+        sse_append(s, "values", &j);
+    if (s->len > 0) {
+        s->quiet_since_us = now;
+    } else if (now - s->quiet_since_us >= SSE_KEEPALIVE_US) {
+        memcpy(s->buf, ": idle\n\n", 8);
+        s->len = 8;
+        s->quiet_since_us = now;
+    }
+    s->next_us = now + SSE_PERIOD_US;
+    return true;
+}
+
+static ssize_t sse_read(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    sse_t *s = cls;
+    (void)pos;
+    if (s->off == s->len) {
+        s->off = s->len = 0;
+        uint64_t now = ev_now_us();
+        if (s->closing || (now >= s->next_us && !sse_fill(s, now)))
+            return MHD_CONTENT_READER_END_OF_STREAM;
+    }
+    if (s->off == s->len) {
+        /* Nothing now: off MHD's lists until tick() resumes it. */
+        ml->suspend_connection(s->c);
+        s->suspended = true;
+        return 0;
+    }
+    size_t n = s->len - s->off < max ? s->len - s->off : max;
+    memcpy(buf, s->buf + s->off, n);
+    s->off += n;
+    return (ssize_t)n;
+}
+
+static void sse_free(void *cls)
+{
+    sse_t *s = cls;
+    for (sse_t **p = &s->t->streams; *p != NULL; p = &(*p)->next)
+        if (*p == s) {
+            *p = s->next;
+            break;
+        }
+    free(s->last);
+    free(s);
+}
+
+static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const char *method,
+                                    const char *url)
+{
+    const char *name = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "robot");
+    if (name == NULL || name[0] == '\0')
+        return send_error(c, 400, method, url, "robot=NAME missing (allowed: a robot's name)");
+    gw_http_api_t a = api_of(t);
+    if (gw_http_api_find(&a, name) < 0)
+        return send_error(c, 404, method, url, "no such robot");
+    sse_t *s = calloc(1, sizeof *s);
+    if (s == NULL || (s->last = calloc(dr_leaf_count(), sizeof *s->last)) == NULL) {
+        free(s);
+        return send_error(c, 503, method, url, "out of memory");
+    }
+    s->t = t;
+    s->c = c;
+    snprintf(s->robot, sizeof s->robot, "%s", name);
+    s->quiet_since_us = ev_now_us();
+    struct MHD_Response *r =
+        ml->create_response_from_callback(MHD_SIZE_UNKNOWN, 16384, sse_read, s, sse_free);
+    if (r == NULL) {
+        free(s->last);
+        free(s);
+        return MHD_NO;
+    }
+    s->next = t->streams;
+    t->streams = s;
+    (void)ml->add_response_header(r, "Content-Type", "text/event-stream");
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    /* A live page is not idle: only a write that fails ends it. */
+    (void)ml->set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
+    enum MHD_Result ok = ml->queue_response(c, 200, r);
+    ml->destroy_response(r);
+    return ok;
+}
+
+/* The streams that wait and are due (all of them with `closing`: the
+ * server stops, each ends its stream) get their turn. Without a thread
+ * of its own MHD does not wake up for a resumed connection (its
+ * inter-thread channel is not what the loop watches): MHD_run gives them
+ * their turn now. */
+static void sse_resume(ht_t *t, uint64_t now, bool closing)
+{
+    bool any = false;
+    for (sse_t *s = t->streams; s != NULL; s = s->next) {
+        s->closing = s->closing || closing;
+        if (s->suspended && (closing || now >= s->next_us)) {
+            s->suspended = false;
+            ml->resume_connection(s->c);
+            any = true;
+        }
+    }
+    for (unsigned i = 0; any && i < 2; i++)
+        if (t->srv[i].d != NULL)
+            (void)ml->run(t->srv[i].d);
+}
+
+/* ---- routes ------------------------------------------------------------------------ */
+
+/* "/api/v1/robots/NAME[/rest]": the robot's index (-1: none) and rest. */
+static int robot_of(const ht_t *t, const char *p, const char **rest)
+{
+    const char *slash = strchr(p, '/');
+    size_t n = slash != NULL ? (size_t)(slash - p) : strlen(p);
+    char name[GW_NAME_MAX];
+    *rest = p + n;
+    if (n == 0 || n >= sizeof name)
+        return -1;
+    memcpy(name, p, n);
+    name[n] = '\0';
+    gw_http_api_t a = api_of(t);
+    return gw_http_api_find(&a, name);
+}
+
+static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *method,
+                                 const char *url)
+{
+    gw_http_api_t a = api_of(t);
+    gw_json_t j;
+    gw_json_init(&j, resp, sizeof resp);
+    const char *p = url + strlen("/api/v1/");
+    if (strcmp(p, "status") == 0) {
+        const char *accept = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Accept");
+        if (accept != NULL && strstr(accept, "text/plain") != NULL &&
+            strstr(accept, "json") == NULL)
+            return send_summary(c, &a);
+        gw_http_api_status(&j, &a);
+    } else if (strcmp(p, "robots") == 0) {
+        gw_http_api_robots(&j, &a);
+    } else if (strcmp(p, "events") == 0) {
+        return start_events(t, c, method, url);
+    } else if (strcmp(p, "log") == 0) {
+        if (!gw_http_report_log(t->env, &j))
+            return send_error(c, 501, method, url, "not built into this gateway");
+    } else if (strncmp(p, "robots/", 7) == 0) {
+        const char *rest;
+        int r = robot_of(t, p + 7, &rest);
+        if (r < 0)
+            return send_error(c, 404, method, url, "no such robot");
+        if (rest[0] == '\0')
+            gw_http_api_robot(&j, &a, (unsigned)r);
+        else if (strcmp(rest, "/values") == 0)
+            (void)gw_http_api_values(&j, &t->env->robots[r], true, NULL);
+        else if (strcmp(rest, "/map") != 0 || !gw_http_api_map(&j, t->env->cfg, (unsigned)r))
+            return send_error(c, 404, method, url, "not found");
+    } else {
+        return send_error(c, 404, method, url,
+                          "not found (allowed: /api/v1/status, /api/v1/robots, "
+                          "/api/v1/robots/NAME, /api/v1/robots/NAME/values, "
+                          "/api/v1/events?robot=NAME, /api/v1/log)");
+    }
+    if (!j.full && (j.len == 0 || j.buf[j.len - 1] != '\n'))
+        gw_json_str(&j, "\n");
+    return send_json(c, 200, &j);
+}
+
+static enum MHD_Result route(ht_t *t, struct MHD_Connection *c, const char *method,
+                             const char *url)
+{
+    if (strncmp(url, "/api/v1/", 8) == 0)
+        return route_api(t, c, method, url);
+    if (strcmp(url, "/") == 0 || strcmp(url, "/index.html") == 0)
+        return send_asset(c, "index.html", method, url);
+    if (strncmp(url, "/robot/", 7) == 0) {
+        const char *rest;
+        if (robot_of(t, url + 7, &rest) < 0 || rest[0] != '\0')
+            return send_error(c, 404, method, url, "no such robot");
+        return send_asset(c, "robot.html", method, url);
+    }
+    if (strncmp(url, "/static/", 8) == 0)
+        return send_asset(c, url + 8, method, url);
+    if (strcmp(url, "/metrics") == 0) {
+        gw_json_t j;
+        gw_json_init(&j, resp, sizeof resp);
+        if (!gw_http_report_metrics(t->env, &j))
+            return send_error(c, 501, method, url, "not built into this gateway");
+        if (j.full)
+            return send_error(c, 500, method, url, "response too large");
+        return send_buf(c, 200, "text/plain; version=0.0.4; charset=utf-8", j.buf, j.len, true);
+    }
+    return send_error(c, 404, method, url, "not found");
+}
+
+/* Basic authentication, for clients not on loopback when auth_file is
+ * set: true when the request may go on (else the 401 is queued). */
+static bool authorized(ht_t *t, struct MHD_Connection *c, enum MHD_Result *ret)
+{
+    if (t->users.count == 0)
+        return true;
+    const union MHD_ConnectionInfo *ci =
+        ml->get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+    if (ci != NULL && addr_loopback(ci->client_addr))
+        return true;
+    char *pass = NULL;
+    char *user = ml->basic_auth_get_username_password(c, &pass);
+    bool ok = false;
+    if (user != NULL && pass != NULL) {
+        const gw_http_user_t *u = gw_http_passwd_find(&t->users, user);
+        static struct crypt_data cd; /* 32 kB: not on the stack */
+        const char *h = u != NULL ? ml->crypt_r(pass, u->hash, &cd) : NULL;
+        if (h != NULL && strlen(h) == strlen(u->hash)) {
+            /* every byte compared, whatever the first difference */
+            unsigned char diff = 0;
+            for (size_t i = 0; h[i] != '\0'; i++)
+                diff |= (unsigned char)(h[i] ^ u->hash[i]);
+            ok = diff == 0;
+        }
+        if (!ok)
+            gw_log(GW_LOG_INFO, "http: login refused for user %.63s", user);
+    }
+    if (user != NULL)
+        ml->free(user);
+    if (pass != NULL)
+        ml->free(pass);
+    if (ok)
+        return true;
+    static const char body[] = "401 login required\n";
+    struct MHD_Response *r = ml->create_response_from_buffer(sizeof body - 1, unconst(body),
+                                                             MHD_RESPMEM_PERSISTENT);
+    *ret = MHD_NO;
+    if (r != NULL) {
+        (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
+        *ret = ml->queue_basic_auth_fail_response(c, REALM, r);
+        ml->destroy_response(r);
+    }
+    return false;
+}
+
+static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
+                                  const char *method, const char *version,
+                                  const char *upload_data, size_t *upload_data_size,
+                                  void **req_cls)
+{
+    srv_t *sv = cls;
+    ht_t *t = sv->t;
+    (void)version, (void)upload_data;
+    /* Answered at the first call, once the headers are in: a body (which
+     * no route takes) is not waited for; MHD closes after the answer. */
+    *upload_data_size = 0;
+    *req_cls = sv;
+    const union MHD_ConnectionInfo *ci =
+        ml->get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    if (ci != NULL && ci->socket_context != NULL)
+        ((hc_t *)ci->socket_context)->answering = true;
+    enum MHD_Result ret = MHD_YES;
+    if (!authorized(t, c, &ret))
+        return ret;
+    if (strcmp(method, "GET") != 0 && strcmp(method, "HEAD") != 0)
+        return send_error(c, 405, method, url, "method not allowed (allowed: GET, HEAD)");
+    return route(t, c, method, url);
+}
+
+static enum MHD_Result on_accept(void *cls, const struct sockaddr *addr, socklen_t len)
+{
+    const srv_t *sv = cls;
+    (void)len;
+    if (sv->loopback_only)
+        return addr_loopback(addr) ? MHD_YES : MHD_NO;
+    return allowed(&sv->t->cfg, addr) ? MHD_YES : MHD_NO;
+}
+
+static void on_conn(void *cls, struct MHD_Connection *c, void **ctx,
+                    enum MHD_ConnectionNotificationCode what)
+{
+    srv_t *sv = cls;
+    ht_t *t = sv->t;
+    hc_t *h = *ctx;
+    if (what == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo *ci =
+            ml->get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+        if (ci == NULL || (h = calloc(1, sizeof *h)) == NULL)
+            return; /* not tracked: MHD's idle timeout still applies */
+        h->fd = ci->connect_fd;
+        h->deadline_us = ev_now_us() + (uint64_t)t->cfg.timeout_s * 1000000u;
+        h->next = t->conns;
+        t->conns = h;
+        *ctx = h;
+    } else if (what == MHD_CONNECTION_NOTIFY_CLOSED && h != NULL) {
+        for (hc_t **p = &t->conns; *p != NULL; p = &(*p)->next)
+            if (*p == h) {
+                *p = h->next;
+                break;
+            }
+        free(h);
+        *ctx = NULL;
+    }
+}
+
+/* An answer is sent: the next request's head has timeout_s from now. */
+static void on_completed(void *cls, struct MHD_Connection *c, void **req_cls,
+                         enum MHD_RequestTerminationCode why)
+{
+    srv_t *sv = cls;
+    (void)req_cls, (void)why;
+    const union MHD_ConnectionInfo *ci =
+        ml->get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    hc_t *h = ci != NULL ? ci->socket_context : NULL;
+    if (h != NULL) {
+        h->answering = false;
+        h->deadline_us = ev_now_us() + (uint64_t)sv->t->cfg.timeout_s * 1000000u;
+    }
+}
+
+/* Connections whose request is late: shut down (once). */
+static void cut_slow(ht_t *t, uint64_t now)
+{
+    for (hc_t *h = t->conns; h != NULL; h = h->next)
+        if (!h->answering && now >= h->deadline_us) {
+            (void)shutdown(h->fd, SHUT_RDWR);
+            h->deadline_us = UINT64_MAX;
+            gw_log_limited(GW_LOG_INFO, &t->slow_limit,
+                           "http: a client did not send its request within %u s: closed",
+                           t->cfg.timeout_s);
+        }
+}
+
+static char *mhd_err; /* where MHD's messages go while a server starts */
+static size_t mhd_errlen;
+
+static void on_mhd_log(void *cls, const char *fmt, va_list ap)
+{
+    ht_t *t = cls;
+    char msg[256];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    msg[strcspn(msg, "\r\n")] = '\0';
+    if (mhd_err != NULL) {
+        snprintf(mhd_err, mhd_errlen, "%s", msg);
+        return;
+    }
+    /* Clients' misdeeds (a TLS handshake that is not one, a connection
+     * over the limit): at most one line every 10 s. */
+    gw_log_limited(GW_LOG_INFO, &t->mhd_limit, "http: %s", msg);
+}
+
+/* ---- servers ------------------------------------------------------------------------ */
+
+static void on_ready(void *obj, uint32_t events)
+{
+    srv_t *sv = obj;
+    (void)events;
+    (void)ml->run(sv->d);
+}
+
+/* A listening TCP socket on addr:port; -1 with err. */
+static int open_listener(const char *addr, uint16_t port, char *err, size_t errlen)
+{
+    struct sockaddr_in sin;
+    memset(&sin, 0, sizeof sin);
+    sin.sin_family = AF_INET;
+    sin.sin_port = htons(port);
+    if (inet_pton(AF_INET, addr, &sin.sin_addr) != 1) {
+        snprintf(err, errlen, "http: listen %s: not an IPv4 address", addr);
+        return -1;
+    }
+    int fd = socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    int one = 1;
+    if (fd < 0 || setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
+        bind(fd, (const struct sockaddr *)&sin, sizeof sin) != 0 || listen(fd, 64) != 0) {
+        snprintf(err, errlen, "http: cannot listen on %s:%u: %s", addr, (unsigned)port,
+                 strerror(errno));
+        if (fd >= 0)
+            (void)close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+/* MHD on sv->lfd (taken over: MHD closes it); false with err. */
+static bool srv_start(srv_t *sv, ht_t *t, char *err, size_t errlen)
+{
+    const gw_http_config_t *h = &t->cfg;
+    unsigned flags = MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
+    char why[256] = "";
+    struct MHD_OptionItem opts[] = {
+        {MHD_OPTION_LISTEN_SOCKET, sv->lfd, NULL},
+        {MHD_OPTION_CONNECTION_LIMIT, (intptr_t)h->max_connections, NULL},
+        {MHD_OPTION_CONNECTION_TIMEOUT, (intptr_t)h->timeout_s, NULL},
+        {MHD_OPTION_CONNECTION_MEMORY_LIMIT, (intptr_t)h->max_request_bytes, NULL},
+        {MHD_OPTION_END, 0, NULL}, /* TLS: two more, below */
+        {MHD_OPTION_END, 0, NULL},
+        {MHD_OPTION_END, 0, NULL},
+    };
+    if (sv->tls) {
+        flags |= MHD_USE_TLS;
+        opts[4] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_CERT, 0, t->cert};
+        opts[5] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_KEY, 0, t->key};
+    }
+    mhd_err = why;
+    mhd_errlen = sizeof why;
+    sv->d = ml->start_daemon(flags, 0, on_accept, sv, on_request, sv,
+                             MHD_OPTION_EXTERNAL_LOGGER, on_mhd_log, t,
+                             MHD_OPTION_NOTIFY_CONNECTION, on_conn, sv,
+                             MHD_OPTION_NOTIFY_COMPLETED, on_completed, sv,
+                             MHD_OPTION_ARRAY, opts, MHD_OPTION_END);
+    mhd_err = NULL;
+    if (sv->d == NULL) {
+        (void)close(sv->lfd);
+        sv->lfd = -1;
+        snprintf(err, errlen, "http: cannot start the server on %s:%u: %s",
+                 sv->loopback_only ? "127.0.0.1" : h->listen,
+                 (unsigned)(sv->loopback_only ? h->status_port : h->port),
+                 why[0] ? why : "libmicrohttpd refused its settings");
+        return false;
+    }
+    return true;
+}
+
+/* MHD's epoll descriptor into the loop (commit). */
+static bool srv_watch(srv_t *sv, int epfd)
+{
+    if (sv->d == NULL)
+        return true;
+    const union MHD_DaemonInfo *di = ml->get_daemon_info(sv->d, MHD_DAEMON_INFO_EPOLL_FD);
+    if (di == NULL || !ev_watch(epfd, &sv->ev, di->epoll_fd, EPOLLIN)) {
+        gw_log(GW_LOG_ERROR, "http: epoll: %s", strerror(errno));
+        return false;
+    }
+    return true;
+}
+
+static void srv_stop(srv_t *sv, int epfd)
+{
+    if (sv->d == NULL) {
+        if (sv->lfd >= 0)
+            (void)close(sv->lfd);
+        sv->lfd = -1;
+        return;
+    }
+    ev_unwatch(epfd, &sv->ev);
+    ml->stop_daemon(sv->d); /* closes lfd and every connection */
+    sv->d = NULL;
+    sv->lfd = -1;
+}
+
+/* ---- the side ------------------------------------------------------------------------ */
+
+static void ht_free(ht_t *t)
+{
+    if (t == NULL)
+        return;
+    if (t->streams != NULL && ml != NULL) {
+        /* MHD must not be stopped with suspended connections: each ends
+         * its stream at its next turn, which MHD_run gives it. */
+        sse_resume(t, UINT64_MAX, true);
+    }
+    for (unsigned i = 0; i < 2; i++)
+        srv_stop(&t->srv[i], t->env->epfd);
+    free(t->cert);
+    free(t->key);
+    free(t);
+}
+
+/* The listening socket of a server of `running` on the same address and
+ * port, duplicated (a reload keeps the port open), else a new one. */
+static int listener(const ht_t *running, const char *addr, uint16_t port, char *err,
+                    size_t errlen)
+{
+    for (unsigned i = 0; running != NULL && running->cfg.enabled && i < 2; i++) {
+        const srv_t *sv = &running->srv[i];
+        const char *a = i == 0 ? running->cfg.listen : "127.0.0.1";
+        uint16_t p = i == 0 ? running->cfg.port : running->cfg.status_port;
+        if (sv->d != NULL && strcmp(a, addr) == 0 && p == port) {
+            const union MHD_DaemonInfo *di = ml->get_daemon_info(sv->d, MHD_DAEMON_INFO_LISTEN_FD);
+            int fd = di != NULL ? fcntl(di->listen_fd, F_DUPFD_CLOEXEC, 0) : -1;
+            if (fd < 0)
+                snprintf(err, errlen, "http: cannot keep the listening socket: %s",
+                         strerror(errno));
+            return fd;
+        }
+    }
+    return open_listener(addr, port, err, errlen);
+}
+
+/* From [http]: files read, sockets listening, servers started but not yet
+ * in the loop (commit, or create, puts them there). */
+static ht_t *ht_new(const gw_http_config_t *h, const gw_north_env_t *env, const ht_t *running,
+                    char *err, size_t errlen)
+{
+    ht_t *t = calloc(1, sizeof *t);
+    if (t == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    t->env = env;
+    t->cfg = *h;
+    for (unsigned i = 0; i < 2; i++) {
+        t->srv[i] = (srv_t){t, NULL, {on_ready, &t->srv[i], -1, 0}, -1, false, i == 1};
+    }
+    if (!h->enabled)
+        return t;
+    if ((ml = gw_mhdlib_load(err, errlen)) == NULL) {
+        free(t);
+        return NULL;
+    }
+    bool tls = h->tls_cert[0] != '\0';
+    if (h->auth_file[0] != '\0' && !gw_http_passwd_load(h->auth_file, &t->users, err, errlen)) {
+        char why[400];
+        snprintf(why, sizeof why, "%s", err);
+        snprintf(err, errlen, "http: auth_file %s", why);
+        ht_free(t);
+        return NULL;
+    }
+    if (tls && ((t->cert = read_file(h->tls_cert, "tls_cert", err, errlen)) == NULL ||
+                (t->key = read_file(h->tls_key, "tls_key", err, errlen)) == NULL)) {
+        ht_free(t);
+        return NULL;
+    }
+    t->srv[0].tls = tls;
+    t->srv[0].lfd = listener(running, h->listen, h->port, err, errlen);
+    if (t->srv[0].lfd < 0 || !srv_start(&t->srv[0], t, err, errlen)) {
+        ht_free(t);
+        return NULL;
+    }
+    if (tls && h->status_port != 0) {
+        t->srv[1].lfd = listener(running, "127.0.0.1", h->status_port, err, errlen);
+        if (t->srv[1].lfd < 0 || !srv_start(&t->srv[1], t, err, errlen)) {
+            ht_free(t);
+            return NULL;
+        }
+    }
+    return t;
+}
+
+static bool ht_watch(ht_t *t)
+{
+    return srv_watch(&t->srv[0], t->env->epfd) && srv_watch(&t->srv[1], t->env->epfd);
+}
+
+static void ht_started(const ht_t *t)
+{
+    const gw_http_config_t *h = &t->cfg;
+    if (!h->enabled)
+        return;
+    gw_log(GW_LOG_INFO, "http: console on %s://%s:%u/%s%s", t->srv[0].tls ? "https" : "http",
+           h->listen, (unsigned)h->port, t->users.count > 0 ? " (login for non-loopback clients)" : "",
+           h->insecure ? " (insecure = yes)" : "");
+}
+
+static void *ht_create(const gw_north_env_t *env, char *err, size_t errlen)
+{
+    if (start_us == 0)
+        start_us = ev_now_us();
+    ht_t *t = ht_new(&env->cfg->http, env, NULL, err, errlen);
+    if (t != NULL && !ht_watch(t)) {
+        snprintf(err, errlen, "http: epoll: %s", strerror(errno));
+        ht_free(t);
+        return NULL;
+    }
+    if (t != NULL)
+        ht_started(t);
+    return t;
+}
+
+/* Everything but where the keys are in the file. */
+static bool same_config(const gw_http_config_t *a, const gw_http_config_t *b)
+{
+    if (a->enabled != b->enabled || strcmp(a->listen, b->listen) != 0 || a->port != b->port ||
+        a->allow_count != b->allow_count || strcmp(a->tls_cert, b->tls_cert) != 0 ||
+        strcmp(a->tls_key, b->tls_key) != 0 || strcmp(a->auth_file, b->auth_file) != 0 ||
+        a->insecure != b->insecure || a->status_port != b->status_port ||
+        a->max_connections != b->max_connections || a->timeout_s != b->timeout_s ||
+        a->max_request_bytes != b->max_request_bytes)
+        return false;
+    for (unsigned i = 0; i < a->allow_count; i++)
+        if (a->allow[i].net != b->allow[i].net || a->allow[i].mask != b->allow[i].mask ||
+            a->allow[i].read_write != b->allow[i].read_write)
+            return false;
+    return true;
+}
+
+/* An unchanged [http] keeps its servers and connections. A changed one
+ * is made whole (files read, port bound, server started) while this one
+ * runs; a password or certificate file that changed on disk is read at a
+ * reload only when the section changed too. */
+static gw_north_reload_t ht_prepare(void *self, const gw_config_t *next, const gw_north_env_t *env,
+                                    void **out, char *err, size_t errlen)
+{
+    ht_t *t = self;
+    if (same_config(&t->cfg, &next->http)) {
+        *out = self;
+        return GW_NORTH_OK;
+    }
+    *out = ht_new(&next->http, env, t, err, errlen);
+    return *out != NULL ? GW_NORTH_OK : GW_NORTH_REFUSED;
+}
+
+/* cppcheck-suppress constParameter ; the signature is gw_north_ops_t's */
+static void ht_abort(void *self, void *out)
+{
+    if (out != self)
+        ht_free(out);
+}
+
+static void *ht_commit(void *self, void *out, const gw_north_env_t *env)
+{
+    ht_t *t = self, *n = out;
+    (void)env;
+    n->generation = t->generation + 1u;
+    if (n == t)
+        return n;
+    ht_free(t);
+    if (!ht_watch(n)) {
+        ht_free(n);
+        return NULL;
+    }
+    ht_started(n);
+    return n;
+}
+
+static void ht_tick(void *self, uint64_t now)
+{
+    ht_t *t = self;
+    if (!t->cfg.enabled)
+        return;
+    sse_resume(t, now, false);
+    cut_slow(t, now);
+    for (unsigned i = 0; i < 2; i++) {
+        MHD_UNSIGNED_LONG_LONG ms;
+        if (t->srv[i].d != NULL && ml->get_timeout(t->srv[i].d, &ms) == MHD_YES && ms == 0)
+            (void)ml->run(t->srv[i].d);
+    }
+}
+
+static uint64_t ht_deadline(const void *self)
+{
+    const ht_t *t = self;
+    if (!t->cfg.enabled)
+        return UINT64_MAX;
+    uint64_t d = UINT64_MAX, now = ev_now_us();
+    for (const sse_t *s = t->streams; s != NULL; s = s->next)
+        if (s->suspended && s->next_us < d)
+            d = s->next_us;
+    for (const hc_t *h = t->conns; h != NULL; h = h->next)
+        if (!h->answering && h->deadline_us < d)
+            d = h->deadline_us;
+    for (unsigned i = 0; i < 2; i++) {
+        MHD_UNSIGNED_LONG_LONG ms;
+        if (t->srv[i].d != NULL && ml->get_timeout(t->srv[i].d, &ms) == MHD_YES &&
+            now + ms * 1000u < d)
+            d = now + ms * 1000u;
+    }
+    return d;
+}
+
+static void ht_on_data(void *self, unsigned robot, dr_asm_t a)
+{
+    (void)self, (void)robot, (void)a; /* the streams look at the images at their pace */
+}
+
+static void ht_on_link(void *self, unsigned robot, bool up)
+{
+    (void)self, (void)robot, (void)up;
+}
+
+static void ht_on_fault(void *self, unsigned robot, bool latched)
+{
+    (void)self, (void)robot, (void)latched;
+}
+
+/* Ten times a second, a turn for MHD whatever its descriptors say: at
+ * max_connections it takes its listening socket out of its epoll set and
+ * puts it back only within MHD_run, which nothing would call once the
+ * last connection is gone (no event, no timeout). One epoll_wait(0). */
+static void ht_refresh(void *self)
+{
+    ht_t *t = self;
+    for (unsigned i = 0; t->cfg.enabled && i < 2; i++)
+        if (t->srv[i].d != NULL)
+            (void)ml->run(t->srv[i].d);
+}
+
+static void ht_safe(void *self)
+{
+    (void)self; /* no outputs */
+}
+
+static void ht_side_free(void *self)
+{
+    ht_free(self);
+}
+
+const gw_north_ops_t gw_north_http = {
+    "http",     ht_create,  ht_prepare,  ht_abort,   ht_commit, ht_tick,      ht_deadline,
+    ht_on_data, ht_on_link, ht_on_fault, ht_refresh, ht_safe,   ht_side_free,
+    NULL,       NULL,
+};
+
+/* ---- --check-config -------------------------------------------------------------------- */
+
+bool gw_http_check_tls(const gw_config_t *cfg, char *err, size_t errlen)
+{
+    const gw_http_config_t *h = &cfg->http;
+    if (!h->enabled || h->tls_cert[0] == '\0')
+        return true;
+    char why[256] = "";
+    if ((ml = gw_mhdlib_load(why, sizeof why)) == NULL) {
+        snprintf(err, errlen, "%s:%u: %s", cfg->path, h->line, why);
+        return false;
+    }
+    static ht_t t;
+    memset(&t, 0, sizeof t);
+    t.cfg = *h;
+    t.cert = read_file(h->tls_cert, "tls_cert", why, sizeof why);
+    t.key = t.cert != NULL ? read_file(h->tls_key, "tls_key", why, sizeof why) : NULL;
+    struct MHD_Daemon *d = NULL;
+    if (t.key != NULL) {
+        why[0] = '\0';
+        mhd_err = why;
+        mhd_errlen = sizeof why;
+        d = ml->start_daemon(MHD_USE_EPOLL | MHD_USE_TLS | MHD_USE_NO_LISTEN_SOCKET |
+                                 MHD_USE_ERROR_LOG,
+                             0, NULL, NULL, on_request, NULL, MHD_OPTION_EXTERNAL_LOGGER,
+                             on_mhd_log, &t, MHD_OPTION_HTTPS_MEM_CERT, t.cert,
+                             MHD_OPTION_HTTPS_MEM_KEY, t.key, MHD_OPTION_END);
+        mhd_err = NULL;
+    }
+    free(t.cert);
+    free(t.key);
+    if (d == NULL) {
+        snprintf(err, errlen, "%s:%u: [http] tls_cert %s and tls_key %s do not load: %s",
+                 cfg->path, h->tls_line, h->tls_cert, h->tls_key,
+                 why[0] ? why : "not a certificate and its key");
+        return false;
+    }
+    ml->stop_daemon(d);
+    return true;
+}

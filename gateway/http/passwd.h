@@ -1,0 +1,44 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The console's password file ([http] auth_file, docs/http.md): one
+ * `user:HASH` line per user, HASH a crypt(3) hash as `openssl passwd -6`
+ * or `mkpasswd` write them ($6$..., $5$..., $y$...); blank lines and
+ * lines starting with '#' are skipped. Parsed here without a library (the
+ * configuration check and the unit test use it); the daemon checks a
+ * password against the hash with libcrypt's crypt_r (mhd_lib.h).
+ */
+#ifndef GW_HTTP_PASSWD_H
+#define GW_HTTP_PASSWD_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#define GW_HTTP_USERS_MAX 32
+#define GW_HTTP_USER_MAX 64  /* bytes of a user name, its '\0' included */
+#define GW_HTTP_HASH_MAX 192 /* bytes of a hash, its '\0' included */
+#define GW_HTTP_PASSWD_FILE_MAX 65536
+
+typedef struct {
+    char user[GW_HTTP_USER_MAX];
+    char hash[GW_HTTP_HASH_MAX];
+} gw_http_user_t;
+
+typedef struct {
+    unsigned count;
+    gw_http_user_t user[GW_HTTP_USERS_MAX];
+} gw_http_users_t;
+
+/* The text of a whole file (len bytes, no '\0' needed) into *out. False
+ * with the offending line (1-based) in *line and what is wrong in why;
+ * a file with no user is refused too (line 0). */
+bool gw_http_passwd_parse(const char *text, size_t len, gw_http_users_t *out, unsigned *line,
+                          char *why, size_t whylen);
+
+/* Read and parse the file at path: false with "PATH: ..." (the line
+ * number, or the system's error) in err. */
+bool gw_http_passwd_load(const char *path, gw_http_users_t *out, char *err, size_t errlen);
+
+/* The user's entry, NULL if none. */
+const gw_http_user_t *gw_http_passwd_find(const gw_http_users_t *u, const char *user);
+
+#endif
