@@ -73,7 +73,7 @@ GW_TEST_PEERS    = if ! $(GW_TEST_PY) -c 'import pytest, pymodbus, xdist' 2>/dev
 check-gw-boundary:
 	@sh mk/gw-boundary.sh "$(RESULTS)"
 
-check-gateway: $(GW_BIN) $(SIM_BIN)
+check-gateway: $(GW_BIN) $(SIM_BIN) $(CLI_BIN)
 	@sh mk/gw-boundary.sh "$(RESULTS)"
 	@$(call GW_TEST_PEERS,drgatewayd end to end)
 	@$(call GW_TEST_RUN,$(B),drgatewayd end to end (tests/gateway)$(if $(GW_COVERAGE), [coverage build]))
@@ -83,7 +83,7 @@ check-gateway-asan:
 	@$(call GW_TEST_PEERS,drgatewayd end to end [asan])
 	$(MAKE) --no-print-directory B=$(B)/asan CFLAGS="$(SAN_FLAGS)" \
 	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
-	    $(B)/asan/drgatewayd $(B)/asan/drsim
+	    $(B)/asan/drgatewayd $(B)/asan/drsim $(B)/asan/drcli
 	@$(call GW_TEST_RUN,$(B)/asan,drgatewayd end to end (tests/gateway) [asan],\
 	    GW_TIMEOUT_SCALE=3 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0)
 

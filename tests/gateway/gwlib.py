@@ -30,6 +30,9 @@ TOP = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("GW_BUILD", TOP / "build"))
 DRGATEWAYD = Path(os.environ.get("DRGATEWAYD", BUILD / "drgatewayd"))
 DRSIM = Path(os.environ.get("DRSIM", BUILD / "drsim"))
+# The tests' independent reader of the robot (drcli get/list), from the same
+# build as the daemon (make check-gateway and check-gateway-asan build it).
+DRCLI = Path(os.environ.get("DRCLI", BUILD / "drcli"))
 # Under pytest-xdist (make check runs the suite with two workers, `-n 2`)
 # each worker keeps its files in a folder of its own (gw0, gw1, ...), since
 # tests name their configurations and logs after themselves, and takes

@@ -24,10 +24,9 @@ import time
 
 import pytest
 
-from gwlib import (BUILD, DRGATEWAYD, EXIT_CONFIG, GW_ADDR, LOGDIR, SIM_ADDR, Drsim, Gateway,
+from gwlib import (DRCLI, DRGATEWAYD, EXIT_CONFIG, GW_ADDR, LOGDIR, SIM_ADDR, Drsim, Gateway,
                    dint_regs, free_port, kill_all, running, skip, spawn, timeout, wait_for)
 
-DRCLI = BUILD / "drcli"
 ASSEMBLIES = ("io_state", "joint_state", "task_state", "bit_out", "int_out", "float_out",
               "io_control", "bit_in", "int_in", "float_in")
 

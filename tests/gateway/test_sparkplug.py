@@ -20,7 +20,7 @@ import time
 
 import pytest
 
-from gwlib import GW_ADDR, SIM_ADDR, noise_of, running, timeout, wait_for
+from gwlib import DRCLI, GW_ADDR, SIM_ADDR, noise_of, running, timeout, wait_for
 
 pysparkplug = pytest.importorskip("pysparkplug")
 
@@ -30,7 +30,6 @@ from pysparkplug import (DataType, DCmd, Message, Metric, NCmd, QoS,  # noqa: E4
 from pysparkplug._protobuf import Payload as PbPayload  # noqa: E402
 
 GROUP, EDGE = "cell1", "gw1"
-DRCLI = os.environ.get("DRCLI", os.path.join(os.environ.get("GW_BUILD", "build"), "drcli"))
 TYPES = {"BOOL": DataType.BOOLEAN, "USINT": DataType.UINT8, "USINT enum": DataType.UINT8,
          "DINT": DataType.INT32, "REAL": DataType.FLOAT}
 
@@ -131,7 +130,7 @@ def wait_born(host, n=1):
 
 
 def drcli(*args):
-    out = subprocess.run([DRCLI] + list(args), check=True, capture_output=True, text=True,
+    out = subprocess.run([str(DRCLI)] + list(args), check=True, capture_output=True, text=True,
                          timeout=timeout(20))
     return json.loads(out.stdout)
 
