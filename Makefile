@@ -164,7 +164,8 @@ GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBU
 # [mqtt] section (gateway/mqtt/mqtt_lib.c, docs/mqtt.md): the daemon is compiled
 # against its header but does not link it. glibc 2.34 and later have
 # dlopen in libc; -ldl is an empty stub there and keeps older C libraries
-# linking.
+# linking. The console's libmicrohttpd and libcrypt are loaded the same
+# way, only with [http] (gateway/http/mhd_lib.c, docs/http.md).
 GW_LIBS     := $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
 GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
 

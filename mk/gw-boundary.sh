@@ -3,8 +3,9 @@
 # The gateway's robot boundary (docs/gateway.md, issue 13): the robot
 # (gateway/robot.[ch]) and its link (gateway/link.[ch]) know nothing of
 # Modbus, and the other northbound sides (GPIO, MQTT) read the robot
-# (gw_robot_t), not Modbus's units. Fails if one of those files includes a
-# Modbus header or names a Modbus-side symbol outside its comments
+# (gw_robot_t), not Modbus's units; nor does the console's HTTP side,
+# which hears of Modbus only through the sides' reports. Fails if one of
+# those files includes a Modbus header or names a Modbus-side symbol outside its comments
 # (stripped by the preprocessor first, so a comment may say why).
 # usage: gw-boundary.sh RESULTS [TOP]   (TOP: the tree to check, default .)
 results=$1; top=${2:-.}
@@ -44,6 +45,8 @@ check gateway/gpio/gpiomap.h inc,unit
 check gateway/gpio/gpiomap.c inc,unit
 check gateway/gpio/north_gpio.c inc,unit
 check gateway/mqtt/north_mqtt.c inc,unit
+check gateway/http/north_http.c inc,unit
+check gateway/http/api.c inc,unit
 check gateway/core/north.h inc,unit
 check gateway/core/north.c inc,unit
 if [ "$fail" -eq 0 ]; then

@@ -42,6 +42,7 @@ typedef struct {
     bool stop, reload;
     uint64_t start_us, next_tick_us, next_beat_us;
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
+    bool notify;          /* under systemd (NOTIFY_SOCKET): STATUS= lines */
     uint64_t last_notify_us;
     char status_line[1024]; /* the last STATUS= sent to systemd */
     uint16_t generation;
@@ -98,7 +99,8 @@ static void on_data(void *user, unsigned robot, dr_asm_t a)
 static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
 
 /* systemd's STATUS= (systemctl status shows it) when it changes: each
- * robot's link in words, as drgatewayd status says it. */
+ * robot's link in words, as drgatewayd status says it, and the Modbus
+ * clients and MQTT from the sides' reports. */
 static void notify_status(gw_t *g)
 {
     char line[sizeof g->status_line];
@@ -174,7 +176,8 @@ static void tick(gw_t *g, uint64_t now, bool busy)
         g->next_beat_us = now + 1000000u;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
         gw_north_sides[i]->refresh(g->side[i]);
-    notify_status(g);
+    if (beat && g->notify)
+        notify_status(g); /* once a second, and only for systemd */
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_robot_t *rb = &g->robots[r];
         rb->uptime_s = (uint32_t)((now - g->start_us) / 1000000u);
@@ -438,6 +441,8 @@ static int run(gw_t *g)
         shutdown_all(g);
         return close_loop(g, 1);
     }
+    const char *ns = getenv("NOTIFY_SOCKET");
+    g->notify = ns != NULL && ns[0] != '\0';
     uint64_t wd = 0;
     if (sd_watchdog_enabled(0, &wd) > 0)
         g->watchdog_us = wd;

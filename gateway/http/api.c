@@ -124,7 +124,7 @@ void gw_http_api_status(gw_json_t *j, const gw_http_api_t *a)
     gw_json_str(j, "}}");
 }
 
-unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, double *last)
+unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uint64_t *last)
 {
     unsigned n = 0, leaves = dr_leaf_count();
     gw_json_str(j, "{");
@@ -138,13 +138,15 @@ unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, dou
          * GW_HTTP_API_UNSENT (all bits set) no value. Before the text is
          * made: a live stream formats only what changed (bench-console). */
         double x = dr_value_as_double(&v);
-        if (last != NULL && memcmp(&last[i], &x, sizeof x) == 0)
+        uint64_t bits;
+        memcpy(&bits, &x, sizeof bits);
+        if (last != NULL && last[i] == bits)
             continue;
         if (dr_ref_path(ref, path, sizeof path) != DR_OK ||
             dr_text_json(&v, tok, sizeof tok) != DR_OK)
             continue;
         if (last != NULL)
-            memcpy(&last[i], &x, sizeof x);
+            last[i] = bits;
         gw_json_str(j, n > 0 ? (indent ? ",\n  " : ",") : (indent ? "\n  " : ""));
         qstr(j, path);
         gw_json_str(j, indent ? ": " : ":");

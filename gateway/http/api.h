@@ -38,11 +38,12 @@ void gw_http_api_status(gw_json_t *j, const gw_http_api_t *a);
 /* {"path": value, ...}: every leaf of the robot's images, keyed and
  * valued as `drcli get --json` prints them (dr_text_json), in the
  * library's leaf order; `indent`: as drcli lays it out (two spaces per
- * line), else on one line. With `last` (dr_leaf_count() doubles, each
- * byte 0xFF before the first: GW_HTTP_API_UNSENT), only the leaves whose value differs from it, which is then
- * updated; returns how many leaves were written. */
+ * line), else on one line. With `last` (dr_leaf_count() values' bits,
+ * each byte GW_HTTP_API_UNSENT before the first), only the leaves whose
+ * value differs from it, which is then updated. Returns how many leaves
+ * were written. */
 #define GW_HTTP_API_UNSENT 0xFF
-unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, double *last);
+unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uint64_t *last);
 
 /* The link state in words: "up", "connecting", "down". */
 const char *gw_http_api_link_name(const gw_robot_t *rb);

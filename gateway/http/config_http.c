@@ -143,16 +143,15 @@ static void http_check(gw_cfg_ctx_t *c)
     bool tls = h->tls_cert[0] != '\0', auth = h->auth_file[0] != '\0';
     if (!is_loopback(h->listen) && !(tls && auth) && !h->insecure) {
         unsigned line = gw_cfg_line(c, s, 0, "listen");
+        const char *how = "to anyone", *add = "auth_file";
+        if (!tls) {
+            how = auth ? "in clear text (passwords too)" : "in clear text and to anyone";
+            add = auth ? "tls_cert and tls_key" : "tls_cert, tls_key and auth_file";
+        }
         gw_cfg_fail(c, line != 0 ? line : h->line,
                     "[http] listen %s serves the console to other hosts %s: add %s, or "
                     "insecure = yes to serve it so knowingly (docs/http.md)",
-                    h->listen,
-                    !tls && !auth ? "in clear text and to anyone"
-                    : !tls        ? "in clear text (passwords too)"
-                                  : "to anyone",
-                    !tls && !auth ? "tls_cert, tls_key and auth_file"
-                    : !tls        ? "tls_cert and tls_key"
-                                  : "auth_file");
+                    h->listen, how, add);
         return;
     }
     if (h->status_port != 0 && h->status_port == h->port)

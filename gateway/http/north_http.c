@@ -80,7 +80,7 @@ typedef struct sse {
     bool suspended, closing, started;
     uint64_t next_us, quiet_since_us;
     size_t len, off; /* buf[off..len): not yet taken by MHD */
-    double *last;    /* per leaf: the value last sent */
+    uint64_t *last;  /* per leaf: the value last sent (api.h) */
     char buf[SSE_BUF];
 } sse_t;
 
@@ -170,11 +170,20 @@ static char *read_file(const char *path, const char *key, char *err, size_t errl
 
 /* ---- responses -------------------------------------------------------------------- */
 
+/* MHD's buffer responses take a `void *` they only read (PERSISTENT) or
+ * copy (MUST_COPY). */
+static void *unconst(const void *p)
+{
+    void *q;
+    memcpy(&q, &p, sizeof q);
+    return q;
+}
+
 static enum MHD_Result send_buf(struct MHD_Connection *c, unsigned status, const char *type,
                                 const void *data, size_t len, bool copy)
 {
     struct MHD_Response *r = ml->create_response_from_buffer(
-        len, (void *)(uintptr_t)data, copy ? MHD_RESPMEM_MUST_COPY : MHD_RESPMEM_PERSISTENT);
+        len, unconst(data), copy ? MHD_RESPMEM_MUST_COPY : MHD_RESPMEM_PERSISTENT);
     if (r == NULL)
         return MHD_NO;
     (void)ml->add_response_header(r, "Content-Type", type);
@@ -512,7 +521,7 @@ static bool authorized(ht_t *t, struct MHD_Connection *c, enum MHD_Result *ret)
     if (ok)
         return true;
     static const char body[] = "401 login required\n";
-    struct MHD_Response *r = ml->create_response_from_buffer(sizeof body - 1, (void *)body,
+    struct MHD_Response *r = ml->create_response_from_buffer(sizeof body - 1, unconst(body),
                                                              MHD_RESPMEM_PERSISTENT);
     *ret = MHD_NO;
     if (r != NULL) {
@@ -851,11 +860,18 @@ static void *ht_create(const gw_north_env_t *env, char *err, size_t errlen)
 /* Everything but where the keys are in the file. */
 static bool same_config(const gw_http_config_t *a, const gw_http_config_t *b)
 {
-    gw_http_config_t x = *a, y = *b;
-    x.tls_line = y.tls_line = x.auth_line = y.auth_line = x.line = y.line = 0;
-    /* the structs were zeroed whole before parsing (gw_config_defaults),
-     * so padding and the text fields' tails compare equal */
-    return memcmp(&x, &y, sizeof x) == 0;
+    if (a->enabled != b->enabled || strcmp(a->listen, b->listen) != 0 || a->port != b->port ||
+        a->allow_count != b->allow_count || strcmp(a->tls_cert, b->tls_cert) != 0 ||
+        strcmp(a->tls_key, b->tls_key) != 0 || strcmp(a->auth_file, b->auth_file) != 0 ||
+        a->insecure != b->insecure || a->status_port != b->status_port ||
+        a->max_connections != b->max_connections || a->timeout_s != b->timeout_s ||
+        a->max_request_bytes != b->max_request_bytes)
+        return false;
+    for (unsigned i = 0; i < a->allow_count; i++)
+        if (a->allow[i].net != b->allow[i].net || a->allow[i].mask != b->allow[i].mask ||
+            a->allow[i].read_write != b->allow[i].read_write)
+            return false;
+    return true;
 }
 
 /* An unchanged [http] keeps its servers and connections. A changed one
@@ -947,9 +963,16 @@ static void ht_on_fault(void *self, unsigned robot, bool latched)
     (void)self, (void)robot, (void)latched;
 }
 
+/* Ten times a second, a turn for MHD whatever its descriptors say: at
+ * max_connections it takes its listening socket out of its epoll set and
+ * puts it back only within MHD_run, which nothing would call once the
+ * last connection is gone (no event, no timeout). One epoll_wait(0). */
 static void ht_refresh(void *self)
 {
-    (void)self;
+    ht_t *t = self;
+    for (unsigned i = 0; t->cfg.enabled && i < 2; i++)
+        if (t->srv[i].d != NULL)
+            (void)ml->run(t->srv[i].d);
 }
 
 static void ht_safe(void *self)

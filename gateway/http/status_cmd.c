@@ -171,15 +171,17 @@ int gw_http_status_command(const char *config)
         return GW_HTTP_STATUS_UNREACHABLE;
     }
     char *body = strstr(resp, "\r\n\r\n");
-    unsigned code = 0;
-    if (body == NULL || sscanf(resp, "HTTP/%*u.%*u %u", &code) != 1) {
+    const char *sp = strchr(resp, ' ');
+    unsigned long code = 0;
+    if (body == NULL || strncmp(resp, "HTTP/1.", 7) != 0 || sp == NULL ||
+        (code = strtoul(sp + 1, NULL, 10)) < 100 || code > 599) {
         fprintf(stderr, "drgatewayd status: http://%s:%u/ did not answer in HTTP\n", addr, port);
         return GW_HTTP_STATUS_UNREACHABLE;
     }
     body += 4;
     const char *down = header(resp, body, "X-Robots-Down");
     if (code != 200 || down == NULL) {
-        fprintf(stderr, "drgatewayd status: http://%s:%u/api/v1/status answered %u%s: %.200s\n",
+        fprintf(stderr, "drgatewayd status: http://%s:%u/api/v1/status answered %lu%s: %.200s\n",
                 addr, port, code, code == 401 ? " (it asks a login of this address)" : "",
                 body);
         return GW_HTTP_STATUS_UNREACHABLE;

@@ -301,10 +301,10 @@ def test_status_command_unreachable_and_no_http(tmp_path):
 
 
 def test_flood_does_not_delay_modbus_or_the_robot(gw, regmap):
-    """500 connections and 50 slowloris clients (a header byte a second)
-    against the console: Modbus replies keep coming, the robot's link stays
-    up without a timeout, the slow clients are cut at timeout_s, and the
-    console serves again once the flood is over."""
+    """500 connections, an idle one and 50 slowloris clients (a header byte
+    a second) against the console: Modbus replies keep coming, the robot's
+    link stays up without a timeout, the idle and slow clients are cut at
+    timeout_s, and the console serves again once the flood is over."""
     mark = len(gw.log())
     before = get_json(gw.http, "/api/v1/robots/r0")["rx_packets"]
     socks, stop = [], threading.Event()
@@ -317,7 +317,8 @@ def test_flood_does_not_delay_modbus_or_the_robot(gw, regmap):
         except OSError:
             pass
 
-    slow = []
+    # an idle client (connects, sends nothing) and 50 slow ones
+    slow = [socket.create_connection((GW_ADDR, gw.http), timeout=timeout(10))]
     for _ in range(50):
         s = socket.create_connection((GW_ADDR, gw.http), timeout=timeout(10))
         slow.append(s)
@@ -336,7 +337,7 @@ def test_flood_does_not_delay_modbus_or_the_robot(gw, regmap):
                 assert len(v) == 2
         st = gw.status(1)
         assert st[1] == 2 and st[2] == 1  # link up, data fresh
-        # slow clients are closed at timeout_s (3 s), not kept
+        # idle and slow clients are closed at timeout_s (3 s), not kept
         def cut():
             n = 0
             for s in slow:
@@ -401,6 +402,20 @@ def test_reload_moves_the_port_and_keeps_the_link(tmp_path):
         p = subprocess.run([str(DRGATEWAYD), "status", "-c", str(g.conf)],
                            capture_output=True, text=True, timeout=timeout(30))
         assert p.returncode == 0 and "generation 1" in p.stdout
+        # a port that is taken refuses the reload: the console stays where it is
+        taken = socket.socket()
+        taken.bind((GW_ADDR, 0))
+        taken.listen(1)
+        try:
+            mark = len(g.log())
+            g.extra = "\n[http]\nport = %d\n" % taken.getsockname()[1]
+            g.write_config()
+            g.signal(signal.SIGHUP)
+            g.log_wait("reload refused, keeping the running configuration: http: cannot "
+                       "listen on 127.0.0.1:%d" % taken.getsockname()[1], start=mark)
+            assert get_json(port2, "/api/v1/status")["config"]["generation"] == 1
+        finally:
+            taken.close()
 
 
 # ---- TLS and authentication -----------------------------------------------------------
@@ -572,3 +587,20 @@ def test_allowlist_closes_others():
         g.signal(signal.SIGHUP)
         g.log_wait("reloaded (generation 1)", start=mark)
         assert get(port, "/api/v1/status")[0] == 200  # same port, new rules
+
+
+def test_missing_library_stops_the_start(tmp_path):
+    """DRGATE_MHD_LIB (drgatewayd(8)) pointing at nothing: the start stops
+    with exit 1 and a line that names the library and what to do."""
+    conf = tmp_path / "gw.ini"
+    conf.write_text("[modbus]\nlisten = %s\nport = %d\n[robot r0]\nhost = %s\n[http]\nport = %d\n"
+                    % (GW_ADDR, free_port(GW_ADDR, udp=False), SIM_ADDR,
+                       free_port(GW_ADDR, udp=False)))
+    env = dict(os.environ, DRGATE_MHD_LIB="/nonexistent/libmicrohttpd.so.12")
+    p = subprocess.run([str(DRGATEWAYD), "-c", str(conf)], env=env, stdin=subprocess.DEVNULL,
+                       capture_output=True, text=True, timeout=timeout(30))
+    assert p.returncode == 1, p.stderr
+    line = [ln for ln in p.stderr.splitlines() if "error: http:" in ln]
+    assert len(line) == 1, p.stderr
+    assert "http: cannot load /nonexistent/libmicrohttpd.so.12 (" in line[0]
+    assert line[0].endswith("install libmicrohttpd12, or remove [http]")

@@ -106,12 +106,12 @@ static void test_load(void **state)
     FILE *f = fopen(path, "w");
     assert_non_null(f);
     fputs("admin:" SHA512 "\nroot:toor\n", f);
-    fclose(f);
+    (void)fclose(f);
     assert_false(gw_http_passwd_load(path, &U, err, sizeof err));
     char want[200];
     snprintf(want, sizeof want, "%s:2: not a crypt(3) hash", path);
     assert_memory_equal(err, want, strlen(want));
-    remove(path);
+    (void)remove(path);
 }
 
 int main(void)
