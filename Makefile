@@ -160,13 +160,19 @@ GW_A        := $(B)/gateway/libgw.a
 GW_BIN      := $(B)/drgatewayd
 GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBUS_CFLAGS) \
                $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS)
+# Sparkplug B payloads (gateway/mqtt/sparkplug.c): nanopb's runtime, the
+# static archive of Debian's libnanopb-dev (no .pc file; position
+# independent, so it links into the PIE daemon). The generated
+# sparkplug_b.pb.[ch] are committed: `make proto` writes them again,
+# check-proto checks them (mk/proto.mk).
+NANOPB_LIBS := -lprotobuf-nanopb
 # libmosquitto is loaded with dlopen only when the configuration has an
 # [mqtt] section (gateway/mqtt/mqtt_lib.c, docs/mqtt.md): the daemon is compiled
 # against its header but does not link it. glibc 2.34 and later have
 # dlopen in libc; -ldl is an empty stub there and keeps older C libraries
 # linking. The console's libmicrohttpd and libcrypt are loaded the same
 # way, only with [http] (gateway/http/mhd_lib.c, docs/http.md).
-GW_LIBS     := $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) -ldl -lm
+GW_LIBS     := $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(NANOPB_LIBS) -ldl -lm
 GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
 
 BINS        := $(CLI_BIN) $(SIM_BIN) $(GW_BIN)

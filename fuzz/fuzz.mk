@@ -8,7 +8,7 @@
 #   make fuzz-corpus   regenerate fuzz/corpus/ from the library's builders
 
 FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
-                      sim_request cli usermap
+                      sim_request cli usermap sparkplug
 FUZZ_SECONDS       ?= 60
 # make check runs every harness this long: 10 x 7 s, two at a time
 # (FUZZ_JOBS, fuzz/run-fuzz.sh), keeps check-fuzz,
@@ -38,6 +38,13 @@ FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c)) gateway/modbus/u
                         gateway/modbus/regmap.c gateway/core/robot.c
 FUZZ_SRC_usermap     := gateway/modbus/usermap.c gateway/modbus/regmap.c gateway/core/robot.c
 FUZZ_LIBS_config     := $(INIH_LIBS)
+# Sparkplug B commands (gateway/mqtt/sparkplug.c) over nanopb: Debian's
+# libprotobuf-nanopb.a, not instrumented (libFuzzer sees our callbacks'
+# coverage, not the protobuf decoder's).
+# The harness has its own gw_log (formats, does not print).
+FUZZ_SRC_sparkplug   := gateway/mqtt/sparkplug.c gateway/mqtt/sparkplug_b.pb.c \
+                        gateway/core/robot.c common/ev.c
+FUZZ_LIBS_sparkplug  := $(NANOPB_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 # All of drcli but its main() (cli/drcli.c, on top of the rest).
 FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \

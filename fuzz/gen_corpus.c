@@ -1068,6 +1068,45 @@ static void gen_cli(void)
              NULL, 0);
 }
 
+/* ---- fuzz_sparkplug: an NCMD/DCMD/STATE message -------------------------- */
+
+/* Byte 0: bit 0 writes on, bit 1 a primary host, bits 2.. the topic
+ * (0 NCMD, 1 DCMD to r0, 2 DCMD to an unknown device, 3 STATE, 4 other);
+ * the rest the payload: protobuf (Sparkplug 3.0) written out by hand
+ * here, so that the seeds do not come from the encoder under test. */
+static void gen_sparkplug(void)
+{
+    static const uint8_t rebirth[] = {
+        0x01, 0x08, 0x01, 0x12, 0x1a, 0x0a, 0x14, 'N', 'o', 'd', 'e', ' ', 'C', 'o', 'n', 't',
+        'r', 'o', 'l', '/', 'R', 'e', 'b', 'i', 'r', 't', 'h', 0x20, 0x0b, 0x70, 0x01};
+    static const uint8_t write_int[] = {
+        0x05, 0x08, 0x01, 0x12, 0x0f, 0x0a, 0x09, 'i', 'n', 't', '_', 'i', 'n', '[', '0', ']',
+        0x20, 0x03, 0x50, 0x2a};
+    static const uint8_t write_neg[] = {
+        0x05, 0x08, 0x01, 0x12, 0x13, 0x0a, 0x09, 'i', 'n', 't', '_', 'i', 'n', '[', '1', ']',
+        0x20, 0x03, 0x50, 0xf9, 0xff, 0xff, 0xff, 0x0f};
+    static const uint8_t write_text[] = {
+        0x05, 0x08, 0x01, 0x12, 0x12, 0x0a, 0x0b, 'f', 'l', 'o', 'a', 't', '_', 'i', 'n', '[',
+        '2', ']', 0x7a, 0x03, '2', '.', '5'};
+    static const uint8_t alias_ro[] = {
+        0x05, 0x08, 0x01, 0x12, 0x06, 0x10, 0x02, 0x20, 0x0b, 0x70, 0x01};
+    static const uint8_t writes_off[] = {
+        0x04, 0x08, 0x01, 0x12, 0x0f, 0x0a, 0x09, 'i', 'n', 't', '_', 'i', 'n', '[', '0', ']',
+        0x20, 0x03, 0x50, 0x2a};
+    static const uint8_t unknown_dev[] = {
+        0x09, 0x08, 0x01, 0x12, 0x0f, 0x0a, 0x09, 'i', 'n', 't', '_', 'i', 'n', '[', '0', ']',
+        0x20, 0x03, 0x50, 0x2a};
+    static const char state_off[] = "\x0f{\"online\":false,\"timestamp\":1}";
+    put("sparkplug", "ncmd_rebirth", rebirth, sizeof rebirth);
+    put("sparkplug", "dcmd_int", write_int, sizeof write_int);
+    put("sparkplug", "dcmd_int_negative", write_neg, sizeof write_neg);
+    put("sparkplug", "dcmd_text", write_text, sizeof write_text);
+    put("sparkplug", "dcmd_alias_readonly", alias_ro, sizeof alias_ro);
+    put("sparkplug", "dcmd_writes_off", writes_off, sizeof writes_off);
+    put("sparkplug", "dcmd_unknown_device", unknown_dev, sizeof unknown_dev);
+    put("sparkplug", "state_offline", (const uint8_t *)state_off, sizeof state_off - 1);
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1)
@@ -1084,5 +1123,6 @@ int main(int argc, char **argv)
     gen_usermap();
     gen_sim_request();
     gen_cli();
+    gen_sparkplug();
     return failed;
 }

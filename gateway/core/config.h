@@ -218,8 +218,14 @@ typedef struct {
     unsigned publish_interval_ms; /* per robot, default 100, 0..60000 */
     double deadband;          /* REAL fields, absolute, default 0 */
     bool writes;              /* plant writes via <prefix>/<robot>/set/<path> */
+    /* payload = sparkplug: Sparkplug B (mqtt/sparkplug.h) instead of JSON */
+    unsigned payload;         /* GW_MQTT_JSON (default) or GW_MQTT_SPARKPLUG */
+    char group_id[64];        /* Sparkplug group, required with sparkplug */
+    char edge_node_id[64];    /* default: the host name */
+    char primary_host_id[64]; /* set: births wait for its STATE online */
     unsigned line;            /* the section's line */
 } gw_mqtt_config_t;
+enum { GW_MQTT_JSON = 0, GW_MQTT_SPARKPLUG };
 
 /* [http]: the console (docs/http.md); present = enabled. Strings "" = not
  * set. */

@@ -288,6 +288,7 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
         if (data_withheld(l))
             continue;
         memcpy(l->data->img[a], data, len);
+        l->data->link.rx_us = l->last_rx_us[a];
         observe_t2o(l, a); /* the new data is now what a Modbus read gets */
         if (l->hooks.on_data != NULL)
             l->hooks.on_data(l->hooks.user, l->robot, a);
@@ -436,6 +437,7 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
                 l->data->link.conn_rx[i]++;
         if (!data_withheld(l)) {
             memcpy(l->data->img[pc->a], data, len);
+            l->data->link.rx_us = l->last_rx_us[pc->a];
             if (l->hooks.on_data != NULL)
                 l->hooks.on_data(l->hooks.user, l->robot, pc->a);
         }

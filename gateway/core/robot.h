@@ -37,6 +37,9 @@ typedef struct {
     uint16_t link_state;       /* 0 down, 1 connecting, 2 up */
     bool fresh;                /* robot data younger than the timeout */
     uint32_t age_ms;           /* age of the oldest T->O data */
+    uint64_t rx_us;            /* when the newest T->O data went into the
+                                  images (ev_now_us(), monotonic): the time
+                                  a side stamps its data with; 0: none yet */
     uint16_t rpi_ms;           /* API in use (explicit: the poll period) */
     uint32_t rx_packets, lost_packets;
     uint16_t last_error;       /* gw_robot_error_code() of last_status */

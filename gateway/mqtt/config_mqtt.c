@@ -13,6 +13,9 @@
 
 static bool valid_client_id(const char *s);
 static bool valid_topic(const char *t);
+static bool valid_spb_id(const char *s);
+#define SPB_ID_ALLOWED "printable ASCII without '+', '#', '/' or blanks"
+#define SPB_ID_DOC "printable ASCII without `+`, `#`, `/` or blanks"
 static gw_cfg_parse_fn mqtt_deadband;
 
 static const gw_cfg_key_t mqtt_keys[] = {
@@ -27,10 +30,14 @@ static const gw_cfg_key_t mqtt_keys[] = {
     { .name = "keepalive_s", .type = GW_CFG_UINT, Q(keepalive_s), .lo = 5, .hi = 3600, .def = 30, .help = "MQTT keepalive; a broker that stops answering is found after about 1.5 times this" },
     { .name = "qos", .type = GW_CFG_UINT, Q(qos), .lo = 0, .hi = 2, .help = "QoS of every publication, of the Last Will and of the `set` subscription" },
     { .name = "topic_prefix", .type = GW_CFG_TEXT, Q(topic_prefix), .valid = valid_topic, .allowed = "topic levels such as drgate/cell1", .invalid = "topic levels separated by '/', no wildcards, blanks or empty levels, e.g. drgate/cell1", .doc_default = "`drgate/<hostname>`", .doc_allowed = "topic levels separated by `/`, no wildcards, blanks or empty levels", .help = "topics are `<prefix>/status` and `<prefix>/<robot>/...`" },
-    { .name = "retain", .type = GW_CFG_BOOL, Q(retain), .def = 1, .help = "`status`, `state` and `meta` are retained messages (the Will too)" },
+    { .name = "retain", .type = GW_CFG_BOOL, Q(retain), .def = 1, .help = "`status`, `state`, `meta` and `snapshot` are retained messages (the Will too)" },
     { .name = "publish_interval_ms", .type = GW_CFG_UINT, Q(publish_interval_ms), .lo = 0, .hi = 60000, .def = 100, .help = "at most one `data` message per robot this often; `0` = on every change" },
     { .name = "deadband", .type = GW_CFG_HOOK, .parse = mqtt_deadband, .allowed = "a number >= 0", .doc_default = "`0`", .doc_allowed = "a decimal number >= 0 (`0.5`; no sign, no exponent)", .help = "a REAL field is published again once it is more than this away from the value last published; integers and bits on any change" },
     { .name = "writes", .type = GW_CFG_BOOL, Q(writes), .help = "accept writes on `<prefix>/<robot>/set/<path>`, with the checks of a Modbus write" },
+    { .name = "payload", .type = GW_CFG_ENUM, Q(payload), GW_CFG_NAMES("json", "sparkplug"), .def = GW_MQTT_JSON, .help = "`json`: the topics under `topic_prefix` above. `sparkplug`: Sparkplug B 3.0 (`spBv1.0/<group_id>/...`, protobuf), the gateway an edge node and each robot a device; `topic_prefix` and `retain` do not apply" },
+    { .name = "group_id", .type = GW_CFG_TEXT, Q(group_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_allowed = SPB_ID_DOC, .help = "Sparkplug group ID; required with `payload = sparkplug`" },
+    { .name = "edge_node_id", .type = GW_CFG_TEXT, Q(edge_node_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_default = "the host name", .doc_allowed = SPB_ID_DOC, .help = "Sparkplug edge node ID, unique in the group" },
+    { .name = "primary_host_id", .type = GW_CFG_TEXT, Q(primary_host_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_default = "(none: births at once)", .doc_allowed = SPB_ID_DOC, .help = "Sparkplug primary host application: births wait until its `spBv1.0/STATE/<id>` says online; when it goes offline the gateway disconnects (NDEATH) and waits again" },
 };
 
 static void mqtt_begin(void *sec)
@@ -67,6 +74,17 @@ static bool valid_topic(const char *t)
     for (; *t; t++)
         if (*t == '+' || *t == '#' || (unsigned char)*t <= 0x20 ||
             (unsigned char)*t >= 0x7f)
+            return false;
+    return true;
+}
+
+/* Sparkplug IDs (group, edge node, host) are topic levels: no
+ * wildcards, no '/', printable ASCII. */
+static bool valid_spb_id(const char *s)
+{
+    for (; *s; s++)
+        if (*s == '+' || *s == '#' || *s == '/' || (unsigned char)*s <= 0x20 ||
+            (unsigned char)*s >= 0x7f)
             return false;
     return true;
 }
@@ -112,4 +130,7 @@ static void mqtt_check(gw_cfg_ctx_t *c)
     else if (q->password_file[0] != '\0' && q->username[0] == '\0')
         gw_cfg_fail(c, gw_cfg_line(c, s, 0, "password_file"),
                     "[mqtt] password_file needs username");
+    else if (q->payload == GW_MQTT_SPARKPLUG && q->group_id[0] == '\0')
+        gw_cfg_fail(c, gw_cfg_line(c, s, 0, "payload"),
+                    "[mqtt] payload = sparkplug needs group_id");
 }

@@ -17,10 +17,19 @@
  *   <prefix>/<robot>/state        "up" / "down" / "down: <cause>": the robot's
  *                                 link, retained
  *   <prefix>/<robot>/meta         {"path": {"type", "unit", "dir"}, ...}, retained
- *   <prefix>/<robot>/data         {"path": value, ...}: what changed; all
- *                                 fields after a (re)connect or link up
+ *   <prefix>/<robot>/data         {"time", "quality", "age_ms", "values":
+ *                                 {"path": value, ...}, "names": {...}}: what
+ *                                 changed; all fields after a (re)connect
+ *                                 or link up
+ *   <prefix>/<robot>/snapshot     the same with every field, retained: what a
+ *                                 late subscriber starts from; again at most
+ *                                 once a second while data changes
  *   <prefix>/<robot>/set/<path>   plant writes (writes = yes): the value as text
  *   <prefix>/<robot>/error        {"topic", "payload", "error"}: a refused write
+ *
+ * A robot that a reload removes (or renames), and every robot of a prefix
+ * that a reload changes, is retired: its state says "down: removed from
+ * the configuration", its retained meta and snapshot are cleared.
  */
 #include <errno.h>
 #include <math.h>
@@ -28,7 +37,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <netdb.h>
 #include <sys/epoll.h>
+#include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <mosquitto.h>
@@ -38,6 +50,7 @@
 #include "core/json.h"
 #include "core/log.h"
 #include "mqtt/mqtt_lib.h"
+#include "mqtt/sparkplug.h"
 #include "core/north.h"
 #include "core/report.h"
 
@@ -49,6 +62,22 @@
 #define MQ_SET_MAX 64u               /* a write's value text */
 #define MQ_READS_PER_EVENT 64        /* packets read per readiness event */
 #define MQ_ERR_QUEUE 32u             /* error replies queued at once */
+#define MQ_SNAPSHOT_US 1000000u      /* the retained snapshot at most once a second */
+#define MQ_RETIRED "down: removed from the configuration"
+#define MQ_BASE_MAX 200u             /* "<prefix>/<robot>" */
+#define MQ_GONE_MAX (2u * GW_MAX_ROBOTS) /* robots to retire: a prefix's and removed ones */
+
+/* Why a write was refused: each kind its own log rate limit. */
+typedef enum {
+    MQ_REF_FIELD,    /* unknown field */
+    MQ_REF_PAYLOAD,  /* not a value's text */
+    MQ_REF_READONLY, /* a T->O field */
+    MQ_REF_VALUE,    /* does not parse or fit */
+    MQ_REF_SINGLE,   /* single-writer mode */
+    MQ_REF_FAULT,    /* write fault latched */
+    MQ_REF_GPIO,     /* a GPIO input's bit */
+    MQ_REF_KINDS
+} mq_refusal_t;
 
 typedef struct {
     bool have;
@@ -75,20 +104,35 @@ typedef struct {
     bool link[GW_MAX_ROBOTS];
     dr_status_t state_why[GW_MAX_ROBOTS]; /* the cause in the last state published */
     bool state_due[GW_MAX_ROBOTS], meta_due[GW_MAX_ROBOTS], full_due[GW_MAX_ROBOTS];
+    bool snap_due[GW_MAX_ROBOTS];        /* data changed since the last snapshot */
+    uint64_t next_snap_us[GW_MAX_ROBOTS]; /* the next snapshot, at the earliest */
     bool status_due;
+    /* The robots' names as published (the configuration of the last sync):
+     * a reload that drops one retires its topics by this name. */
+    char pub_name[GW_MAX_ROBOTS][GW_NAME_MAX];
+    unsigned pub_count;
+    /* Robots still to retire, as "<prefix>/<robot>": removed by a reload
+     * that kept this side, or handed over by the side this one replaced
+     * (its own retirement may be lost, see retire_for). */
+    char gone[MQ_GONE_MAX][MQ_BASE_MAX];
+    unsigned gone_count;
+    const char *closing;  /* why this side disconnects on purpose (NULL: it does not) */
+    char fail_why[160];   /* why the connection attempt failed, once known */
+    gw_log_limit_t refused[MQ_REF_KINDS];
     bool data_seen[GW_MAX_ROBOTS]; /* new T->O data since the last scan */
     unsigned asm_seen[GW_MAX_ROBOTS]; /* T->O assemblies received since link up */
     uint64_t up_us[GW_MAX_ROBOTS];    /* when the link came up */
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     unsigned err_queued;   /* error replies given since libmosquitto's queue was empty */
     unsigned long dropped; /* error replies dropped (queue bound) */
+    spb_t *spb;     /* payload = sparkplug (sparkplug.h), else NULL */
     gw_json_t json; /* over json_buf */
     char json_buf[MQ_JSON_MAX];
     /* the console's (mq_report, mq_metrics): counters since the side started */
     struct { unsigned long long published, received, accepted, connects; gw_log_limit_t write_log[GW_MAX_ROBOTS]; } con;
 } mq_t;
 
-static void mq_wrote(mq_t *t, unsigned robot, const char *path, const struct mosquitto_message *m);
+static void mq_wrote(mq_t *t, unsigned robot, const char *topic, dr_ref_t ref);
 
 static unsigned lib_users; /* mosquitto_lib_init/cleanup around the sides */
 /* libmosquitto's functions (mqtt_lib.h): loaded by the first enabled
@@ -135,9 +179,29 @@ static bool publish_text(mq_t *t, int robot, const char *leaf, const char *text,
     return publish(t, top, text, strlen(text), retain);
 }
 
+/* A topic under "<prefix>/<robot>" (one that may have left the
+ * configuration, or another prefix's). */
+static bool publish_under(mq_t *t, const char *base, const char *leaf, const char *payload,
+                          bool retain)
+{
+    char top[256];
+    snprintf(top, sizeof top, "%s/%s", base, leaf);
+    return publish(t, top, payload, strlen(payload), retain);
+}
+
+/* meta's type names, by dr_kind_t. The codec's own names (dr_kind_name:
+ * "BOOL", "USINT enum") are those of the specification's tables, which
+ * drcli and the register map show; a plant reads one word per kind.
+ * docs/mqtt.md lists these (test_mqtt_plant.py compares the two). */
+static const char *const mq_type_names[] = {"BIT", "BITS", "USINT", "ENUM", "DINT", "REAL"};
+typedef char mq_type_names_cover_kinds[sizeof mq_type_names / sizeof mq_type_names[0] ==
+                                               DR_KIND_REAL + 1
+                                           ? 1
+                                           : -1];
+
 static const char *type_name(const dr_field_t *f)
 {
-    return dr_kind_name((dr_kind_t)f->kind);
+    return f->kind <= DR_KIND_REAL ? mq_type_names[f->kind] : "?";
 }
 
 /* Every leaf with its type, unit and direction: the units of data. */
@@ -185,15 +249,99 @@ static bool changed(const mq_t *t, const mq_last_t *l, const dr_value_t *v)
     return fabs(x - l->v) > t->cfg.deadband || (t->cfg.deadband == 0.0 && x != l->v);
 }
 
-/* The leaves that changed since they were last published (all of them
- * with `full`), as one JSON object; nothing if none did. */
-static bool publish_data(mq_t *t, unsigned robot, bool full)
+/* The robot packet's receive time (monotonic) on the wall clock, as
+ * ISO 8601 UTC with milliseconds: "2026-11-25T14:48:10.123Z"; null
+ * before the robot sent anything. */
+static void write_time(gw_json_t *j, uint64_t rx_us)
+{
+    struct timespec ts;
+    struct tm tm;
+    char day[32], text[48];
+    uint64_t mono = ev_now_us();
+    if (rx_us == 0 || clock_gettime(CLOCK_REALTIME, &ts) != 0) {
+        gw_json_str(j, "null");
+        return;
+    }
+    uint64_t wall_ms = (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+    uint64_t ago_ms = mono > rx_us ? (mono - rx_us) / 1000u : 0u;
+    uint64_t ms = wall_ms > ago_ms ? wall_ms - ago_ms : 0u;
+    time_t sec = (time_t)(ms / 1000u);
+    if (gmtime_r(&sec, &tm) == NULL || strftime(day, sizeof day, "%Y-%m-%dT%H:%M:%S", &tm) == 0) {
+        gw_json_str(j, "null");
+        return;
+    }
+    snprintf(text, sizeof text, "\"%s.%03uZ\"", day, (unsigned)(ms % 1000u));
+    gw_json_str(j, text);
+}
+
+/* Has every T->O assembly arrived since the link came up? */
+static bool all_seen(const mq_t *t, unsigned r)
+{
+    unsigned all = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
+            all |= 1u << a;
+    return (t->asm_seen[r] & all) == all;
+}
+
+/* Fresh: the link is up and its data younger than the link's timeout.
+ * The link refreshes its `fresh` once a millisecond, and a link that has
+ * just come up is not fresh until every assembly is in: the data that
+ * completes them may be published before that refresh, so a link that is
+ * up with every assembly received since counts as fresh too (the link
+ * goes down when its data gets older than the timeout). */
+static bool data_fresh(const mq_t *t, unsigned r)
+{
+    return t->link[r] && (t->env->robots[r].link.fresh || all_seen(t, r));
+}
+
+/* {"time":...,"quality":"fresh"|"stale","age_ms":N,"values":{ */
+static void open_message(mq_t *t, const gw_robot_t *rb, bool fresh)
+{
+    gw_json_t *j = &t->json;
+    char text[64];
+    gw_json_init(j, t->json_buf, sizeof t->json_buf);
+    gw_json_str(j, "{\"time\":");
+    write_time(j, rb->link.rx_us);
+    snprintf(text, sizeof text, ",\"quality\":\"%s\",\"age_ms\":%lu,\"values\":{",
+             fresh ? "fresh" : "stale", (unsigned long)rb->link.age_ms);
+    gw_json_str(j, text);
+}
+
+/* ,"names":{"io_state.robot_state":"STANDBY"} for the enums among the
+ * message's n leaves (null for a value without a name); nothing if none. */
+static void write_names(mq_t *t, unsigned n)
+{
+    gw_json_t *j = &t->json;
+    unsigned named = 0;
+    for (unsigned k = 0; k < n; k++) {
+        dr_ref_t ref;
+        char path[96];
+        if (dr_leaf_at(t->pick[k], &ref) != DR_OK || ref.field->kind != DR_KIND_ENUM ||
+            dr_ref_path(ref, path, sizeof path) != DR_OK)
+            continue;
+        gw_json_str(j, named++ == 0 ? ",\"names\":{" : ",");
+        gw_json_quote(j, path, strlen(path));
+        gw_json_raw(j, ":", 1);
+        const char *name = dr_robot_state_name((unsigned)t->pick_v[k]);
+        if (name != NULL)
+            gw_json_quote(j, name, strlen(name));
+        else
+            gw_json_str(j, "null");
+    }
+    if (named > 0)
+        gw_json_raw(j, "}", 1);
+}
+
+/* The robot's message in t->json: every leaf (`full`) or the ones that
+ * changed since they were last published, the leaves and their values in
+ * pick/pick_v. Returns how many leaves it holds. */
+static unsigned build_message(mq_t *t, unsigned robot, bool full)
 {
     const gw_robot_t *rb = &t->env->robots[robot];
     gw_json_t *j = &t->json;
-    mq_last_t *last = t->last[robot];
-    gw_json_init(j, t->json_buf, sizeof t->json_buf);
-    gw_json_raw(j, "{", 1);
+    const mq_last_t *last = t->last[robot];
+    open_message(t, rb, data_fresh(t, robot));
     unsigned n = 0;
     for (unsigned i = 0; i < t->leaves; i++) {
         dr_ref_t ref;
@@ -216,27 +364,68 @@ static bool publish_data(mq_t *t, unsigned robot, bool full)
         gw_json_value(j, &v);
     }
     gw_json_raw(j, "}", 1);
-    if (n == 0 || j->full)
+    write_names(t, n);
+    gw_json_raw(j, "}", 1);
+    return n;
+}
+
+/* What changed (everything with `full`) on <robot>/data; nothing if
+ * nothing did. */
+static bool publish_data(mq_t *t, unsigned robot, bool full)
+{
+    unsigned n = build_message(t, robot, full);
+    if (n == 0 || t->json.full)
         return true;
     char top[256];
     topic(t, top, sizeof top, (int)robot, "data");
-    if (!publish(t, top, j->buf, j->len, false))
+    if (!publish(t, top, t->json.buf, t->json.len, false))
         return false;
     /* Only now, and only what the message holds: a change within the
      * deadband is measured from the value the plant has, so that a slow
      * drift is published once it adds up. */
+    mq_last_t *last = t->last[robot];
     for (unsigned k = 0; k < n; k++) {
         last[t->pick[k]].have = true;
         last[t->pick[k]].v = t->pick_v[k];
     }
+    t->snap_due[robot] = true;
     return true;
+}
+
+/* Every field as the images have it now, retained on <robot>/snapshot:
+ * what a subscriber that arrives late starts from (docs/mqtt.md). */
+static bool publish_snapshot(mq_t *t, unsigned robot)
+{
+    unsigned n = build_message(t, robot, true);
+    if (n == 0 || t->json.full)
+        return true;
+    char top[256];
+    topic(t, top, sizeof top, (int)robot, "snapshot");
+    return publish(t, top, t->json.buf, t->json.len, t->cfg.retain);
+}
+
+/* A robot this prefix no longer publishes (a reload removed or renamed
+ * it, or moved the prefix): its state says so, retained, so that no plant
+ * application reads it as live; its meta and snapshot, which describe a
+ * robot that is not there, are cleared (an empty retained message). */
+static void retire(mq_t *t, const char *base, bool quiet)
+{
+    (void)publish_under(t, base, "state", MQ_RETIRED, t->cfg.retain);
+    (void)publish_under(t, base, "meta", "", true);
+    (void)publish_under(t, base, "snapshot", "", true);
+    if (!quiet)
+        gw_log(GW_LOG_INFO, "mqtt: %s: removed from the configuration, its topics retired",
+               base);
 }
 
 /* ---- plant writes ---------------------------------------------------------------- */
 
-static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, const char *why)
+static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, mq_refusal_t kind,
+                   const char *why)
 {
-    gw_log(GW_LOG_INFO, "mqtt: write %s refused: %s", m->topic, why);
+    /* A plant application that retries a bad write in a loop must not
+     * flood the log: one line per kind every 10 s, the rest counted. */
+    gw_log_limited(GW_LOG_INFO, &t->refused[kind], "mqtt: write %s refused: %s", m->topic, why);
     /* Called from within mosquitto_loop_read, where libmosquitto queues
      * what is published instead of writing it: each refusal of a burst
      * gets its reply, up to a bound; a flood of bad writes cannot grow
@@ -280,17 +469,81 @@ static bool gpio_driven(const gw_config_t *cfg, unsigned robot, dr_ref_t ref)
     return false;
 }
 
+/* Why a value's text does not fit the field: the codec's reason, except
+ * for text the parser calls malformed, which for a number is the wrong
+ * word: 1.5 for a DINT is a number, just not an integer. */
+static void value_error(dr_ref_t ref, const char *text, dr_status_t st, char *why, size_t size)
+{
+    char path[96], *end = NULL;
+    if (st != DR_ESYNTAX || dr_ref_path(ref, path, sizeof path) != DR_OK) {
+        snprintf(why, size, "invalid value: %s", dr_strerror(st));
+        return;
+    }
+    double x = strtod(text, &end);
+    bool number = end != text && *end == '\0' && isfinite(x);
+    const char *what = "not a number";
+    if (ref.field->kind == DR_KIND_ENUM && !number)
+        what = "neither a number nor a robot_state name";
+    else if (number && x != floor(x))
+        what = "not an integer";
+    else if (number)
+        what = "an integer is written in decimal or 0x hex";
+    /* A long path may cut the text; the reason comes first. */
+    if (snprintf(why, size, "invalid value: %s (%s is %s %s)", what, path,
+                 ref.field->kind == DR_KIND_ENUM || ref.field->kind == DR_KIND_USINT ? "an" : "a",
+                 type_name(ref.field)) < 0)
+        snprintf(why, size, "invalid value: %s", what);
+}
+
+/* A parsed plant write into the robot's O->T image (JSON's set topics and
+ * Sparkplug's DCMD alike), with the checks of a Modbus write: in
+ * single-writer mode the outputs belong to the one Modbus writer, the
+ * latched write fault, GPIO inputs' bits, the codec's checks. Returns
+ * the kind of refusal (why says it), MQ_REF_KINDS when written. */
+static mq_refusal_t write_into(mq_t *t, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                               char *why, size_t whylen)
+{
+    const gw_config_t *cfg = t->env->cfg;
+    gw_robot_t *rb = &t->env->robots[robot];
+    dr_asm_t a = (dr_asm_t)ref.field->assembly;
+    dr_status_t st;
+    if (cfg->modbus.single_writer) {
+        snprintf(why, whylen, "single-writer mode: the outputs belong to the Modbus writer");
+        return MQ_REF_SINGLE;
+    }
+    if (rb->fault) {
+        snprintf(why, whylen, "write fault latched (reset it through Modbus)");
+        return MQ_REF_FAULT;
+    }
+    if (gpio_driven(cfg, robot, ref)) {
+        snprintf(why, whylen, "driven by a GPIO input");
+        return MQ_REF_GPIO;
+    }
+    st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, v, DR_SET_O2T_ONLY);
+    if (st != DR_OK) {
+        snprintf(why, whylen, "invalid value: %s", dr_strerror(st));
+        return MQ_REF_VALUE;
+    }
+    t->env->outputs_changed(t->env->user, robot, 1u << a);
+    return MQ_REF_KINDS;
+}
+
+static bool write_checked(mq_t *t, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                          char *why, size_t whylen)
+{
+    return write_into(t, robot, ref, v, why, whylen) == MQ_REF_KINDS;
+}
+
 /* <prefix>/<robot>/set/<path>, the payload the value as text: the same
  * checks as a Modbus write (the codec's range and finiteness checks, GPIO
  * inputs' bits, the latched write fault), and in single-writer mode the
  * outputs belong to the one Modbus writer: refused. */
 static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosquitto_message *m)
 {
-    const gw_config_t *cfg = t->env->cfg;
-    gw_robot_t *rb = &t->env->robots[robot];
     char text[MQ_SET_MAX + 1], why[160];
     dr_ref_t ref;
     dr_value_t v;
+    mq_refusal_t kind;
     dr_status_t st = dr_path_parse(path, &ref);
     if (st != DR_OK) {
         char near[96];
@@ -298,37 +551,27 @@ static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosqu
             snprintf(why, sizeof why, "unknown field (did you mean %s?)", near);
         else
             snprintf(why, sizeof why, "unknown field");
-        refuse(t, robot, m, why);
+        refuse(t, robot, m, MQ_REF_FIELD, why);
         return;
     }
     if (m->payloadlen <= 0 || (size_t)m->payloadlen > MQ_SET_MAX ||
         memchr(m->payload, '\0', (size_t)m->payloadlen) != NULL) {
-        refuse(t, robot, m, "payload must be the value as text, 1..64 bytes");
+        refuse(t, robot, m, MQ_REF_PAYLOAD, "payload must be the value as text, 1..64 bytes");
         return;
     }
     memcpy(text, m->payload, (size_t)m->payloadlen);
     text[m->payloadlen] = '\0';
-    dr_asm_t a = (dr_asm_t)ref.field->assembly;
     st = dr_text_parse(ref, text, DR_SET_O2T_ONLY, &v);
     if (st == DR_EREADONLY)
-        refuse(t, robot, m, "read-only: a T->O field");
+        refuse(t, robot, m, MQ_REF_READONLY, "read-only: a T->O field");
     else if (st != DR_OK) {
-        snprintf(why, sizeof why, "invalid value: %s", dr_strerror(st));
-        refuse(t, robot, m, why);
-    } else if (cfg->modbus.single_writer)
-        refuse(t, robot, m, "single-writer mode: the outputs belong to the Modbus writer");
-    else if (rb->fault)
-        refuse(t, robot, m, "write fault latched (reset it through Modbus)");
-    else if (gpio_driven(cfg, robot, ref))
-        refuse(t, robot, m, "driven by a GPIO input");
-    else if ((st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, &v, DR_SET_O2T_ONLY)) !=
-             DR_OK) {
-        snprintf(why, sizeof why, "invalid value: %s", dr_strerror(st));
-        refuse(t, robot, m, why);
-    } else {
+        value_error(ref, text, st, why, sizeof why);
+        refuse(t, robot, m, MQ_REF_VALUE, why);
+    } else if ((kind = write_into(t, robot, ref, &v, why, sizeof why)) != MQ_REF_KINDS)
+        refuse(t, robot, m, kind, why);
+    else {
         gw_log(GW_LOG_DEBUG, "mqtt: %s = %s", m->topic, text);
-        mq_wrote(t, robot, path, m);
-        t->env->outputs_changed(t->env->user, robot, 1u << a);
+        mq_wrote(t, robot, m->topic, ref);
     }
 }
 
@@ -336,6 +579,11 @@ static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto
 {
     mq_t *t = obj;
     (void)mosq;
+    if (t->spb != NULL) {
+        (void)spb_message(t->spb, m->topic, m->payload,
+                          m->payloadlen > 0 ? (size_t)m->payloadlen : 0u);
+        return;
+    }
     size_t pl = strlen(t->prefix);
     if (!t->cfg.writes || strncmp(m->topic, t->prefix, pl) != 0 || m->topic[pl] != '/')
         return;
@@ -368,10 +616,14 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     t->con.connects++;
     t->backoff_us = MQ_BACKOFF_MIN_US;
     t->inflight = 0;
+    if (t->spb != NULL) {
+        spb_connected(t->spb);
+        return;
+    }
     t->status_due = true;
     for (unsigned r = 0; r < t->env->cfg->robot_count; r++) {
         t->state_due[r] = t->meta_due[r] = t->full_due[r] = true;
-        t->next_pub_us[r] = 0;
+        t->next_pub_us[r] = t->next_snap_us[r] = 0;
         if (t->cfg.writes) {
             char top[256];
             topic(t, top, sizeof top, (int)r, "set/#");
@@ -386,10 +638,51 @@ static void on_disconnect(struct mosquitto *mosq, void *obj, int rc)
 {
     mq_t *t = obj;
     (void)mosq;
-    if (t->connected)
+    if (t->connected && t->closing != NULL)
+        gw_log(GW_LOG_INFO, "mqtt: disconnected from %s:%u (%s)", t->cfg.host, t->cfg.port,
+               t->closing);
+    else if (t->connected)
         gw_log(GW_LOG_WARNING, "mqtt: connection to %s:%u lost (%s)", t->cfg.host, t->cfg.port,
                rc == 0 ? "closed" : ml->strerror(rc));
     t->connected = false;
+    if (t->spb != NULL)
+        spb_disconnected(t->spb);
+}
+
+/* Why a connection attempt failed, in fail_why; the first cause found
+ * is kept (a refused TCP connection also ends libmosquitto's read). */
+static void note_failure(mq_t *t, int rc)
+{
+    if (t->fail_why[0] != '\0' || rc == MOSQ_ERR_SUCCESS)
+        return;
+    if (rc == MOSQ_ERR_EAI) {
+        /* libmosquitto does not keep getaddrinfo's reason: asked again
+         * (a failure only, and the backoff spaces them). */
+        struct addrinfo hints, *res = NULL;
+        memset(&hints, 0, sizeof hints);
+        hints.ai_socktype = SOCK_STREAM;
+        int e = getaddrinfo(t->cfg.host, NULL, &hints, &res);
+        if (res != NULL)
+            freeaddrinfo(res);
+        snprintf(t->fail_why, sizeof t->fail_why, "cannot resolve the host name (%s)",
+                 e != 0 ? gai_strerror(e) : "lookup failed");
+    } else if (rc == MOSQ_ERR_ERRNO && errno != 0)
+        snprintf(t->fail_why, sizeof t->fail_why, "%s", strerror(errno));
+    else if (rc == MOSQ_ERR_TLS)
+        snprintf(t->fail_why, sizeof t->fail_why,
+                 "TLS failure (the broker's certificate, ca_file, cert_file, key_file)");
+    else
+        snprintf(t->fail_why, sizeof t->fail_why, "%s", ml->strerror(rc));
+}
+
+/* A socket whose connect failed says why in SO_ERROR (refused, no route). */
+static void note_socket_error(mq_t *t)
+{
+    int fd = ml->socket(t->mosq), e = 0;
+    socklen_t len = sizeof e;
+    if (t->fail_why[0] == '\0' && fd >= 0 &&
+        getsockopt(fd, SOL_SOCKET, SO_ERROR, &e, &len) == 0 && e != 0)
+        snprintf(t->fail_why, sizeof t->fail_why, "%s", strerror(e));
 }
 
 static void on_publish(struct mosquitto *mosq, void *obj, int mid)
@@ -411,7 +704,8 @@ static void sync_watch(mq_t *t, uint64_t now)
         ev_unwatch(t->env->epfd, &t->ev);
         if (t->connected || t->connecting) {
             if (t->connecting)
-                gw_log(GW_LOG_WARNING, "mqtt: cannot connect to %s:%u", t->cfg.host, t->cfg.port);
+                gw_log(GW_LOG_WARNING, "mqtt: cannot connect to %s:%u: %s", t->cfg.host,
+                       t->cfg.port, t->fail_why[0] ? t->fail_why : "connection closed");
             t->connected = t->connecting = false;
         }
         if (t->retry_us == 0) {
@@ -435,16 +729,21 @@ static void drop_connection(mq_t *t, uint64_t now)
     sync_watch(t, now);
 }
 
+static void spb_set_will(mq_t *t);
+
 static void try_connect(mq_t *t, uint64_t now)
 {
     t->retry_us = 0;
+    t->fail_why[0] = '\0';
     ev_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
+    if (t->spb != NULL)
+        spb_set_will(t);
     /* Non-blocking connect; the host name (if not an address) is resolved
      * here, the one blocking step (docs/mqtt.md). */
+    errno = 0;
     int rc = ml->connect_async(t->mosq, t->cfg.host, t->cfg.port, (int)t->cfg.keepalive_s);
     if (rc != MOSQ_ERR_SUCCESS) {
-        gw_log(GW_LOG_DEBUG, "mqtt: connect %s:%u: %s", t->cfg.host, t->cfg.port,
-               rc == MOSQ_ERR_ERRNO ? strerror(errno) : ml->strerror(rc));
+        note_failure(t, rc);
         t->connecting = true; /* logged by sync_watch */
     } else {
         t->connecting = true;
@@ -457,19 +756,86 @@ static void on_ready(void *obj, uint32_t events)
 {
     mq_t *t = obj;
     uint64_t now = ev_now_us();
+    bool attempt = t->connecting && !t->connected;
+    if (attempt && (events & (EPOLLERR | EPOLLHUP)))
+        note_socket_error(t);
     if (events & (EPOLLIN | EPOLLERR | EPOLLHUP)) {
         /* libmosquitto reads a few packets per call; TLS may hold more
          * than the socket shows: read until it would block. */
         for (int i = 0; i < MQ_READS_PER_EVENT && ml->socket(t->mosq) >= 0; i++) {
             errno = 0;
-            if (ml->loop_read(t->mosq, 1) != MOSQ_ERR_SUCCESS || errno == EAGAIN ||
-                errno == EWOULDBLOCK)
+            int rc = ml->loop_read(t->mosq, 1);
+            if (rc != MOSQ_ERR_SUCCESS && attempt)
+                note_failure(t, rc);
+            if (rc != MOSQ_ERR_SUCCESS || errno == EAGAIN || errno == EWOULDBLOCK)
                 break;
         }
     }
-    if ((events & EPOLLOUT) && ml->socket(t->mosq) >= 0)
-        (void)ml->loop_write(t->mosq, 1);
+    if ((events & EPOLLOUT) && ml->socket(t->mosq) >= 0) {
+        errno = 0;
+        int rc = ml->loop_write(t->mosq, 1);
+        if (rc != MOSQ_ERR_SUCCESS && attempt)
+            note_failure(t, rc);
+    }
     sync_watch(t, now);
+}
+
+/* ---- Sparkplug B (sparkplug.h): what it asks of the connection --------------------- */
+
+static bool spb_io_publish(void *user, const char *top, const void *p, size_t len, bool retain)
+{
+    return publish(user, top, p, len, retain);
+}
+
+static bool spb_io_subscribe(void *user, const char *top, int qos)
+{
+    const mq_t *t = user;
+    int e = ml->subscribe(t->mosq, NULL, top, qos);
+    if (e != MOSQ_ERR_SUCCESS)
+        gw_log(GW_LOG_WARNING, "mqtt: subscribe %s: %s", top, ml->strerror(e));
+    return e == MOSQ_ERR_SUCCESS;
+}
+
+static bool spb_io_room(void *user)
+{
+    return room(user);
+}
+
+static bool spb_io_write(void *user, unsigned robot, dr_ref_t ref, const dr_value_t *v,
+                         char *why, size_t whylen)
+{
+    mq_t *t = user;
+    t->con.received++; /* a write asked for, as a set topic's message */
+    if (!write_checked(t, robot, ref, v, why, whylen))
+        return false;
+    mq_wrote(t, robot, "Sparkplug DCMD", ref);
+    return true;
+}
+
+static void spb_io_reconnect(void *user)
+{
+    drop_connection(user, ev_now_us());
+}
+
+static bool spb_attach(mq_t *t, const char *host, char *err, size_t errlen)
+{
+    const spb_io_t io = {t, spb_io_publish, spb_io_subscribe, spb_io_room, spb_io_write,
+                         spb_io_reconnect};
+    t->spb = spb_new(&t->cfg, t->env, &io, host, err, errlen);
+    return t->spb != NULL;
+}
+
+/* NDEATH with the next bdSeq as the Will of the connection being made
+ * (Sparkplug: QoS 1, not retained). */
+static void spb_set_will(mq_t *t)
+{
+    const char *top;
+    const void *p;
+    size_t len;
+    spb_will(t->spb, &top, &p, &len);
+    int rc = ml->will_set(t->mosq, top, (int)len, p, 1, false);
+    if (rc != MOSQ_ERR_SUCCESS)
+        gw_log(GW_LOG_ERROR, "mqtt: sparkplug: the Will (NDEATH): %s", ml->strerror(rc));
 }
 
 /* ---- the side ------------------------------------------------------------------------ */
@@ -553,9 +919,14 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
         mq_free(t);
         return NULL;
     }
+    if (q->payload == GW_MQTT_SPARKPLUG && !spb_attach(t, host, err, errlen)) {
+        mq_free(t);
+        return NULL;
+    }
     char will[200];
     snprintf(will, sizeof will, "%s/status", t->prefix);
-    int rc = ml->will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
+    int rc = t->spb != NULL ? MOSQ_ERR_SUCCESS /* its Will is set at each connect */
+                            : ml->will_set(t->mosq, will, 7, "offline", (int)q->qos, q->retain);
     if (rc == MOSQ_ERR_SUCCESS && q->username[0] != '\0')
         rc = ml->username_pw_set(t->mosq, q->username,
                                        q->password_file[0] ? t->password : NULL);
@@ -589,21 +960,105 @@ static void mq_sync_robots(mq_t *t, bool links)
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++) {
         t->link[r] = links && r < env->cfg->robot_count && env->link_up(env->user, r);
         t->state_due[r] = t->meta_due[r] = t->full_due[r] = true;
-        t->next_pub_us[r] = 0;
+        t->snap_due[r] = false;
+        t->next_pub_us[r] = t->next_snap_us[r] = 0;
         t->asm_seen[r] = ~0u; /* a link up now has its images */
         if (t->last[r] != NULL)
             memset(t->last[r], 0, t->leaves * sizeof *t->last[r]);
     }
+    for (unsigned r = 0; r < env->cfg->robot_count; r++)
+        snprintf(t->pub_name[r], sizeof t->pub_name[r], "%s", env->cfg->robot[r].name);
+    t->pub_count = env->cfg->robot_count;
     t->status_due = true;
+    if (t->spb != NULL)
+        spb_sync(t->spb, links);
 }
 
-/* Shutdown or replacement: "offline" and a clean DISCONNECT (the broker
- * then does not send the Will), flushed for at most a second. */
-static void mq_goodbye(mq_t *t)
+static bool has_robot(const gw_config_t *cfg, const char *name)
+{
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        if (strcmp(cfg->robot[r].name, name) == 0)
+            return true;
+    return false;
+}
+
+/* "<prefix>/<robot>" into the list to retire, once. */
+static void gone_add(mq_t *t, const char *base)
+{
+    for (unsigned i = 0; i < t->gone_count; i++)
+        if (strcmp(t->gone[i], base) == 0)
+            return;
+    if (t->gone_count < MQ_GONE_MAX)
+        snprintf(t->gone[t->gone_count++], MQ_BASE_MAX, "%s", base);
+}
+
+/* Is "<prefix>/<robot>" one this side publishes under the configuration
+ * now (env->cfg)? */
+static bool publishes(const mq_t *t, const char *base)
+{
+    size_t pl = strlen(t->prefix);
+    return strncmp(base, t->prefix, pl) == 0 && base[pl] == '/' &&
+           has_robot(t->env->cfg, base + pl + 1);
+}
+
+/* A reload that keeps this side: the robots it published that the new
+ * configuration (env->cfg) has no more are retired from the next tick on
+ * (once connected); one that comes back before is not. */
+static void queue_gone(mq_t *t)
+{
+    char base[MQ_BASE_MAX];
+    unsigned n = 0;
+    for (unsigned i = 0; i < t->gone_count; i++)
+        if (!publishes(t, t->gone[i]))
+            memmove(t->gone[n++], t->gone[i], sizeof t->gone[i]);
+    t->gone_count = n;
+    for (unsigned r = 0; r < t->pub_count; r++) {
+        snprintf(base, sizeof base, "%s/%s", t->prefix, t->pub_name[r]);
+        if (!publishes(t, base))
+            gone_add(t, base);
+    }
+}
+
+/* A reload that replaces this side by `next`: the robots the new
+ * configuration drops, and all of them when the prefix moves (or MQTT
+ * goes), are retired now, before the goodbye. On the same broker they
+ * are handed to `next` as well, which retires them again once connected:
+ * `next` connects with the same client ID at once, and the broker, which
+ * then closes this connection, may drop what it has not read of it yet. */
+static void retire_for(mq_t *t, mq_t *next)
+{
+    if (!t->cfg.enabled || t->spb != NULL)
+        return; /* Sparkplug's NDEATH (the goodbye) ends its devices */
+    bool all = !next->cfg.enabled || next->spb != NULL || strcmp(t->prefix, next->prefix) != 0;
+    bool hand = next->cfg.enabled && next->spb == NULL && t->cfg.port == next->cfg.port &&
+                strcmp(t->cfg.host, next->cfg.host) == 0;
+    char base[MQ_BASE_MAX];
+    for (unsigned r = 0; r < t->pub_count; r++)
+        if (all || !has_robot(t->env->cfg, t->pub_name[r])) {
+            snprintf(base, sizeof base, "%s/%s", t->prefix, t->pub_name[r]);
+            gone_add(t, base);
+        }
+    for (unsigned i = 0; i < t->gone_count; i++) {
+        if (t->connected)
+            retire(t, t->gone[i], hand);
+        if (hand)
+            gone_add(next, t->gone[i]);
+    }
+    t->gone_count = 0;
+}
+
+/* Shutdown or replacement (`why`, logged): "offline" and a clean
+ * DISCONNECT (the broker then does not send the Will), flushed for at
+ * most a second. */
+static void mq_goodbye(mq_t *t, const char *why)
 {
     if (!t->connected)
         return;
-    (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
+    t->closing = why;
+    if (t->spb != NULL)
+        spb_goodbye(t->spb); /* NDEATH */
+    else
+        (void)publish_text(t, -1, "status", "offline", t->cfg.retain);
     (void)ml->disconnect(t->mosq);
     uint64_t end = ev_now_us() + 1000000u;
     int fd;
@@ -626,10 +1081,13 @@ static void mq_free(mq_t *t)
         return;
     if (t->env != NULL)
         ev_unwatch(t->env->epfd, &t->ev);
+    for (unsigned k = 0; k < MQ_REF_KINDS; k++)
+        gw_log_limit_end(&t->refused[k]); /* what they hold back, counted */
     if (t->mosq != NULL)
         ml->destroy(t->mosq);
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         free(t->last[r]);
+    spb_free(t->spb);
     free(t->pick);
     free(t->pick_v);
     if (t->cfg.enabled && --lib_users == 0)
@@ -657,7 +1115,10 @@ static bool same_config(const gw_mqtt_config_t *a, const gw_mqtt_config_t *b)
            strcmp(a->key_file, b->key_file) == 0 && a->keepalive_s == b->keepalive_s &&
            a->qos == b->qos && strcmp(a->topic_prefix, b->topic_prefix) == 0 &&
            a->retain == b->retain && a->publish_interval_ms == b->publish_interval_ms &&
-           !(a->deadband < b->deadband || a->deadband > b->deadband) && a->writes == b->writes;
+           !(a->deadband < b->deadband || a->deadband > b->deadband) && a->writes == b->writes &&
+           a->payload == b->payload && strcmp(a->group_id, b->group_id) == 0 &&
+           strcmp(a->edge_node_id, b->edge_node_id) == 0 &&
+           strcmp(a->primary_host_id, b->primary_host_id) == 0;
 }
 
 /* An unchanged [mqtt] keeps its connection; a changed one is prepared
@@ -687,11 +1148,13 @@ static void *mq_commit(void *self, void *out, const gw_north_env_t *env)
     mq_t *t = self, *n = out;
     (void)env;
     if (n != t) {
-        mq_goodbye(t);
+        retire_for(t, n);
+        mq_goodbye(t, "reload: [mqtt] changed");
         mq_free(t);
         if (n->cfg.enabled)
             try_connect(n, ev_now_us());
-    }
+    } else if (n->cfg.enabled && n->spb == NULL)
+        queue_gone(n);
     if (n->cfg.enabled)
         mq_sync_robots(n, true); /* robots may have moved, come or gone */
     return n;
@@ -702,11 +1165,7 @@ static void *mq_commit(void *self, void *out, const gw_north_env_t *env)
  * second (an explicit-mode robot may not poll them all). */
 static bool snapshot_ready(const mq_t *t, unsigned r, uint64_t now)
 {
-    unsigned all = 0;
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
-            all |= 1u << a;
-    return (t->asm_seen[r] & all) == all || now >= t->up_us[r] + 1000000u;
+    return all_seen(t, r) || now >= t->up_us[r] + 1000000u;
 }
 
 /* "up", or "down" with the cause the status block has (last_error), in
@@ -719,6 +1178,39 @@ static bool publish_state(mq_t *t, unsigned r)
     snprintf(text, sizeof text, "%s%s%s", t->link[r] ? "up" : "down", cause[0] ? ": " : "", cause);
     t->state_why[r] = why;
     return publish_text(t, (int)r, "state", text, t->cfg.retain);
+}
+
+/* One robot's due publications, as room allows: state, meta, data (only
+ * while the link is up, else it is not the robot's, and at most once per
+ * publish_interval_ms; the O->T images, written by Modbus, GPIO or the
+ * plant, are compared at that pace too), then the snapshot. */
+static void tick_robot(mq_t *t, unsigned r, uint64_t now)
+{
+    if (!t->link[r] && t->env->robots[r].link.last_status != t->state_why[r])
+        t->state_due[r] = true; /* down for another cause now */
+    if (t->state_due[r] && room(t))
+        t->state_due[r] = !publish_state(t, r);
+    if (t->meta_due[r] && room(t))
+        t->meta_due[r] = !publish_meta(t, r);
+    if (!t->link[r]) {
+        /* The link went down: the retained snapshot says stale, so that
+         * a subscriber that comes later does not take it as current. */
+        if (t->snap_due[r] && room(t) && publish_snapshot(t, r))
+            t->snap_due[r] = false;
+        return;
+    }
+    bool full = t->full_due[r];
+    if (now >= t->next_pub_us[r] && room(t) && (!full || snapshot_ready(t, r, now)) &&
+        publish_data(t, r, full)) {
+        t->full_due[r] = false;
+        t->data_seen[r] = false;
+        t->next_pub_us[r] = now + (uint64_t)t->cfg.publish_interval_ms * 1000u;
+    }
+    if (t->snap_due[r] && !t->full_due[r] && now >= t->next_snap_us[r] && room(t) &&
+        publish_snapshot(t, r)) {
+        t->snap_due[r] = false;
+        t->next_snap_us[r] = now + MQ_SNAPSHOT_US;
+    }
 }
 
 static void mq_tick(void *self, uint64_t now)
@@ -737,30 +1229,20 @@ static void mq_tick(void *self, uint64_t now)
         return;
     }
     (void)ml->loop_misc(t->mosq); /* keepalive: PINGREQ, or a dead broker */
+    if (t->spb != NULL) {
+        spb_tick(t->spb, now);
+        sync_watch(t, now);
+        return;
+    }
     if (t->status_due && room(t))
         t->status_due = !publish_text(t, -1, "status", "online", t->cfg.retain);
-    const gw_config_t *cfg = t->env->cfg;
-    for (unsigned r = 0; r < cfg->robot_count && !t->status_due; r++) {
-        if (!t->link[r] && t->env->robots[r].link.last_status != t->state_why[r])
-            t->state_due[r] = true; /* down for another cause now */
-        if (t->state_due[r] && room(t))
-            t->state_due[r] = !publish_state(t, r);
-        if (t->meta_due[r] && room(t))
-            t->meta_due[r] = !publish_meta(t, r);
-        /* Data only while the link is up (else it is not the robot's) and
-         * at most once per publish_interval_ms; the O->T images (written
-         * by Modbus, GPIO or the plant) are compared at that pace too. */
-        if (!t->link[r] || now < t->next_pub_us[r] || !room(t))
-            continue;
-        bool full = t->full_due[r];
-        if (full && !snapshot_ready(t, r, now))
-            continue;
-        if (publish_data(t, r, full)) {
-            t->full_due[r] = false;
-            t->data_seen[r] = false;
-            t->next_pub_us[r] = now + (uint64_t)t->cfg.publish_interval_ms * 1000u;
-        }
+    if (!t->status_due && t->gone_count > 0 && room(t)) {
+        for (unsigned i = 0; i < t->gone_count; i++)
+            retire(t, t->gone[i], false); /* a few small messages: queued at once */
+        t->gone_count = 0;
     }
+    for (unsigned r = 0; r < t->env->cfg->robot_count && !t->status_due; r++)
+        tick_robot(t, r, now);
     sync_watch(t, now);
 }
 
@@ -775,6 +1257,8 @@ static uint64_t mq_deadline(const void *self)
         return t->connect_deadline_us;
     if (!room(t))
         return UINT64_MAX; /* EPOLLOUT, or the broker's acknowledgements, first */
+    if (t->spb != NULL)
+        return spb_deadline(t->spb, ev_now_us());
     /* Wake for a robot whose data arrived, when its interval allows it;
      * other robots' O->T images are looked at with the 10 Hz tick. */
     uint64_t d = UINT64_MAX, now = ev_now_us();
@@ -784,6 +1268,8 @@ static uint64_t mq_deadline(const void *self)
             x = snapshot_ready(t, r, now) ? t->next_pub_us[r] : t->up_us[r] + 1000000u;
         else if (t->link[r] && t->data_seen[r])
             x = t->next_pub_us[r];
+        if (t->link[r] && t->snap_due[r] && !t->full_due[r] && t->next_snap_us[r] < x)
+            x = t->next_snap_us[r];
         if (x < d)
             d = x;
     }
@@ -797,17 +1283,24 @@ static void mq_on_data(void *self, unsigned robot, dr_asm_t a)
         t->data_seen[robot] = true;
         t->asm_seen[robot] |= 1u << a;
     }
+    if (t->spb != NULL)
+        spb_on_data(t->spb, robot, a);
 }
 
 static void mq_on_link(void *self, unsigned robot, bool up)
 {
     mq_t *t = self;
+    if (t->spb != NULL)
+        spb_on_link(t->spb, robot, up);
     if (robot >= GW_MAX_ROBOTS || t->link[robot] == up)
         return;
     t->link[robot] = up;
     t->state_due[robot] = true;
+    if (!up)
+        t->snap_due[robot] = true; /* the retained snapshot: stale now */
     if (up) {
         t->full_due[robot] = true; /* the plant gets every field afresh */
+        t->next_snap_us[robot] = 0;  /* and the snapshot with it */
         t->asm_seen[robot] = 0;
         t->up_us[robot] = ev_now_us();
     }
@@ -833,18 +1326,21 @@ static void mq_side_free(void *self)
     mq_t *t = self;
     if (t == NULL)
         return;
-    mq_goodbye(t);
+    mq_goodbye(t, "the daemon stops");
     mq_free(t);
 }
 
 /* ---- the console: last write, report and metrics ------------------------------- */
 
-/* An accepted plant write: the robot's last write, logged (rate-limited
- * per robot: the broker does not say which plant client sent it). */
-static void mq_wrote(mq_t *t, unsigned robot, const char *path, const struct mosquitto_message *m)
+/* An accepted plant write (a set topic or a Sparkplug DCMD): the robot's
+ * last write, logged (rate-limited per robot: the broker does not say
+ * which plant client sent it, so the topic names the writer). */
+static void mq_wrote(mq_t *t, unsigned robot, const char *topic, dr_ref_t ref)
 {
-    char who[GW_WRITE_CLIENT];
-    snprintf(who, sizeof who, "mqtt %s", m->topic);
+    char who[GW_WRITE_CLIENT], path[96];
+    if (dr_ref_path(ref, path, sizeof path) != DR_OK)
+        snprintf(path, sizeof path, "?");
+    snprintf(who, sizeof who, "mqtt %s", topic);
     t->con.accepted++;
     gw_write_accepted(&t->env->robots[robot], &t->con.write_log[robot], who, path);
 }

@@ -57,6 +57,7 @@ class Plant:
     def __init__(self, broker, tls_ca=None):
         self.msgs = []
         self.times = []  # time.monotonic() of each message's arrival
+        self.walls = []  # time.time() of the same
         self.lock = threading.Lock()
         self.c = mqtt.Client()
         if tls_ca:
@@ -74,6 +75,7 @@ class Plant:
         with self.lock:
             self.msgs.append((m.topic, m.payload.decode("utf-8", "replace"), m.retain))
             self.times.append(time.monotonic())
+            self.walls.append(time.time())
 
     def all(self, topic=None):
         with self.lock:
@@ -83,8 +85,15 @@ class Plant:
         ms = self.all(topic)
         return ms[-1][1] if ms else None
 
+    def messages(self, robot="r0", leaf="data"):
+        """The robot's data (or snapshot) messages as sent: time, quality,
+        age_ms, values, names."""
+        return [json.loads(p) for _, p, _ in self.all("%s/%s/%s" % (PREFIX, robot, leaf))
+                if p]
+
     def data(self, robot="r0"):
-        return [json.loads(p) for _, p, _ in self.all("%s/%s/data" % (PREFIX, robot))]
+        """The values of each data message (canonical path: value)."""
+        return [m["values"] for m in self.messages(robot)]
 
     def merged(self, robot="r0"):
         """The robot's fields as the plant knows them from all data so far."""

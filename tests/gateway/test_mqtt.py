@@ -281,6 +281,22 @@ def test_tls(request, tls_files):
         b.stop()
 
 
+def test_tls_failure_says_why(request, tls_files, tmp_path):
+    """A CA that did not sign the broker's certificate: the connection
+    fails, and the log says it is TLS (docs/mqtt.md, Broker loss)."""
+    openssl("req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+            "-nodes", "-keyout", "other.key", "-out", "other.crt", "-days", "2", "-subj",
+            "/CN=another CA", cwd=tmp_path)
+    b = Broker(request.node.name, tls=tls_files).start()
+    try:
+        extra = mqtt_section(b, "ca_file = %s" % (tmp_path / "other.crt"))
+        with running("mqtt_tls_bad", extra=extra) as g:
+            g.log_wait("mqtt: cannot connect to %s:%d: TLS failure" % (GW_ADDR, b.port), 20)
+            assert "connected to" not in g.log()
+    finally:
+        b.stop()
+
+
 def test_reload(broker):
     """SIGHUP: an unchanged [mqtt] keeps its connection and publishes afresh;
     a changed one reconnects (offline, then online); one whose

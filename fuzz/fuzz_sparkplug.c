@@ -1,0 +1,166 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Sparkplug B commands as a host (or anyone on the broker) sends them
+ * (gateway/mqtt/sparkplug.c): an edge node with one robot is born (NBIRTH,
+ * DBIRTH), then the input is one message: its first byte chooses the
+ * settings (writes on or off, a primary host) and the topic (NCMD, DCMD to
+ * the robot, DCMD to an unknown device, the primary host's STATE, another
+ * spBv1.0 topic), the rest is the payload, through spb_message; then the
+ * node ticks again.
+ *
+ * Checks: the robot's T->O images never change, and with writes off no
+ * image does; a write reaches the image only through the write hook,
+ * only to an O->T field, only with a value the codec accepts for it
+ * (dr_value_check), as the gateway's write path does; every payload the
+ * node publishes (births, DDATA echoes of refusals) decodes with the same
+ * decoder (protobuf the node writes is protobuf it reads); the node is
+ * born before and after (a command never kills it, a STATE offline
+ * reconnects).
+ */
+#include <stdarg.h>
+#include <string.h>
+
+#include "common/ev.h"
+#include "core/log.h"
+#include "fuzz.h"
+#include "mqtt/sparkplug.h"
+
+static gw_config_t C;
+static gw_robot_t R[GW_MAX_ROBOTS];
+static gw_robot_t before;
+static unsigned published, writes, reconnects;
+
+/* The log, formatted (the arguments checked) but not printed. */
+void gw_log(gw_log_level_t level, const char *fmt, ...)
+{
+    char line[512];
+    va_list ap;
+    (void)level;
+    va_start(ap, fmt);
+    (void)vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+}
+
+static bool count_metric(void *ctx, const Payload_Metric *m)
+{
+    (void)m;
+    ++*(unsigned *)ctx;
+    return true;
+}
+
+static bool io_publish(void *user, const char *topic, const void *p, size_t len, bool retain)
+{
+    unsigned n = 0;
+    (void)user;
+    FUZZ_CHECK(strncmp(topic, "spBv1.0/g/", 10) == 0 && !retain);
+    FUZZ_CHECK(spb_decode_cmd(p, len, count_metric, &n));
+    published++;
+    return true;
+}
+
+static bool io_subscribe(void *user, const char *topic, int qos)
+{
+    (void)user, (void)topic, (void)qos;
+    return true;
+}
+
+static bool io_room(void *user)
+{
+    (void)user;
+    return true;
+}
+
+/* The gateway's checks in short: the codec's (O->T only, range). */
+static bool io_write(void *user, unsigned robot, dr_ref_t ref, const dr_value_t *v, char *why,
+                     size_t whylen)
+{
+    (void)user;
+    FUZZ_CHECK(robot == 0);
+    FUZZ_CHECK(dr_asm_info((dr_asm_t)ref.field->assembly)->dir == DR_DIR_O2T);
+    FUZZ_CHECK(dr_value_check(ref, v, DR_SET_O2T_ONLY) == DR_OK);
+    dr_asm_t a = (dr_asm_t)ref.field->assembly;
+    dr_status_t st = dr_field_set(R[0].img[a], dr_asm_info(a)->size, ref, v, DR_SET_O2T_ONLY);
+    FUZZ_CHECK(st == DR_OK);
+    snprintf(why, whylen, "ok");
+    writes++;
+    return true;
+}
+
+static void io_reconnect(void *user)
+{
+    (void)user;
+    reconnects++;
+}
+
+static bool link_up(void *user, unsigned robot)
+{
+    (void)user;
+    return robot == 0;
+}
+
+static void outputs_changed(void *user, unsigned robot, unsigned dirty)
+{
+    (void)user, (void)robot, (void)dirty;
+}
+
+static const char *const topics[] = {
+    "spBv1.0/g/NCMD/e", "spBv1.0/g/DCMD/e/r0", "spBv1.0/g/DCMD/e/r9",
+    "spBv1.0/STATE/h",  "spBv1.0/g/NDATA/e",
+};
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    if (size < 1)
+        return 0;
+    memset(&C, 0, sizeof C);
+    C.robot_count = 1;
+    snprintf(C.robot[0].name, sizeof C.robot[0].name, "r0");
+    gw_robot_init(&R[0], "r0", 1);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        for (unsigned i = 0; i < dr_asm_info((dr_asm_t)a)->size; i++)
+            R[0].img[a][i] = (uint8_t)(i * 37u + a);
+    gw_mqtt_config_t q = C.mqtt;
+    q.enabled = true;
+    q.payload = GW_MQTT_SPARKPLUG;
+    snprintf(q.group_id, sizeof q.group_id, "g");
+    snprintf(q.edge_node_id, sizeof q.edge_node_id, "e");
+    q.writes = (data[0] & 1u) != 0;
+    if (data[0] & 2u)
+        snprintf(q.primary_host_id, sizeof q.primary_host_id, "h");
+    gw_north_env_t env = {.epfd = -1, .cfg = &C, .robots = R, .outputs_changed = outputs_changed,
+                          .link_up = link_up};
+    spb_io_t io = {NULL, io_publish, io_subscribe, io_room, io_write, io_reconnect};
+    char err[200];
+    spb_t *s = spb_new(&q, &env, &io, "host", err, sizeof err);
+    FUZZ_CHECK(s != NULL);
+    published = writes = reconnects = 0;
+
+    const void *will;
+    const char *wt;
+    size_t wl;
+    spb_will(s, &wt, &will, &wl);
+    FUZZ_CHECK(spb_decode_cmd(will, wl, count_metric, &(unsigned){0}));
+    spb_sync(s, true);
+    spb_connected(s);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        spb_on_data(s, 0, (dr_asm_t)a);
+    if (data[0] & 2u) /* births wait for the primary host */
+        FUZZ_CHECK(spb_message(s, "spBv1.0/STATE/h", "{\"online\":true}", 15));
+    spb_tick(s, ev_now_us());
+    FUZZ_CHECK(published == 2); /* NBIRTH, DBIRTH */
+
+    before = R[0];
+    const char *topic = topics[(data[0] >> 2) % (sizeof topics / sizeof topics[0])];
+    FUZZ_CHECK(spb_message(s, topic, data + 1, size - 1));
+    spb_tick(s, ev_now_us());
+
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        bool same = memcmp(before.img[a], R[0].img[a], sizeof R[0].img[a]) == 0;
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O || !q.writes)
+            FUZZ_CHECK(same);
+    }
+    FUZZ_CHECK(q.writes || writes == 0);
+    FUZZ_CHECK(reconnects <= 1);
+    spb_free(s);
+    return 0;
+}

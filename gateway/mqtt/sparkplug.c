@@ -1,0 +1,798 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Sparkplug B over the MQTT side's connection (sparkplug.h, docs/mqtt.md
+ * "Sparkplug B").
+ *
+ * Topics (G = group_id, E = edge_node_id, D = a robot's name):
+ *   spBv1.0/G/NBIRTH/E     bdSeq, Node Control/Rebirth; seq 0
+ *   spBv1.0/G/NDEATH/E     bdSeq: the connection's Will, or before a
+ *                          deliberate disconnect
+ *   spBv1.0/G/DBIRTH/E/D   every field: name, alias, datatype, engUnit, value
+ *   spBv1.0/G/DDATA/E/D    the fields that changed, by alias
+ *   spBv1.0/G/DDEATH/E/D   the robot's link went down
+ *   spBv1.0/G/NCMD/E       Node Control/Rebirth = true: births again
+ *   spBv1.0/G/DCMD/E/D     plant writes (writes = yes)
+ *   spBv1.0/STATE/H        the primary host's state (primary_host_id = H)
+ *
+ * seq runs 0..255 over every message but NDEATH, NBIRTH being 0; bdSeq
+ * 0..255 is new for every connection (a restart of the daemon starts at
+ * 0 again: docs/mqtt.md). Aliases are unique over the node and small (a
+ * DDATA metric is mostly its alias): Rebirth is 1, a robot's field
+ * 2 + robot index * leaves + its leaf number.
+ */
+#include "mqtt/sparkplug.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <pb_decode.h>
+#include <pb_encode.h>
+
+#include "common/ev.h"
+#include "core/log.h"
+#include "drgate/text.h"
+
+#define SPB_NS "spBv1.0"
+#define SPB_BUF 65536u           /* a DBIRTH of every field is ~25 kB */
+#define SPB_ALIAS_REBIRTH 1u
+#define SPB_ALIAS_FIRST 2u /* a robot's fields: 2 + robot * leaves + leaf */
+#define SPB_SNAPSHOT_WAIT_US 1000000u /* DBIRTH waits for every T->O image, at most 1 s */
+
+typedef struct {
+    bool have;
+    double v;
+} spb_last_t;
+
+struct spb {
+    const gw_north_env_t *env;
+    spb_io_t io;
+    char group[64], edge[64], host_id[64];
+    unsigned interval_ms;
+    double deadband;
+    bool writes;
+    unsigned leaves;
+    uint8_t bd_next;  /* the bdSeq of the next accepted connection */
+    uint8_t bd;       /* this connection's (NBIRTH) */
+    uint8_t seq;      /* of the last message published */
+    bool connected;
+    bool host_online; /* the primary host's STATE (true without one) */
+    bool nbirth_due;  /* NBIRTH (and then every DBIRTH) to publish */
+    bool born;        /* NBIRTH published on this connection */
+    bool link[GW_MAX_ROBOTS];
+    bool dev_born[GW_MAX_ROBOTS];  /* DBIRTH published, no DDEATH since */
+    char born_as[GW_MAX_ROBOTS][GW_NAME_MAX]; /* the device ID of that DBIRTH */
+    char gone[GW_MAX_ROBOTS][GW_NAME_MAX]; /* born devices a reload removed: DDEATH due */
+    unsigned gone_count;
+    bool ddeath_due[GW_MAX_ROBOTS];
+    unsigned asm_seen[GW_MAX_ROBOTS];
+    bool data_seen[GW_MAX_ROBOTS]; /* robot data since the last DDATA look */
+    uint64_t up_us[GW_MAX_ROBOTS];
+    uint64_t next_pub_us[GW_MAX_ROBOTS];
+    uint64_t data_ms[GW_MAX_ROBOTS]; /* wall clock of the robot's last packet */
+    spb_last_t *last[GW_MAX_ROBOTS];
+    unsigned long refused;  /* DCMD refusals, for the log's rate */
+    uint64_t refused_log_us;
+    char topic[256];
+    char will_topic[256];
+    uint8_t will[64];
+    size_t will_len;
+    Payload_Metric m; /* the metric being encoded or decoded */
+    uint8_t buf[SPB_BUF];
+};
+
+/* ---- time, topics ------------------------------------------------------------ */
+
+static uint64_t wall_ms(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_REALTIME, &ts) != 0)
+        return 0;
+    return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+}
+
+/* spBv1.0/<group>/<type>/<edge>[/<robot name>] */
+static const char *topic(spb_t *s, const char *type, int robot)
+{
+    if (robot < 0)
+        snprintf(s->topic, sizeof s->topic, SPB_NS "/%s/%s/%s", s->group, type, s->edge);
+    else
+        snprintf(s->topic, sizeof s->topic, SPB_NS "/%s/%s/%s/%s", s->group, type, s->edge,
+                 s->env->cfg->robot[robot].name);
+    return s->topic;
+}
+
+/* ---- fields as metrics ----------------------------------------------------------- */
+
+static uint32_t datatype_of(dr_ref_t ref)
+{
+    switch (dr_ref_type(ref)) {
+    case DR_VAL_BOOL:
+        return SPB_DT_BOOLEAN;
+    case DR_VAL_UINT:
+        return SPB_DT_UINT8; /* USINT, ENUM (BITS masks are not leaves) */
+    case DR_VAL_INT:
+        return SPB_DT_INT32;
+    case DR_VAL_REAL:
+        break;
+    }
+    return SPB_DT_FLOAT;
+}
+
+/* The value into the metric's oneof, as the datatype says (signed
+ * integers in int_value as two's complement, Sparkplug 3.0). */
+static void put_value(Payload_Metric *m, const dr_value_t *v)
+{
+    switch (v->type) {
+    case DR_VAL_BOOL:
+        m->which_value = Payload_Metric_boolean_value_tag;
+        m->value.boolean_value = v->u != 0;
+        break;
+    case DR_VAL_UINT:
+        m->which_value = Payload_Metric_int_value_tag;
+        m->value.int_value = (uint32_t)v->u;
+        break;
+    case DR_VAL_INT:
+        m->which_value = Payload_Metric_int_value_tag;
+        m->value.int_value = (uint32_t)(int32_t)v->i;
+        break;
+    case DR_VAL_REAL:
+        m->which_value = Payload_Metric_float_value_tag;
+        m->value.float_value = (float)v->f;
+        break;
+    }
+}
+
+/* Did a leaf change enough to be published? The JSON payload's rule:
+ * REALs by the deadband, integers and bits on any change. */
+static bool changed(const spb_t *s, const spb_last_t *l, const dr_value_t *v)
+{
+    if (!l->have)
+        return true;
+    double x = dr_value_as_double(v);
+    if (v->type != DR_VAL_REAL)
+        return x != l->v;
+    if (isnan(x) || isnan(l->v))
+        return isnan(x) != isnan(l->v);
+    if (isinf(x) || isinf(l->v))
+        return x != l->v;
+    return fabs(x - l->v) > s->deadband || (s->deadband == 0.0 && x != l->v);
+}
+
+/* ---- encoding ------------------------------------------------------------------- */
+
+typedef enum { ENC_NBIRTH, ENC_NDEATH, ENC_DBIRTH, ENC_DDATA, ENC_ECHO, ENC_NONE } enc_kind_t;
+
+typedef struct {
+    spb_t *s;
+    enc_kind_t kind;
+    unsigned robot;
+    uint16_t echo_leaf; /* ENC_ECHO: the one field */
+    const char *device; /* the topic's device ID, if not the robot's name now */
+    unsigned count;     /* metrics written */
+} enc_t;
+
+static bool put_metric(pb_ostream_t *st, const pb_field_iter_t *field, const Payload_Metric *m)
+{
+    return pb_encode_tag_for_field(st, field) &&
+           pb_encode_submessage(st, Payload_Metric_fields, m);
+}
+
+static bool enc_node(pb_ostream_t *st, const pb_field_iter_t *field, enc_t *e)
+{
+    Payload_Metric *m = &e->s->m;
+    *m = (Payload_Metric)Payload_Metric_init_zero;
+    m->has_name = m->has_datatype = true;
+    snprintf(m->name, sizeof m->name, "bdSeq");
+    m->datatype = SPB_DT_INT64;
+    m->which_value = Payload_Metric_long_value_tag;
+    m->value.long_value = e->s->bd;
+    if (!put_metric(st, field, m))
+        return false;
+    if (e->kind == ENC_NDEATH)
+        return true;
+    *m = (Payload_Metric)Payload_Metric_init_zero;
+    m->has_name = m->has_datatype = m->has_alias = true;
+    snprintf(m->name, sizeof m->name, SPB_REBIRTH);
+    m->alias = SPB_ALIAS_REBIRTH;
+    m->datatype = SPB_DT_BOOLEAN;
+    m->which_value = Payload_Metric_boolean_value_tag;
+    m->value.boolean_value = false;
+    return put_metric(st, field, m);
+}
+
+/* One robot's leaves: all (DBIRTH, with name, datatype and unit), those
+ * that changed (DDATA, by alias) or one (ENC_ECHO). What is encoded is
+ * what the plant will have: kept in last[]. */
+static bool enc_robot(pb_ostream_t *st, const pb_field_iter_t *field, enc_t *e)
+{
+    spb_t *s = e->s;
+    const gw_robot_t *rb = &s->env->robots[e->robot];
+    spb_last_t *last = s->last[e->robot];
+    Payload_Metric *m = &s->m;
+    for (unsigned i = 0; i < s->leaves; i++) {
+        dr_ref_t ref;
+        dr_value_t v;
+        if (e->kind == ENC_ECHO && i != e->echo_leaf)
+            continue;
+        if (dr_leaf_at((uint16_t)i, &ref) != DR_OK || gw_robot_get(rb, ref, &v) != DR_OK)
+            continue;
+        if (e->kind == ENC_DDATA && !changed(s, &last[i], &v))
+            continue;
+        *m = (Payload_Metric)Payload_Metric_init_zero;
+        m->has_alias = true;
+        m->alias = SPB_ALIAS_FIRST + (uint64_t)e->robot * s->leaves + i;
+        if (e->kind == ENC_DBIRTH) {
+            /* DDATA's metrics have the payload's timestamp (the robot
+             * packet's): 7 bytes less for each, half a small metric */
+            m->has_timestamp = true;
+            m->timestamp = s->data_ms[e->robot];
+            m->has_name = m->has_datatype = true;
+            if (dr_ref_path(ref, m->name, sizeof m->name) != DR_OK)
+                continue;
+            m->datatype = datatype_of(ref);
+            const char *unit = ref.field->unit;
+            if (unit != NULL && unit[0] != '\0' &&
+                strlen(unit) < sizeof m->properties.values[0].value.string_value) {
+                m->has_properties = true;
+                m->properties.keys_count = m->properties.values_count = 1;
+                snprintf(m->properties.keys[0], sizeof m->properties.keys[0], "engUnit");
+                Payload_PropertyValue *pv = &m->properties.values[0];
+                pv->has_type = true;
+                pv->type = SPB_DT_STRING;
+                pv->which_value = Payload_PropertyValue_string_value_tag;
+                snprintf(pv->value.string_value, sizeof pv->value.string_value, "%s", unit);
+            }
+        }
+        put_value(m, &v);
+        if (!put_metric(st, field, m))
+            return false;
+        last[i].have = true;
+        last[i].v = dr_value_as_double(&v);
+        e->count++;
+    }
+    return true;
+}
+
+static bool enc_metrics(pb_ostream_t *st, const pb_field_iter_t *field, void *const *arg)
+{
+    enc_t *e = *arg;
+    switch (e->kind) {
+    case ENC_NBIRTH:
+    case ENC_NDEATH:
+        return enc_node(st, field, e);
+    case ENC_DBIRTH:
+    case ENC_DDATA:
+    case ENC_ECHO:
+        return enc_robot(st, field, e);
+    case ENC_NONE:
+        break;
+    }
+    return true;
+}
+
+/* The payload into buf; 0 if it does not fit (logged). `seq` < 0: none.
+ * Its timestamp: now, but a DDATA's is the time of the robot packet its
+ * values come from. */
+static size_t encode(spb_t *s, enc_t *e, uint8_t *buf, size_t size, int seq)
+{
+    Payload p = Payload_init_zero;
+    p.has_timestamp = true;
+    p.timestamp = e->kind == ENC_DDATA ? s->data_ms[e->robot] : wall_ms();
+    p.has_seq = seq >= 0;
+    p.seq = seq >= 0 ? (uint64_t)seq : 0u;
+    p.metrics.funcs.encode = enc_metrics;
+    p.metrics.arg = e;
+    e->s = s;
+    e->count = 0;
+    pb_ostream_t st = pb_ostream_from_buffer(buf, size);
+    if (!pb_encode(&st, Payload_fields, &p)) {
+        gw_log(GW_LOG_ERROR, "mqtt: sparkplug: cannot encode a payload: %s", PB_GET_ERROR(&st));
+        return 0;
+    }
+    return st.bytes_written;
+}
+
+/* Publish with the next seq; the seq is taken only if it went out. */
+static bool publish_seq(spb_t *s, enc_t *e, const char *type, int robot)
+{
+    int seq = e->kind == ENC_NBIRTH ? 0 : (s->seq + 1) & 0xff;
+    size_t n = encode(s, e, s->buf, sizeof s->buf, seq);
+    if (n == 0)
+        return false;
+    if (e->kind == ENC_DDATA && e->count == 0)
+        return true; /* nothing changed */
+    const char *top = topic(s, type, e->device != NULL ? -1 : robot);
+    if (e->device != NULL) {
+        size_t used = strlen(s->topic);
+        snprintf(s->topic + used, sizeof s->topic - used, "/%s", e->device);
+    }
+    if (!s->io.publish(s->io.user, top, s->buf, n, false)) {
+        /* what the plant has is unknown now: every field again */
+        if (robot >= 0)
+            memset(s->last[robot], 0, s->leaves * sizeof *s->last[robot]);
+        return false;
+    }
+    s->seq = (uint8_t)seq;
+    return true;
+}
+
+/* ---- the node ------------------------------------------------------------------- */
+
+static bool valid_id(const char *id)
+{
+    if (id[0] == '\0')
+        return false;
+    for (; *id; id++)
+        if (*id == '+' || *id == '#' || *id == '/' || (unsigned char)*id <= 0x20 ||
+            (unsigned char)*id >= 0x7f)
+            return false;
+    return true;
+}
+
+spb_t *spb_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, const spb_io_t *io,
+               const char *host, char *err, size_t errlen)
+{
+    spb_t *s = calloc(1, sizeof *s);
+    if (s == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    s->env = env;
+    s->io = *io;
+    snprintf(s->group, sizeof s->group, "%s", q->group_id);
+    snprintf(s->edge, sizeof s->edge, "%s", q->edge_node_id[0] ? q->edge_node_id : host);
+    snprintf(s->host_id, sizeof s->host_id, "%s", q->primary_host_id);
+    s->interval_ms = q->publish_interval_ms;
+    s->deadband = q->deadband;
+    s->writes = q->writes;
+    s->leaves = dr_leaf_count();
+    s->host_online = s->host_id[0] == '\0';
+    if (!valid_id(s->edge)) {
+        snprintf(err, errlen,
+                 "mqtt: sparkplug: the host name '%s' is not a valid edge_node_id (no '+', "
+                 "'#', '/' or blanks): set edge_node_id",
+                 s->edge);
+        free(s);
+        return NULL;
+    }
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        if ((s->last[r] = calloc(s->leaves, sizeof *s->last[r])) == NULL) {
+            snprintf(err, errlen, "out of memory");
+            spb_free(s);
+            return NULL;
+        }
+    return s;
+}
+
+void spb_free(spb_t *s)
+{
+    if (s == NULL)
+        return;
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        free(s->last[r]);
+    free(s);
+}
+
+/* An attempt that the broker never accepts does not use a bdSeq up: no
+ * host can have seen it, and a host then sees them 0, 1, 2, ... */
+void spb_will(spb_t *s, const char **top, const void **payload, size_t *len)
+{
+    s->bd = s->bd_next;
+    enc_t e = {.kind = ENC_NDEATH};
+    s->will_len = encode(s, &e, s->will, sizeof s->will, -1);
+    snprintf(s->will_topic, sizeof s->will_topic, "%s", topic(s, "NDEATH", -1));
+    *top = s->will_topic;
+    *payload = s->will;
+    *len = s->will_len;
+}
+
+static void all_dead(spb_t *s)
+{
+    s->born = false;
+    s->gone_count = 0;
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        s->dev_born[r] = s->ddeath_due[r] = false;
+}
+
+void spb_connected(spb_t *s)
+{
+    s->connected = true;
+    s->bd_next = (uint8_t)(s->bd + 1u);
+    s->host_online = s->host_id[0] == '\0';
+    s->nbirth_due = true;
+    all_dead(s);
+    char t[256];
+    snprintf(t, sizeof t, SPB_NS "/%s/NCMD/%s", s->group, s->edge);
+    (void)s->io.subscribe(s->io.user, t, 1);
+    snprintf(t, sizeof t, SPB_NS "/%s/DCMD/%s/+", s->group, s->edge);
+    (void)s->io.subscribe(s->io.user, t, 1);
+    if (s->host_id[0] != '\0') {
+        snprintf(t, sizeof t, SPB_NS "/STATE/%s", s->host_id);
+        (void)s->io.subscribe(s->io.user, t, 1);
+    }
+}
+
+void spb_disconnected(spb_t *s)
+{
+    s->connected = false;
+    all_dead(s);
+}
+
+/* Born devices whose name the configuration no longer has: a DDEATH
+ * each before the next births (a host would keep them alive otherwise). */
+static void note_gone(spb_t *s)
+{
+    const gw_config_t *cfg = s->env->cfg;
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++) {
+        bool kept = false;
+        if (!s->dev_born[r])
+            continue;
+        for (unsigned k = 0; k < cfg->robot_count && !kept; k++)
+            kept = strcmp(cfg->robot[k].name, s->born_as[r]) == 0;
+        if (!kept && s->gone_count < GW_MAX_ROBOTS)
+            memcpy(s->gone[s->gone_count++], s->born_as[r], sizeof s->gone[0]);
+        s->dev_born[r] = s->ddeath_due[r] = false;
+    }
+}
+
+void spb_sync(spb_t *s, bool links)
+{
+    const gw_north_env_t *env = s->env;
+    note_gone(s);
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++) {
+        s->link[r] = links && r < env->cfg->robot_count && env->link_up(env->user, r);
+        s->asm_seen[r] = ~0u; /* a link up now has its images */
+        s->next_pub_us[r] = 0;
+        if (s->data_ms[r] == 0)
+            s->data_ms[r] = wall_ms();
+    }
+    s->nbirth_due = true; /* robots may have come, gone or moved */
+}
+
+void spb_goodbye(spb_t *s)
+{
+    if (!s->connected)
+        return;
+    (void)s->io.publish(s->io.user, s->will_topic, s->will, s->will_len, false);
+}
+
+void spb_on_data(spb_t *s, unsigned robot, dr_asm_t a)
+{
+    if (robot < GW_MAX_ROBOTS) {
+        s->asm_seen[robot] |= 1u << a;
+        s->data_seen[robot] = true;
+        s->data_ms[robot] = wall_ms();
+    }
+}
+
+void spb_on_link(spb_t *s, unsigned robot, bool up)
+{
+    if (robot >= GW_MAX_ROBOTS || s->link[robot] == up)
+        return;
+    s->link[robot] = up;
+    if (up) {
+        s->asm_seen[robot] = 0;
+        s->up_us[robot] = ev_now_us();
+    } else if (s->dev_born[robot]) {
+        s->ddeath_due[robot] = true;
+    }
+}
+
+/* ---- publishing ------------------------------------------------------------------ */
+
+/* After link up, DBIRTH waits for every T->O assembly (each its own
+ * packet), so that it holds what the robot sent, not zeros; at most a
+ * second (an explicit-mode robot may not poll them all). */
+static bool snapshot_ready(const spb_t *s, unsigned r, uint64_t now)
+{
+    unsigned all = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O)
+            all |= 1u << a;
+    return (s->asm_seen[r] & all) == all || now >= s->up_us[r] + SPB_SNAPSHOT_WAIT_US;
+}
+
+static bool publish_nbirth(spb_t *s)
+{
+    enc_t e = {.kind = ENC_NBIRTH};
+    if (!publish_seq(s, &e, "NBIRTH", -1))
+        return false;
+    s->born = true;
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++) {
+        s->dev_born[r] = s->ddeath_due[r] = false;
+        s->next_pub_us[r] = 0;
+    }
+    gw_log(GW_LOG_INFO, "mqtt: sparkplug: NBIRTH %s/%s, bdSeq %u", s->group, s->edge,
+           (unsigned)s->bd);
+    return true;
+}
+
+static void tick_robot(spb_t *s, unsigned r, uint64_t now)
+{
+    if (s->ddeath_due[r]) {
+        enc_t e = {.kind = ENC_NONE, .robot = r};
+        if (!s->io.room(s->io.user) || !publish_seq(s, &e, "DDEATH", (int)r))
+            return;
+        s->ddeath_due[r] = s->dev_born[r] = false;
+    }
+    if (!s->link[r] || !s->io.room(s->io.user))
+        return;
+    if (!s->dev_born[r]) {
+        if (!snapshot_ready(s, r, now))
+            return;
+        enc_t e = {.kind = ENC_DBIRTH, .robot = r};
+        memset(s->last[r], 0, s->leaves * sizeof *s->last[r]);
+        if (publish_seq(s, &e, "DBIRTH", (int)r)) {
+            s->dev_born[r] = true;
+            snprintf(s->born_as[r], sizeof s->born_as[r], "%s", s->env->cfg->robot[r].name);
+            s->next_pub_us[r] = now + (uint64_t)s->interval_ms * 1000u;
+        }
+        return;
+    }
+    /* DDATA at most once per publish_interval_ms; the O->T images (written
+     * by Modbus, GPIO or the plant) are compared at that pace too. */
+    if (now < s->next_pub_us[r])
+        return;
+    enc_t e = {.kind = ENC_DDATA, .robot = r};
+    if (!publish_seq(s, &e, "DDATA", (int)r))
+        return;
+    s->data_seen[r] = false;
+    if (e.count > 0)
+        s->next_pub_us[r] = now + (uint64_t)s->interval_ms * 1000u;
+}
+
+void spb_tick(spb_t *s, uint64_t now)
+{
+    if (!s->connected || !s->host_online)
+        return;
+    while (s->born && s->gone_count > 0) {
+        enc_t e = {.kind = ENC_NONE, .device = s->gone[s->gone_count - 1]};
+        if (!s->io.room(s->io.user) || !publish_seq(s, &e, "DDEATH", -1))
+            return;
+        s->gone_count--;
+    }
+    if (s->nbirth_due) {
+        if (!s->io.room(s->io.user) || !publish_nbirth(s))
+            return;
+        s->nbirth_due = false;
+    }
+    for (unsigned r = 0; r < s->env->cfg->robot_count; r++)
+        tick_robot(s, r, now);
+}
+
+uint64_t spb_deadline(const spb_t *s, uint64_t now)
+{
+    if (!s->connected || !s->host_online)
+        return UINT64_MAX;
+    if (s->nbirth_due || s->gone_count > 0)
+        return now;
+    uint64_t d = UINT64_MAX;
+    for (unsigned r = 0; r < s->env->cfg->robot_count; r++) {
+        uint64_t x = UINT64_MAX;
+        if (s->ddeath_due[r])
+            x = now;
+        else if (s->link[r] && !s->dev_born[r])
+            x = snapshot_ready(s, r, now) ? now : s->up_us[r] + SPB_SNAPSHOT_WAIT_US;
+        else if (s->link[r] && s->data_seen[r])
+            x = s->next_pub_us[r]; /* new data: when the rate allows */
+        if (x < d)
+            d = x;
+    }
+    return d;
+}
+
+/* ---- commands --------------------------------------------------------------------- */
+
+typedef struct {
+    spb_metric_fn fn;
+    void *ctx;
+    Payload_Metric m;
+} dec_t;
+
+static bool dec_each(pb_istream_t *st, const pb_field_iter_t *field, void **arg)
+{
+    dec_t *d = *arg;
+    (void)field;
+    d->m = (Payload_Metric)Payload_Metric_init_zero;
+    return pb_decode(st, Payload_Metric_fields, &d->m) && d->fn(d->ctx, &d->m);
+}
+
+bool spb_decode_cmd(const void *payload, size_t len, spb_metric_fn fn, void *ctx)
+{
+    static dec_t d; /* one loop, no threads: not on the stack (~300 bytes) */
+    d.fn = fn;
+    d.ctx = ctx;
+    Payload p = Payload_init_zero;
+    p.metrics.funcs.decode = dec_each;
+    p.metrics.arg = &d;
+    pb_istream_t st = pb_istream_from_buffer(payload, len);
+    return pb_decode(&st, Payload_fields, &p);
+}
+
+/* The leaf number of a field element (the alias's low part). */
+static int leaf_of(dr_ref_t ref, unsigned leaves)
+{
+    for (unsigned i = 0; i < leaves; i++) {
+        dr_ref_t x;
+        if (dr_leaf_at((uint16_t)i, &x) == DR_OK && x.field == ref.field && x.elem == ref.elem)
+            return (int)i;
+    }
+    return -1;
+}
+
+/* The metric's value as the field's value: the oneof member it came in,
+ * read with the datatype the birth gave it (Int32 in int_value is two's
+ * complement); a string as text, as a write on <prefix>/.../set. */
+static dr_status_t value_of(const Payload_Metric *m, dr_ref_t ref, dr_value_t *v)
+{
+    switch (m->which_value) {
+    case Payload_Metric_boolean_value_tag:
+        *v = dr_value_uint(m->value.boolean_value ? 1u : 0u);
+        return DR_OK;
+    case Payload_Metric_int_value_tag:
+        if (datatype_of(ref) == SPB_DT_INT32)
+            *v = dr_value_int((int32_t)m->value.int_value);
+        else
+            *v = dr_value_uint(m->value.int_value);
+        return DR_OK;
+    case Payload_Metric_long_value_tag:
+        *v = m->has_datatype && m->datatype == SPB_DT_INT64
+                 ? dr_value_int((int64_t)m->value.long_value)
+                 : dr_value_uint(m->value.long_value);
+        return DR_OK;
+    case Payload_Metric_float_value_tag:
+        *v = dr_value_real(m->value.float_value);
+        return DR_OK;
+    case Payload_Metric_double_value_tag:
+        *v = dr_value_real(m->value.double_value);
+        return DR_OK;
+    case Payload_Metric_string_value_tag:
+        return dr_text_parse(ref, m->value.string_value, DR_SET_O2T_ONLY, v);
+    default:
+        return DR_EINVAL;
+    }
+}
+
+typedef struct {
+    spb_t *s;
+    int robot; /* DCMD: the device; -1: NCMD */
+} cmd_t;
+
+/* A refused DCMD metric: logged (at most once a second, with the count
+ * of those not logged), and the field's current value published back as
+ * DDATA so that the host's tag shows what the robot has. */
+static void refuse(spb_t *s, unsigned robot, const Payload_Metric *m, int leaf, const char *why)
+{
+    uint64_t now = ev_now_us();
+    s->refused++;
+    if (now >= s->refused_log_us) {
+        gw_log(GW_LOG_INFO, "mqtt: sparkplug: DCMD %s %s refused: %s%s",
+               s->env->cfg->robot[robot].name, m->has_name ? m->name : "(alias)", why,
+               s->refused > 1 ? " (and earlier refusals not logged)" : "");
+        s->refused = 0;
+        s->refused_log_us = now + 1000000u;
+    }
+    if (leaf < 0 || !s->dev_born[robot] || !s->io.room(s->io.user))
+        return;
+    enc_t e = {.kind = ENC_ECHO, .robot = robot, .echo_leaf = (uint16_t)leaf};
+    (void)publish_seq(s, &e, "DDATA", (int)robot);
+}
+
+static void dcmd_metric(spb_t *s, unsigned robot, const Payload_Metric *m)
+{
+    dr_ref_t ref;
+    char why[160];
+    int leaf = -1;
+    if (m->has_name) {
+        if (dr_path_parse(m->name, &ref) == DR_OK)
+            leaf = leaf_of(ref, s->leaves);
+    } else if (m->has_alias && m->alias >= SPB_ALIAS_FIRST + (uint64_t)robot * s->leaves &&
+               m->alias < SPB_ALIAS_FIRST + (uint64_t)(robot + 1u) * s->leaves) {
+        leaf = (int)(m->alias - SPB_ALIAS_FIRST - (uint64_t)robot * s->leaves);
+        if (dr_leaf_at((uint16_t)leaf, &ref) != DR_OK)
+            leaf = -1;
+    }
+    if (leaf < 0) {
+        refuse(s, robot, m, -1, "unknown metric (name or alias)");
+        return;
+    }
+    dr_value_t v;
+    dr_status_t st = value_of(m, ref, &v);
+    if (st == DR_EREADONLY || (st == DR_OK && dr_value_check(ref, &v, DR_SET_O2T_ONLY) ==
+                                                  DR_EREADONLY)) {
+        refuse(s, robot, m, leaf, "read-only: a T->O field");
+        return;
+    }
+    if (st != DR_OK) {
+        snprintf(why, sizeof why, "invalid value: %s", dr_strerror(st));
+        refuse(s, robot, m, leaf, why);
+        return;
+    }
+    if (!s->writes) {
+        refuse(s, robot, m, leaf, "writes are off ([mqtt] writes = no)");
+        return;
+    }
+    if (!s->io.write(s->io.user, robot, ref, &v, why, sizeof why))
+        refuse(s, robot, m, leaf, why);
+}
+
+static bool on_cmd_metric(void *ctx, const Payload_Metric *m)
+{
+    const cmd_t *c = ctx;
+    spb_t *s = c->s;
+    if (c->robot >= 0) {
+        dcmd_metric(s, (unsigned)c->robot, m);
+        return true;
+    }
+    bool rebirth = (m->has_name && strcmp(m->name, SPB_REBIRTH) == 0) ||
+                   (!m->has_name && m->has_alias && m->alias == SPB_ALIAS_REBIRTH);
+    if (rebirth && m->which_value == Payload_Metric_boolean_value_tag && m->value.boolean_value) {
+        gw_log(GW_LOG_INFO, "mqtt: sparkplug: rebirth asked (NCMD)");
+        s->nbirth_due = true;
+    }
+    return true;
+}
+
+/* STATE: {"online": true|false, "timestamp": ...} (Sparkplug 3.0). A
+ * host that goes offline: the node disconnects (its NDEATH) and comes
+ * back with a new bdSeq, births once the host is online again. */
+static void on_state(spb_t *s, const char *p, size_t len)
+{
+    char text[256];
+    if (len >= sizeof text)
+        len = sizeof text - 1;
+    memcpy(text, p, len);
+    text[len] = '\0';
+    const char *k = strstr(text, "\"online\"");
+    if (k == NULL)
+        return;
+    k += strlen("\"online\"");
+    k += strspn(k, " \t\r\n");
+    if (*k++ != ':')
+        return;
+    k += strspn(k, " \t\r\n");
+    bool online = strncmp(k, "true", 4) == 0;
+    if (online == s->host_online)
+        return;
+    gw_log(GW_LOG_INFO, "mqtt: sparkplug: primary host %s is %s", s->host_id,
+           online ? "online" : "offline");
+    s->host_online = online;
+    if (online)
+        s->nbirth_due = true;
+    else if (s->born) {
+        spb_goodbye(s);
+        s->io.reconnect(s->io.user);
+    }
+}
+
+bool spb_message(spb_t *s, const char *top, const void *payload, size_t len)
+{
+    char want[256];
+    if (s->host_id[0] != '\0') {
+        snprintf(want, sizeof want, SPB_NS "/STATE/%s", s->host_id);
+        if (strcmp(top, want) == 0) {
+            on_state(s, payload, len);
+            return true;
+        }
+    }
+    cmd_t c = {s, -1};
+    snprintf(want, sizeof want, SPB_NS "/%s/NCMD/%s", s->group, s->edge);
+    if (strcmp(top, want) != 0) {
+        snprintf(want, sizeof want, SPB_NS "/%s/DCMD/%s/", s->group, s->edge);
+        size_t n = strlen(want);
+        if (strncmp(top, want, n) != 0)
+            return strncmp(top, SPB_NS "/", strlen(SPB_NS "/")) == 0;
+        for (unsigned r = 0; r < s->env->cfg->robot_count; r++)
+            if (strcmp(top + n, s->env->cfg->robot[r].name) == 0)
+                c.robot = (int)r;
+        if (c.robot < 0 || !s->born)
+            return true;
+    }
+    if (!spb_decode_cmd(payload, len, on_cmd_metric, &c))
+        gw_log(GW_LOG_INFO, "mqtt: sparkplug: %s: malformed payload (%zu bytes) ignored", top,
+               len);
+    return true;
+}
