@@ -37,7 +37,9 @@ const char *gw_http_api_link_name(const gw_robot_t *rb)
     return rb->link.link_state == 2 ? "up" : rb->link.link_state == 1 ? "connecting" : "down";
 }
 
-/* "connections": each slot the robot's plan opens, with its state. */
+/* "connections": each slot the robot's plan opens, with its state and its
+ * packets received and lost since the link started (the overview shows
+ * them beside the state). */
 static void connections(gw_json_t *j, const gw_robot_config_t *rc, const gw_robot_t *rb)
 {
     gw_json_str(j, "[");
@@ -53,7 +55,8 @@ static void connections(gw_json_t *j, const gw_robot_config_t *rc, const gw_robo
         qstr(j, rc->mode == GW_MODE_IMPLICIT
                     ? dr_conn_state_name((dr_conn_state_t)rb->link.conn_state[i])
                     : "polled");
-        gw_json_str(j, "}");
+        NUM(j, ",\"rx_packets\":%lu", (unsigned long)rb->link.conn_rx[i]);
+        NUM(j, ",\"lost_packets\":%lu}", (unsigned long)rb->link.conn_lost[i]);
     }
     gw_json_str(j, "]");
 }

@@ -241,6 +241,12 @@ def overview_link_down_and_up(console):
     assert api(g, "/api/v1/robots/arm2")["reason"] == "connection refused"
     assert js(d, "return document.getElementById('gw-version').textContent;") == \
         api(g, "/api/v1/status")["version"]
+    # each connection of arm1 with its state and counters
+    conns = js(d, "return Array.from(document.querySelectorAll("
+                  "'#connections .conns[data-robot=\"arm1\"] .conn')).map(function (c) {"
+                  " return c.textContent; });")
+    assert len(conns) == len(api(g, "/api/v1/robots/arm1")["connections"]) == 6, conns
+    assert all("connected" in c and "rx " in c for c in conns), conns
     shot(d, "console-overview.png")
 
     mark = len(g.log())

@@ -299,7 +299,7 @@
         jobs.push(getJSON("/api/v1/log").then(function (ev) { lastEvents = ev || []; renderLog(lastEvents); }));
       }
       Promise.all(jobs).then(function () { live("live"); }, function (e) { live("stale", String(e.message || e)); })
-        .then(function () { setTimeout(tick, document.hidden ? 5000 : 1000); });
+        .then(function () { setTimeout(tick, document.hidden ? 5000 : 500); });
     }
     $("log-warn").addEventListener("change", function () { renderLog(lastEvents); });
     tick();
