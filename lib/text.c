@@ -165,8 +165,15 @@ static dr_status_t json_real(float f, char *out, size_t size)
     int n = snprintf(out, size, "%.9g", strtod(text, NULL));
     if (fit(n, size) != DR_OK)
         return DR_ENOSPACE;
-    char *e = strchr(out, 'e');
-    if (e == NULL && strchr(out, '.') == NULL)
+    char *e = NULL;
+    bool point = false;
+    for (char *c = out; *c != '\0'; c++) { /* no strchr: firmware's libc need not have it */
+        if (*c == 'e')
+            e = c;
+        else if (*c == '.')
+            point = true;
+    }
+    if (e == NULL && !point)
         return fit(snprintf(out + n, size - (size_t)n, ".0"), size - (size_t)n);
     if (e != NULL) {
         char *d = e + 1, *from = e + 1;

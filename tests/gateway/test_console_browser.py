@@ -34,10 +34,7 @@ import pytest
 import gwlib
 from gwlib import SIM_ADDR, timeout, wait_for
 
-# drcli of this build, or of the plain one (the sanitizer and coverage
-# builds make only the daemons)
-CLI = next((p for p in (gwlib.BUILD / "drcli", gwlib.TOP / "build" / "drcli") if p.exists()),
-           gwlib.BUILD / "drcli")
+CLI = gwlib.DRCLI
 NAME = "console_browser"
 SHOTS = os.environ.get("GW_CONSOLE_SHOTS", "")
 JOINT = "joint_state.position[1]"
