@@ -29,14 +29,19 @@ FUZZ_REPLAY_BIN    := $(FUZZ_TARGETS:%=$(B)/fuzz-replay/fuzz_%)
 # What a harness links beyond FUZZ_LIB_SRC: sources (FUZZ_SRC_T), compiled
 # into objects of their own here (instrumented) and taken from the plain
 # build for the replay programs, and libraries (FUZZ_LIBS_T).
-FUZZ_SRC_modbus      := gateway/modbus/mbproto.c gateway/modbus/regmap.c gateway/core/robot.c
+# The register map and what it needs: the robot's images, the user's map
+# (its views' names) and the JSON text of the console's map.
+FUZZ_REGMAP_SRC      := gateway/modbus/regmap.c gateway/modbus/usermap.c gateway/core/robot.c \
+                        gateway/core/json.c
+FUZZ_SRC_modbus      := gateway/modbus/mbproto.c $(FUZZ_REGMAP_SRC)
 FUZZ_LIBS_modbus     := $(MODBUS_LIBS)
-FUZZ_SRC_rtu         := gateway/modbus/mbproto.c gateway/modbus/regmap.c gateway/core/robot.c
+FUZZ_SRC_rtu         := gateway/modbus/mbproto.c $(FUZZ_REGMAP_SRC)
 FUZZ_LIBS_rtu        := $(MODBUS_LIBS)
-# config_robot.c's `map` lines: the user's map parser and the default map
-FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c)) gateway/modbus/usermap.c \
-                        gateway/modbus/regmap.c gateway/core/robot.c
-FUZZ_SRC_usermap     := gateway/modbus/usermap.c gateway/modbus/regmap.c gateway/core/robot.c
+# config_robot.c's `map` lines: the user's map parser and the default map;
+# [http] auth_file: the password file parser
+FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c)) $(FUZZ_REGMAP_SRC) \
+                        gateway/http/passwd.c
+FUZZ_SRC_usermap     := $(FUZZ_REGMAP_SRC)
 FUZZ_LIBS_config     := $(INIH_LIBS)
 # Sparkplug B commands (gateway/mqtt/sparkplug.c) over nanopb: Debian's
 # libprotobuf-nanopb.a, not instrumented (libFuzzer sees our callbacks'

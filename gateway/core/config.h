@@ -288,7 +288,4 @@ const char *gw_config_sections(void);
  * docs/configuration.md). False for an unknown section. */
 bool gw_config_print_keys(FILE *out, const char *section);
 
-/* "abcd", "cdab", "badc", "dcba"; "?" for a value outside the enum. */
-const char *gw_word_order_name(gw_word_order_t w);
-
 #endif /* DRGATE_GW_CONFIG_H */

@@ -55,6 +55,12 @@ static const char *const words[8] = {"", "", "", "error", "warning", "", "info",
 
 static gw_log_event_t ring[GW_LOG_RING];
 static uint64_t ring_total; /* events ever put in */
+static bool ring_on;
+
+void gw_log_ring_keep(bool on)
+{
+    ring_on = on;
+}
 
 static void ring_put(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
 {
@@ -94,9 +100,11 @@ static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_
     if (level > max_level)
         return;
     va_list aq;
-    va_copy(aq, ap);
-    ring_put(level, suppressed, fmt, aq);
-    va_end(aq);
+    if (ring_on) {
+        va_copy(aq, ap);
+        ring_put(level, suppressed, fmt, aq);
+        va_end(aq);
+    }
     if (getenv("JOURNAL_STREAM") != NULL) {
         fprintf(stderr, "<%d>", (int)level);
     } else {

@@ -4,6 +4,7 @@
 #ifndef DRGATE_GW_LOG_H
 #define DRGATE_GW_LOG_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 typedef enum { GW_LOG_ERROR = 3, GW_LOG_WARNING = 4, GW_LOG_INFO = 6, GW_LOG_DEBUG = 7 } gw_log_level_t;
@@ -29,6 +30,10 @@ typedef struct {
     gw_log_level_t level;
     char text[GW_LOG_TEXT];
 } gw_log_event_t;
+/* Keep the ring (true) or not (false, the default): only a daemon with a
+ * console ([http]) keeps it, so that one without has no page of it in
+ * memory (issue 21: the same RSS as before the console). */
+void gw_log_ring_keep(bool on);
 /* fn for each event in the ring, the oldest first. */
 void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user);
 /* Events ever logged (those beyond GW_LOG_RING have left the ring). */

@@ -348,6 +348,8 @@ static void reload(gw_t *g)
     memset(g->links, 0, sizeof g->links);
     g->generation++;
     g->serial = serial;
+    if (g->cfg.http.enabled)
+        gw_log_ring_keep(true); /* a console from now on: its log starts here */
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         g->robots[r].generation = g->generation;
         g->links[r] = links[r];
@@ -602,5 +604,6 @@ int main(int argc, char **argv)
     if (G.cfg.log_level[0] != '\0')
         (void)gw_log_level_parse(G.cfg.log_level, &level);
     gw_log_set_level(verbose ? GW_LOG_DEBUG : level);
+    gw_log_ring_keep(G.cfg.http.enabled);
     return run(&G);
 }

@@ -12,13 +12,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "modbus/regmap.h"
 #include "modbus/usermap.h"
 
 /* ---- [modbus] -------------------------------------------------------------- */
 
 #define M(m) GW_CFG_AT(gw_modbus_config_t, m)
 
-static const char *const word_orders[] = { "abcd", "cdab", "badc", "dcba", NULL };
 static gw_cfg_parse_fn modbus_allow;
 
 static const gw_cfg_key_t modbus_keys[] = {
@@ -27,7 +27,7 @@ static const gw_cfg_key_t modbus_keys[] = {
     { .name = "max_clients", .type = GW_CFG_UINT, M(max_clients), .lo = 1, .hi = 256, .def = 16, .help = "clients served at once. One more is accepted, logged and closed at once, never left hanging" },
     { .name = "idle_timeout", .type = GW_CFG_UINT, M(idle_timeout_s), .lo = 0, .hi = 86400, .def = 60, .allowed = "0..86400 seconds, 0 = never", .help = "close a client that sent no complete request for this long (bytes of an unfinished request do not count); `0` = never" },
     { .name = "keepalive", .type = GW_CFG_BOOL, M(keepalive), .def = 1, .help = "TCP keepalive on client sockets, so dead peers (a PLC switched off) are found" },
-    { .name = "word_order", .type = GW_CFG_ENUM, M(word_order), .names = word_orders, .def = GW_WORD_ABCD, .help = "how 32-bit values (REAL, DINT) are laid out in two registers; see below" },
+    { .name = "word_order", .type = GW_CFG_ENUM, M(word_order), .names = gw_word_order_names, .def = GW_WORD_ABCD, .help = "how 32-bit values (REAL, DINT) are laid out in two registers; see below" },
     { .name = "allow", .type = GW_CFG_HOOK, .flags = GW_CFG_LIST, .parse = modbus_allow, .allowed = "a.b.c.d/len [ro|rw]", .doc_default = "(none: everyone read-write)", .doc_allowed = "`a.b.c.d/len [ro|rw]`, repeatable, at most 16", .help = "client networks allowed to connect; see below" },
     { .name = "on_link_loss", .type = GW_CFG_ENUM, M(on_link_loss), GW_CFG_NAMES("hold", "zero", "exception"), .def = GW_LOSS_HOLD, .help = "what Modbus sees of a robot whose link is down; see below" },
     { .name = "unmapped_read", .type = GW_CFG_ENUM, M(unmapped_read), GW_CFG_NAMES("zero", "exception"), .def = GW_UNMAPPED_ZERO, .help = "a read that covers reserved addresses between the map's blocks: they read 0 (so 125-register block reads work), or the whole read is refused with 0x02. Reads past a table's last mapped address and writes to reserved addresses are refused either way ([register-map.md](register-map.md))" },
@@ -59,12 +59,6 @@ static void modbus_allow(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     (void)k;
     (void)name;
     gw_cfg_allow(c, v, m->allow, &m->allow_count, ml->allow_line);
-}
-
-const char *gw_word_order_name(gw_word_order_t w)
-{
-    unsigned i = (unsigned)w;
-    return i < GW_CFG_COUNT(word_orders) - 1 ? word_orders[i] : "?";
 }
 
 /* ---- [modbus_rtu NAME] ------------------------------------------------------ */

@@ -16,6 +16,7 @@
 #include "core/log.h"
 #include "modbus/mbproto.h"
 #include "modbus/mbserver.h"
+#include "modbus/regmap.h"
 
 #define MAX_CLIENTS_HARD 256u
 

@@ -135,6 +135,14 @@ static uint16_t swap_bytes(uint16_t w)
     return (uint16_t)(w << 8 | w >> 8);
 }
 
+const char *const gw_word_order_names[] = {"abcd", "cdab", "badc", "dcba", NULL};
+
+const char *gw_word_order_name(gw_word_order_t w)
+{
+    unsigned i = (unsigned)w;
+    return i <= (unsigned)GW_WORD_DCBA ? gw_word_order_names[i] : "?";
+}
+
 void gw_words_from_u32(uint32_t v, gw_word_order_t order, uint16_t out[2])
 {
     uint16_t hi = (uint16_t)(v >> 16), lo = (uint16_t)v;

@@ -152,6 +152,12 @@ bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot);
  * last_cip_general (IR 30): text or Markdown (docs/register-map.md). */
 void gw_regmap_print_errors(FILE *out, gw_print_fmt_t fmt);
 
+/* The word orders' names as [modbus] word_order takes them, in
+ * gw_word_order_t's order, NULL-terminated (the configuration's table);
+ * gw_word_order_name(): "?" for a value outside the enum. */
+extern const char *const gw_word_order_names[];
+const char *gw_word_order_name(gw_word_order_t w);
+
 /* 32-bit value <-> two registers in a word order (our own codec, not
  * libmodbus's float helpers). */
 void gw_words_from_u32(uint32_t v, gw_word_order_t order, uint16_t out[2]);

@@ -19,6 +19,7 @@
 
 #include "core/config.h"
 #include "core/config_internal.h"
+#include "modbus/regmap.h"
 
 #ifndef GW_TEST_TOP
 #define GW_TEST_TOP "."

@@ -130,6 +130,27 @@ static void test_suppressed_count(void **state)
     assert_string_equal(ring().last, "again [3 similar messages suppressed]");
 }
 
+/* Without a console nothing is kept: no page of the ring is touched. */
+static void test_kept_only_with_a_console(void **state)
+{
+    (void)state;
+    gw_log_ring_keep(false);
+    uint64_t before = gw_log_ring_total();
+    gw_log(GW_LOG_ERROR, "not kept");
+    assert_int_equal(gw_log_ring_total(), before);
+    gw_log_ring_keep(true);
+    gw_log(GW_LOG_ERROR, "kept");
+    assert_int_equal(gw_log_ring_total(), before + 1);
+    assert_string_equal(ring().last, "kept");
+}
+
+static int keep_ring(void **state)
+{
+    (void)state;
+    gw_log_ring_keep(true);
+    return 0;
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -138,6 +159,7 @@ int main(void)
         cmocka_unit_test(test_long_line_cut),
         cmocka_unit_test(test_json),
         cmocka_unit_test(test_suppressed_count),
+        cmocka_unit_test(test_kept_only_with_a_console),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests(tests, keep_ring, NULL);
 }
