@@ -642,7 +642,7 @@ static void by_code(gw_prom_t *p, const mb_t *m, bool ex)
             uint64_t v = ex ? m->n.by_ex[t][c] : m->n.by_fc[t][c];
             if (v == 0)
                 continue;
-            char code[8];
+            char code[12]; /* any unsigned: what gcc -O0 checks */
             snprintf(code, sizeof code, "%u", c);
             gw_prom_label_t l[2] = {{"transport", transport_name[t]},
                                     {ex ? "code" : "function_code", code}};
