@@ -123,7 +123,10 @@ typedef struct {
     unsigned long dropped; /* error replies dropped (queue bound) */
     spb_t *spb;     /* payload = sparkplug (sparkplug.h), else NULL */
     gw_json_t json; /* over json_buf */
-    char json_buf[MQ_JSON_MAX];
+    /* MQ_JSON_MAX bytes, allocated only for an enabled side: a daemon
+     * without [mqtt] keeps no page of it (its memory is what it was
+     * before MQTT grew, issue 21's RSS goal). */
+    char *json_buf;
     /* the console's (mq_report, mq_metrics): counters since the side started */
     struct { unsigned long long published, received, accepted, connects; gw_log_limit_t write_log[GW_MAX_ROBOTS]; } con;
 } mq_t;
@@ -204,7 +207,7 @@ static const char *type_name(const dr_field_t *f)
 static bool publish_meta(mq_t *t, unsigned robot)
 {
     gw_json_t *j = &t->json;
-    gw_json_init(j, t->json_buf, sizeof t->json_buf);
+    gw_json_init(j, t->json_buf, MQ_JSON_MAX);
     gw_json_raw(j, "{", 1);
     for (unsigned i = 0; i < t->leaves; i++) {
         dr_ref_t ref;
@@ -281,7 +284,7 @@ static void open_message(mq_t *t, const gw_robot_t *rb, bool fresh)
 {
     gw_json_t *j = &t->json;
     char text[64];
-    gw_json_init(j, t->json_buf, sizeof t->json_buf);
+    gw_json_init(j, t->json_buf, MQ_JSON_MAX);
     gw_json_str(j, "{\"time\":");
     write_time(j, rb->link.rx_us);
     snprintf(text, sizeof text, ",\"quality\":\"%s\",\"age_ms\":%lu,\"values\":{",
@@ -421,7 +424,7 @@ static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, m
     }
     t->err_queued++;
     gw_json_t *j = &t->json;
-    gw_json_init(j, t->json_buf, sizeof t->json_buf);
+    gw_json_init(j, t->json_buf, MQ_JSON_MAX);
     gw_json_str(j, "{\"topic\":");
     gw_json_quote(j, m->topic, strlen(m->topic));
     gw_json_str(j, ",\"payload\":");
@@ -858,7 +861,13 @@ static mq_t *mq_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, char *
     t->backoff_us = MQ_BACKOFF_MIN_US;
     if (!q->enabled)
         return t;
+    if ((t->json_buf = malloc(MQ_JSON_MAX)) == NULL) {
+        snprintf(err, errlen, "out of memory");
+        free(t);
+        return NULL;
+    }
     if ((ml = gw_mqttlib_load(err, errlen)) == NULL) {
+        free(t->json_buf);
         free(t);
         return NULL;
     }
@@ -1071,6 +1080,7 @@ static void mq_free(mq_t *t)
     spb_free(t->spb);
     free(t->pick);
     free(t->pick_v);
+    free(t->json_buf);
     if (t->cfg.enabled && --lib_users == 0)
         ml->lib_cleanup();
     free(t);
