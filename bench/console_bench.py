@@ -19,11 +19,12 @@ drgatewayd with [http]:
 3. The Modbus request latency, p99, from bench/gw_load (one client, FC03
    and FC04 reads of 125 registers, as gw_bench.py), without and with the
    ten pages, rounds alternating; ratio of the medians. Goal: <= 1.2x.
-4. Without [http]: the daemon's VmRSS against the same daemon built from
-   the tree before the console (--baseline), and whether libmicrohttpd is
-   mapped (/proc/PID/maps): goal: not mapped, RSS within 2 % (the same,
-   but for pages that differ by where the loader put things). With [http]
-   for comparison, which maps it.
+4. Without [http]: the daemon's own memory (RssAnon) against the same
+   daemon built from the tree before the console (--baseline), and whether
+   libmicrohttpd is mapped (/proc/PID/maps): goal: not mapped, RssAnon
+   within 2 %. VmRSS is shown too: it adds file pages of the binary,
+   shared with the page cache, which a larger binary shows more of. With
+   [http] for comparison, which maps it.
 
 usage: console_bench.py --build DIR [--baseline DRGATEWAYD] [--rounds N]
                         [--window S] [--write-doc] [--quick]
@@ -294,11 +295,18 @@ rpi_ms = {RPI_MS}
             rows.append(("libmicrohttpd mapped without [http]", "yes" if no[2] else "no",
                          "no", ok(not no[2])))
         if no and base:
-            rr = no[0] / base[0]
+            # The goal is on the daemon's own memory (RssAnon): VmRSS adds
+            # the file pages of the binary and its libraries, which the
+            # kernel maps in runs around each page touched (fault-around)
+            # and shares with the page cache; a larger binary shows more of
+            # them without costing memory (docs/performance.md).
+            ra = no[1] / base[1]
+            rows.append(("Own memory (RssAnon) without [http] vs the daemon before the console",
+                         f"{no[1]:.0f} kB vs {base[1]:.0f} kB ({ra:.3f}x, {no[1] - base[1]:+.0f} kB)",
+                         f"<= {GOAL_RSS_RATIO:g}x", ok(ra <= GOAL_RSS_RATIO)))
             rows.append(("VmRSS without [http] vs the daemon before the console",
-                         f"{no[0]:.0f} kB vs {base[0]:.0f} kB ({rr:.3f}x); its own memory "
-                         f"(RssAnon) {no[1]:.0f} vs {base[1]:.0f} kB ({no[1] - base[1]:+.0f} kB)",
-                         f"<= {GOAL_RSS_RATIO:g}x", ok(rr <= GOAL_RSS_RATIO)))
+                         f"{no[0]:.0f} kB vs {base[0]:.0f} kB ({no[0] / base[0]:.3f}x; file pages "
+                         f"{no[0] - no[1]:.0f} vs {base[0] - base[1]:.0f} kB)", "(info)", "-"))
         h = self.rss.get("[http], no page open")
         if h:
             rows.append(("VmRSS with [http] (libmicrohttpd "
