@@ -48,7 +48,7 @@ FUZZ_LIBS_config     := $(INIH_LIBS)
 # coverage, not the protobuf decoder's).
 # The harness has its own gw_log (formats, does not print).
 FUZZ_SRC_sparkplug   := gateway/mqtt/sparkplug.c gateway/mqtt/sparkplug_b.pb.c \
-                        gateway/core/robot.c common/ev.c
+                        gateway/mqtt/deadband.c gateway/core/robot.c common/ev.c
 FUZZ_LIBS_sparkplug  := $(NANOPB_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 # All of drcli but its main() (cli/drcli.c, on top of the rest).

@@ -49,6 +49,7 @@
 #include "drgate/text.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "mqtt/deadband.h"
 #include "mqtt/mqtt_lib.h"
 #include "mqtt/sparkplug.h"
 #include "core/north.h"
@@ -80,11 +81,6 @@ typedef enum {
 } mq_refusal_t;
 
 typedef struct {
-    bool have;
-    double v;
-} mq_last_t;
-
-typedef struct {
     const gw_north_env_t *env;
     gw_mqtt_config_t cfg; /* a copy: a reload compares the new one with it */
     struct mosquitto *mosq;
@@ -98,7 +94,7 @@ typedef struct {
     uint64_t backoff_us;
     unsigned inflight;  /* QoS 1/2 publications not yet acknowledged */
     unsigned leaves;    /* dr_leaf_count() */
-    mq_last_t *last[GW_MAX_ROBOTS]; /* what was last published, by leaf */
+    gw_mqtt_last_t *last[GW_MAX_ROBOTS]; /* what was last published, by leaf */
     uint16_t *pick;      /* publish_data: the leaves in this message ... */
     double *pick_v;      /* ... and their values */
     bool link[GW_MAX_ROBOTS];
@@ -234,21 +230,6 @@ static bool publish_meta(mq_t *t, unsigned robot)
     return publish(t, top, j->buf, j->len, t->cfg.retain);
 }
 
-/* Did a leaf change enough to be published? REALs by the deadband. */
-static bool changed(const mq_t *t, const mq_last_t *l, const dr_value_t *v)
-{
-    if (!l->have)
-        return true;
-    double x = dr_value_as_double(v);
-    if (v->type != DR_VAL_REAL)
-        return x != l->v;
-    if (isnan(x) || isnan(l->v))
-        return isnan(x) != isnan(l->v);
-    if (isinf(x) || isinf(l->v))
-        return x != l->v;
-    return fabs(x - l->v) > t->cfg.deadband || (t->cfg.deadband == 0.0 && x != l->v);
-}
-
 /* The robot packet's receive time (monotonic) on the wall clock, as
  * ISO 8601 UTC with milliseconds: "2026-11-25T14:48:10.123Z"; null
  * before the robot sent anything. */
@@ -340,7 +321,7 @@ static unsigned build_message(mq_t *t, unsigned robot, bool full)
 {
     const gw_robot_t *rb = &t->env->robots[robot];
     gw_json_t *j = &t->json;
-    const mq_last_t *last = t->last[robot];
+    const gw_mqtt_last_t *last = t->last[robot];
     open_message(t, rb, data_fresh(t, robot));
     unsigned n = 0;
     for (unsigned i = 0; i < t->leaves; i++) {
@@ -351,7 +332,7 @@ static unsigned build_message(mq_t *t, unsigned robot, bool full)
             continue;
         if (gw_robot_get(rb, ref, &v) != DR_OK)
             continue;
-        if (!full && !changed(t, &last[i], &v))
+        if (!full && !gw_mqtt_changed(&last[i], &v, t->cfg.deadband))
             continue;
         if (dr_ref_path(ref, path, sizeof path) != DR_OK)
             continue;
@@ -383,7 +364,7 @@ static bool publish_data(mq_t *t, unsigned robot, bool full)
     /* Only now, and only what the message holds: a change within the
      * deadband is measured from the value the plant has, so that a slow
      * drift is published once it adds up. */
-    mq_last_t *last = t->last[robot];
+    gw_mqtt_last_t *last = t->last[robot];
     for (unsigned k = 0; k < n; k++) {
         last[t->pick[k]].have = true;
         last[t->pick[k]].v = t->pick_v[k];

@@ -22,7 +22,6 @@
  */
 #include "mqtt/sparkplug.h"
 
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -33,6 +32,7 @@
 
 #include "common/ev.h"
 #include "core/log.h"
+#include "mqtt/deadband.h"
 #include "drgate/text.h"
 
 #define SPB_NS "spBv1.0"
@@ -40,11 +40,6 @@
 #define SPB_ALIAS_REBIRTH 1u
 #define SPB_ALIAS_FIRST 2u /* a robot's fields: 2 + robot * leaves + leaf */
 #define SPB_SNAPSHOT_WAIT_US 1000000u /* DBIRTH waits for every T->O image, at most 1 s */
-
-typedef struct {
-    bool have;
-    double v;
-} spb_last_t;
 
 struct spb {
     const gw_north_env_t *env;
@@ -72,7 +67,7 @@ struct spb {
     uint64_t up_us[GW_MAX_ROBOTS];
     uint64_t next_pub_us[GW_MAX_ROBOTS];
     uint64_t data_ms[GW_MAX_ROBOTS]; /* wall clock of the robot's last packet */
-    spb_last_t *last[GW_MAX_ROBOTS];
+    gw_mqtt_last_t *last[GW_MAX_ROBOTS];
     unsigned long refused;  /* DCMD refusals, for the log's rate */
     uint64_t refused_log_us;
     char topic[256];
@@ -145,22 +140,6 @@ static void put_value(Payload_Metric *m, const dr_value_t *v)
     }
 }
 
-/* Did a leaf change enough to be published? The JSON payload's rule:
- * REALs by the deadband, integers and bits on any change. */
-static bool changed(const spb_t *s, const spb_last_t *l, const dr_value_t *v)
-{
-    if (!l->have)
-        return true;
-    double x = dr_value_as_double(v);
-    if (v->type != DR_VAL_REAL)
-        return x != l->v;
-    if (isnan(x) || isnan(l->v))
-        return isnan(x) != isnan(l->v);
-    if (isinf(x) || isinf(l->v))
-        return x != l->v;
-    return fabs(x - l->v) > s->deadband || (s->deadband == 0.0 && x != l->v);
-}
-
 /* ---- encoding ------------------------------------------------------------------- */
 
 typedef enum { ENC_NBIRTH, ENC_NDEATH, ENC_DBIRTH, ENC_DDATA, ENC_ECHO, ENC_NONE } enc_kind_t;
@@ -210,7 +189,7 @@ static bool enc_robot(pb_ostream_t *st, const pb_field_iter_t *field, enc_t *e)
 {
     spb_t *s = e->s;
     const gw_robot_t *rb = &s->env->robots[e->robot];
-    spb_last_t *last = s->last[e->robot];
+    gw_mqtt_last_t *last = s->last[e->robot];
     Payload_Metric *m = &s->m;
     for (unsigned i = 0; i < s->leaves; i++) {
         dr_ref_t ref;
@@ -219,7 +198,7 @@ static bool enc_robot(pb_ostream_t *st, const pb_field_iter_t *field, enc_t *e)
             continue;
         if (dr_leaf_at((uint16_t)i, &ref) != DR_OK || gw_robot_get(rb, ref, &v) != DR_OK)
             continue;
-        if (e->kind == ENC_DDATA && !changed(s, &last[i], &v))
+        if (e->kind == ENC_DDATA && !gw_mqtt_changed(&last[i], &v, s->deadband))
             continue;
         *m = (Payload_Metric)Payload_Metric_init_zero;
         m->has_alias = true;

@@ -81,12 +81,12 @@
     return "0x" + s;
   }
 
-  // "0x0106 (general 0x01): ownership conflict", "-" when there was none.
-  function cipError(e) {
+  // The cause in words as the log says it, then the status block's
+  // last_error code (IR 12): "CIP 0x01/0x0106 ownership conflict (0x0106)",
+  // "connection refused (0x000F)"; "-" when there was none.
+  function lastError(e) {
     if (!e || !e.code) return "-";
-    var s = hex(e.code, 4);
-    if (e.cip_general) s += " (general " + hex(e.cip_general, 2) + ")";
-    return e.text ? s + ": " + e.text : s;
+    return e.text ? e.text + " (" + hex(e.code, 4) + ")" : hex(e.code, 4);
   }
 
   function clock(t) {
@@ -228,7 +228,7 @@
       setText(c.heartbeat, r.heartbeat);
       setText(c.rx, r.rx_packets);
       setText(c.lost, r.lost_packets);
-      setText(c.last_error, cipError(r.last_error));
+      setText(c.last_error, lastError(r.last_error));
       setText(c.last_write, lastWrite(r.last_write));
       var line = el("div", { class: "conns", "data-robot": r.name }, el("strong", null, r.name));
       (r.connections || []).forEach(function (k) {
@@ -501,7 +501,7 @@
       setText($("rpi"), typeof r.rpi_ms === "number" ? r.rpi_ms + " ms" : "-");
       setText($("age"), ms(r.age_ms));
       setText($("last-write"), lastWrite(r.last_write));
-      setText($("last-error"), cipError(r.last_error));
+      setText($("last-error"), lastError(r.last_error));
       setText($("packets"), (r.rx_packets === undefined ? "-" : r.rx_packets) + " / " + (r.lost_packets === undefined ? "-" : r.lost_packets));
     }
 
