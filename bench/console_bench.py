@@ -383,24 +383,9 @@ def main():
     if args.quick:
         args.rounds, args.window = 2, 1.5
     b = Bench(args)
-    try:
-        b.run()
-    except Exception as e:  # noqa: BLE001 -- report, clean up, fail
-        b.cleanup()
-        for p in os.listdir(b.tmp):
-            if p.endswith(".log"):
-                sys.stderr.write(f"--- {p}\n" + open(os.path.join(b.tmp, p)).read()[-2000:])
-        log(f"FAILED: {e}")
+    if not gw_bench.run_or_report(b, log):
         return 1
-    md = b.markdown()
-    print()
-    print(md)
-    if args.write_doc:
-        write_doc(md)
-        log(f"written to {os.path.relpath(DOC, TOP)}")
-    missed = b.missed()
-    if missed:
-        log("goals MISSED: " + "; ".join(missed))
+    missed = gw_bench.show_results(b, write_doc if args.write_doc else None, log)
     return 1 if missed else 0
 
 

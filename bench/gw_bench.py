@@ -654,6 +654,39 @@ def write_doc(md):
     write_between(DOC, BEGIN, END, md, missing=add_section)
 
 
+def run_or_report(bench, log):
+    """bench.run(); when it raises: bench.cleanup(), the tail of each .log
+    in bench.tmp on stderr, and FAILED through the bench's own log. False
+    then (the bench exits 1), True when the run went through. Shared with
+    console_bench.py."""
+    try:
+        bench.run()
+        return True
+    except Exception as e:  # noqa: BLE001 -- report, clean up, fail
+        bench.cleanup()
+        for p in os.listdir(bench.tmp):
+            if p.endswith(".log"):
+                sys.stderr.write(f"--- {p}\n" + open(os.path.join(bench.tmp, p)).read()[-2000:])
+        log(f"FAILED: {e}")
+        return False
+
+
+def show_results(bench, write, log):
+    """Print bench.markdown(), write it into DOC with write(md) when write
+    is given (--write-doc), and log the goals bench.missed() names; returns
+    those goals. Shared with console_bench.py."""
+    md = bench.markdown()
+    print()
+    print(md)
+    if write:
+        write(md)
+        log(f"written to {os.path.relpath(DOC, TOP)}")
+    missed = bench.missed()
+    if missed:
+        log("goals MISSED: " + "; ".join(missed))
+    return missed
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
@@ -676,25 +709,10 @@ def main():
     if args.latency_only and args.write_doc:
         ap.error("--write-doc needs the whole run")
     b = Bench(args)
-    try:
-        b.run()
-    except Exception as e:  # noqa: BLE001 -- report, clean up, fail
-        b.cleanup()
-        for p in os.listdir(b.tmp):
-            if p.endswith(".log"):
-                sys.stderr.write(f"--- {p}\n" + open(os.path.join(b.tmp, p)).read()[-2000:])
-        log(f"FAILED: {e}")
+    if not run_or_report(b, log):
         return 1
     shutil.rmtree(b.tmp, ignore_errors=True)
-    md = b.markdown()
-    print()
-    print(md)
-    if args.write_doc:
-        write_doc(md)
-        log(f"written to {os.path.relpath(DOC, TOP)}")
-    missed = b.missed()
-    if missed:
-        log("goals MISSED: " + "; ".join(missed))
+    missed = show_results(b, write_doc if args.write_doc else None, log)
     return 1 if b.failures or missed else 0
 
 

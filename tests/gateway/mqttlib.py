@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: MIT
 """MQTT peers for tests/gateway/test_mqtt.py and bench/mqtt_bench.py: Debian's
 mosquitto broker started from a generated configuration on a free
-loopback port, and a paho-mqtt client playing the plant."""
+loopback port, a paho-mqtt client playing the plant, and a gateway started
+only once its MQTT peers listen (test_sparkplug.py's too)."""
+import contextlib
 import json
 import shutil
 import threading
@@ -9,7 +11,7 @@ import time
 
 import paho.mqtt.client as mqtt
 
-from gwlib import GW_ADDR, LOGDIR, free_port, read_text, spawn, timeout, wait_for
+from gwlib import GW_ADDR, LOGDIR, free_port, read_text, running, spawn, timeout, wait_for
 
 MOSQUITTO = shutil.which("mosquitto") or "/usr/sbin/mosquitto"
 PREFIX = "drgate/test"
@@ -48,6 +50,16 @@ class Broker:
         if self.proc is not None and self.proc.poll() is None:
             self.proc.terminate()
             self.proc.wait(timeout(10))
+
+
+@contextlib.contextmanager
+def broker_running(name, tls=None):
+    """A started Broker, stopped on the way out."""
+    b = Broker(name, tls=tls).start()
+    try:
+        yield b
+    finally:
+        b.stop()
 
 
 class Plant:
@@ -118,3 +130,23 @@ class Plant:
 def mqtt_section(broker, extra=""):
     return ("\n[mqtt]\nhost = %s\nport = %d\ntopic_prefix = %s\nkeepalive_s = 5\n%s\n"
             % (GW_ADDR, broker.port, PREFIX, extra))
+
+
+@contextlib.contextmanager
+def started_after(name, peers, **running_kw):
+    """running(name, start=False, **running_kw), then each of peers (a
+    function that returns a connected client with close()) called, then
+    the gateway started: the clients see its first messages. Yields
+    (g, client, ...); the clients are closed, the last first, before
+    running() kills the gateway."""
+    with running(name, start=False, **running_kw) as g, contextlib.ExitStack() as stack:
+        clients = [stack.enter_context(contextlib.closing(peer())) for peer in peers]
+        g.start()
+        yield (g, *clients)
+
+
+def plant_gateway(name, broker, section="", tls_ca=None, **running_kw):
+    """started_after() with a Plant and [mqtt] = mqtt_section(broker,
+    section): `with plant_gateway(...) as (g, plant):`."""
+    return started_after(name, [lambda: Plant(broker, tls_ca=tls_ca)],
+                         extra=mqtt_section(broker, section), **running_kw)

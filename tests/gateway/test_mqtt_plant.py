@@ -21,7 +21,8 @@ from gwlib import GW_ADDR, SIM_ADDR, EnipReader, decode_t2o, free_port, running,
 
 pytest.importorskip("paho.mqtt.client")
 
-from mqttlib import PREFIX, Broker, Plant, mqtt_section  # noqa: E402 (needs paho)
+from mqttlib import (PREFIX, Plant, broker_running, mqtt_section,  # noqa: E402 (paho)
+                     plant_gateway)
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "mqtt.md"
 RETIRED = "down: removed from the configuration"
@@ -52,18 +53,16 @@ def retained(broker, wait_topic, settle=0.3):
 def cell():
     """One broker, drsim and a gateway with writes for the module's
     tests that only look (and write int_in / float_in registers)."""
-    b = Broker("mqtt_plant").start()
-    try:
-        with running("mqtt_plant", extra=mqtt_section(b, "writes = yes"), start=False) as g:
-            plant = Plant(b)
-            g.start()
-            try:
-                wait_up(plant)
-                yield b, g, plant
-            finally:
-                plant.close()
-    finally:
-        b.stop()
+    with broker_running("mqtt_plant") as b, \
+            plant_gateway("mqtt_plant", b, "writes = yes") as (g, plant):
+        wait_up(plant)
+        yield b, g, plant
+
+
+@pytest.fixture
+def broker(request):
+    with broker_running(request.node.name) as b:
+        yield b
 
 
 def robot_now(g):
@@ -161,93 +160,66 @@ def test_dint_written_as_a_fraction_is_not_an_integer(cell):
     assert "malformed" not in err
 
 
-def test_snapshot_goes_stale_when_the_link_drops(request):
-    b = Broker(request.node.name).start()
-    try:
-        with running("mqtt_stale", extra=mqtt_section(b), start=False) as g:
-            plant = Plant(b)
-            g.start()
-            try:
-                wait_up(plant)
-                wait_for(lambda: plant.last(PREFIX + "/r0/snapshot"), 10, "a snapshot")
-                g.sim.kill()
-                wait_for(lambda: plant.last(PREFIX + "/r0/state").startswith("down"), 20,
-                         "state down")
-                snap = wait_for(lambda: [s for s in plant.messages(leaf="snapshot")
-                                         if s["quality"] == "stale"], 10, "a stale snapshot")[0]
-                assert isinstance(snap["age_ms"], int) and snap["time"] is not None
-                assert len(snap["values"]) == len(plant.messages()[0]["values"])
-                # what a subscriber that comes now gets: stale, not current
-                late = json.loads(retained(b, PREFIX + "/r0/snapshot")[PREFIX + "/r0/snapshot"])
-                assert late["quality"] == "stale"
-            finally:
-                plant.close()
-    finally:
-        b.stop()
+def test_snapshot_goes_stale_when_the_link_drops(broker):
+    with plant_gateway("mqtt_stale", broker) as (g, plant):
+        wait_up(plant)
+        wait_for(lambda: plant.last(PREFIX + "/r0/snapshot"), 10, "a snapshot")
+        g.sim.kill()
+        wait_for(lambda: plant.last(PREFIX + "/r0/state").startswith("down"), 20,
+                 "state down")
+        snap = wait_for(lambda: [s for s in plant.messages(leaf="snapshot")
+                                 if s["quality"] == "stale"], 10, "a stale snapshot")[0]
+        assert isinstance(snap["age_ms"], int) and snap["time"] is not None
+        assert len(snap["values"]) == len(plant.messages()[0]["values"])
+        # what a subscriber that comes now gets: stale, not current
+        late = json.loads(retained(broker, PREFIX + "/r0/snapshot")[PREFIX + "/r0/snapshot"])
+        assert late["quality"] == "stale"
 
 
-def test_removed_robot_and_moved_prefix_are_retired(request):
-    b = Broker(request.node.name).start()
-    try:
-        with running("mqtt_retire", extra=mqtt_section(b), start=False) as g:
-            plant = Plant(b)
-            g.start()
-            try:
-                wait_up(plant)
-                wait_for(lambda: plant.last(PREFIX + "/r0/snapshot"), 10, "a snapshot")
-                # the robot is renamed: r0 is gone, arm is new
-                text = g.config_text().replace("[robot r0]", "[robot arm]")
-                g.write_config(text)
-                g.signal(signal.SIGHUP)
-                wait_for(lambda: "reloaded (generation 1)" in g.log(), 10, "reload 1")
-                wait_for(lambda: plant.last(PREFIX + "/r0/state") == RETIRED, 10,
-                         "r0's state retired")
-                wait_up(plant, robot="arm")
-                kept = retained(b, PREFIX + "/arm/state")
-                assert kept[PREFIX + "/r0/state"] == RETIRED
-                assert PREFIX + "/r0/meta" not in kept and PREFIX + "/r0/snapshot" not in kept
-                assert kept[PREFIX + "/arm/state"] == "up" and PREFIX + "/arm/meta" in kept
-                # the prefix moves: nothing under the old one may stay up
-                wait_for(lambda: plant.last(PREFIX + "/arm/snapshot"), 10, "arm's snapshot")
-                g.write_config(text.replace("topic_prefix = %s" % PREFIX,
-                                            "topic_prefix = drgate/moved"))
-                g.signal(signal.SIGHUP)
-                wait_for(lambda: "reloaded (generation 2)" in g.log(), 10, "reload 2")
-                wait_for(lambda: plant.last(PREFIX + "/status") == "offline", 10, "offline")
-                kept = retained(b, PREFIX + "/status")
-                assert kept[PREFIX + "/status"] == "offline"
-                assert kept[PREFIX + "/arm/state"] == RETIRED
-                assert not [t for t in kept if t.endswith(("/meta", "/snapshot"))], kept
-                assert "up" not in kept.values()
-            finally:
-                plant.close()
-    finally:
-        b.stop()
+def test_removed_robot_and_moved_prefix_are_retired(broker):
+    with plant_gateway("mqtt_retire", broker) as (g, plant):
+        wait_up(plant)
+        wait_for(lambda: plant.last(PREFIX + "/r0/snapshot"), 10, "a snapshot")
+        # the robot is renamed: r0 is gone, arm is new
+        text = g.config_text().replace("[robot r0]", "[robot arm]")
+        g.write_config(text)
+        g.signal(signal.SIGHUP)
+        wait_for(lambda: "reloaded (generation 1)" in g.log(), 10, "reload 1")
+        wait_for(lambda: plant.last(PREFIX + "/r0/state") == RETIRED, 10,
+                 "r0's state retired")
+        wait_up(plant, robot="arm")
+        kept = retained(broker, PREFIX + "/arm/state")
+        assert kept[PREFIX + "/r0/state"] == RETIRED
+        assert PREFIX + "/r0/meta" not in kept and PREFIX + "/r0/snapshot" not in kept
+        assert kept[PREFIX + "/arm/state"] == "up" and PREFIX + "/arm/meta" in kept
+        # the prefix moves: nothing under the old one may stay up
+        wait_for(lambda: plant.last(PREFIX + "/arm/snapshot"), 10, "arm's snapshot")
+        g.write_config(text.replace("topic_prefix = %s" % PREFIX,
+                                    "topic_prefix = drgate/moved"))
+        g.signal(signal.SIGHUP)
+        wait_for(lambda: "reloaded (generation 2)" in g.log(), 10, "reload 2")
+        wait_for(lambda: plant.last(PREFIX + "/status") == "offline", 10, "offline")
+        kept = retained(broker, PREFIX + "/status")
+        assert kept[PREFIX + "/status"] == "offline"
+        assert kept[PREFIX + "/arm/state"] == RETIRED
+        assert not [t for t in kept if t.endswith(("/meta", "/snapshot"))], kept
+        assert "up" not in kept.values()
 
 
-def test_deliberate_disconnects_log_at_info(request):
-    b = Broker(request.node.name).start()
-    try:
-        with running("mqtt_goodbye", extra=mqtt_section(b), start=False) as g:
-            plant = Plant(b)
-            g.start()
-            try:
-                wait_up(plant)
-                g.extra = mqtt_section(b, "publish_interval_ms = 50")
-                g.write_config()
-                g.signal(signal.SIGHUP)
-                wait_for(lambda: g.log().count("mqtt: connected to") == 2, 10, "reconnected")
-                rc, _ = g.stop()
-                assert rc == 0
-            finally:
-                plant.close()
-            log = g.log()
-            assert "lost" not in log and "warning: mqtt" not in log, log
-            assert re.search(r"info: mqtt: disconnected from [\d.:]+ \(reload", log), log
-            assert re.search(r"info: mqtt: disconnected from [\d.:]+ \(the daemon stops\)",
-                             log), log
-    finally:
-        b.stop()
+def test_deliberate_disconnects_log_at_info(broker):
+    with plant_gateway("mqtt_goodbye", broker) as (g, plant):
+        wait_up(plant)
+        g.extra = mqtt_section(broker, "publish_interval_ms = 50")
+        g.write_config()
+        g.signal(signal.SIGHUP)
+        wait_for(lambda: g.log().count("mqtt: connected to") == 2, 10, "reconnected")
+        rc, _ = g.stop()
+        assert rc == 0
+        log = g.log()
+        assert "lost" not in log and "warning: mqtt" not in log, log
+        assert re.search(r"info: mqtt: disconnected from [\d.:]+ \(reload", log), log
+        assert re.search(r"info: mqtt: disconnected from [\d.:]+ \(the daemon stops\)",
+                         log), log
 
 
 def test_failed_connect_says_why():
@@ -264,28 +236,19 @@ def test_failed_connect_says_why():
         assert g.alive()
 
 
-def test_refused_writes_are_rate_limited(request):
-    b = Broker(request.node.name).start()
-    try:
-        with running("mqtt_flood", extra=mqtt_section(b, "writes = yes"), start=False) as g:
-            plant = Plant(b)
-            g.start()
-            try:
-                wait_up(plant)
-                for _ in range(2000):
-                    plant.set("int_in[1]", "x", wait=False)
-                plant.set("int_in[3]", "4")  # after them on the same connection
-                wait_for(lambda: plant.merged().get("int_out[3]") == 4, 20, "the good write")
-                shown = g.log().count("refused:")
-                assert 1 <= shown <= 2, shown
-                rc, _ = g.stop()
-                assert rc == 0
-            finally:
-                plant.close()
-            log = g.log()
-            assert log.count("refused:") <= 3
-            held = [int(n) for n in re.findall(
-                r"refused: .*\[(\d+) similar messages? suppressed", log)]
-            assert held and sum(held) >= 1000, log[-2000:]
-    finally:
-        b.stop()
+def test_refused_writes_are_rate_limited(broker):
+    with plant_gateway("mqtt_flood", broker, "writes = yes") as (g, plant):
+        wait_up(plant)
+        for _ in range(2000):
+            plant.set("int_in[1]", "x", wait=False)
+        plant.set("int_in[3]", "4")  # after them on the same connection
+        wait_for(lambda: plant.merged().get("int_out[3]") == 4, 20, "the good write")
+        shown = g.log().count("refused:")
+        assert 1 <= shown <= 2, shown
+        rc, _ = g.stop()
+        assert rc == 0
+        log = g.log()
+        assert log.count("refused:") <= 3
+        held = [int(n) for n in re.findall(
+            r"refused: .*\[(\d+) similar messages? suppressed", log)]
+        assert held and sum(held) >= 1000, log[-2000:]
