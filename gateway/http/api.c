@@ -127,14 +127,61 @@ void gw_http_api_status(gw_json_t *j, const gw_http_api_t *a)
     gw_json_str(j, "}}");
 }
 
+/* The texts of the values last formatted, by robot (its serial picks a
+ * slot) and leaf: live streams of one robot wake up together (north_http.c
+ * puts them on one 250 ms grid), see the same values, and so format each
+ * changed value once between them, not once per page (bench-console).
+ * The leaves' paths are made once. Touched only by a daemon that serves
+ * values (.bss otherwise). */
+#define TOK_MAX 32 /* dr_text_json of any value: at most 17 characters */
+typedef struct {
+    uint32_t serial; /* the robot's; 0: empty */
+    uint64_t bits[GW_HTTP_API_LEAVES];
+    char tok[GW_HTTP_API_LEAVES][TOK_MAX];
+} tok_cache_t;
+static tok_cache_t tok_cache[GW_MAX_ROBOTS];
+static char leaf_path[GW_HTTP_API_LEAVES][64];
+
+/* A leaf beyond the cache (a field table grown past GW_HTTP_API_LEAVES)
+ * is formatted into `spare` every time. */
+static const char *path_of(unsigned i, dr_ref_t ref, char *spare, size_t size)
+{
+    char *p = i < GW_HTTP_API_LEAVES ? leaf_path[i] : spare;
+    size_t n = i < GW_HTTP_API_LEAVES ? sizeof leaf_path[i] : size;
+    if ((i >= GW_HTTP_API_LEAVES || p[0] == '\0') && dr_ref_path(ref, p, n) != DR_OK)
+        p[0] = '\0';
+    return p[0] != '\0' ? p : NULL;
+}
+
+/* The value's text, from the cache when it is the same value (bits). */
+static const char *text_of(const gw_robot_t *rb, unsigned i, uint64_t bits, const dr_value_t *v,
+                           char *spare, size_t size)
+{
+    if (i >= GW_HTTP_API_LEAVES)
+        return dr_text_json(v, spare, size) == DR_OK ? spare : NULL;
+    tok_cache_t *c = &tok_cache[rb->serial % GW_MAX_ROBOTS];
+    if (c->serial != rb->serial) {
+        c->serial = rb->serial;
+        memset(c->bits, GW_HTTP_API_UNSENT, sizeof c->bits);
+    }
+    if (c->bits[i] == bits && c->tok[i][0] != '\0')
+        return c->tok[i];
+    if (dr_text_json(v, c->tok[i], sizeof c->tok[i]) != DR_OK) {
+        c->tok[i][0] = '\0';
+        return NULL;
+    }
+    c->bits[i] = bits;
+    return c->tok[i];
+}
+
 unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uint64_t *last)
 {
     unsigned n = 0, leaves = dr_leaf_count();
+    char path_spare[96], tok_spare[TOK_MAX];
     gw_json_str(j, "{");
     for (unsigned i = 0; i < leaves; i++) {
         dr_ref_t ref;
         dr_value_t v;
-        char path[96], tok[40];
         if (dr_leaf_at((uint16_t)i, &ref) != DR_OK || gw_robot_get(rb, ref, &v) != DR_OK)
             continue;
         /* Compared bit for bit: a NaN equals the NaN sent before it, and
@@ -145,8 +192,9 @@ unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uin
         memcpy(&bits, &x, sizeof bits);
         if (last != NULL && last[i] == bits)
             continue;
-        if (dr_ref_path(ref, path, sizeof path) != DR_OK ||
-            dr_text_json(&v, tok, sizeof tok) != DR_OK)
+        const char *path = path_of(i, ref, path_spare, sizeof path_spare);
+        const char *tok = text_of(rb, i, bits, &v, tok_spare, sizeof tok_spare);
+        if (path == NULL || tok == NULL)
             continue;
         if (last != NULL)
             last[i] = bits;

@@ -43,6 +43,8 @@ void gw_http_api_status(gw_json_t *j, const gw_http_api_t *a);
  * value differs from it, which is then updated. Returns how many leaves
  * were written. */
 #define GW_HTTP_API_UNSENT 0xFF
+/* Leaves whose path and last text api.c keeps (the field table has 371). */
+#define GW_HTTP_API_LEAVES 512u
 unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uint64_t *last);
 
 /* The link state in words: "up", "connecting", "down". */

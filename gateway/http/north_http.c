@@ -23,9 +23,12 @@
  * Live values (/api/v1/events?robot=NAME): a response whose body comes
  * from a callback (sse_read). With nothing to send it suspends its
  * connection (off MHD's lists: no busy loop, no timeout), and tick()
- * resumes it SSE_PERIOD_US after its last look, when it sends what
- * changed since its last event, or a comment line now and then so that a
- * client that went away is found.
+ * resumes it at the next SSE_PERIOD_US boundary of the monotonic clock,
+ * when it sends what changed since its last event, or a comment line now
+ * and then so that a client that went away is found. One grid for every
+ * stream: the pages of a robot wake up in the same turn of the loop, see
+ * the same values and share their texts (api.c), and the loop wakes once
+ * for all of them.
  */
 #include <arpa/inet.h>
 #include <errno.h>
@@ -306,7 +309,9 @@ static bool sse_fill(sse_t *s, uint64_t now)
         s->len = 8;
         s->quiet_since_us = now;
     }
-    s->next_us = now + SSE_PERIOD_US;
+    /* The grid point at least half a period away: every SSE_PERIOD_US once
+     * on the grid, and a first event never followed by one within 125 ms. */
+    s->next_us = ((now + SSE_PERIOD_US / 2u) / SSE_PERIOD_US + 1u) * SSE_PERIOD_US;
     return true;
 }
 
