@@ -26,7 +26,9 @@ const gw_http_asset_t *gw_http_asset_find(const char *name);
 
 /* /api/v1/robots/NAME/map: every field of robot `robot` with its type,
  * unit, direction, enum names and Modbus addresses. False: not served
- * (404). */
+ * (404), or j is full. GW_HTTP_MAP_MAX bytes always hold it (the largest
+ * user map's; map.c checks it against the Modbus side's own bound). */
+#define GW_HTTP_MAP_MAX (768u * 1024u)
 bool gw_http_api_map(gw_json_t *j, const gw_config_t *cfg, unsigned robot);
 
 #endif

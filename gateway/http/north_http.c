@@ -57,7 +57,10 @@
 #define SSE_PERIOD_US 250000u      /* live values at most this often */
 #define SSE_KEEPALIVE_US 10000000u /* a comment line when nothing changed */
 #define SSE_BUF 65536u             /* one stream's pending event text */
-#define RESP_MAX 262144u           /* the largest response built */
+/* The largest response built: a robot's map with the largest user map
+ * (asset.h; /metrics and the rest are far smaller). Static .bss: only the
+ * pages a response fills are ever touched. */
+#define RESP_MAX GW_HTTP_MAP_MAX
 #define REALM "drgatewayd"
 
 typedef struct ht ht_t;
@@ -452,8 +455,10 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
             gw_http_api_robot(&j, &a, (unsigned)r);
         else if (strcmp(rest, "/values") == 0)
             (void)gw_http_api_values(&j, &t->env->robots[r], true, NULL);
-        else if (strcmp(rest, "/map") != 0 || !gw_http_api_map(&j, t->env->cfg, (unsigned)r))
+        else if (strcmp(rest, "/map") != 0 ||
+                 (!gw_http_api_map(&j, t->env->cfg, (unsigned)r) && !j.full))
             return send_error(c, 404, method, url, "not found");
+        /* a map that does not fit is send_json's 500 "response too large" */
     } else {
         return send_error(c, 404, method, url,
                           "not found (allowed: /api/v1/status, /api/v1/robots, "

@@ -603,3 +603,21 @@ def test_missing_library_stops_the_start(tmp_path):
     assert len(line) == 1, p.stderr
     assert "http: cannot load /nonexistent/libmicrohttpd.so.12 (" in line[0]
     assert line[0].endswith("install libmicrohttpd12, or remove [http]")
+
+
+def test_largest_map_is_served_whole():
+    """The robot's map with the largest user map the configuration takes
+    (GW_MAX_MAP blocks, here 64 of int_out[0..23] as DINTs) is several
+    hundred kB of JSON: served whole, not refused as too large or 404."""
+    port = free_port(GW_ADDR, udp=False)
+    blocks = "".join("map = ir %d int_out[0..23] dint\n" % (2048 + 48 * i) for i in range(64))
+    with running("http_bigmap", robot=blocks, extra="\n[http]\nport = %d\n" % port) as g:
+        wait_for(lambda: g.listening(port), 10, "the console")
+        name = get_json(port, "/api/v1/robots")[0]["name"]
+        status, _, body = get(port, "/api/v1/robots/%s/map" % name)
+        assert status == 200, body[:200]
+        assert len(body) > 262144  # more than the response buffer held before
+        doc = json.loads(body)
+        text = json.dumps(doc)
+        for i in range(64):
+            assert '"address": %d' % (2048 + 48 * i) in text, i
