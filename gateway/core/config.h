@@ -244,6 +244,7 @@ typedef struct {
     uint16_t status_port;     /* with TLS: a plain listener on 127.0.0.1 for
                                  drgatewayd status (0: none) */
     unsigned max_connections; /* default 32 */
+    unsigned max_connections_per_ip; /* default 8, 0: no limit of its own */
     unsigned timeout_s;       /* idle or slow client closed, default 10 */
     unsigned max_request_bytes; /* URL and headers, default 16384 */
     unsigned tls_line, auth_line; /* where tls_cert and auth_file are */

@@ -9,7 +9,9 @@
  * daemon's epoll set, MHD_run does its work when it is readable, and
  * MHD_get_timeout bounds the loop's wait (its connection timeouts). What a
  * request costs is bounded: connections (max_connections; at the limit
- * MHD stops accepting, and more wait in the kernel's backlog), URL and headers (max_request_bytes: 414 or 431), time
+ * MHD stops accepting, and more wait in the kernel's backlog; and
+ * max_connections_per_ip per client address, one more closed at once),
+ * URL and headers (max_request_bytes: 414 or 431), time
  * (timeout_s for an idle or slow client), and a response is built in one
  * go from the robots' images without blocking. So a slow or hostile
  * client costs the Modbus and robot sides a few microseconds per turn,
@@ -692,14 +694,15 @@ static bool srv_start(srv_t *sv, ht_t *t, char *err, size_t errlen)
         {MHD_OPTION_CONNECTION_LIMIT, (intptr_t)h->max_connections, NULL},
         {MHD_OPTION_CONNECTION_TIMEOUT, (intptr_t)h->timeout_s, NULL},
         {MHD_OPTION_CONNECTION_MEMORY_LIMIT, (intptr_t)h->max_request_bytes, NULL},
+        {MHD_OPTION_PER_IP_CONNECTION_LIMIT, (intptr_t)h->max_connections_per_ip, NULL},
         {MHD_OPTION_END, 0, NULL}, /* TLS: two more, below */
         {MHD_OPTION_END, 0, NULL},
         {MHD_OPTION_END, 0, NULL},
     };
     if (sv->tls) {
         flags |= MHD_USE_TLS;
-        opts[4] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_CERT, 0, t->cert};
-        opts[5] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_KEY, 0, t->key};
+        opts[5] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_CERT, 0, t->cert};
+        opts[6] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_KEY, 0, t->key};
     }
     mhd_err = why;
     mhd_errlen = sizeof why;
@@ -874,7 +877,8 @@ static bool same_config(const gw_http_config_t *a, const gw_http_config_t *b)
         a->allow_count != b->allow_count || strcmp(a->tls_cert, b->tls_cert) != 0 ||
         strcmp(a->tls_key, b->tls_key) != 0 || strcmp(a->auth_file, b->auth_file) != 0 ||
         a->insecure != b->insecure || a->status_port != b->status_port ||
-        a->max_connections != b->max_connections || a->timeout_s != b->timeout_s ||
+        a->max_connections != b->max_connections ||
+        a->max_connections_per_ip != b->max_connections_per_ip || a->timeout_s != b->timeout_s ||
         a->max_request_bytes != b->max_request_bytes)
         return false;
     for (unsigned i = 0; i < a->allow_count; i++)

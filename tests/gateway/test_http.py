@@ -621,3 +621,25 @@ def test_largest_map_is_served_whole():
         text = json.dumps(doc)
         for i in range(64):
             assert '"address": %d' % (2048 + 48 * i) in text, i
+
+
+def test_one_client_cannot_take_every_connection():
+    """max_connections_per_ip: a client address holding its share of
+    connections gets the next one closed unanswered, while the console
+    still has room (max_connections), and is served again once it lets
+    one go."""
+    port = free_port(GW_ADDR, udp=False)
+    with running("http_perip", extra="\n[http]\nport = %d\nmax_connections_per_ip = 3\n"
+                 "max_connections = 16\n" % port) as g:
+        wait_for(lambda: g.listening(port), 10, "the console")
+        held = [socket.create_connection((GW_ADDR, port), timeout=timeout(10)) for _ in range(3)]
+        try:
+            time.sleep(0.3)  # the daemon has accepted all three
+            def status_line():
+                return raw_request(port, b"GET /api/v1/status HTTP/1.0\r\n\r\n")[9:12]
+            assert status_line() == b""
+            held.pop().close()
+            wait_for(lambda: status_line() == b"200", 10, "a connection served once one is let go")
+        finally:
+            for s in held:
+                s.close()
