@@ -54,6 +54,7 @@ struct spb {
     uint8_t seq;      /* of the last message published */
     bool connected;
     bool host_online; /* the primary host's STATE (true without one) */
+    uint64_t host_ts; /* the newest STATE's timestamp (ms): an older one is stale */
     bool nbirth_due;  /* NBIRTH (and then every DBIRTH) to publish */
     bool born;        /* NBIRTH published on this connection */
     bool link[GW_MAX_ROBOTS];
@@ -715,9 +716,27 @@ static bool on_cmd_metric(void *ctx, const Payload_Metric *m)
     return true;
 }
 
+/* The value after "key": in a flat JSON object, NULL if there is none. */
+static const char *state_value(const char *text, const char *key)
+{
+    char quoted[32];
+    snprintf(quoted, sizeof quoted, "\"%s\"", key);
+    const char *k = strstr(text, quoted);
+    if (k == NULL)
+        return NULL;
+    k += strlen(quoted);
+    k += strspn(k, " \t\r\n");
+    if (*k++ != ':')
+        return NULL;
+    return k + strspn(k, " \t\r\n");
+}
+
 /* STATE: {"online": true|false, "timestamp": ...} (Sparkplug 3.0). A
  * host that goes offline: the node disconnects (its NDEATH) and comes
- * back with a new bdSeq, births once the host is online again. */
+ * back with a new bdSeq, births once the host is online again. A STATE
+ * older than the newest one seen (its timestamp) is stale, as the
+ * specification says, and ignored: a retained offline the broker still
+ * holds from before the host came back does not take the node down. */
 static void on_state(spb_t *s, const char *p, size_t len)
 {
     char text[256];
@@ -725,15 +744,19 @@ static void on_state(spb_t *s, const char *p, size_t len)
         len = sizeof text - 1;
     memcpy(text, p, len);
     text[len] = '\0';
-    const char *k = strstr(text, "\"online\"");
+    const char *k = state_value(text, "online"), *ts = state_value(text, "timestamp");
     if (k == NULL)
         return;
-    k += strlen("\"online\"");
-    k += strspn(k, " \t\r\n");
-    if (*k++ != ':')
-        return;
-    k += strspn(k, " \t\r\n");
     bool online = strncmp(k, "true", 4) == 0;
+    if (ts != NULL && *ts >= '0' && *ts <= '9') {
+        uint64_t t = strtoull(ts, NULL, 10);
+        if (t < s->host_ts) {
+            gw_log(GW_LOG_DEBUG, "mqtt: sparkplug: primary host %s: a STATE older than the "
+                   "last one ignored", s->host_id);
+            return;
+        }
+        s->host_ts = t;
+    }
     if (online == s->host_online)
         return;
     gw_log(GW_LOG_INFO, "mqtt: sparkplug: primary host %s is %s", s->host_id,

@@ -348,10 +348,25 @@ def test_primary_host_state_holds_births(broker):
         wait_for(lambda: g.log().count("mqtt: connected to") >= 2, 20, "a new connection")
         time.sleep(timeout(1.0))
         assert len(host.all("NBIRTH")) == 1
+        # the first online STATE again: older than the offline one, stale
+        # (Sparkplug 3.0: a STATE is judged by its timestamp), so no birth
         c.publish("spBv1.0/STATE/scada1", state, qos=1, retain=True).wait_for_publish(
+            timeout(5))
+        time.sleep(timeout(1.0))
+        assert len(host.all("NBIRTH")) == 1
+        back = json.dumps({"online": True, "timestamp": get_current_timestamp()})
+        c.publish("spBv1.0/STATE/scada1", back, qos=1, retain=True).wait_for_publish(
             timeout(5))
         nb2, _ = wait_born(host, 2)
         assert metric(nb2, "bdSeq").value == (metric(nb, "bdSeq").value + 1) % 256
+        # a stale offline (the first offline's timestamp) does not take the
+        # node down
+        connects = g.log().count("mqtt: connected to")
+        c.publish("spBv1.0/STATE/scada1", off, qos=1, retain=True).wait_for_publish(
+            timeout(5))
+        time.sleep(timeout(1.5))
+        assert len(host.all("NDEATH")) == 1
+        assert g.log().count("mqtt: connected to") == connects
         c.loop_stop()
         c.disconnect()
 
