@@ -681,8 +681,9 @@ static void dcmd_metric(spb_t *s, unsigned robot, const Payload_Metric *m)
     }
     dr_value_t v;
     dr_status_t st = value_of(m, ref, &v);
-    if (st == DR_EREADONLY || (st == DR_OK && dr_value_check(ref, &v, DR_SET_O2T_ONLY) ==
-                                                  DR_EREADONLY)) {
+    if (st == DR_OK) /* the codec's checks (direction, range) before any write */
+        st = dr_value_check(ref, &v, DR_SET_O2T_ONLY);
+    if (st == DR_EREADONLY) {
         refuse(s, robot, m, leaf, "read-only: a T->O field");
         return;
     }
