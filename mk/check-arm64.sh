@@ -43,21 +43,14 @@ if ! unmet=$(dpkg-checkbuilddeps -a arm64 debian/control 2>&1); then
     skip "arm64 build dependencies missing (make test-deps says why):$(echo "$unmet" | sed "s/.*dependencies://")"
 fi
 sh mk/debian-reachable.sh || skip "no network to the Debian archive (deb.debian.org)"
-pass=0 fail=0
-ok() { pass=$((pass + 1)); echo "  ok: $*"; }
-bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
-done_() {
-    echo "$label: $pass passed, $fail failed"
-    [ -n "$res" ] && echo "$pass $fail $label" >> "$res"
-    [ "$fail" -eq 0 ]; exit
-}
+. mk/check-lib.sh
 
 mkdir -p "$b"
 d=$(cd "$b" && pwd)/deb-arm64
 if DEB_HOST_ARCH=arm64 DEB_LINTIAN=no sh mk/deb.sh "$b" > "$b/deb-arm64.log" 2>&1; then
     ok "dpkg-buildpackage -a arm64: $(cd "$d" && ls ./*_arm64.deb | grep -vc dbgsym) packages"
 else
-    tail -20 "$b/deb-arm64.log"; bad "the arm64 build failed (log: $b/deb-arm64.log)"; done_
+    tail -20 "$b/deb-arm64.log"; bad "the arm64 build failed (log: $b/deb-arm64.log)"; check_done
 fi
 debs=  # one --include= each (mmdebstrap splits no list of paths)
 for p in drgate drgate-sim libdrgate1 libdrgate-dev; do
@@ -77,7 +70,7 @@ trap 'rm -rf "$root" "$root.log"' EXIT
 if ! mmdebstrap --quiet --variant=extract --architectures=arm64 $debs \
         --setup-hook="mkdir -p \"\$1$d\" && cp $d/*_arm64.deb \"\$1$d/\"" \
         bookworm "$root" > "$root.log" 2>&1; then
-    bad "mmdebstrap (arm64, the four packages and their Depends) failed: $(tail -3 "$root.log")"; done_
+    bad "mmdebstrap (arm64, the four packages and their Depends) failed: $(tail -3 "$root.log")"; check_done
 fi
 rm -rf "${root:?}$d"
 ok "arm64 root from the packages and their Depends ($(du -sm "$root" | cut -f1) MB)"
@@ -99,4 +92,4 @@ else
 fi
 n=$(q /usr/bin/drcli list 2>/dev/null | grep -c .)
 [ "$n" -gt 10 ] && ok "drcli list ($n lines)" || bad "drcli list: $n lines"
-done_
+check_done

@@ -24,20 +24,13 @@ for t in dpkg-buildpackage:dpkg-dev dh:debhelper lintian:lintian mmdebstrap:mmde
     command -v "${t%%:*}" >/dev/null || skip "no ${t%%:*} (make test-deps, or apt-get install ${t#*:})"
 done
 sh mk/debian-reachable.sh || skip "no network to the Debian archive (deb.debian.org)"
-pass=0 fail=0
-ok() { pass=$((pass + 1)); echo "  ok: $*"; }
-bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
-done_() {
-    echo "$label: $pass passed, $fail failed"
-    [ -n "$res" ] && echo "$pass $fail $label" >> "$res"
-    [ "$fail" -eq 0 ]; exit
-}
+. mk/check-lib.sh
 
 mkdir -p "$b"
 if DEB_LINTIAN=no sh mk/deb.sh "$b" > "$b/deb.log" 2>&1; then
     ok "make deb: $(cd "$b/deb" && ls drgate*.deb libdrgate*.deb | grep -vc dbgsym) packages built"
 else
-    tail -20 "$b/deb.log"; bad "make deb failed (log: $b/deb.log)"; done_
+    tail -20 "$b/deb.log"; bad "make deb failed (log: $b/deb.log)"; check_done
 fi
 if (cd "$b/deb" && lintian --fail-on error,warning --tag-display-limit 0 ./*.changes) > "$b/lintian.log" 2>&1; then
     ok "lintian: no error, no warning"
@@ -94,4 +87,4 @@ else
     [ -z "$left" ] && ok "nothing left after purge" || bad "left after purge: $left"
 fi
 rm -f "$root.log" "$root.before"
-done_
+check_done

@@ -31,9 +31,7 @@ label="make demo prints commands that run as pasted (mk/check-demo.sh)"
 command -v mbpoll >/dev/null || exec sh tests/skip.sh check-demo "mbpoll missing (make deps)" "$res" "$label"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-pass=0 fail=0
-ok() { pass=$((pass + 1)); echo "  ok: $*"; }
-bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
+. mk/check-lib.sh
 
 : > "$tmp/report"
 if DEMO_THEN="sh mk/check-demo.sh --replay $tmp/out $tmp/report" \
@@ -56,6 +54,4 @@ ini=$(sed -n 's/^\$ .*drgatewayd -c \([^ ]*\) .*/\1/p' "$tmp/out")
 [ -n "$ini" ] && [ -f "$ini" ] && ok "printed configuration $ini exists" ||
     bad "printed configuration '$ini' does not exist"
 
-echo "$label: $pass passed, $fail failed"
-[ -n "$res" ] && echo "$pass $fail $label" >> "$res"
-[ "$fail" -eq 0 ]
+check_done

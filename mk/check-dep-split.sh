@@ -14,9 +14,7 @@ res=${1:-}
 label="make deps installs no test tool (mk/check-dep-split.sh)"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-pass=0 fail=0
-ok() { pass=$((pass + 1)); echo "  ok: $*"; }
-bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
+. mk/check-lib.sh
 
 # Test tools by name, whatever the lists say (a test tool moved into the
 # demo set is caught here even if it also left the test-only set).
@@ -62,6 +60,4 @@ else
     echo "  (no apt/dpkg here: the fresh-bookworm dry run is skipped)"
 fi
 
-echo "$label: $pass passed, $fail failed"
-[ -n "$res" ] && echo "$pass $fail $label" >> "$res"
-[ "$fail" -eq 0 ]
+check_done

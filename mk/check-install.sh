@@ -15,9 +15,7 @@ label="make install follows the prefix (mk/check-install.sh)"
 mk=${MAKE:-make}
 d=$(mktemp -d)
 trap 'rm -rf "$d"' EXIT
-pass=0 fail=0
-ok() { pass=$((pass + 1)); echo "  ok: $*"; }
-bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
+. mk/check-lib.sh
 
 if $mk --no-print-directory install PREFIX=/usr DESTDIR="$d" > "$d.log" 2>&1; then
     ok "make install PREFIX=/usr DESTDIR=..."
@@ -58,6 +56,4 @@ $mk --no-print-directory uninstall PREFIX=/usr DESTDIR="$d" > /dev/null 2>&1
 left=$(find "$d" -type f -o -type l | sed "s|^$d||" | tr '\n' ' ')
 [ -z "$left" ] && ok "make uninstall removes every file" || bad "left after uninstall: $left"
 
-echo "$label: $pass passed, $fail failed"
-[ -n "$res" ] && echo "$pass $fail $label" >> "$res"
-[ "$fail" -eq 0 ]
+check_done

@@ -14,9 +14,7 @@ cd "$(dirname "$0")/.."
 gw=$1 res=$2
 unit=gateway/drgatewayd.service
 label="drgatewayd.service (systemd-analyze verify, devices)"
-pass=0 fail=0
-ok() { pass=$((pass + 1)); echo "  ok: $*"; }
-bad() { fail=$((fail + 1)); echo "  FAIL: $*"; }
+. mk/check-lib.sh
 
 if command -v systemd-analyze >/dev/null 2>&1; then
     d=$(mktemp -d)
@@ -46,6 +44,4 @@ want=$(printf '%s\n' 'char-gpiochip rw' 'char-ttyS rw' 'char-ttyUSB rw' 'char-tt
 grep -qx 'SupplementaryGroups=dialout' "$unit" && ok "SupplementaryGroups=dialout" ||
     bad "no SupplementaryGroups=dialout (the serial ports' group)"
 
-echo "$label: $pass passed, $fail failed"
-echo "$pass $fail $label" >> "$res"
-[ "$fail" -eq 0 ]
+check_done
