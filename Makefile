@@ -310,8 +310,10 @@ $(filter-out $(SIM_TEST_BIN) $(GW_TEST_BIN),$(TEST_BIN)): $(B)/%: %.c $(B)/%.d $
 	    -o $@ $< $(TEST_SUPPORT_OBJ) $(COMMON_A) $(LIB_A) $(CMOCKA_LIBS) -lm
 
 # ---- dependencies ----------------------------------------------------------
-# mk/deps.sh installs missing Debian packages (as root) without upgrading
-# any installed one, and says what it installs before it does:
+# mk/deps.sh installs the missing Debian packages (as root), names every
+# package it installs and every installed one the install needs upgraded,
+# and goes on only when accepted (a terminal asks; DEPS_YES=1 or CI=true
+# accept; docs/deployment.md "Dependencies"):
 #   deps           build and run (make, make demo): compiler, -dev libraries,
 #                  mbpoll; no test tool
 #   test-deps      deps + the test toolchain (cross compilers, the s390x
@@ -346,7 +348,14 @@ CHECK_TIMES := $(B)/check-times
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
                check-asan check-fuzz check-dep-split check-demo \
                check-install check-dissector check-deb check-arm64
-check: test-deps
+#
+# The dependencies first, then everything else in new makes (the steps run
+# as `$(MAKE) STEP`): pkg-config's flags are read when a make starts, so a
+# make that started before deps.sh installed pkg-config and the -dev
+# packages has none of them. Not prerequisites either: `make -j2` would
+# build beside the install.
+check:
+	@sh mk/deps.sh test
 	@rm -f $(RESULTS) $(CHECK_TIMES)
 	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
 	    all $(CHECK_STEPS) check-deps || true
@@ -461,7 +470,10 @@ $(B)/bench/%: bench/%.c $(B)/bench/%.d $(LIB_A)
 	@mkdir -p $(dir $@)
 	$(CC) $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(WARN) -O2 -g $(DEPFLAGS) $(ALL_LDFLAGS) -o $@ $< $(LIB_A) -lm
 
-demo: deps all
+# (deps.sh first, then the build in a new make: see check.)
+demo:
+	@sh mk/deps.sh demo
+	@$(MAKE) --no-print-directory all
 	@sh mk/demo.sh $(B)
 
 # The commands make demo prints run as printed against its gateway

@@ -1,7 +1,7 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
-# Install what a set of targets needs on Debian bookworm, and only what is
-# missing, without upgrading anything already installed.
+# Install what a set of targets needs on Debian (12 bookworm, 13 trixie),
+# and only what is missing.
 #
 # usage: deps.sh demo        build and run (make deps, make demo): the C
 #                            toolchain, the -dev libraries the programs
@@ -15,17 +15,29 @@
 #        deps.sh --list SET  print the packages of SET (demo, test-only,
 #                            test), one a line; installs nothing
 #        deps.sh --pin PKG...  print each PKG as it would be asked for
-#        deps.sh --dry-run SET  say what SET would install here; installs
-#                            nothing (exit 0)
+#        deps.sh --dry-run SET  say what SET would install and upgrade here;
+#                            changes nothing (exit 0)
 #
-# Nothing is upgraded: apt-get install --no-upgrade on the missing packages
-# only, and a -dev package whose runtime library is installed is asked for
-# at the runtime's version (libsystemd-dev=<libsystemd0's>), so apt does not
-# upgrade libsystemd0, systemd and libudev1 to match a newer -dev. If apt
-# would still upgrade something, deps.sh names it and stops. Before it
-# installs, it prints every package apt will install and the download size,
-# and in a terminal asks to go on (DEPS_YES=1 does not ask; CI has no
-# terminal).
+# The policy (docs/deployment.md "Dependencies"):
+# - Only missing packages are asked for. apt installs what they depend on,
+#   and upgrades an installed package only where a new one needs it (a
+#   -dev package wants its library at the same version, lintian a newer
+#   perl): that is how Debian works, and refusing it would leave a machine
+#   installed a while ago with nothing. No blanket upgrade ever: a -dev
+#   package whose runtime library is installed is asked for at the
+#   runtime's version (libsystemd-dev=<libsystemd0's>) so that nothing is
+#   upgraded that can stay.
+# - Before anything changes, deps.sh prints every package apt will install
+#   and every one it will upgrade (from which version to which), and the
+#   download size. The plan is made without touching the machine: foreign
+#   architectures (s390x, arm64 for the test set) are planned in a private
+#   apt state under a temporary folder; the only thing done before the
+#   answer is `apt-get update` of the machine's own package lists, which
+#   apt would need anyway to say what it installs.
+# - Then it goes on only when accepted: the answer y at the prompt in a
+#   terminal, or DEPS_YES=1, or CI=true (a CI job has no terminal). Without
+#   a terminal and without either, it stops after the list (exit 1). Only
+#   after the answer are dpkg architectures added and packages installed.
 set -eu
 cd "$(dirname "$0")/.."
 
@@ -36,13 +48,15 @@ DEMO_PKGS="build-essential pkg-config libjansson-dev libmodbus-dev libgpiod-dev 
 # What make check adds: unit tests, cross and big-endian builds, firmware,
 # sanitizers, static analysis, coverage, captures, peers, the Debian
 # packages (check-deb: debhelper, lintian, mmdebstrap; check-arm64: the
-# arm64 cross compiler).
+# arm64 cross compiler), the fresh roots (check-fresh: mmdebstrap, zstd).
+# Names that both bookworm and trixie have (libclang-rt-dev: the runtime
+# of the release's default clang).
 TEST_PKGS="libcmocka-dev gpiod \
- clang libclang-rt-14-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
+ clang libclang-rt-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
  tshark socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
  liblwip-dev mosquitto openssl \
- debhelper lintian mmdebstrap gcc-aarch64-linux-gnu libc6-dev-arm64-cross \
+ debhelper lintian mmdebstrap zstd gcc-aarch64-linux-gnu libc6-dev-arm64-cross \
  chromium chromium-driver prometheus nanopb"
 # Need `dpkg --add-architecture`: the big-endian test runtime (check-be),
 # and the packages' arm64 build dependencies (check-arm64: dpkg-buildpackage
@@ -55,7 +69,7 @@ CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x \
 # DEPS_ADMINDIR=DIR (a dpkg status in DIR/status, e.g. mk/minimal-root.sh's):
 # --dry-run plans as on the machine DIR describes (check-dep-split).
 ADMIN=${DEPS_ADMINDIR:-/var/lib/dpkg}
-APT_STATUS="-o Dir::State::status=$ADMIN/status"
+APT_OPTS="-o Dir::State::status=$ADMIN/status"
 
 say() { echo "deps: $*"; }
 tmp=$(mktemp -d)
@@ -77,19 +91,22 @@ installed() { dpkg-query --admindir="$ADMIN" -W -f='${Status}' "$1" 2>/dev/null 
 # one's version when apt has it, so nothing installed needs an upgrade.
 pins() { # PKG...
     # "package source" of each PKG (one apt-cache call for all of them)
-    # shellcheck disable=SC2046
-    apt-cache show --no-all-versions $(printf '%s\n' "$@" | sed 's/:.*//') 2>/dev/null |
+    # shellcheck disable=SC2046,SC2086
+    apt-cache $APT_OPTS show --no-all-versions $(printf '%s\n' "$@" | sed 's/:.*//') 2>/dev/null |
         awk -F': ' '$1 == "Package" { p = $2; s = $2 }
                     $1 == "Source" { s = $2; sub(/ .*/, "", s) }
                     $0 == "" && p != "" { print p, s; p = "" }
                     END { if (p != "") print p, s }' > "$tmp/src"
     dpkg-query --admindir="$ADMIN" -W -f='${source:Package} ${Version} ${Status}\n' 2>/dev/null |
         awk '/ok installed/ { print $1, $2 }' | sort -u > "$tmp/have"
+    # "package version" of every version the archive has (one call)
+    # shellcheck disable=SC2046,SC2086
+    apt-cache $APT_OPTS madison $(printf '%s\n' "$@" | sed 's/:.*//') 2>/dev/null |
+        awk -F'|' '{ gsub(/ /, ""); print $1, $2 }' > "$tmp/archive"
     for p in "$@"; do
         src=$(awk -v p="${p%%:*}" '$1 == p { print $2; exit }' "$tmp/src")
         have=$(awk -v s="${src:-$p}" '$1 == s { print $2; exit }' "$tmp/have")
-        if [ -n "$have" ] && apt-cache madison "${p%%:*}" 2>/dev/null |
-                awk -F'|' '{ gsub(/ /, "", $2); print $2 }' | grep -qxF "$have"; then
+        if [ -n "$have" ] && grep -qxF "${p%%:*} $have" "$tmp/archive"; then
             echo "$p=$have"
         else
             echo "$p"
@@ -101,9 +118,112 @@ missing_of() { # SET
     for p in $(list_set "$1"); do installed "$p" || printf ' %s' "$p"; done
 }
 
-# apt's plan for the packages in $args: "Inst" lines; upgrades carry the
-# installed version in brackets ("Inst systemd [252.30-1] (252.39-1 ...)").
-plan() { apt-get $APT_STATUS -s -q install --no-upgrade --no-install-recommends "$@" 2>/dev/null | grep '^Inst '; }
+# The foreign architectures the packages name (s390x, arm64) that dpkg does
+# not have yet.
+new_archs() { # PKG...
+    printf '%s\n' "$@" | sed -n 's/^[^:]*:\([a-z0-9]*\)$/\1/p' | sort -u |
+        while read -r a; do
+            dpkg --print-foreign-architectures 2>/dev/null | grep -qx "$a" || echo "$a"
+        done
+}
+
+# A private apt state for planning with architectures dpkg does not have
+# yet: the machine's sources, lists fetched into $tmp; nothing of the
+# machine changes (the lists, dpkg's architectures).
+private_state() { # ARCH...
+    mkdir -p "$tmp/lists/partial" "$tmp/cache/archives/partial"
+    APT_OPTS="$APT_OPTS -o Dir::State::Lists=$tmp/lists -o Dir::Cache=$tmp/cache"
+    APT_OPTS="$APT_OPTS -o APT::Architectures::=$(dpkg --print-architecture)"
+    for a in $(dpkg --print-foreign-architectures) "$@"; do
+        APT_OPTS="$APT_OPTS -o APT::Architectures::=$a"
+    done
+    say "planning with architecture(s) $* in a private apt state (nothing added yet)"
+    # shellcheck disable=SC2086
+    apt-get $APT_OPTS update -qq >/dev/null 2>"$tmp/update.err" || {
+        cat "$tmp/update.err" >&2; say "cannot fetch the package lists to plan"; exit 1; }
+}
+
+# apt's plan for the packages in $@: its "Inst" lines; an upgrade carries the
+# installed version in brackets ("Inst perl [5.36.0-7] (5.36.0-7+deb12u3 ...)").
+plan() { # shellcheck disable=SC2086
+    apt-get $APT_OPTS -s -q install --no-upgrade --no-install-recommends "$@" 2>"$tmp/plan.err" |
+        grep '^Inst ' || { cat "$tmp/plan.err" >&2; return 1; }
+}
+
+# show_plan FILE: what apt will install and what it will upgrade, by name.
+show_plan() {
+    n_new=$(awk '$3 !~ /^\[/' "$1" | grep -c . || true)
+    n_up=$(awk '$3 ~ /^\[/' "$1" | grep -c . || true)
+    say "apt-get will install $n_new new packages:"
+    awk '$3 !~ /^\[/ { v = $3; gsub(/[()]/, "", v); printf "  %s %s\n", $2, v }' "$1"
+    if [ "$n_up" -gt 0 ]; then
+        say "and upgrade $n_up installed packages, which the new ones need at a newer version:"
+        awk '$3 ~ /^\[/ { o = $3; n = $4; gsub(/[][()]/, "", o); gsub(/[()]/, "", n)
+                          printf "  %s %s -> %s\n", $2, o, n }' "$1"
+    fi
+}
+
+accepted() {
+    [ "${DEPS_YES:-}" = 1 ] && { say "accepted by DEPS_YES=1"; return 0; }
+    if [ -t 0 ] && [ -t 1 ]; then
+        printf 'deps: go on? [Y/n] '
+        read -r answer || answer=n
+        case "$answer" in [nN]*) return 1 ;; *) return 0 ;; esac
+    fi
+    [ "${CI:-}" = true ] && { say "accepted by CI=true"; return 0; }
+    say "no terminal to ask: run again with DEPS_YES=1 to accept this list"
+    return 1
+}
+
+# install_missing WHAT PKG...: plan, show, ask, then install (see the header).
+install_missing() {
+    what=$1; shift
+    say "missing for '$what': $*"
+    archs=$(new_archs "$@" | tr '\n' ' ')
+    if [ -z "$dry" ] && [ "$(id -u)" != 0 ]; then
+        pre=
+        for a in $archs; do pre="${pre}dpkg --add-architecture $a && "; done
+        echo "deps: run as root, or: sudo sh -c '${pre}apt-get update && apt-get install --no-install-recommends $*'" >&2
+        exit 1
+    fi
+    if [ -n "$archs" ]; then
+        # shellcheck disable=SC2086
+        private_state $archs
+    elif [ -z "$dry" ]; then
+        apt-get update -qq
+    fi
+    args=$(pins "$@" | tr '\n' ' ')
+    # shellcheck disable=SC2086
+    if ! plan $args > "$tmp/plan" 2>/dev/null; then
+        # A pinned version that cannot be had beside the rest (an arm64
+        # library at the version of its older amd64 sibling that the
+        # archive no longer has): let apt choose, upgrading what it needs.
+        args="$*"
+        # shellcheck disable=SC2086
+        plan $args > "$tmp/plan" || { say "apt cannot plan this install (above)"; exit 1; }
+    fi
+    show_plan "$tmp/plan"
+    # (apt's own lines too, for scripts: mk/check-dep-split.sh reads them)
+    [ -z "$dry" ] || sed 's/^/deps: would: /' "$tmp/plan"
+    # shellcheck disable=SC2086
+    apt-get $APT_OPTS install -q --print-uris -y --no-upgrade --no-install-recommends $args 2>/dev/null |
+        awk '/^Need to get/ { print "deps: " $0 }'
+    [ -z "$dry" ] || return 0
+    accepted || { say "nothing installed" >&2; exit 1; }
+    for a in $archs; do
+        say "adding dpkg architecture $a"; dpkg --add-architecture "$a"
+    done
+    [ -z "$archs" ] || apt-get update -qq
+    export DEBIAN_FRONTEND=noninteractive
+    # tshark asks whether non-root users may capture; the default (no) is fine.
+    case " $* " in *" tshark "*)
+        echo "wireshark-common wireshark-common/install-setuid boolean false" | debconf-set-selections ;;
+    esac
+    # shellcheck disable=SC2086
+    apt-get install -y -q --no-upgrade --no-install-recommends $args > "$tmp/install.log" 2>&1 || {
+        tail -20 "$tmp/install.log" >&2; say "apt-get install failed (above)"; exit 1; }
+    say "installed: $*"
+}
 
 set_arg=
 case "${1:-}" in
@@ -116,76 +236,13 @@ case "${1:-}" in
     *) echo "usage: deps.sh demo|test | --list SET | --dry-run SET" >&2; exit 2 ;;
 esac
 
-# install_missing WHAT OPTIONAL PKG...: install the missing PKGs (see the
-# header). OPTIONAL=yes: if they would upgrade something, say so and go on
-# without them (the check that needs them skips) instead of stopping.
-updated=
-install_missing() {
-    what=$1 optional=$2; shift 2
-    missing=" $*"
-    # shellcheck disable=SC2086
-    args=$(pins $missing | tr '\n' ' ')
-    say "missing for '$what':$missing"
-    if [ -n "$dry" ]; then
-        # shellcheck disable=SC2086
-        plan $args | sed 's/^/deps: would: /' || true
-        return 0
-    fi
-    if [ "$(id -u)" != 0 ]; then
-        echo "deps: run as root, or: sudo apt-get install --no-upgrade --no-install-recommends$args" >&2
-        exit 1
-    fi
-    for arch in s390x arm64; do
-        case "$missing" in *:$arch*)
-            dpkg --print-foreign-architectures | grep -qx $arch ||
-                { say "adding dpkg architecture $arch (test runtime and cross builds)"; dpkg --add-architecture $arch; updated=; } ;;
-        esac
-    done
-    export DEBIAN_FRONTEND=noninteractive
-    [ -n "$updated" ] || { apt-get update -qq; updated=1; }
-    # shellcheck disable=SC2086
-    p=$(plan $args) || true
-    up=$(printf '%s\n' "$p" | awk '$3 ~ /^\[/ { print $2 }' | tr '\n' ' ')
-    if [ -n "$up" ]; then
-        echo "deps: installing$args would upgrade installed packages: $up" >&2
-        if [ "$optional" = yes ]; then
-            echo "deps: not done (the checks that need them will say SKIPPED); install them yourself if you accept that" >&2
-            return 0
-        fi
-        echo "deps: not done; install them yourself if you accept that" >&2
-        exit 1
-    fi
-    say "apt-get will install $(printf '%s\n' "$p" | grep -c .) packages:"
-    printf '%s\n' "$p" | awk '{ printf "  %s %s\n", $2, $3 }' | tr -d '()'
-    # shellcheck disable=SC2086
-    apt-get install -q --print-uris -y --no-upgrade --no-install-recommends $args 2>/dev/null |
-        awk '/^Need to get/ { print "deps: " $0 }'
-    # In a terminal, the user accepts the list first (DEPS_YES=1: do not ask).
-    if [ -t 0 ] && [ -t 1 ] && [ -z "${DEPS_YES:-}" ]; then
-        printf 'deps: install them? [Y/n] '
-        read -r answer || answer=n
-        case "$answer" in [nN]*) echo "deps: nothing installed" >&2; exit 1 ;; esac
-    fi
-    # tshark asks whether non-root users may capture; the default (no) is fine.
-    case "$missing" in *tshark*)
-        echo "wireshark-common wireshark-common/install-setuid boolean false" | debconf-set-selections ;;
-    esac
-    # shellcheck disable=SC2086
-    apt-get install -y -qq --no-upgrade --no-install-recommends $args >/dev/null
-    say "installed$missing"
-}
-
 missing=$(missing_of "$set_arg")
-# The arm64 build dependencies (multiarch: each must be at the version of
-# its installed amd64 sibling, which an out-of-date machine does not have
-# in the archive any more) are optional: without them check-arm64 skips.
-main=$(printf '%s\n' $missing | grep . | grep -v ':arm64$' | tr '\n' ' ')
-arm64=$(printf '%s\n' $missing | grep ':arm64$' | tr '\n' ' ')
-[ -n "$missing" ] || say "the $set_arg packages are installed already: nothing to install"
-# shellcheck disable=SC2086
-[ -z "$main" ] || install_missing "$set_arg" no $main
-# shellcheck disable=SC2086
-[ -z "$arm64" ] || install_missing "$set_arg (arm64 build dependencies)" yes $arm64
+if [ -n "$missing" ]; then
+    # shellcheck disable=SC2086
+    install_missing "$set_arg" $missing
+else
+    say "the $set_arg packages are installed already: nothing to install"
+fi
 
 [ "$set_arg" = test ] || exit 0
 
