@@ -159,13 +159,25 @@ GW_ASSETS_OBJ := $(B)/gateway/http/assets_gen.o
 GW_A        := $(B)/gateway/libgw.a
 GW_BIN      := $(B)/drgatewayd
 GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBUS_CFLAGS) \
-               $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(ALL_CFLAGS)
+               $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(NANOPB_CFLAGS) $(ALL_CFLAGS)
 # Sparkplug B payloads (gateway/mqtt/sparkplug.c): nanopb's runtime, the
 # static archive of Debian's libnanopb-dev (no .pc file; position
 # independent, so it links into the PIE daemon). The generated
 # sparkplug_b.pb.[ch] are committed: `make proto` writes them again,
 # check-proto checks them (mk/proto.mk).
 NANOPB_LIBS := -lprotobuf-nanopb
+# nanopb's headers: the generated code includes <pb.h>. Debian's 0.4.7
+# (bookworm) puts it in /usr/include, 0.4.9 (trixie) in /usr/include/nanopb,
+# and neither ships a .pc file. So: nanopb.pc's flags if one turns up, else
+# the folder that has pb.h, as -isystem (as /usr/include would be: nanopb's
+# own header is not held to our warnings). NANOPB_H is that header
+# (cppcheck includes it first, mk/static.mk); both can be set by hand.
+NANOPB_H      ?= $(firstword $(wildcard /usr/include/pb.h /usr/include/nanopb/pb.h) \
+                             /usr/include/pb.h)
+ifeq ($(origin NANOPB_CFLAGS),undefined)
+NANOPB_CFLAGS := $(or $(call pc,--cflags,nanopb),$(if $(filter-out /usr/include/,$(dir \
+                   $(NANOPB_H))),-isystem $(dir $(NANOPB_H))))
+endif
 # libmosquitto is loaded with dlopen only when the configuration has an
 # [mqtt] section (gateway/mqtt/mqtt_lib.c, docs/mqtt.md): the daemon is compiled
 # against its header but does not link it. glibc 2.34 and later have
@@ -198,7 +210,7 @@ GW_TEST_BIN   := $(GW_TEST_SRC:%.c=$(B)/%)
 GW_TEST_FAKES := tests/gpio/gpio_fake.c
 GW_TEST_FAKE_OBJ := $(GW_TEST_FAKES:%.c=$(B)/%.o)
 GW_TEST_CFLAGS = $(ALL_CPPFLAGS) -Igateway -Itests -Itests/gpio -DGW_TEST_TOP='"$(CURDIR)"' \
-                 $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+                 $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 
 .PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \

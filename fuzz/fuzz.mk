@@ -57,7 +57,7 @@ FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
 FUZZ_LIBS_cli        := $(JSON_LIBS)
 # Every harness and every object gets all the packages' flags: they only
 # add include directories.
-FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(JSON_CFLAGS)
+FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(JSON_CFLAGS)
 
 .PHONY: fuzz fuzz-build check-fuzz fuzz-replay fuzz-corpus
 

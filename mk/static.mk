@@ -116,7 +116,7 @@ compdb:
 # is included first: the generated sparkplug_b.pb.[ch] check its version
 # with #error and use its macros (PB_BIND), so without it cppcheck would
 # skip sparkplug.c and north_mqtt.c.
-NANOPB_H ?= /usr/include/pb.h
+# (NANOPB_H: the Makefile finds it, with NANOPB_CFLAGS.)
 CPPCHECK_FLAGS := --enable=warning,style,performance,portability --std=c99 \
     --library=posix --inline-suppr --error-exitcode=1 --quiet --include=$(NANOPB_H) \
     --suppressions-list=mk/cppcheck-suppressions.txt \

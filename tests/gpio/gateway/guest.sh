@@ -166,7 +166,19 @@ reload() {
     reply=$(since "reload $nreload" | grep -e 'reloaded' -e 'reload refused' | head -n 1)
 }
 gen() { mb_get 3 29; } # status.config_generation
-gpio_user() { gpioinfo "$1" 2>&1 | grep -E "line +$2:"; } # CHIP LINE
+# The gpiod tools packed are the build machine's: libgpiod 1.6's (Debian
+# 12) or 2's (Debian 13), which take the chip as -c CHIP and show a line's
+# user after its flags as consumer="NAME" (1.6: "NAME" before them, or
+# unused); gpioinfo without a chip lists every chip with both.
+if command -v gpiofind >/dev/null 2>&1; then tools=1; else tools=2; fi
+gpio_user() { # CHIP LINE: that line's row of gpioinfo
+    if [ $tools = 1 ]; then gpioinfo "$1"; else gpioinfo -c "$1"; fi 2>&1 |
+        grep -E "line +$2:"
+}
+line_free() { # CHIP LINE
+    if [ $tools = 1 ]; then gpio_user "$1" "$2" | grep -q unused
+    else ! gpio_user "$1" "$2" | grep -q 'consumer='; fi
+}
 
 start_sim() {
     drsim --address 127.0.0.2 >> /tmp/drsim.log 2>&1 &
@@ -228,9 +240,9 @@ else
 fi
 state_is "$SAFE"
 check $? "without the robot every output is at its safe value ($(levels))"
-info=$(gpioinfo gpiochip0 gpiochip1 2>&1)
-n_out=$(echo "$info" | grep -c '"drgatewayd" *output')
-n_in=$(echo "$info" | grep -c '"drgatewayd" *input')
+info=$(gpioinfo 2>&1)
+n_out=$(echo "$info" | grep '"drgatewayd"' | grep -c output)
+n_in=$(echo "$info" | grep '"drgatewayd"' | grep -c input)
 [ "$n_out" = 5 ] && [ "$n_in" = 4 ]
 check $? "gpioinfo: 5 outputs and 4 inputs used by \"drgatewayd\" (saw $n_out, $n_in)"
 echo "$info" | grep -E 'gpio-mockup-A-7' | grep -q 'input *active-low'
@@ -379,7 +391,7 @@ since "reload $nreload" | grep -q '7 kept as they were, 2 requested anew'
 check $? "two lines requested anew: $(since "reload $nreload" | grep 'kept as')"
 wait_state "0=1 2=0 4=0 6=1 b1=1" 2000
 check $? "the moved output follows on gpiochip1 line 1 ($(levels)b1=$(lvl b1))"
-gpio_user gpiochip1 0 | grep -q unused
+line_free gpiochip1 0
 check $? "gpiochip1 line 0 is released: $(gpio_user gpiochip1 0)"
 
 # C2: the first file (so the lamp's line must be let go for its old safe
@@ -388,7 +400,7 @@ check $? "gpiochip1 line 0 is released: $(gpio_user gpiochip1 0)"
 # again, and line 0 of gpiochip1 is let go again.
 drive 3 1 # bit_out[1] = 1: the lamp at 1, which a release would lose
 wait_state "2=1" 2000
-gpioset --mode=signal gpiochip1 2=1 &
+if [ $tools = 1 ]; then gpioset --mode=signal gpiochip1 2=1 & else gpioset -c gpiochip1 2=1 & fi
 holder=$!
 i=0
 until gpio_user gpiochip1 2 | grep -q gpioset || [ $i -ge 50 ]; do
@@ -405,11 +417,11 @@ echo "$reply" | grep -q 'reload refused.*gpio extra.*used by "gpioset"'
 check $? "SIGHUP with a line gpioset holds is refused: $reply"
 [ "$(gen)" = "$g0" ]
 check $? "the configuration generation stays $g0"
-gpio_user gpiochip0 2 | grep -q '"drgatewayd" *output'
+gpio_user gpiochip0 2 | grep '"drgatewayd"' | grep -q output
 check $? "the lamp's line, let go for its new settings, is held again: $(gpio_user gpiochip0 2)"
 wait_state "0=1 2=1 4=0 6=1 b1=1" 2000
 check $? "the running lines follow as before ($(levels)b1=$(lvl b1); ${took} ms)"
-gpio_user gpiochip1 0 | grep -q unused
+line_free gpiochip1 0
 check $? "gpiochip1 line 0, requested for the refused file, is free again"
 kill -TERM $holder
 wait $holder
@@ -423,7 +435,7 @@ echo "$reply" | grep -q 'reloaded (generation 3)'
 check $? "SIGHUP back to the first file: $reply"
 wait_state "$FOLLOW" 2000
 check $? "outputs follow ($(levels))"
-gpio_user gpiochip1 1 | grep -q unused
+line_free gpiochip1 1
 check $? "gpiochip1 line 1 is released"
 
 # ---- 7. single-writer mode --------------------------------------------------------
@@ -493,7 +505,7 @@ if [ $have_trace = 1 ]; then
     [ "$got" = " $SAFE" ]
     check $? "SIGTERM: the last write to every output was its safe value (trace:$got)"
 fi
-n_used=$(gpioinfo gpiochip0 gpiochip1 2>&1 | grep -c '"drgatewayd"')
+n_used=$(gpioinfo 2>&1 | grep -c '"drgatewayd"')
 [ "$n_used" = 0 ]
 check $? "the lines are released ($n_used still held)"
 tail -n 1 $LOG | grep -q stopped

@@ -12,6 +12,23 @@ ok() { pass=$((pass + 1)); echo "ok - $*"; }
 bad() { fail=$((fail + 1)); echo "not ok - $*"; }
 dbg=${GPIO_MOCKUP:-/sys/kernel/debug/gpio-mockup}/gpiochip0
 
+# The gpiod tools packed are the build machine's: libgpiod 1.6's (Debian
+# 12) or 2's (Debian 13), whose gpioinfo takes the chip as -c CHIP and
+# shows a line's user as consumer="NAME" (1.6: "NAME", or unused), and
+# which have no gpiofind (gpioinfo NAME prints "CHIP OFFSET<tab>...").
+if command -v gpiofind >/dev/null 2>&1; then tools=1; else tools=2; fi
+line_info() { # CHIP LINE: that line's row of gpioinfo
+    if [ $tools = 1 ]; then gpioinfo "$1"; else gpioinfo -c "$1"; fi 2>&1 |
+        grep -E "line +$2:"
+}
+line_free() { # CHIP LINE
+    if [ $tools = 1 ]; then line_info "$1" "$2" | grep -q unused
+    else ! line_info "$1" "$2" | grep -q 'consumer='; fi
+}
+find_line() { # NAME: "CHIP OFFSET"
+    if [ $tools = 1 ]; then gpiofind "$1"; else gpioinfo "$1" | cut -f 1; fi
+}
+
 echo "# $(uname -r); chips:"
 gpiodetect | sed 's/^/#   /'
 
@@ -28,10 +45,11 @@ while ! grep -q holding $out && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
 if grep -q holding $out; then ok "holder requested line $line"; else bad "holder did not start: $(cat $out)"; fi
 v=$(cat "$dbg/$line")
 [ "$v" = 1 ] && ok "debugfs reads the held output as 1" || bad "debugfs reads $v, want 1"
-if gpioinfo gpiochip0 | grep -E "line +$line:" | grep -q '"gpio-selftest".*output'; then
+info=$(line_info gpiochip0 $line)
+if echo "$info" | grep -q '"gpio-selftest"' && echo "$info" | grep -q output; then
     ok "gpioinfo shows the line used by gpio-selftest as output"
 else
-    bad "gpioinfo: $(gpioinfo gpiochip0 | grep -E "line +$line:")"
+    bad "gpioinfo: $info"
 fi
 # gpio_value traces physical values: look at the last one after a marker.
 tr=/sys/kernel/tracing
@@ -49,15 +67,15 @@ fi
 last=$(sed -n '/hold-release/,$p' $tr/trace | sed -n "s/.*gpio_value: $((base + line)) set \([01]\).*/\1/p" | tail -n 1)
 [ "$last" = 0 ] && ok "the safe value 0 was the last write before release" ||
     bad "last write after SIGTERM was '${last}', want 0"
-if gpioinfo gpiochip0 | grep -E "line +$line:" | grep -q unused; then
+if line_free gpiochip0 $line; then
     ok "the line is free again"
 else
-    bad "line still in use: $(gpioinfo gpiochip0 | grep -E "line +$line:")"
+    bad "line still in use: $(line_info gpiochip0 $line)"
 fi
 
 # 3. The gpiod tools agree with the interface about names and errors.
-[ "$(gpiofind gpio-mockup-B-2)" = "gpiochip1 2" ] && ok "gpiofind gpio-mockup-B-2" ||
-    bad "gpiofind: $(gpiofind gpio-mockup-B-2 2>&1)"
+[ "$(find_line gpio-mockup-B-2)" = "gpiochip1 2" ] && ok "gpio-mockup-B-2 is gpiochip1 2" ||
+    bad "gpio-mockup-B-2: $(find_line gpio-mockup-B-2 2>&1)"
 
 echo "selftest.sh: $pass passed, $fail failed"
 [ $fail = 0 ]
