@@ -82,16 +82,63 @@ static size_t conn_path(const dr_conn_t *cn, uint8_t *buf, size_t cap)
     return dr_conn_path_write(buf, cap, inst[0], inst[1], inst[2]);
 }
 
+/* 32 bits from the transport's random source, or false. */
+static bool random32(dr_client_t *c, uint32_t *v)
+{
+    uint8_t b[4];
+    if (!drc_random(c, b, sizeof b))
+        return false;
+    *v = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+    return true;
+}
+
 /* A fresh T->O connection ID that says where the connection lives (see
  * struct dr_udp_port): generation * CID_SLOTS + slot, never 0, and never
- * wrapping past 2^32, so that cid % CID_SLOTS is the slot for any bounds. */
+ * wrapping past 2^32, so that cid % CID_SLOTS is the slot for any bounds.
+ * The generation comes from the transport's random source when it has
+ * one (an ID nobody off the path can guess), else from the client's
+ * counter; never the one the slot had last, so that late packets of the
+ * connection before are not taken for this one's. */
 static uint32_t next_t2o_cid(const dr_conn_t *cn)
 {
     dr_client_t *c = cn->client;
     uint32_t gens = UINT32_MAX / CID_SLOTS; /* generations that fit */
-    uint32_t gen = 1u + c->cid_gen++ % (gens - 1u);
-    uint32_t slot = (uint32_t)c->port_slot * DR_CLIENT_MAX_CONNS + (uint32_t)(cn - c->conns);
+    uint32_t r, gen, slot = (uint32_t)c->port_slot * DR_CLIENT_MAX_CONNS + (uint32_t)(cn - c->conns);
+    if (random32(c, &r))
+        gen = 1u + r % (gens - 1u);
+    else
+        gen = 1u + c->cid_gen++ % (gens - 1u);
+    if (gen * CID_SLOTS + slot == cn->stats.t2o_cid)
+        gen = 1u + gen % (gens - 1u);
     return gen * CID_SLOTS + slot;
+}
+
+/* A connection serial for a new Forward Open of cn: random when the
+ * transport has a source (so the triad a Forward Close needs cannot be
+ * guessed off the path), else the client's counter; never one another
+ * connection of the client holds or may hold (its current serial, its
+ * unanswered opens), which would make the adapter refuse the open as a
+ * duplicate or close the wrong connection. */
+static uint16_t next_serial(dr_conn_t *cn)
+{
+    dr_client_t *c = cn->client;
+    for (unsigned tries = 0;; tries++) {
+        uint32_t r;
+        uint16_t s = tries < 8 && random32(c, &r) ? (uint16_t)r : c->next_serial++;
+        bool taken = false;
+        for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS && !taken; i++) {
+            const dr_conn_t *o = &c->conns[i];
+            if (!o->used || o == cn)
+                continue;
+            taken = o->conn_serial == s;
+            for (unsigned k = 0; k < o->nstale && !taken; k++)
+                taken = o->stale[k] == s;
+        }
+        for (unsigned k = 0; k < cn->nstale && !taken; k++)
+            taken = cn->stale[k] == s;
+        if (!taken || tries >= 8 + DR_CLIENT_MAX_CONNS * (CONN_MAX_STALE + 1) + CONN_MAX_STALE)
+            return s;
+    }
 }
 
 static bool send_close_triad(dr_client_t *c, dr_conn_t *cn, uint16_t serial,
@@ -139,7 +186,7 @@ static void send_forward_open(dr_conn_t *cn)
     fo.o2t_cid = 0; /* the target chooses for point-to-point */
     fo.t2o_cid = next_t2o_cid(cn);
     cn->foreign_cid = false; /* not established: no port count to move */
-    cn->conn_serial = c->next_serial++; /* fresh on every attempt */
+    cn->conn_serial = next_serial(cn); /* fresh on every attempt */
     fo.conn_serial = cn->conn_serial;
     r->conn_serial = cn->conn_serial;
     memcpy(r->path_inst, inst, sizeof inst);
@@ -278,8 +325,11 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
     cn->stats.t2o_cid = rp->t2o_cid;
     cn->stats.o2t_api_us = rp->o2t_api_us ? rp->o2t_api_us : cn->cfg.rpi_us;
     cn->stats.t2o_api_us = rp->t2o_api_us ? rp->t2o_api_us : cn->cfg.rpi_us;
-    /* Timers run from the APIs the target granted, not what we asked. */
-    cn->stats.timeout_us = cn->stats.t2o_api_us * (4u << cn->cfg.timeout_mult);
+    /* Timers run from the APIs the target granted, not what we asked; in
+     * 64 bits (an API of 9 s times 512 is 4608 s, past 2^32 us). */
+    uint64_t timeout = (uint64_t)cn->stats.t2o_api_us * (4u << cn->cfg.timeout_mult);
+    cn->stats.timeout_us64 = timeout;
+    cn->stats.timeout_us = timeout > UINT32_MAX ? UINT32_MAX : (uint32_t)timeout;
     cn->o2t_to.addr = c->peer.addr;
     cn->o2t_to.port = c->cfg.udp_port;
     const dr_cpf_item_t *it = cpf ? dr_cpf_find(cpf, DR_CPF_SOCKADDR_O2T) : NULL;
@@ -295,7 +345,7 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
     cn->next_tx_us = grid_after(c, t, cn->stats.o2t_api_us);
     cn->last_tx_us = 0;
     cn->follow_misses = 0;
-    cn->rx_deadline_us = t + cn->stats.timeout_us + FIRST_PACKET_GRACE_US;
+    cn->rx_deadline_us = t + cn->stats.timeout_us64 + FIRST_PACKET_GRACE_US;
     cn->backoff_ms = c->cfg.backoff_min_ms;
     cn->dup_retries = 0;
     drc_conn_set_state(cn, DR_CONN_ESTABLISHED, DR_OK);
@@ -571,9 +621,10 @@ uint64_t drc_conn_deadline(const dr_conn_t *cn)
  * least 8. A live producer cannot have gone much further (the connection
  * would have timed out meanwhile), and a number that went further is a
  * corrupted one, e.g. a bit flipped high in a datagram whose UDP checksum
- * is zero (IPv4 allows it): taken, it would make every real packet after
- * it look old until the connection timed out. Within the window, such a
- * number costs at most the packets up to it, half a timeout. */
+ * is zero (IPv4 allows it), or a forged one: taken, it would make every
+ * real packet after it look old until the connection timed out. Within
+ * the window, such a number costs at most the packets up to it, half a
+ * timeout. */
 #define SEQ_RESYNC 3u /* packets in a row that agree with each other */
 
 static uint32_t seq_window(const dr_conn_t *cn)
@@ -582,12 +633,18 @@ static uint32_t seq_window(const dr_conn_t *cn)
     return w < 8u ? 8u : w;
 }
 
-/* Whether a T->O packet with encapsulation sequence number seq is newer
- * than the last one taken. Too far ahead: dropped, unless it is the
- * SEQ_RESYNC-th in a row of such numbers, each within the window after
- * the one before: a producer that really jumped (it restarted its count
- * within the connection), followed from there. */
-static bool t2o_seq_take(dr_conn_t *cn, uint32_t seq)
+/* Whether a T->O packet with encapsulation sequence number seq, arriving
+ * at t, is newer than the last one taken. Too far ahead: dropped, unless
+ * the sequence taken so far has gone silent (nothing taken for half the
+ * timeout: a live producer is never that quiet)
+ * and this is the SEQ_RESYNC-th in a row of such numbers, each within the
+ * window after the one before: a producer that really jumped (it
+ * restarted its count within the connection), followed from there
+ * before the connection times out. While the real sequence keeps coming,
+ * numbers far ahead of it are never believed however many agree (issue
+ * 29: three forged packets used to take the connection over, and every
+ * real one after them was dropped as old until the timeout). */
+static bool t2o_seq_take(dr_conn_t *cn, uint32_t seq, uint64_t t)
 {
     uint32_t win = seq_window(cn);
     uint32_t ahead = seq - cn->t2o_seq32;
@@ -600,7 +657,9 @@ static bool t2o_seq_take(dr_conn_t *cn, uint32_t seq)
     uint32_t step = seq - cn->resync_seq32;
     cn->resync_n = cn->resync_n > 0 && step != 0u && step <= win ? cn->resync_n + 1u : 1u;
     cn->resync_seq32 = seq;
-    if (cn->resync_n < SEQ_RESYNC)
+    bool quiet = t >= cn->stats.last_rx_us &&
+                 t - cn->stats.last_rx_us >= cn->stats.timeout_us64 / 2u;
+    if (cn->resync_n < SEQ_RESYNC || !quiet)
         return false;
     cn->resync_n = 0;
     cn->stats.rx_resyncs++;
@@ -626,14 +685,14 @@ void drc_conn_datagram(dr_conn_t *cn, const uint8_t *buf, size_t len,
      * last one taken (wrap-safe) is a duplicate or came late, one too far
      * ahead is corrupted (t2o_seq_take), and neither counts as a sign of
      * life. */
-    if (cn->have_t2o_seq && !t2o_seq_take(cn, f.encap_seq)) {
+    if (cn->have_t2o_seq && !t2o_seq_take(cn, f.encap_seq, t)) {
         cn->stats.rx_dropped_seq++;
         return;
     }
     cn->t2o_seq32 = f.encap_seq;
     cn->stats.rx_packets++;
     cn->stats.last_rx_us = t;
-    cn->rx_deadline_us = t + cn->stats.timeout_us;
+    cn->rx_deadline_us = t + cn->stats.timeout_us64;
     /* The 16-bit CIP sequence count says whether the data is new: a
      * producer may keep it while its data is unchanged, and only the
      * encapsulation sequence number moves (seen on a real adapter). A

@@ -52,6 +52,8 @@ typedef struct {
     req_kind_t kind;
     uint64_t context;
     uint64_t deadline;
+    uint8_t service; /* the request's CIP service (inside an Unconnected
+                        Send when routed): its reply must be service | 0x80 */
     dr_conn_t *conn;
     /* Forward Open / Close: the connection serial and the path's instances
      * (configuration, O->T point, T->O point), so that a connection the
@@ -183,6 +185,14 @@ struct dr_client {
 static inline uint64_t now_us(dr_client_t *c)
 {
     return c->tp.ops->now_us(c->tp.ctx);
+}
+
+/* len bytes from the transport's random source; false when it has none
+ * (or it failed): the caller falls back to its own generator. */
+static inline bool drc_random(dr_client_t *c, void *buf, size_t len)
+{
+    return c->tp.ops->random != NULL &&
+           c->tp.ops->random(c->tp.ctx, (uint8_t *)buf, len) == DR_OK;
 }
 
 static inline uint32_t min_u32(uint32_t a, uint32_t b)

@@ -93,7 +93,19 @@ static dr_conn_t *conn_by_t2o_cid(dr_udp_port_t *p, uint32_t cid)
     return NULL;
 }
 
-static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64_t t)
+/* Whether a T->O packet from `from` may be the target's (see "Who may
+ * send T->O data" in client.h): the address the session connected to, or
+ * the one the Forward Open reply named for the target's I/O (o2t_to: the
+ * session's address when it named none). An established connection
+ * belongs to the session it was opened in (a session lost closes its
+ * connections), so that address is the one it was opened with. */
+static bool from_target(const dr_conn_t *cn, dr_sockaddr_t from)
+{
+    return from.addr == cn->client->peer.addr || from.addr == cn->o2t_to.addr;
+}
+
+static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, dr_sockaddr_t from,
+                        uint64_t t)
 {
     dr_io_frame_t f;
     if (dr_io_frame_parse(buf, len, false, &f) != DR_OK)
@@ -101,6 +113,10 @@ static void on_datagram(dr_udp_port_t *p, const uint8_t *buf, size_t len, uint64
     dr_conn_t *cn = conn_by_t2o_cid(p, f.cid);
     if (cn == NULL)
         return;
+    if (!from_target(cn, from)) {
+        cn->stats.rx_dropped_addr++; /* no sign of life either */
+        return;
+    }
     dr_client_t *c = cn->client;
     drc_conn_datagram(cn, buf, len, &f, t);
     deadline_moved(c); /* its timeout, maybe its O->T deadline (follow) */
@@ -119,12 +135,14 @@ void drc_read_udp(dr_udp_port_t *p, uint64_t t)
                 m[i].buf = p->rx[i];
                 m[i].cap = UDP_BUF;
                 m[i].len = 0;
+                m[i].addr.addr = 0; /* a transport that says nothing: no one's */
+                m[i].addr.port = 0;
             }
             if (p->tp.ops->udp_recv_batch(p->tp.ctx, p->h, m, RX_BATCH, &got) != DR_OK)
                 return;
             for (unsigned i = 0; i < got; i++)
                 if (m[i].len > 0)
-                    on_datagram(p, m[i].buf, m[i].len, t);
+                    on_datagram(p, m[i].buf, m[i].len, m[i].addr, t);
             if (got < RX_BATCH)
                 return;
         }
@@ -132,12 +150,12 @@ void drc_read_udp(dr_udp_port_t *p, uint64_t t)
     }
     for (unsigned n = 0; p->h >= 0 && n < 1000; n++) {
         size_t got;
-        dr_sockaddr_t from;
+        dr_sockaddr_t from = {0, 0}; /* a transport that says nothing: no one's */
         dr_status_t st = p->tp.ops->udp_recv(p->tp.ctx, p->h, p->rx[0], UDP_BUF, &got, &from);
         if (st == DR_EAGAIN)
             return;
         if (st == DR_OK)
-            on_datagram(p, p->rx[0], got, t);
+            on_datagram(p, p->rx[0], got, from, t);
     }
 }
 

@@ -128,6 +128,7 @@ dr_status_t drc_send_rr(dr_client_t *c, req_t *r, const uint8_t *msg,
     uint8_t wrapped[DR_ENCAP_MAX_LEN];
     dr_wr_t w;
 
+    r->service = msg_len > 0 ? msg[0] : 0;
     if (c->cfg.route) {
         /* Unconnected Send to the Connection Manager, route: port 1, slot 0 */
         static const uint8_t cm_path[] = {0x20, 0x06, 0x24, 0x01};
@@ -278,6 +279,19 @@ static uint64_t context_of(const dr_encap_t *h)
     return v;
 }
 
+/* Whether a reply answers the service r asked for: its service is the
+ * request's with the reply bit (CIP Vol 1, 2-4.2), or, for a routed
+ * request, an Unconnected Send's own reply that says why it could not be
+ * routed. Anything else (another request's reply, a reply to nothing) is
+ * not believed: DR_EMISMATCH, never data. */
+static bool reply_service_ok(const dr_client_t *c, const req_t *r, const dr_cip_rsp_t *rsp)
+{
+    if (rsp->service == (uint8_t)(r->service | DR_CIP_REPLY))
+        return true;
+    return c->cfg.route && rsp->general != 0 &&
+           rsp->service == (uint8_t)(DR_CIP_SVC_UNCONNECTED_SEND | DR_CIP_REPLY);
+}
+
 /* A SendRRData reply: CPF with the UCMM reply in an 0x00B2 item. */
 static void on_rr_reply(dr_client_t *c, req_t *r, const uint8_t *body, size_t len)
 {
@@ -292,6 +306,10 @@ static void on_rr_reply(dr_client_t *c, req_t *r, const uint8_t *body, size_t le
     if (len >= 6 && dr_cpf_parse_reply(body + 6, len - 6, &cpf, &extra) == DR_OK &&
         (it = dr_cpf_find(&cpf, DR_CPF_UNCONNECTED_DATA)) != NULL &&
         dr_cip_rsp_parse(it->data, it->length, &rsp) == DR_OK) {
+        if (!reply_service_ok(c, r, &rsp)) {
+            req_finish(c, r, DR_EMISMATCH, NULL, NULL);
+            return;
+        }
         if (extra > 0)
             c->stats.replies_trailing++;
         req_finish(c, r, dr_cip_rsp_status(&rsp), &rsp, &cpf);

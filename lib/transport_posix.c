@@ -9,6 +9,7 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <string.h>
+#include <sys/random.h>
 #include <sys/socket.h>
 #include <sys/timerfd.h>
 #include <time.h>
@@ -194,12 +195,31 @@ static dr_status_t px_udp_recv_batch(void *ctx, int h, dr_udp_msg_t *m,
     return DR_OK;
 }
 
+/* The kernel's random source (getrandom(2), urandom's pool): never blocks
+ * once the pool is initialised at boot; before that, or on a kernel
+ * without it, DR_EAGAIN / an error, and the client uses its own generator. */
+static dr_status_t px_random(void *ctx, uint8_t *buf, size_t len)
+{
+    (void)ctx;
+    size_t got = 0;
+    while (got < len) {
+        ssize_t n = getrandom(buf + got, len - got, GRND_NONBLOCK);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0)
+            return n < 0 ? errno_status(errno) : DR_EAGAIN;
+        got += (size_t)n;
+    }
+    return DR_OK;
+}
+
 static const dr_transport_ops_t posix_ops = {
     px_resolve,  bsd_tcp_connect, bsd_tcp_finish, bsd_tcp_send,
     bsd_tcp_recv, bsd_udp_open,   bsd_udp_send,   bsd_udp_recv,
     px_timer_open, px_timer_arm,  bsd_close,      px_now_us,
     px_fd,       px_wait,
     px_udp_send_batch, px_udp_recv_batch, bsd_tcp_abort,
+    px_random,
 };
 
 dr_transport_t dr_transport_posix(void)

@@ -333,7 +333,7 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
         gw_log_limited(GW_LOG_WARNING, &l->log_limit,
                        "robot %s: %s (%s): timed out: no packet from the robot for %u ms",
                        l->cfg.name, dr_asm_info(a)->name, how,
-                       (unsigned)(dr_conn_stats(conn)->timeout_us / 1000u));
+                       (unsigned)(dr_conn_stats(conn)->timeout_us64 / 1000u));
     else
         gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s (%s): %s: %s",
                        l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
@@ -605,6 +605,8 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         bool used = i < NPAIRS && rc->open[slot_t2o[i]].kind != GW_OPEN_NONE;
         data->link.conn_t2o[i] = (uint16_t)(used ? slot_t2o[i] : DR_ASM_COUNT);
         data->link.conn_rx[i] = data->link.conn_lost[i] = 0;
+        data->link.conn_dropped_seq[i] = data->link.conn_dropped_addr[i] = 0;
+        data->link.conn_resyncs[i] = 0;
     }
     data->o2t_unsent = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
@@ -741,6 +743,7 @@ static void update_status(gw_link_t *l, uint64_t now)
     uint64_t limit;
     if (l->cfg.mode == GW_MODE_IMPLICIT) {
         uint32_t rx = l->rx_base, lost = l->lost_base, api = 0;
+        uint32_t dseq = 0, daddr = 0, resyncs = 0;
         for (unsigned i = 0; i < NPAIRS; i++) {
             if (l->conn[i] == NULL)
                 continue;
@@ -749,11 +752,17 @@ static void update_status(gw_link_t *l, uint64_t now)
             lost += (uint32_t)cs->rx_lost;
             st->conn_rx[i] = (uint32_t)cs->rx_packets;
             st->conn_lost[i] = (uint32_t)cs->rx_lost;
+            dseq += st->conn_dropped_seq[i] = (uint32_t)cs->rx_dropped_seq;
+            daddr += st->conn_dropped_addr[i] = (uint32_t)cs->rx_dropped_addr;
+            resyncs += st->conn_resyncs[i] = (uint32_t)cs->rx_resyncs;
             if (cs->t2o_api_us > api)
                 api = cs->t2o_api_us;
         }
         st->rx_packets = rx;
         st->lost_packets = lost;
+        st->dropped_seq = dseq;
+        st->dropped_addr = daddr;
+        st->resyncs = resyncs;
         if (api != 0)
             st->rpi_ms = (uint16_t)((api + 999u) / 1000u);
         limit = (uint64_t)(api ? api : l->cfg.rpi_ms * 1000u) * (4u << l->cfg.timeout_mult);

@@ -50,6 +50,44 @@ static void per_conn(gw_prom_t *m, const gw_robot_t *robots, unsigned count, boo
     }
 }
 
+/* Per connection: T->O packets dropped, by why (issue 29), and the
+ * robot's sequence jumps followed. */
+static void per_conn_drops(gw_prom_t *m, const gw_robot_t *robots, unsigned count)
+{
+    const char *name = "drgate_link_packets_dropped_total";
+    gw_prom_family(m, name, GW_PROM_COUNTER,
+                   "T->O packets dropped per connection, by the assembly it carries and "
+                   "why: sequence (stale, duplicate, or too far ahead of the live "
+                   "sequence) or source_address (not from the robot's address)");
+    for (unsigned i = 0; i < count; i++) {
+        const gw_robot_link_t *k = &robots[i].link;
+        for (unsigned c = 0; c < GW_ROBOT_CONNS; c++) {
+            if (k->conn_t2o[c] >= DR_ASM_COUNT)
+                continue;
+            const char *an = dr_asm_info((dr_asm_t)k->conn_t2o[c])->name;
+            gw_prom_label_t l[3] = {{"robot", robots[i].name}, {"assembly", an},
+                                    {"reason", "sequence"}};
+            gw_prom_sample(m, name, l, 3, k->conn_dropped_seq[c]);
+            l[2].value = "source_address";
+            gw_prom_sample(m, name, l, 3, k->conn_dropped_addr[c]);
+        }
+    }
+    name = "drgate_link_sequence_resyncs_total";
+    gw_prom_family(m, name, GW_PROM_COUNTER,
+                   "Jumps of the robot's T->O sequence followed per connection (after the "
+                   "sequence before had gone silent for half the timeout)");
+    for (unsigned i = 0; i < count; i++) {
+        const gw_robot_link_t *k = &robots[i].link;
+        for (unsigned c = 0; c < GW_ROBOT_CONNS; c++) {
+            if (k->conn_t2o[c] >= DR_ASM_COUNT)
+                continue;
+            gw_prom_label_t l[2] = {{"robot", robots[i].name},
+                                    {"assembly", dr_asm_info((dr_asm_t)k->conn_t2o[c])->name}};
+            gw_prom_sample(m, name, l, 2, k->conn_resyncs[c]);
+        }
+    }
+}
+
 void gw_report_robot_metrics(gw_prom_t *m, const gw_robot_t *robots, unsigned count)
 {
     per_robot(m, robots, count, "drgate_link_up", GW_PROM_GAUGE,
@@ -71,6 +109,7 @@ void gw_report_robot_metrics(gw_prom_t *m, const gw_robot_t *robots, unsigned co
               "Packet interval in use (explicit mode: the poll period)", rpi);
     per_conn(m, robots, count, false);
     per_conn(m, robots, count, true);
+    per_conn_drops(m, robots, count);
 }
 
 /* Upper bounds of the lag buckets, microseconds. */

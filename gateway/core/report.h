@@ -17,8 +17,10 @@
 /* The robots' families: drgate_link_up, drgate_link_state,
  * drgate_link_reconnects_total, drgate_link_timeouts_total,
  * drgate_link_last_error_code, drgate_link_data_age_seconds,
- * drgate_link_rpi_seconds, drgate_link_packets_received_total and
- * drgate_link_packets_lost_total (label assembly: per connection). */
+ * drgate_link_rpi_seconds, drgate_link_packets_received_total,
+ * drgate_link_packets_lost_total, drgate_link_packets_dropped_total (and
+ * label reason) and drgate_link_sequence_resyncs_total (label assembly:
+ * per connection). */
 void gw_report_robot_metrics(gw_prom_t *m, const gw_robot_t *robots, unsigned count);
 
 /* The loop's lag: how late the loop woke up after the deadline it had

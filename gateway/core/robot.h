@@ -53,6 +53,14 @@ typedef struct {
      * console's /metrics; rx_packets and lost_packets are their sums). */
     uint16_t conn_t2o[GW_ROBOT_CONNS];
     uint32_t conn_rx[GW_ROBOT_CONNS], conn_lost[GW_ROBOT_CONNS];
+    /* T->O packets a connection dropped since the link started: stale,
+     * duplicate or too far ahead (dropped_seq), from an address not the
+     * robot's (dropped_addr), and the jumps of the robot's sequence it
+     * followed (resyncs); implicit mode only (dr_conn_stats_t), and the
+     * robot's sums (issue 29: every drop counter visible). */
+    uint32_t conn_dropped_seq[GW_ROBOT_CONNS], conn_dropped_addr[GW_ROBOT_CONNS];
+    uint32_t conn_resyncs[GW_ROBOT_CONNS];
+    uint32_t dropped_seq, dropped_addr, resyncs;
     /* Times the link went down after being up (it then reconnects), and
      * times a connection or poll timed out (no data from the robot). */
     uint32_t reconnects, timeouts;

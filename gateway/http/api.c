@@ -56,7 +56,10 @@ static void connections(gw_json_t *j, const gw_robot_config_t *rc, const gw_robo
                     ? dr_conn_state_name((dr_conn_state_t)rb->link.conn_state[i])
                     : "polled");
         NUM(j, ",\"rx_packets\":%lu", (unsigned long)rb->link.conn_rx[i]);
-        NUM(j, ",\"lost_packets\":%lu}", (unsigned long)rb->link.conn_lost[i]);
+        NUM(j, ",\"lost_packets\":%lu", (unsigned long)rb->link.conn_lost[i]);
+        NUM(j, ",\"dropped_seq\":%lu", (unsigned long)rb->link.conn_dropped_seq[i]);
+        NUM(j, ",\"dropped_addr\":%lu", (unsigned long)rb->link.conn_dropped_addr[i]);
+        NUM(j, ",\"resyncs\":%lu}", (unsigned long)rb->link.conn_resyncs[i]);
     }
     gw_json_str(j, "]");
 }
@@ -86,6 +89,9 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
     connections(j, &a->env->cfg->robot[r], rb);
     NUM(j, ",\"rx_packets\":%lu", (unsigned long)lk->rx_packets);
     NUM(j, ",\"lost_packets\":%lu", (unsigned long)lk->lost_packets);
+    NUM(j, ",\"dropped_seq\":%lu", (unsigned long)lk->dropped_seq);
+    NUM(j, ",\"dropped_addr\":%lu", (unsigned long)lk->dropped_addr);
+    NUM(j, ",\"resyncs\":%lu", (unsigned long)lk->resyncs);
     gw_json_str(j, ",\"last_error\":");
     if (lk->last_status == DR_OK) {
         gw_json_str(j, "null");

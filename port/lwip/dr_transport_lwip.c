@@ -124,6 +124,7 @@ static const dr_transport_ops_t lwip_ops = {
     NULL,        NULL,            bsd_close,      lw_now_us,
     NULL,        LW_WAIT,        NULL,          NULL,
     LW_TCP_ABORT,
+    NULL, /* random: the board's RNG belongs here (docs/firmware.md) */
 };
 
 dr_transport_t dr_transport_lwip(dr_lwip_t *lw)

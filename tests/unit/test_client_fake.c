@@ -49,6 +49,7 @@ struct fake {
     uint16_t next_cmd;        /* one-shot command of the next reply (0: the request's) */
     bool next_unknown_ctx;    /* one-shot: the next reply carries a context nobody sent */
     bool next_no_b2;          /* one-shot: the next SendRRData reply has no 0xB2 item */
+    uint8_t next_rsp_service; /* one-shot: the next CIP reply's service byte (0: the right one) */
     cip_fn cip;
     size_t get_len;           /* Get_Attribute_Single data bytes */
     bool trailing_item;       /* SendRRData replies carry an undeclared 0x8001 item */
@@ -74,7 +75,9 @@ struct fake {
     struct {
         uint8_t buf[600];
         size_t len;
+        uint32_t from; /* source address; 0: the peer's */
     } udp_in[MAX_UDP_IN];
+    uint32_t push_from; /* the source of the datagrams pushed next; 0: the peer */
     unsigned udp_in_n;
     uint8_t udp_last[600];
     size_t udp_last_len;
@@ -260,6 +263,10 @@ static void peer_frame(fake_t *f, const uint8_t *frame, size_t len)
     size_t rsp_len = 0;
     if (!(f->cip != NULL ? f->cip : cip_default)(f, &req, rsp, &rsp_len))
         return;
+    if (f->next_rsp_service != 0 && rsp_len > 0) {
+        rsp[0] = f->next_rsp_service;
+        f->next_rsp_service = 0;
+    }
     uint8_t b[600];
     dr_wr_t w;
     dr_wr_init(&w, b, sizeof b);
@@ -387,12 +394,13 @@ static dr_status_t f_udp_recv(void *ctx, int h, uint8_t *buf, size_t cap, size_t
     if (f->udp_in_n == 0)
         return DR_EAGAIN;
     size_t n = f->udp_in[0].len;
+    uint32_t src = f->udp_in[0].from != 0 ? f->udp_in[0].from : PEER_ADDR;
     assert_true(n <= cap);
     memcpy(buf, f->udp_in[0].buf, n);
     memmove(&f->udp_in[0], &f->udp_in[1], sizeof f->udp_in[0] * (f->udp_in_n - 1));
     f->udp_in_n--;
     *got = n;
-    *from = (dr_sockaddr_t){PEER_ADDR, DR_ENIP_UDP_PORT};
+    *from = (dr_sockaddr_t){src, DR_ENIP_UDP_PORT};
     return DR_OK;
 }
 
@@ -488,12 +496,12 @@ static dr_status_t f_wait(void *ctx, const int *h, const bool *want_out, int n,
 static const dr_transport_ops_t fake_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
-    f_now,      f_fd,          f_wait,       NULL,         NULL,       f_tcp_abort};
+    f_now,      f_fd,          f_wait,       NULL,         NULL,       f_tcp_abort, NULL};
 
 static const dr_transport_ops_t fake_batch_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
-    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort};
+    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort, NULL};
 
 /* ---- fixtures ------------------------------------------------------------------ */
 
@@ -865,6 +873,18 @@ static void test_bad_replies(void **state)
     /* a reply with another command than the request's */
     F.next_cmd = DR_ENCAP_LIST_SERVICES;
     assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMISMATCH);
+    /* a reply whose service is not the request's | 0x80 (issue 29): a
+     * Set's reply (0x90) or a Forward Open's (0xD4) to a Get is not its
+     * answer, whatever its data (a reply without the reply bit is not a
+     * reply at all: malformed) */
+    F.next_rsp_service = DR_CIP_SVC_SET_ATTRIBUTE_SINGLE | DR_CIP_REPLY;
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMISMATCH);
+    F.next_rsp_service = DR_CIP_SVC_FORWARD_OPEN | DR_CIP_REPLY;
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMISMATCH);
+    F.next_rsp_service = DR_CIP_SVC_GET_ATTRIBUTE_SINGLE;
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMALFORMED);
+    assert_true(dr_client_ready(c));
+    assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_OK);
     /* no 0xB2 item */
     F.next_no_b2 = true;
     assert_int_equal(dr_client_read_asm_sync(c, DR_ASM_IO_STATE, buf, 36), DR_EMALFORMED);
@@ -1073,6 +1093,7 @@ static void push_t2o_seq(uint32_t cid, uint32_t encap_seq, uint16_t cip_seq, uin
     size_t n;
     assert_true(F.udp_in_n < MAX_UDP_IN);
     assert_int_equal(dr_io_frame_write(F.udp_in[F.udp_in_n].buf, 600, &fr, &n), DR_OK);
+    F.udp_in[F.udp_in_n].from = F.push_from;
     F.udp_in[F.udp_in_n++].len = n;
 }
 
@@ -1090,6 +1111,7 @@ static void push_t2o(uint32_t cid, uint16_t seq, size_t len)
     size_t n;
     assert_true(F.udp_in_n < MAX_UDP_IN);
     assert_int_equal(dr_io_frame_write(F.udp_in[F.udp_in_n].buf, 600, &fr, &n), DR_OK);
+    F.udp_in[F.udp_in_n].from = F.push_from;
     F.udp_in[F.udp_in_n++].len = n;
 }
 
@@ -1440,16 +1462,194 @@ static void test_class1_seq_forged(void **state)
     assert_int_equal(st->rx_dropped_seq, 4);
     assert_int_equal(st->rx_resyncs, 0);
     assert_int_equal(dr_conn_input(cn, NULL)[0], 40);
-    /* a producer that jumped: 1000 and 1001 dropped, 1002 followed */
-    push_t2o_seq(F.t2o_cid, 1000, 41, 41, 96);
-    push_t2o_seq(F.t2o_cid, 1001, 42, 42, 96);
-    push_t2o_seq(F.t2o_cid, 1002, 43, 43, 96);
-    push_t2o_seq(F.t2o_cid, 1003, 44, 44, 96);
-    dr_client_process(c);
-    assert_int_equal(st->rx_dropped_seq, 6);
+    /* a producer that jumped: its numbers agree with each other, but are
+     * believed only once the sequence taken before has been silent for
+     * half the timeout (80 ms): 1000-1006 dropped, 1007 (80 ms after the
+     * last packet taken) followed, before the 160 ms timeout strikes */
+    for (e = 1000; e <= 1007; e++) {
+        F.now += 10000u;
+        push_t2o_seq(F.t2o_cid, e, (uint16_t)(e - 959), (uint8_t)(e - 959), 96);
+        dr_client_process(c);
+    }
+    assert_int_equal(st->rx_dropped_seq, 11);
     assert_int_equal(st->rx_resyncs, 1);
+    assert_int_equal(log.data, 34);
+    assert_int_equal(dr_conn_input(cn, NULL)[0], 1007 - 959);
+    F.now += 10000u;
+    push_t2o_seq(F.t2o_cid, 1008, 1008 - 959, 1008 - 959, 96);
+    dr_client_process(c);
     assert_int_equal(log.data, 35);
-    assert_int_equal(dr_conn_input(cn, NULL)[0], 44);
+    assert_int_equal(st->timeouts, 0);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    dr_client_free(c);
+}
+
+/* Issue 29: packets far ahead of a live sequence, from the target's own
+ * address (a forger that can spoof it), agree with each other as much as
+ * they like: while the real sequence keeps coming they are never
+ * believed. Each costs only itself; the real packets keep flowing, the
+ * connection never times out, rx_lost does not jump. (Before: the third
+ * agreeing one was followed, and every real packet after it dropped as
+ * old until the connection timed out.) */
+static void test_class1_seq_forged_live(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log);
+    cc.timeout_mult = 2; /* x16: 160 ms; window 8 */
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    dr_client_start(c);
+    wait_established(c, cn);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    uint32_t e;
+    for (e = 1; e <= 5; e++) {
+        F.now += 10000u;
+        push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
+        dr_client_process(c);
+    }
+    /* for 50 RPIs (three timeouts), three forged packets 30000 ahead,
+     * agreeing, beside each real one */
+    uint32_t forged = 30000;
+    for (int i = 0; i < 50; i++, e++) {
+        F.now += 10000u;
+        for (int k = 0; k < 3; k++, forged++)
+            push_t2o_seq(F.t2o_cid, forged, (uint16_t)forged, 0xEE, 96);
+        push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
+        dr_client_process(c);
+        assert_int_equal(dr_conn_input(cn, NULL)[0], (uint8_t)e);
+    }
+    assert_int_equal(st->rx_resyncs, 0);
+    assert_int_equal(st->rx_dropped_seq, 150);
+    assert_int_equal(st->rx_packets, 55);
+    assert_int_equal(st->rx_lost, 0);
+    assert_int_equal(st->timeouts, 0);
+    assert_int_equal(log.data, 55);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    dr_client_free(c);
+}
+
+/* Issue 29: a T->O packet with a live connection's ID from any address
+ * but the target's is dropped and counted, whatever its sequence numbers,
+ * and keeps nothing alive; the real packets are taken as before. Both
+ * receive paths (one datagram per call, and batches). */
+static void test_class1_forged_source(void **state)
+{
+    (void)state;
+    const dr_transport_ops_t *ops[2] = {&fake_ops, &fake_batch_ops};
+    for (unsigned o = 0; o < 2; o++) {
+        setup(NULL);
+        conn_log_t log;
+        memset(&log, 0, sizeof log);
+        dr_client_config_t cfg = config(ops[o]);
+        dr_client_t *c = dr_client_new(&cfg, NULL);
+        assert_non_null(c);
+        dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms, timeout 40 ms */
+        dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+        assert_non_null(cn);
+        dr_client_start(c);
+        wait_established(c, cn);
+        const dr_conn_stats_t *st = dr_conn_stats(cn);
+        uint32_t e;
+        for (e = 1; e <= 3; e++) {
+            F.now += 10000u;
+            push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
+            dr_client_process(c);
+        }
+        /* another host: the next numbers, and numbers far ahead */
+        F.push_from = PEER_ADDR + 1u;
+        push_t2o_seq(F.t2o_cid, 4, 4, 0xEE, 96);
+        for (uint32_t k = 0; k < 3; k++)
+            push_t2o_seq(F.t2o_cid, 30000 + k, (uint16_t)(30000 + k), 0xEE, 96);
+        F.push_from = 0;
+        push_t2o_seq(F.t2o_cid, 4, 4, 4, 96); /* the real one: not a duplicate */
+        dr_client_process(c);
+        assert_int_equal(st->rx_dropped_addr, 4);
+        assert_int_equal(st->rx_dropped_seq, 0);
+        assert_int_equal(st->rx_packets, 4);
+        assert_int_equal(st->rx_lost, 0);
+        assert_int_equal(log.data, 4);
+        assert_int_equal(dr_conn_input(cn, NULL)[0], 4);
+        /* forged packets alone keep nothing alive: the timeout strikes */
+        uint64_t taken = F.now;
+        F.push_from = PEER_ADDR + 1u;
+        for (e = 5; F.now < taken + 40000u; e++) {
+            F.now += 10000u;
+            push_t2o_seq(F.t2o_cid, e, (uint16_t)e, 0xEE, 96);
+            dr_client_process(c);
+        }
+        F.push_from = 0;
+        assert_int_equal(st->rx_dropped_addr, 8);
+        assert_int_equal(st->timeouts, 1);
+        assert_int_equal(log.data, 4);
+        dr_client_free(c);
+    }
+}
+
+/* Issue 29, item 8: the timeout of a connection at RPI 9 s with multiplier
+ * 7 (x512) is 4608 s, past 2^32 us; computed in 32 bits it was 313 s, and
+ * the connection timed out 4295 s early. */
+static void test_class1_timeout_64bit(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log);
+    cc.rpi_us = 9000000u;
+    cc.timeout_mult = 7;
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    dr_client_start(c);
+    wait_established(c, cn);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    assert_int_equal(st->t2o_api_us, 9000000u);
+    assert_true(st->timeout_us64 == 4608000000ull);
+    assert_int_equal(st->timeout_us, UINT32_MAX); /* saturated, not wrapped */
+    push_t2o_seq(F.t2o_cid, 1, 1, 1, 96);
+    dr_client_process(c);
+    uint64_t taken = F.now;
+    /* 400 s of silence (more than the 313 s of the overflow): alive */
+    F.now = taken + 400000000ull;
+    dr_client_process(c);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_true(dr_client_next_deadline(c) <= taken + 4608000000ull);
+    F.now = taken + 4607000000ull;
+    dr_client_process(c);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    F.now = taken + 4608000000ull;
+    dr_client_process(c);
+    assert_int_equal(st->timeouts, 1);
+    assert_int_not_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    dr_client_free(c);
+}
+
+/* Issue 29, item 8: a Forward Open answered with another service's reply
+ * (here a Forward Close's, 0xCE) is not a success, whatever its data: the
+ * connection is not established on it (DR_EMISMATCH), and, as after an
+ * open that got no answer, its triad is closed before the next open. */
+static void test_class1_open_wrong_service(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = connected();
+    dr_conn_config_t cc = conn_config(&log);
+    F.next_rsp_service = DR_CIP_SVC_FORWARD_CLOSE | DR_CIP_REPLY;
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    dr_client_start(c);
+    for (int i = 0; i < 100 && F.fwd_open == 0; i++)
+        run_for(c, 1);
+    run_for(c, 1);
+    assert_int_equal(F.fwd_open, 1);
+    assert_int_not_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    assert_int_equal(log.why, DR_EMISMATCH);
+    wait_established(c, cn);
+    assert_int_equal(F.fwd_open, 2);
+    assert_int_equal(F.fwd_close, 1); /* the first open's triad */
     dr_client_free(c);
 }
 
@@ -1778,7 +1978,8 @@ static void test_init_static(void **state)
 static const dr_transport_ops_t fake_bare_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   NULL,         NULL,       f_close,
-    f_now,      NULL,          NULL,         NULL,         NULL,       NULL};
+    f_now,      NULL,          NULL,         NULL,         NULL,       NULL,
+    NULL};
 
 typedef struct {
     unsigned calls;
@@ -2215,7 +2416,7 @@ static void test_deadline_cache(void **state)
 static const dr_transport_ops_t fake_untimed_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   NULL,         NULL,       f_close,
-    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort};
+    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort, NULL};
 
 static void test_loop_timer(void **state)
 {
@@ -2365,6 +2566,10 @@ int main(void)
         cmocka_unit_test_setup(test_class1_follow_spacing, setup),
         cmocka_unit_test_setup(test_class1_seq_repeat, setup),
         cmocka_unit_test_setup(test_class1_seq_forged, setup),
+        cmocka_unit_test_setup(test_class1_seq_forged_live, setup),
+        cmocka_unit_test_setup(test_class1_forged_source, setup),
+        cmocka_unit_test_setup(test_class1_timeout_64bit, setup),
+        cmocka_unit_test_setup(test_class1_open_wrong_service, setup),
         cmocka_unit_test_setup(test_class1_open_timeout_resets, setup),
         cmocka_unit_test_setup(test_class1_late_open_closed, setup),
         cmocka_unit_test_setup(test_originator_serial, setup),

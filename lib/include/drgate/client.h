@@ -392,15 +392,30 @@ void dr_conn_set_run(dr_conn_t *conn, bool run);
  * as long as it is at most max(8, (4 << timeout_mult) / 2) ahead: a
  * number further ahead than a live producer can have gone is a corrupted
  * one (a bit flipped in a datagram without a UDP checksum) and is dropped
- * too, so that it cannot make the real packets after it look old. Three
- * such numbers in a row that follow each other within that window are
- * believed: the producer jumped, and is followed from there (rx_resyncs).
+ * too, so that it cannot make the real packets after it look old. Such
+ * numbers are believed only once the sequence taken so far has gone
+ * silent, no packet taken for half the timeout, and then only the third
+ * of a row of them that follow each other within that window: the
+ * producer jumped, and is followed from there (rx_resyncs). While the
+ * real sequence is alive, packets far ahead of it (forged, or corrupted)
+ * cost nothing but themselves, however many agree with each other.
  * Whether it carries new data goes by the 16-bit CIP sequence count: the
  * same count as the last new data is a repeat (rx_repeats: no copy, no
  * on_data), as producers may send while their data is unchanged; any
  * other count is new data, and a newer one counts the counts skipped
  * (rx_lost). A count that goes back (a producer that started counting
- * again) is new data with no gap. New samples: rx_packets - rx_repeats. */
+ * again) is new data with no gap. New samples: rx_packets - rx_repeats.
+ *
+ * Who may send T->O data: only the target. A packet carrying the ID of an
+ * established connection is taken only from the address the session's TCP
+ * connection goes to, or from the address the Forward Open reply named for
+ * O->T (its O->T sockaddr item: where the target's I/O lives); any other
+ * source is dropped and counted (rx_dropped_addr), whatever its sequence
+ * numbers. The source port is not checked (targets send from 2222, but
+ * NAT and some stacks do not keep it). This keeps out every host that
+ * cannot forge the robot's IP source address; one that can (on the same
+ * segment, with raw sockets) is limited by the sequence rules above: a
+ * few forged packets cost at most those packets, never the connection. */
 typedef struct {
     uint64_t rx_packets;       /* T->O packets taken: new data and repeats */
     uint64_t rx_dropped_seq;   /* stale or duplicate (encapsulation sequence) */
@@ -410,12 +425,19 @@ typedef struct {
     uint64_t last_rx_us;       /* monotonic time of the last packet taken */
     uint32_t o2t_api_us, t2o_api_us; /* from the Forward Open reply */
     uint32_t timeout_us;  /* T->O silence that times the connection out:
-                             t2o_api_us x (4 << timeout_mult) */
+                             t2o_api_us x (4 << timeout_mult), at most
+                             UINT32_MAX (see timeout_us64) */
     uint32_t o2t_cid, t2o_cid;
     uint32_t opens, timeouts;
     uint16_t size_wanted; /* from a 0x0109 refusal: the target's size */
     uint64_t rx_resyncs;  /* encapsulation sequence numbers followed after
                              a jump too far ahead (see above) */
+    /* Added after 1.0.0 (appended: the fields above keep their places). */
+    uint64_t rx_dropped_addr; /* T->O packets with this connection's ID from
+                                 a source address other than the target's:
+                                 dropped (see "Who may send T->O data") */
+    uint64_t timeout_us64;    /* timeout_us, exact: timeout_us saturates at
+                                 UINT32_MAX (RPI 9 s x 512 is 4608 s) */
 } dr_conn_stats_t;
 
 dr_conn_state_t dr_conn_state(const dr_conn_t *conn);

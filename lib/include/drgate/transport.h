@@ -22,6 +22,9 @@
  *   - udp_send_batch / udp_recv_batch: one datagram per call instead.
  *   - tcp_abort: close instead (requests queued in TCP may then still
  *     reach the peer after the client gave up on them).
+ *   - random: the client's own generator (the clock and a counter), which
+ *     an attacker who knows roughly when the client started can predict:
+ *     a firmware port should give its hardware RNG here.
  * Calls come only from the thread that drives the client (see client.h).
  */
 #ifndef DRGATE_TRANSPORT_H
@@ -98,6 +101,14 @@ typedef struct {
      * Open went unanswered, and its queued requests must never reach the
      * adapter later (see session_reset in lib/client_session.c). */
     void (*tcp_abort)(void *ctx, int h);
+    /* Optional (NULL, or anything but DR_OK: the client's own generator).
+     * Fill buf with len bytes from an unpredictable source (POSIX:
+     * getrandom). The client draws its connection serials and T->O
+     * connection IDs from it, so that an off-path sender cannot guess the
+     * ID of a live connection (see "Who may send T->O data" in client.h).
+     * Added after 1.0.0, at the end: a table written for 1.0.0 must be
+     * rebuilt against this header (docs/api-changes.md). */
+    dr_status_t (*random)(void *ctx, uint8_t *buf, size_t len);
 } dr_transport_ops_t;
 
 typedef struct {
