@@ -1,9 +1,9 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
 # make check-deb (in make check): builds the packages (mk/deb.sh), lintian
-# on them (no error, no warning), then installs them in a clean Debian bookworm root
-# made with mmdebstrap (--variant=apt, the packages' runtime libraries
-# included): dpkg -i the four, the files are there, the service is not
+# on them (no error, no warning), then installs them in a clean Debian root
+# of this machine's release (bookworm, trixie: /etc/os-release) made with
+# mmdebstrap (--variant=apt, with what the packages' Depends name): dpkg -i the four, the files are there, the service is not
 # enabled, the system user drgate is in dialout, `drgatewayd --check-config` refuses the commented conffile (78,
 # "no robot section") and takes one with a robot, `drcli list` runs; then
 # dpkg --purge, and nothing of them is left (the root's file list equals
@@ -17,7 +17,8 @@ cd "$(dirname "$0")/.."
 . tests/skip.sh
 b=${1:-build} res=${2:-}
 skip_name=check-deb skip_results=$res
-label="Debian packages: lintian, install, run and purge in a clean bookworm root (mk/check-deb.sh)"
+suite=$(. /etc/os-release && echo "$VERSION_CODENAME")
+label="Debian packages: lintian, install, run and purge in a clean $suite root (mk/check-deb.sh)"
 skip_label=$label
 [ "$(id -u)" = 0 ] || skip "not root (chroot)"
 for t in dpkg-buildpackage:dpkg-dev dh:debhelper lintian:lintian mmdebstrap:mmdebstrap; do
@@ -45,8 +46,13 @@ files() { (cd "$root" && find . -xdev \( -path ./var/lib/dpkg -o -path ./var/log
           grep -v '^\./etc/[a-z]*-$' | sort); }
 # (the user's files: shadow's backups /etc/passwd- ..., adduser's lock in /run)
 
-if ! mmdebstrap --quiet --variant=apt --include=libinih1,libgpiod2,libjansson4,libsystemd0 \
-        bookworm "$root" > "$root.log" 2>&1; then
+# What the packages depend on, by name (libgpiod2 on bookworm, libgpiod3
+# on trixie): their own Depends, less themselves and adduser's alternatives.
+deps=$(for f in "$b"/deb/drgate_*.deb "$b"/deb/drgate-sim_*.deb "$b"/deb/libdrgate1_*.deb; do
+           dpkg-deb -f "$f" Depends; done | tr ',' '\n' | sed 's/|.*//; s/(.*//; s/ //g' |
+       grep -v '^libdrgate' | grep . | sort -u | tr '\n' ',' | sed 's/,$//')
+if ! mmdebstrap --quiet --variant=apt --include="$deps" \
+        "$suite" "$root" > "$root.log" 2>&1; then
     bad "mmdebstrap failed: $(tail -3 "$root.log")"
 else
     files > "$root.before"
