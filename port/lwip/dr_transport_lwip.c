@@ -28,6 +28,7 @@
 #define BSD_recvfrom lwip_recvfrom
 #define BSD_setsockopt lwip_setsockopt
 #define BSD_getsockopt lwip_getsockopt
+#define BSD_getsockname lwip_getsockname
 #define BSD_close lwip_close
 #define BSD_htons lwip_htons
 #define BSD_htonl lwip_htonl
@@ -123,7 +124,7 @@ static const dr_transport_ops_t lwip_ops = {
     bsd_tcp_recv, bsd_udp_open,   bsd_udp_send,   bsd_udp_recv,
     NULL,        NULL,            bsd_close,      lw_now_us,
     NULL,        LW_WAIT,        NULL,          NULL,
-    LW_TCP_ABORT,
+    LW_TCP_ABORT, bsd_tcp_connect_from, bsd_tcp_local,
 };
 
 dr_transport_t dr_transport_lwip(dr_lwip_t *lw)
