@@ -65,8 +65,8 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
 {
     const gw_robot_t *rb = &a->env->robots[r];
     const gw_robot_link_t *lk = &rb->link;
-    char why[160];
-    gw_robot_error_text(lk->last_status, why, sizeof why);
+    char why[200];
+    gw_robot_cause(rb, why, sizeof why);
     gw_json_str(j, "{\"name\":");
     qstr(j, rb->name);
     gw_json_str(j, ",\"link\":");
@@ -86,6 +86,7 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
     connections(j, &a->env->cfg->robot[r], rb);
     NUM(j, ",\"rx_packets\":%lu", (unsigned long)lk->rx_packets);
     NUM(j, ",\"lost_packets\":%lu", (unsigned long)lk->lost_packets);
+    NUM(j, ",\"sets_refused\":%lu", (unsigned long)lk->sets_refused);
     gw_json_str(j, ",\"last_error\":");
     if (lk->last_status == DR_OK) {
         gw_json_str(j, "null");
@@ -235,8 +236,8 @@ static void duration(char *out, size_t size, uint64_t s)
 /* "linked", "connecting", "down: connection refused" */
 static void robot_state(char *out, size_t size, const gw_robot_t *rb)
 {
-    char why[160];
-    gw_robot_error_text(rb->link.last_status, why, sizeof why);
+    char why[200];
+    gw_robot_cause(rb, why, sizeof why);
     if (rb->link.link_state == 2)
         snprintf(out, size, "linked");
     else
@@ -315,7 +316,7 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
     gw_json_str(j, line);
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         const gw_robot_t *rb = &a->env->robots[r];
-        char st[200];
+        char st[240];
         robot_state(st, sizeof st, rb);
         if (rb->link.link_state == 2)
             snprintf(line, sizeof line,
@@ -354,7 +355,7 @@ void gw_http_api_notify(gw_json_t *j, const gw_http_api_t *a)
     if (cfg->robot_count == 0)
         gw_json_str(j, "no robot");
     for (unsigned r = 0; r < cfg->robot_count; r++) {
-        char st[200];
+        char st[240];
         robot_state(st, sizeof st, &a->env->robots[r]);
         if (r > 0)
             gw_json_str(j, ", ");
