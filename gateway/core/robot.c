@@ -109,6 +109,18 @@ void gw_robot_cause(const gw_robot_t *r, char *buf, size_t size)
         gw_robot_error_text(r->link.last_status, buf, size);
 }
 
+const char *gw_machine_id_problem(const char *line)
+{
+    size_t n = line != NULL ? strcspn(line, " \t\r\n") : 0;
+    if (n == 0)
+        return "missing or empty";
+    if (n == 13 && strncmp(line, "uninitialized", 13) == 0)
+        return "uninitialized";
+    if (strspn(line, "0") >= n)
+        return "all zeros";
+    return NULL;
+}
+
 /* The causes of a link failure an integrator meets, and where to look. */
 static const struct {
     dr_status_t st;

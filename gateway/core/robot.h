@@ -151,6 +151,14 @@ void gw_robot_error_text(dr_status_t why, char *buf, size_t size);
  * address"); "" before the first failure. */
 void gw_robot_cause(const gw_robot_t *r, char *buf, size_t size);
 
+/* What is wrong with `line`, the first line of /etc/machine-id, as the
+ * source of the default originator serial (docs/deployment.md): NULL when
+ * it looks like a real machine ID; else "missing or empty",
+ * "uninitialized" (systemd's placeholder of an image not yet booted) or
+ * "all zeros". A machine ID shared by boxes cloned from one image cannot
+ * be seen from one box. */
+const char *gw_machine_id_problem(const char *line);
+
 /* What usually causes `why` on a robot link and what to check, for the
  * documentation's table; NULL when there is nothing to add. */
 const char *gw_robot_error_hint(dr_status_t why);

@@ -244,3 +244,38 @@ def test_t2o_dropped_by_the_network(tmp_path):
     finally:
         sh("ip", "netns", "del", nsa, check=False)
         sh("ip", "netns", "del", nsb, check=False)
+
+
+@pytest.mark.parametrize("content", ["uninitialized\n", "", "0" * 32 + "\n"])
+def test_uninitialized_machine_id_is_said(tmp_path, content):
+    """Issue 30, item 6: /etc/machine-id not a machine's own (bind-mounted
+    over in a mount namespace of the daemon's own): the daemon says so at
+    start, with how to regenerate it; a real one says nothing."""
+    if shutil.which("unshare") is None:
+        skip("test_uninitialized_machine_id_is_said", "no unshare")
+    mid = tmp_path / "machine-id"
+    mid.write_text(content)
+    g = Gateway("honest-machine-id", Drsim("honest-machine-id").start())
+    try:
+        g.port = free_port(GW_ADDR, udp=False)
+        g.local_udp = [free_port(GW_ADDR, tcp=False)]
+        g.write_config()
+        log = tmp_path / "gw.log"
+        p = spawn(["unshare", "-m", "sh", "-c",
+                   "mount --bind %s /etc/machine-id && exec %s -c %s"
+                   % (mid, DRGATEWAYD, g.conf)], log)
+        try:
+            words = "regenerate it (rm /etc/machine-id && systemd-machine-id-setup)"
+            wait_for(lambda: "running:" in log.read_text() or p.poll() is not None, 10,
+                     "the daemon to start")
+            text = log.read_text()
+            if "mount" in text and "running:" not in text:
+                skip("test_uninitialized_machine_id_is_said", "cannot bind-mount: %s" % text)
+            state = {"": "missing or empty", "uninitialized\n": "uninitialized"}.get(
+                content, "all zeros")
+            assert "/etc/machine-id is %s" % state in text and words in text, text
+        finally:
+            p.kill()
+            p.wait()
+    finally:
+        g.sims[0].kill()
