@@ -207,11 +207,27 @@ static json_t *json_assembly(dr_asm_t a)
 
 static json_t *json_leaf(const leaf_row_t *r)
 {
-    return json_pack("{s:s, s:s, s:s, s:i, s:o, s:s, s:s, s:s}",
-                     "path", r->path, "assembly", r->asm_name,
-                     "direction", r->dir, "offset", (int)r->offset_n,
-                     "bit", r->bit_n >= 0 ? json_integer(r->bit_n) : json_null(),
-                     "type", r->type, "unit", r->unit, "description", r->help);
+    json_t *o = json_pack("{s:s, s:s, s:s, s:i, s:o, s:s, s:s, s:s}",
+                          "path", r->path, "assembly", r->asm_name,
+                          "direction", r->dir, "offset", (int)r->offset_n,
+                          "bit", r->bit_n >= 0 ? json_integer(r->bit_n) : json_null(),
+                          "type", r->type, "unit", r->unit, "description", r->help);
+    /* An enum's names by value ("enum": {"0": "INITIALIZING", ...}), for
+     * tools such as the Wireshark dissector (mk/gen-dissector.py). The
+     * robot state is the codec's one enum. */
+    if (o != NULL && strcmp(r->type, "USINT enum") == 0) {
+        json_t *names = json_object();
+        char key[8];
+        for (unsigned v = 0; names != NULL && dr_robot_state_name(v) != NULL; v++) {
+            snprintf(key, sizeof key, "%u", v);
+            (void)json_object_set_new(names, key, json_string(dr_robot_state_name(v)));
+        }
+        if (names == NULL || json_object_set_new(o, "enum", names) != 0) {
+            json_decref(o);
+            return NULL;
+        }
+    }
+    return o;
 }
 
 static int print_json(const char *cmd, const bool *selected,

@@ -110,7 +110,7 @@ F("io_state", ProtoField.bool("drgate.io_state.tool_do_6", "io_state.tool_do[6]"
 F("io_state", ProtoField.uint8("drgate.io_state.version.major", "io_state.version.major", base.DEC), 28, 1, "")
 F("io_state", ProtoField.uint8("drgate.io_state.version.minor", "io_state.version.minor", base.DEC), 29, 1, "")
 F("io_state", ProtoField.uint8("drgate.io_state.version.patch", "io_state.version.patch", base.DEC), 30, 1, "")
-F("io_state", ProtoField.uint8("drgate.io_state.robot_state", "io_state.robot_state", base.DEC), 32, 1, "")
+F("io_state", ProtoField.uint8("drgate.io_state.robot_state", "io_state.robot_state", base.DEC, { [0] = "INITIALIZING", [1] = "STANDBY", [2] = "OPERATING", [3] = "SAFE_OFF", [4] = "TEACHING", [5] = "SAFE_STOP", [6] = "EMERGENCY_STOP", [7] = "HOMING", [8] = "RECOVERY", [9] = "SAFE_STOP2", [10] = "SAFE_OFF2" }), 32, 1, "")
 F("io_state", ProtoField.bool("drgate.io_state.servo_on", "io_state.servo_on", 8, nil, 0x01), 34, 1, "")
 F("io_state", ProtoField.bool("drgate.io_state.safety_stopped", "io_state.safety_stopped", 8, nil, 0x02), 34, 1, "")
 F("io_state", ProtoField.bool("drgate.io_state.emergency_stopped", "io_state.emergency_stopped", 8, nil, 0x04), 34, 1, "")

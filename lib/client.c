@@ -131,6 +131,10 @@ dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t
     if (cfg->local_addr != NULL &&
         (st = c->tp.ops->resolve(c->tp.ctx, cfg->local_addr, &c->local_udp_addr)) != DR_OK)
         return init_fail(err, st);
+    /* A local address the TCP session cannot leave from: the adapter
+     * would send T->O to wherever TCP comes from (see local_addr). */
+    if (c->local_udp_addr != 0 && c->tp.ops->tcp_connect_from == NULL)
+        return init_fail(err, DR_EUNSUPPORTED);
     if (c->tp.ops->timer_open != NULL &&
         (st = c->tp.ops->timer_open(c->tp.ctx, &c->timer)) != DR_OK)
         return init_fail(err, st);
@@ -181,6 +185,15 @@ uint16_t dr_client_instance(const dr_client_t *c, dr_asm_t a)
 const char *dr_client_last_step(const dr_client_t *c)
 {
     return c->step;
+}
+
+dr_sockaddr_t dr_client_t2o_addr(const dr_client_t *c)
+{
+    dr_sockaddr_t a = c->udp->h >= 0 ? c->udp->local
+                                     : (dr_sockaddr_t){c->local_udp_addr, c->cfg.local_udp_port};
+    if (a.addr == 0)
+        a.addr = c->tcp_local.addr;
+    return a;
 }
 
 const dr_client_stats_t *dr_client_stats(const dr_client_t *c)

@@ -346,6 +346,7 @@ static void conn_established(dr_conn_t *cn, const dr_fwd_open_reply_t *rp,
     cn->last_tx_us = 0;
     cn->follow_misses = 0;
     cn->rx_deadline_us = t + cn->stats.timeout_us64 + FIRST_PACKET_GRACE_US;
+    cn->stats.opened_us = t;
     cn->backoff_ms = c->cfg.backoff_min_ms;
     cn->dup_retries = 0;
     drc_conn_set_state(cn, DR_CONN_ESTABLISHED, DR_OK);
@@ -580,10 +581,14 @@ void drc_conn_timers(dr_conn_t *cn, uint64_t t)
     switch (cn->state) {
     case DR_CONN_ESTABLISHED:
         if (t >= cn->rx_deadline_us) {
+            /* Not one packet within the first packet's grace: the adapter
+             * took the Forward Open and its data goes elsewhere (a
+             * firewall, or another address than ours): its own cause. */
+            dr_status_t why = cn->have_t2o_seq ? DR_ETIMEDOUT : DR_ENODATA;
             cn->stats.timeouts++;
-            drc_conn_set_state(cn, DR_CONN_TIMED_OUT, DR_ETIMEDOUT);
+            drc_conn_set_state(cn, DR_CONN_TIMED_OUT, why);
             drc_send_forward_close(cn); /* so the new open is not a duplicate */
-            drc_conn_schedule_retry(cn, DR_ETIMEDOUT);
+            drc_conn_schedule_retry(cn, why);
             break;
         }
         if (t >= cn->next_tx_us)

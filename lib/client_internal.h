@@ -147,6 +147,7 @@ struct dr_client {
     uint32_t session;
     dr_status_t sess_error;
     dr_sockaddr_t peer;
+    dr_sockaddr_t tcp_local; /* where the TCP session leaves from (tcp_local) */
     uint32_t local_udp_addr;
     uint64_t sess_deadline, retry_at;
     uint32_t backoff_ms;

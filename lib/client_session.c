@@ -229,7 +229,12 @@ dr_status_t drc_begin_session(dr_client_t *c)
         c->peer.addr = addr;
         c->peer.port = c->cfg.tcp_port;
         c->step = "connect";
-        st = c->tp.ops->tcp_connect(c->tp.ctx, c->peer, &c->tcp);
+        /* From the local address, if there is one: the adapter sends
+         * T->O to the address TCP comes from (see local_addr). */
+        dr_sockaddr_t from = {c->local_udp_addr, 0};
+        st = c->local_udp_addr != 0
+                 ? c->tp.ops->tcp_connect_from(c->tp.ctx, from, c->peer, &c->tcp)
+                 : c->tp.ops->tcp_connect(c->tp.ctx, c->peer, &c->tcp);
     }
     if (st != DR_OK) {
         drc_session_fail(c, st);
@@ -396,6 +401,9 @@ void drc_session_timers(dr_client_t *c, uint64_t t)
 {
     if (c->state == S_CONNECTING) {
         dr_status_t st = c->tp.ops->tcp_finish(c->tp.ctx, c->tcp);
+        if (st == DR_OK && (c->tp.ops->tcp_local == NULL ||
+                            c->tp.ops->tcp_local(c->tp.ctx, c->tcp, &c->tcp_local) != DR_OK))
+            c->tcp_local.addr = c->local_udp_addr;
         if (st == DR_OK)
             send_register(c);
         else if (st != DR_EAGAIN)

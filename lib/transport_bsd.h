@@ -12,7 +12,8 @@
  *
  * The includer defines, before including:
  *   BSD_connect, BSD_bind, BSD_send, BSD_recv, BSD_sendto,
- *   BSD_recvfrom, BSD_setsockopt, BSD_getsockopt, BSD_close, BSD_htons,
+ *   BSD_recvfrom, BSD_setsockopt, BSD_getsockopt, BSD_getsockname,
+ *   BSD_close, BSD_htons,
  *   BSD_htonl, BSD_ntohs, BSD_ntohl   the stack's calls, as macros
  *   BSD_SEND_FLAGS        flags of a TCP send (MSG_NOSIGNAL where SIGPIPE
  *                         exists)
@@ -93,7 +94,8 @@ static dr_sockaddr_t from_sin(const struct sockaddr_in *sin)
     return a;
 }
 
-static dr_status_t bsd_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
+static dr_status_t bsd_tcp_connect_from(void *ctx, dr_sockaddr_t from, dr_sockaddr_t to,
+                                        int *h)
 {
     (void)ctx;
     int s = bsd_socket_nb(SOCK_STREAM);
@@ -102,6 +104,14 @@ static dr_status_t bsd_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
     int one = 1;
     /* Requests and replies are small: send them at once. */
     (void)BSD_setsockopt(s, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    if (from.addr != 0 || from.port != 0) {
+        struct sockaddr_in lsin = to_sin(from);
+        if (BSD_bind(s, (struct sockaddr *)&lsin, sizeof lsin) < 0) {
+            dr_status_t st = fail_status(errno); /* DR_EADDRNOTAVAIL, ... */
+            BSD_close(s);
+            return st;
+        }
+    }
     struct sockaddr_in sin = to_sin(to);
     if (BSD_connect(s, (struct sockaddr *)&sin, sizeof sin) < 0 && errno != EINPROGRESS) {
 #if BSD_CONNECT_EINVAL_UNREACH
@@ -114,6 +124,24 @@ static dr_status_t bsd_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
         return st;
     }
     *h = s;
+    return DR_OK;
+}
+
+static dr_status_t bsd_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
+{
+    dr_sockaddr_t any = {0, 0};
+    return bsd_tcp_connect_from(ctx, any, to, h);
+}
+
+static dr_status_t bsd_tcp_local(void *ctx, int h, dr_sockaddr_t *local)
+{
+    (void)ctx;
+    struct sockaddr_in sin;
+    socklen_t len = sizeof sin;
+    memset(&sin, 0, sizeof sin);
+    if (BSD_getsockname(h, (struct sockaddr *)&sin, &len) < 0)
+        return DR_EIO;
+    *local = from_sin(&sin);
     return DR_OK;
 }
 

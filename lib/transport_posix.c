@@ -27,6 +27,7 @@
 #define BSD_recvfrom recvfrom
 #define BSD_setsockopt setsockopt
 #define BSD_getsockopt getsockopt
+#define BSD_getsockname getsockname
 #define BSD_close close
 #define BSD_htons htons
 #define BSD_htonl htonl
@@ -219,7 +220,7 @@ static const dr_transport_ops_t posix_ops = {
     px_timer_open, px_timer_arm,  bsd_close,      px_now_us,
     px_fd,       px_wait,
     px_udp_send_batch, px_udp_recv_batch, bsd_tcp_abort,
-    px_random,
+    px_random, bsd_tcp_connect_from, bsd_tcp_local,
 };
 
 dr_transport_t dr_transport_posix(void)

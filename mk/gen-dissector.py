@@ -89,6 +89,11 @@ def generate(table):
             ln = 1
         elif f["type"] in SIZE:
             base = ", base.DEC" if f["type"] != "REAL" else ""
+            if f.get("enum"):
+                # names by value from the field table (drcli list --json)
+                base += ", { %s }" % ", ".join(
+                    "[%d] = %s" % (int(k), lua_str(v))
+                    for k, v in sorted(f["enum"].items(), key=lambda kv: int(kv[0])))
             pf = "%s(%s, %s%s)" % (PF[f["type"]], lua_str(ab), label, base)
             ln = SIZE[f["type"]]
         else:

@@ -605,11 +605,13 @@ static drsim_conn_t *conn_open(req_ctx_t *ctx, const dr_fwd_open_t *fo,
     c->opened_ns = ctx->now;
     c->next_produce_ns = ctx->now; /* first T->O right after the reply */
     /* T->O goes where the originator's 0x8001 item says, else to its
-     * address at UDP 2222; a zero address or port means "the usual". */
+     * address at UDP 2222; a zero address or port means "the usual".
+     * --t2o-to-peer: OpENer's rule, the item's port only, the address
+     * always the TCP peer's (docs/interop.md). */
     c->t2o_dest.addr = ctx->peer->addr;
     c->t2o_dest.port = DR_ENIP_UDP_PORT;
     if (ctx->t2o_sa != NULL) {
-        if (ctx->t2o_sa->addr != 0)
+        if (ctx->t2o_sa->addr != 0 && !s->cfg.t2o_to_peer)
             c->t2o_dest.addr = ctx->t2o_sa->addr;
         if (ctx->t2o_sa->port != 0)
             c->t2o_dest.port = ctx->t2o_sa->port;
@@ -1133,7 +1135,7 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
     uint8_t pkt[64 + DR_ASM_MAX_SIZE];
     size_t n;
     if (dr_io_frame_write(pkt, sizeof pkt, &f, &n) == DR_OK) {
-        if (drop_packet(s))
+        if (s->cfg.drop_t2o || drop_packet(s))
             c->produce_dropped++;
         else {
             send(ctx, &c->t2o_dest, pkt, n);

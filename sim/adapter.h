@@ -66,6 +66,12 @@ typedef struct {
     uint64_t owner_hold_ns;    /* an exclusive owner whose O->T stopped is
                                   held this long (only its originator may
                                   take it over); 0: until drsim stops */
+    bool drop_t2o;             /* produce, but send no T->O packet: a
+                                  firewall that drops UDP towards the
+                                  originator (--drop-t2o) */
+    bool t2o_to_peer;          /* T->O goes to the TCP peer's address and
+                                  only the port of the 0x8001 item, as
+                                  OpENer does (--t2o-to-peer) */
     int32_t clock_ppm;         /* drsim's production clock runs this many
                                   parts per million fast (negative: slow),
                                   as a real adapter's crystal does: T->O

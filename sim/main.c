@@ -93,6 +93,9 @@ static void usage(FILE *f)
 "                            (negative: slow), -100000..100000: T->O packets\n"
 "                            every API x 1e6 / (1e6 + PPM), as from a real\n"
 "                            adapter's crystal (-11000: 98.9 a second at 10 ms)\n"
+"      --t2o-to-peer         send T->O to the TCP peer's address, taking only\n"
+"                            the port from the Forward Open's 0x8001 item (as\n"
+"                            OpENer does; default: the item's address too)\n"
 "\n", f);
     /* two strings: C99 compilers need take only 4095 characters in one */
     fputs(
@@ -121,6 +124,8 @@ static void usage(FILE *f)
 "                            0x0109 adds the wanted size as a second word)\n"
 "      --drop-session-after SECONDS\n"
 "                            close each TCP connection SECONDS after accept\n"
+"      --drop-t2o            accept Forward Opens but send no T->O packet, as\n"
+"                            behind a firewall that drops UDP to the originator\n"
 "      --no-large-forward-open\n"
 "                            answer Large Forward Open (0x5B) with 0x08,\n"
 "                            like a target that only knows 0x54\n"
@@ -209,7 +214,7 @@ enum {
     OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
     OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM,
     OPT_OWNER_HOLD,
-    OPT_CLOCK_PPM
+    OPT_CLOCK_PPM, OPT_DROP_T2O, OPT_T2O_TO_PEER
 };
 
 static const struct option long_options[] = {
@@ -236,6 +241,8 @@ static const struct option long_options[] = {
     {"trailing-item", no_argument, NULL, OPT_TRAILING_ITEM},
     {"owner-hold", required_argument, NULL, OPT_OWNER_HOLD},
     {"clock-ppm", required_argument, NULL, OPT_CLOCK_PPM},
+    {"drop-t2o", no_argument, NULL, OPT_DROP_T2O},
+    {"t2o-to-peer", no_argument, NULL, OPT_T2O_TO_PEER},
     {"verbose", no_argument, NULL, 'v'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
@@ -361,6 +368,12 @@ static int parse_options(int argc, char **argv, options_t *o)
             o->cfg.clock_ppm = (int32_t)ppm;
             break;
         }
+        case OPT_DROP_T2O:
+            o->cfg.drop_t2o = true;
+            break;
+        case OPT_T2O_TO_PEER:
+            o->cfg.t2o_to_peer = true;
+            break;
         case 'v':
             drsim_verbose++;
             break;

@@ -50,6 +50,10 @@ struct gw_link {
     struct shared_port *port;
     link_ev_t ev[DR_CLIENT_MAX_FDS];
     bool up;
+    /* Per slot: a T->O packet came since the connection was last
+     * established. The link is up only when every connection has one: a
+     * Forward Open the robot accepted is no data yet. */
+    bool flowing[NPAIRS];
     uint64_t last_rx_us[DR_ASM_COUNT]; /* per T->O assembly */
     uint64_t start_us;
     /* explicit mode */
@@ -61,6 +65,7 @@ struct gw_link {
     gw_log_limit_t log_limit;
     gw_log_limit_t sess_limit; /* the session's failures: a kind of their own */
     gw_log_limit_t sess_end_limit; /* sessions that end under a live link */
+    gw_log_limit_t set_limit;  /* explicit mode: Sets the robot refused */
     bool sess_ready;           /* the client said its session is registered */
     dr_status_t sess_why;      /* why the last session attempt failed or ended */
     const char *closing; /* gw_link_free's reason: a planned link down */
@@ -277,6 +282,16 @@ static bool data_withheld(const gw_link_t *l)
     return !gw_robot_takes_data(l->data, l->up);
 }
 
+/* Every connection of the plan established and delivering. */
+static bool all_flowing(const gw_link_t *l)
+{
+    for (unsigned i = 0; i < NPAIRS; i++)
+        if (l->conn[i] != NULL &&
+            (dr_conn_state(l->conn[i]) != DR_CONN_ESTABLISHED || !l->flowing[i]))
+            return false;
+    return true;
+}
+
 static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void *user)
 {
     gw_link_t *l = user;
@@ -285,6 +300,14 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
             continue;
         dr_asm_t a = slot_t2o[i];
         l->last_rx_us[a] = ev_now_us();
+        /* The connection's first packet: the last one missing brings the
+         * link up, before the data is taken (clear_while_down keeps the
+         * images at 0 while it is not). */
+        if (!l->flowing[i]) {
+            l->flowing[i] = true;
+            if (all_flowing(l))
+                link_set_up(l, true, DR_OK);
+        }
         if (data_withheld(l))
             continue;
         memcpy(l->data->img[a], data, len);
@@ -328,13 +351,24 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
                        (unsigned)DR_CIP_GENERAL(why), (unsigned)DR_CIP_EXTENDED(why),
                        dr_strerror(why), (unsigned)l->cfg.config_instance, o2t,
                        (unsigned)l->cfg.instance[a]);
-    else if (st == DR_CONN_TIMED_OUT && why == DR_ETIMEDOUT)
-        /* not "timed out: timed out": say what timed out */
+    else if (st == DR_CONN_TIMED_OUT && (why == DR_ETIMEDOUT || why == DR_ENODATA)) {
+        /* not "timed out: timed out": say what timed out, and how long
+         * the robot was silent (the first packet has a grace of 2 s more
+         * than the timeout, so the time waited, not the timeout) */
+        const dr_conn_stats_t *cs = dr_conn_stats(conn);
+        uint64_t now = ev_now_us();
+        uint64_t since = cs->last_rx_us > cs->opened_us ? cs->last_rx_us : cs->opened_us;
+        unsigned waited = (unsigned)(now > since ? (now - since) / 1000u : 0u);
+        char cause[200];
+        if (why == DR_ENODATA)
+            gw_robot_cause(l->data, cause, sizeof cause);
         gw_log_limited(GW_LOG_WARNING, &l->log_limit,
-                       "robot %s: %s (%s): timed out: no packet from the robot for %u ms",
+                       why == DR_ENODATA ? "robot %s: %s (%s): %s (nothing for %u ms)"
+                                         : "robot %s: %s (%s): timed out: %sno packet from the "
+                                           "robot for %u ms",
                        l->cfg.name, dr_asm_info(a)->name, how,
-                       (unsigned)(dr_conn_stats(conn)->timeout_us64 / 1000u));
-    else
+                       why == DR_ENODATA ? cause : "", waited);
+    } else
         gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s (%s): %s: %s",
                        l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
                        dr_strerror(why));
@@ -343,25 +377,29 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
 static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, void *user)
 {
     gw_link_t *l = user;
-    bool all = true;
-    for (unsigned i = 0; i < NPAIRS; i++) {
-        if (l->conn[i] == conn)
+    for (unsigned i = 0; i < NPAIRS; i++)
+        if (l->conn[i] == conn) {
             l->data->link.conn_state[i] = (uint16_t)st;
-        if (l->conn[i] != NULL && l->conn[i] != conn &&
-            dr_conn_state(l->conn[i]) != DR_CONN_ESTABLISHED)
-            all = false;
-    }
-    if (st != DR_CONN_ESTABLISHED) {
-        if (st == DR_CONN_TIMED_OUT)
-            l->data->link.timeouts++;
-        if (why != DR_OK) {
-            link_record_error(l, why);
-            log_conn_error(l, conn, st, why);
+            l->flowing[i] = false; /* (again) established: no data yet */
         }
-        link_set_up(l, false, why);
-    } else if (all) {
-        link_set_up(l, true, DR_OK);
+    /* Established is not up: the link comes up with the last
+     * connection's first packet (on_conn_data). */
+    if (st == DR_CONN_ESTABLISHED)
+        return;
+    if (st == DR_CONN_TIMED_OUT)
+        l->data->link.timeouts++;
+    if (why == DR_ENODATA) { /* where the data should have come */
+        dr_sockaddr_t to = dr_client_t2o_addr(l->client);
+        snprintf(l->data->link.t2o_to, sizeof l->data->link.t2o_to, "%u.%u.%u.%u:%u",
+                 (unsigned)(to.addr >> 24), (unsigned)(to.addr >> 16 & 0xFFu),
+                 (unsigned)(to.addr >> 8 & 0xFFu), (unsigned)(to.addr & 0xFFu),
+                 (unsigned)to.port);
     }
+    if (why != DR_OK) {
+        link_record_error(l, why);
+        log_conn_error(l, conn, st, why);
+    }
+    link_set_up(l, false, why);
 }
 
 static bool add_connections(gw_link_t *l)
@@ -420,6 +458,21 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
         l->in_flight--;
     if (st == DR_OK && info->dir == DR_DIR_T2O && len != info->size)
         st = DR_ELENGTH;
+    if (st != DR_OK && info->dir == DR_DIR_O2T && DR_IS_CIP(st)) {
+        /* The robot refused this assembly's Set (a wrong instance, a
+         * size it does not take): that assembly's error, not the link's.
+         * Counted, recorded and logged (a kind of its own, rate-limited);
+         * the link stays up, every side's link-loss behaviour stays off. */
+        char cause[160];
+        gw_robot_error_text(st, cause, sizeof cause);
+        l->data->link.sets_refused++;
+        l->dirty |= 1u << pc->a; /* send it again next cycle */
+        link_record_error(l, st);
+        gw_log_limited(GW_LOG_WARNING, &l->set_limit,
+                       "robot %s: set %s (instance %u) refused: %s", l->cfg.name, info->name,
+                       (unsigned)dr_client_instance(l->client, pc->a), cause);
+        return;
+    }
     if (st != DR_OK) {
         gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s %s: %s", l->cfg.name,
                        info->dir == DR_DIR_T2O ? "get" : "set", info->name, dr_strerror(st));

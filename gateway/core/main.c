@@ -241,8 +241,39 @@ static void init_robots(gw_t *g)
     }
 }
 
+/* The default originator serial comes from /etc/machine-id: one that is
+ * not a machine's own (an image that never booted, a file emptied to
+ * clone the image) gives every such box the same serials, and they take
+ * each other's connections. Said once at start when a robot uses the
+ * default; duplicates across boxes cannot be seen from here
+ * (docs/deployment.md). */
+static void check_machine_id(const gw_config_t *cfg)
+{
+    bool derived = false;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        derived |= cfg->robot[r].originator_serial == 0;
+    if (!derived)
+        return;
+    char line[256] = "";
+    FILE *f = fopen("/etc/machine-id", "r");
+    if (f != NULL) {
+        if (fgets(line, (int)sizeof line, f) == NULL)
+            line[0] = '\0';
+        (void)fclose(f);
+    }
+    const char *why = gw_machine_id_problem(line);
+    if (why != NULL)
+        gw_log(GW_LOG_WARNING,
+               "/etc/machine-id is %s: the default originator serials come from it (or the "
+               "host name), so boxes made from the same image share them and take over each "
+               "other's robot connections; regenerate it (rm /etc/machine-id && "
+               "systemd-machine-id-setup) or set originator_serial for each robot",
+               why);
+}
+
 static bool start_links(gw_t *g)
 {
+    check_machine_id(&g->cfg);
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         g->links[r] = gw_link_new(&g->cfg.robot[r], r, &g->robots[r], g->loop.epfd, g->ports,
                                   &link_hooks);

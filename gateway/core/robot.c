@@ -20,6 +20,7 @@ void gw_robot_carry_over(gw_robot_t *r, const gw_robot_t *old)
     r->link.lost_packets = old->link.lost_packets;
     r->link.reconnects = old->link.reconnects;
     r->link.timeouts = old->link.timeouts;
+    r->link.sets_refused = old->link.sets_refused;
     r->last_write = old->last_write;
 }
 
@@ -99,6 +100,27 @@ void gw_robot_error_text(dr_status_t why, char *buf, size_t size)
         snprintf(buf, size, "%s", dr_strerror(why));
 }
 
+void gw_robot_cause(const gw_robot_t *r, char *buf, size_t size)
+{
+    if (r->link.last_status == DR_ENODATA)
+        snprintf(buf, size, "%s to %s: a firewall, or the robot answers another address",
+                 dr_strerror(DR_ENODATA), r->link.t2o_to[0] ? r->link.t2o_to : "this host");
+    else
+        gw_robot_error_text(r->link.last_status, buf, size);
+}
+
+const char *gw_machine_id_problem(const char *line)
+{
+    size_t n = line != NULL ? strcspn(line, " \t\r\n") : 0;
+    if (n == 0)
+        return "missing or empty";
+    if (n == 13 && strncmp(line, "uninitialized", 13) == 0)
+        return "uninitialized";
+    if (strspn(line, "0") >= n)
+        return "all zeros";
+    return NULL;
+}
+
 /* The causes of a link failure an integrator meets, and where to look. */
 static const struct {
     dr_status_t st;
@@ -123,6 +145,10 @@ static const struct {
     {DR_EACCES, "a firewall rule or a prohibit route on this host refuses the traffic"},
     {DR_ETIMEDOUT, "an EtherNet/IP request, or a Class 1 connection's data, did not come in "
                    "time (the robot stopped producing, or the network loses packets)"},
+    {DR_ENODATA, "the robot accepted the Class 1 connection, but no T->O packet came within "
+                 "the first packet's grace (2 s + the timeout): a firewall drops UDP towards "
+                 "this host, or the robot sends to another address (one that takes the address "
+                 "from the TCP peer while `local_address` is another; docs/interop.md)"},
     {DR_ESESSION, "explicit mode: no EtherNet/IP session for the poll"},
     {DR_ELENGTH, "explicit mode: the robot's assembly has another size than the "
                  "specification's"},

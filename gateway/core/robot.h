@@ -64,6 +64,13 @@ typedef struct {
     /* Times the link went down after being up (it then reconnects), and
      * times a connection or poll timed out (no data from the robot). */
     uint32_t reconnects, timeouts;
+    /* Where the robot was to send T->O when last_status became
+     * DR_ENODATA ("10.0.0.5:2222"): gw_robot_cause() names it. */
+    char t2o_to[24];
+    /* Explicit mode: Set_Attribute_Single requests the robot refused with
+     * a CIP error (an assembly's error, recorded in last_error; the link
+     * stays up). */
+    uint32_t sets_refused;
 } gw_robot_link_t;
 
 /* The last write a northbound side accepted for the robot (the console
@@ -144,6 +151,21 @@ uint16_t gw_robot_error_code(dr_status_t why, uint16_t *general);
  * "connection refused", "CIP 0x01/0x0106 ownership conflict",
  * "encapsulation: unsupported protocol version (0x0069)"; "" for DR_OK. */
 void gw_robot_error_text(dr_status_t why, char *buf, size_t size);
+
+/* Why the robot's link last failed, in the words of its log, status
+ * summary, API and MQTT state: gw_robot_error_text() of last_status, with
+ * the address for DR_ENODATA ("the robot accepted the connection but sends
+ * no data to 10.0.0.5:2222: a firewall, or the robot answers another
+ * address"); "" before the first failure. */
+void gw_robot_cause(const gw_robot_t *r, char *buf, size_t size);
+
+/* What is wrong with `line`, the first line of /etc/machine-id, as the
+ * source of the default originator serial (docs/deployment.md): NULL when
+ * it looks like a real machine ID; else "missing or empty",
+ * "uninitialized" (systemd's placeholder of an image not yet booted) or
+ * "all zeros". A machine ID shared by boxes cloned from one image cannot
+ * be seen from one box. */
+const char *gw_machine_id_problem(const char *line);
 
 /* What usually causes `why` on a robot link and what to check, for the
  * documentation's table; NULL when there is nothing to add. */

@@ -68,8 +68,8 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
 {
     const gw_robot_t *rb = &a->env->robots[r];
     const gw_robot_link_t *lk = &rb->link;
-    char why[160];
-    gw_robot_error_text(lk->last_status, why, sizeof why);
+    char why[200];
+    gw_robot_cause(rb, why, sizeof why);
     gw_json_str(j, "{\"name\":");
     qstr(j, rb->name);
     gw_json_str(j, ",\"link\":");
@@ -92,6 +92,7 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
     NUM(j, ",\"dropped_seq\":%lu", (unsigned long)lk->dropped_seq);
     NUM(j, ",\"dropped_addr\":%lu", (unsigned long)lk->dropped_addr);
     NUM(j, ",\"resyncs\":%lu", (unsigned long)lk->resyncs);
+    NUM(j, ",\"sets_refused\":%lu", (unsigned long)lk->sets_refused);
     gw_json_str(j, ",\"last_error\":");
     if (lk->last_status == DR_OK) {
         gw_json_str(j, "null");
@@ -241,8 +242,8 @@ static void duration(char *out, size_t size, uint64_t s)
 /* "linked", "connecting", "down: connection refused" */
 static void robot_state(char *out, size_t size, const gw_robot_t *rb)
 {
-    char why[160];
-    gw_robot_error_text(rb->link.last_status, why, sizeof why);
+    char why[200];
+    gw_robot_cause(rb, why, sizeof why);
     if (rb->link.link_state == 2)
         snprintf(out, size, "linked");
     else
@@ -321,7 +322,7 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
     gw_json_str(j, line);
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         const gw_robot_t *rb = &a->env->robots[r];
-        char st[200];
+        char st[240];
         robot_state(st, sizeof st, rb);
         if (rb->link.link_state == 2)
             snprintf(line, sizeof line,
@@ -360,7 +361,7 @@ void gw_http_api_notify(gw_json_t *j, const gw_http_api_t *a)
     if (cfg->robot_count == 0)
         gw_json_str(j, "no robot");
     for (unsigned r = 0; r < cfg->robot_count; r++) {
-        char st[200];
+        char st[240];
         robot_state(st, sizeof st, &a->env->robots[r]);
         if (r > 0)
             gw_json_str(j, ", ");

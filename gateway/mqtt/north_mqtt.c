@@ -1163,9 +1163,12 @@ static bool snapshot_ready(const mq_t *t, unsigned r, uint64_t now)
  * the same words as the log: "down: connection refused". */
 static bool publish_state(mq_t *t, unsigned r)
 {
-    char text[200], cause[160];
+    char text[240], cause[200];
     dr_status_t why = t->link[r] ? DR_OK : t->env->robots[r].link.last_status;
-    gw_robot_error_text(why, cause, sizeof cause);
+    if (why != DR_OK)
+        gw_robot_cause(&t->env->robots[r], cause, sizeof cause);
+    else
+        cause[0] = '\0';
     snprintf(text, sizeof text, "%s%s%s", t->link[r] ? "up" : "down", cause[0] ? ": " : "", cause);
     t->state_why[r] = why;
     return publish_text(t, (int)r, "state", text, t->cfg.retain);

@@ -28,6 +28,7 @@
 #define BSD_recvfrom lwip_recvfrom
 #define BSD_setsockopt lwip_setsockopt
 #define BSD_getsockopt lwip_getsockopt
+#define BSD_getsockname lwip_getsockname
 #define BSD_close lwip_close
 #define BSD_htons lwip_htons
 #define BSD_htonl lwip_htonl
@@ -125,6 +126,7 @@ static const dr_transport_ops_t lwip_ops = {
     NULL,        LW_WAIT,        NULL,          NULL,
     LW_TCP_ABORT,
     NULL, /* random: the board's RNG belongs here (docs/firmware.md) */
+    bsd_tcp_connect_from, bsd_tcp_local,
 };
 
 dr_transport_t dr_transport_lwip(dr_lwip_t *lw)

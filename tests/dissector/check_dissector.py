@@ -249,6 +249,13 @@ def main():
         check(not any(str(MALFORMED) in r["_ws.expert.group"] or "0x07000000" in r["_ws.expert.group"]
                       for r in rows), "nothing marked malformed in the gateway's capture")
         gets = [r for r in rows if r["tcp.srcport"] == "44818"]
+        # the robot state by its name from the field table (drcli list
+        # --json's "enum"), not a bare number (issue 30)
+        v = subprocess.run(["tshark", "-n", "-r", pcap, "-X", "lua_script:" + LUA, "-V",
+                            "-Y", "drgate.io_state.robot_state"], capture_output=True,
+                           text=True, timeout=120).stdout
+        check(re.search(r"io_state\.robot_state: OPERATING \(2\)", v) is not None,
+              "io_state.robot_state shown by its name (OPERATING (2))")
         for n in names:
             col = abbrev(n, n.split(".")[0].split("[")[0])
             seen = [r[col] for r in gets if r[col]]

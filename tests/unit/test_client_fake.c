@@ -34,6 +34,8 @@ typedef bool (*cip_fn)(fake_t *f, const dr_cip_req_t *req, uint8_t *rsp, size_t 
 struct fake {
     uint64_t now;
     dr_status_t resolve_st, connect_st, finish_st, timer_st, udp_open_st, udp_send_st;
+    dr_sockaddr_t tcp_from;   /* tcp_connect_from's local address ({0, 0}: tcp_connect) */
+    unsigned connects_from;   /* tcp_connect_from calls */
     dr_status_t send_st;      /* tcp_send's result (DR_OK: take the bytes) */
     unsigned send_fail_after; /* >0: SendRRData number N makes tcp_send fail */
     size_t send_max;          /* >0: at most this many bytes per tcp_send */
@@ -315,6 +317,24 @@ static dr_status_t f_tcp_connect(void *ctx, dr_sockaddr_t to, int *h)
     return DR_OK;
 }
 
+static dr_status_t f_tcp_connect_from(void *ctx, dr_sockaddr_t from, dr_sockaddr_t to, int *h)
+{
+    fake_t *f = ctx;
+    f->tcp_from = from;
+    f->connects_from++;
+    return f_tcp_connect(ctx, to, h);
+}
+
+/* The TCP session leaves from where it was bound, else from 10.0.0.7. */
+static dr_status_t f_tcp_local(void *ctx, int h, dr_sockaddr_t *local)
+{
+    fake_t *f = ctx;
+    assert_int_equal(h, TCP_H);
+    local->addr = f->tcp_from.addr != 0 ? f->tcp_from.addr : 0x0A000007u;
+    local->port = 40000;
+    return DR_OK;
+}
+
 static dr_status_t f_tcp_finish(void *ctx, int h)
 {
     fake_t *f = ctx;
@@ -496,12 +516,14 @@ static dr_status_t f_wait(void *ctx, const int *h, const bool *want_out, int n,
 static const dr_transport_ops_t fake_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
-    f_now,      f_fd,          f_wait,       NULL,         NULL,       f_tcp_abort, NULL};
+    f_now,      f_fd,          f_wait,       NULL,         NULL,       f_tcp_abort,
+    NULL,       f_tcp_connect_from, f_tcp_local};
 
 static const dr_transport_ops_t fake_batch_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   f_timer_open, f_timer_arm, f_close,
-    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort, NULL};
+    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort,
+    NULL,       f_tcp_connect_from, f_tcp_local};
 
 /* ---- fixtures ------------------------------------------------------------------ */
 
@@ -1248,6 +1270,86 @@ static void test_class1_io(void **state)
     dr_client_free(c);
 }
 
+/* Issue 30: a connection the adapter accepted that never gets its first
+ * T->O packet times out with its own cause (DR_ENODATA), not "timed out";
+ * one that had data and went silent is DR_ETIMEDOUT. The time the
+ * connection was established is in its stats. dr_client_t2o_addr names
+ * where T->O should have come: the TCP session's source address when no
+ * local address is set. */
+static void test_class1_no_first_packet(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log);
+    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
+    assert_non_null(cn);
+    dr_client_start(c);
+    for (int i = 0; i < 50 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++)
+        run_for(c, 1);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    uint64_t opened = dr_conn_stats(cn)->opened_us;
+    assert_true(opened > 0 && opened <= F.now);
+    dr_sockaddr_t to = dr_client_t2o_addr(c);
+    assert_int_equal(to.addr, 0x0A000007u);
+    assert_int_equal(to.port, DR_ENIP_UDP_PORT);
+    /* no packet: the grace (2 s) plus the timeout, then DR_ENODATA */
+    for (int i = 0; i < 3000 && dr_conn_state(cn) == DR_CONN_ESTABLISHED; i++)
+        run_for(c, 1);
+    assert_int_equal(dr_conn_stats(cn)->timeouts, 1);
+    assert_true(F.now - opened >= 2000000u); /* the grace was given */
+    assert_int_equal(log.why, DR_ENODATA);
+    assert_string_equal(dr_strerror(DR_ENODATA),
+                        "the robot accepted the connection but sends no data");
+    /* open again, with data this time, then silence: DR_ETIMEDOUT */
+    for (int i = 0; i < 500 && dr_conn_state(cn) != DR_CONN_ESTABLISHED; i++)
+        run_for(c, 1);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    push_t2o(F.t2o_cid, 1, 96);
+    dr_client_process(c);
+    assert_int_equal(log.data, 1);
+    for (int i = 0; i < 100 && dr_conn_state(cn) == DR_CONN_ESTABLISHED; i++)
+        run_for(c, 5);
+    assert_int_equal(log.why, DR_ETIMEDOUT);
+    dr_client_free(c);
+}
+
+/* Issue 30: a local address binds the TCP session too (the adapter sends
+ * T->O to the address TCP comes from); a transport that cannot bind TCP
+ * is refused with a local address, and works without one. */
+static void test_local_addr_binds_tcp(void **state)
+{
+    (void)state;
+    dr_client_config_t cfg = config(&fake_ops);
+    cfg.local_addr = "10.0.0.9"; /* the fake resolves every name to PEER_ADDR */
+    dr_client_t *c = dr_client_new(&cfg, NULL);
+    assert_non_null(c);
+    dr_client_start(c);
+    run_for(c, 5);
+    assert_int_equal(F.connects_from, 1);
+    assert_int_equal(F.tcp_from.addr, PEER_ADDR);
+    assert_int_equal(F.tcp_from.port, 0);
+    assert_int_equal(dr_client_t2o_addr(c).addr, PEER_ADDR);
+    dr_client_free(c);
+    /* without a local address: plain tcp_connect */
+    F.connects_from = 0;
+    cfg.local_addr = NULL;
+    c = dr_client_new(&cfg, NULL);
+    dr_client_start(c);
+    run_for(c, 5);
+    assert_int_equal(F.connects_from, 0);
+    dr_client_free(c);
+    /* a transport without tcp_connect_from cannot honour one */
+    dr_status_t err = DR_OK;
+    dr_transport_ops_t unbound = fake_ops;
+    unbound.tcp_connect_from = NULL;
+    cfg = config(&unbound);
+    cfg.local_addr = "10.0.0.9";
+    assert_null(dr_client_new(&cfg, &err));
+    assert_int_equal(err, DR_EUNSUPPORTED);
+}
+
 /* Forward Open refusals: retried after a backoff; O->T sent in batches. */
 static void test_class1_refused_and_batch(void **state)
 {
@@ -1979,7 +2081,7 @@ static const dr_transport_ops_t fake_bare_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   NULL,         NULL,       f_close,
     f_now,      NULL,          NULL,         NULL,         NULL,       NULL,
-    NULL};
+    NULL,       NULL,       NULL};
 
 typedef struct {
     unsigned calls;
@@ -2416,7 +2518,8 @@ static void test_deadline_cache(void **state)
 static const dr_transport_ops_t fake_untimed_ops = {
     f_resolve,  f_tcp_connect, f_tcp_finish, f_tcp_send,   f_tcp_recv,
     f_udp_open, f_udp_send,    f_udp_recv,   NULL,         NULL,       f_close,
-    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort, NULL};
+    f_now,      f_fd,          f_wait,       f_udp_send_batch, f_udp_recv_batch, f_tcp_abort,
+    NULL,       NULL,       NULL};
 
 static void test_loop_timer(void **state)
 {
@@ -2561,6 +2664,8 @@ int main(void)
         cmocka_unit_test_setup(test_async_send_fails, setup),
         cmocka_unit_test_setup(test_conn_add_refuses, setup),
         cmocka_unit_test_setup(test_class1_io, setup),
+        cmocka_unit_test_setup(test_class1_no_first_packet, setup),
+        cmocka_unit_test_setup(test_local_addr_binds_tcp, setup),
         cmocka_unit_test_setup(test_class1_refused_and_batch, setup),
         cmocka_unit_test_setup(test_class1_follow, setup),
         cmocka_unit_test_setup(test_class1_follow_spacing, setup),

@@ -104,6 +104,27 @@ static void test_record_error(void **state)
     gw_robot_record_error(&R, DR_ENOREGISTER);
     assert_int_equal(R.link.last_error, 27);
     assert_int_equal(R.link.last_status, DR_ENOREGISTER);
+    /* issue 30: connections accepted, no T->O data: 32, and the cause in
+     * words names where the data should have come */
+    char cause[200];
+    snprintf(R.link.t2o_to, sizeof R.link.t2o_to, "10.0.0.5:2222");
+    gw_robot_record_error(&R, DR_ENODATA);
+    assert_int_equal(R.link.last_error, 32);
+    assert_int_equal(R.link.last_cip_general, 0);
+    gw_robot_cause(&R, cause, sizeof cause);
+    assert_string_equal(cause, "the robot accepted the connection but sends no data to "
+                               "10.0.0.5:2222: a firewall, or the robot answers another address");
+    gw_robot_record_error(&R, DR_ENOREGISTER);
+    gw_robot_cause(&R, cause, sizeof cause);
+    assert_string_equal(cause, "connection accepted, but no reply to RegisterSession");
+    /* issue 30: a machine ID that is not a machine's own */
+    assert_null(gw_machine_id_problem("4c4c4544003710528052b4c04f384e32\n"));
+    assert_string_equal(gw_machine_id_problem(""), "missing or empty");
+    assert_string_equal(gw_machine_id_problem("\n"), "missing or empty");
+    assert_string_equal(gw_machine_id_problem(NULL), "missing or empty");
+    assert_string_equal(gw_machine_id_problem("uninitialized\n"), "uninitialized");
+    assert_string_equal(gw_machine_id_problem("00000000000000000000000000000000\n"),
+                        "all zeros");
     /* encapsulation statuses above drgate's codes (0x0001 is not
      * DR_EINVAL, 0x0069 not 105), general 0 */
     gw_robot_record_error(&R, DR_ENCAP(0x0001));

@@ -80,7 +80,12 @@ typedef struct {
     uint16_t tcp_port;        /* 0: 44818 */
     uint16_t udp_port;        /* robot's Class 1 port; 0: 2222 (a 0x8000
                                  item in the Forward Open reply wins) */
-    const char *local_addr;   /* local address for UDP, NULL: any */
+    const char *local_addr;   /* local address for UDP and TCP, NULL: any.
+                                 The TCP session leaves from it too (an
+                                 adapter sends T->O to the TCP peer's
+                                 address, whatever the 0x8001 item says):
+                                 a transport without tcp_connect_from is
+                                 refused with DR_EUNSUPPORTED */
     uint16_t local_udp_port;  /* 0: 2222 */
     uint32_t timeout_ms;      /* explicit request timeout; 0: 2000 */
     uint16_t instance[DR_ASM_COUNT]; /* 0: default 101..110 */
@@ -144,7 +149,7 @@ uint32_t dr_originator_serial_local(const char *name);
 #define DR_CLIENT_STORAGE_SIZE                                                \
     (DR_CLIENT_HOST_MAX + DR_ENCAP_MAX_LEN + DR_CLIENT_TX_BUF +               \
      DR_UDP_PORT_STORAGE_SIZE + DR_CLIENT_MAX_REQS * (64 + 4 * sizeof(void *)) + \
-     DR_CLIENT_MAX_CONNS * (2 * DR_ASM_MAX_SIZE + DR_CLIENT_UDP_BUF + 256 +   \
+     DR_CLIENT_MAX_CONNS * (2 * DR_ASM_MAX_SIZE + DR_CLIENT_UDP_BUF + 272 +   \
                             8 * sizeof(void *)) +                             \
      256 + 16 * sizeof(void *))
 
@@ -207,7 +212,8 @@ void dr_udp_port_flush(dr_udp_port_t *p);
  * place until dr_client_deinit. Nothing is sent yet. NULL with *err:
  * DR_EINVAL (no host, host too long, a transport without its required
  * calls, storage too small or misaligned), the transport's error for
- * local_addr or its timer, DR_EFULL (the shared UDP port is full). */
+ * local_addr or its timer, DR_EFULL (the shared UDP port is full),
+ * DR_EUNSUPPORTED (local_addr with a transport that cannot bind TCP). */
 dr_client_t *dr_client_init(void *storage, size_t size, const dr_client_config_t *cfg,
                             dr_status_t *err);
 /* Closes everything (dr_client_close_sync) and lets go of the storage and
@@ -308,6 +314,12 @@ uint16_t dr_client_instance(const dr_client_t *c, dr_asm_t a);
  * "set", "forward open", ... (static string). */
 const char *dr_client_last_step(const dr_client_t *c);
 
+/* Where the robot is to send T->O packets: the local address (or, with
+ * none, the address the TCP session leaves from, 0 before it connected or
+ * when the transport has no tcp_local) and the local UDP port. For
+ * messages: "sends no data to 10.0.0.5:2222". */
+dr_sockaddr_t dr_client_t2o_addr(const dr_client_t *c);
+
 /* What the session saw that was accepted but not as it should be. */
 typedef struct {
     uint64_t replies_trailing; /* SendRRData replies with bytes after their
@@ -334,7 +346,9 @@ const char *dr_conn_state_name(dr_conn_state_t s);
 typedef void (*dr_conn_data_cb)(dr_conn_t *conn, const uint8_t *data,
                                 size_t len, void *user);
 /* State changes with the reason (DR_OK for a normal transition, else the
- * error that caused it, e.g. DR_ETIMEDOUT or DR_CIP(0x01, 0x0113)). */
+ * error that caused it, e.g. DR_ETIMEDOUT or DR_CIP(0x01, 0x0113)). A
+ * connection that times out before its first T->O packet (it gets
+ * 2 s + its timeout for that one) says DR_ENODATA, not DR_ETIMEDOUT. */
 typedef void (*dr_conn_state_cb)(dr_conn_t *conn, dr_conn_state_t state,
                                  dr_status_t reason, void *user);
 
@@ -438,6 +452,8 @@ typedef struct {
                                  dropped (see "Who may send T->O data") */
     uint64_t timeout_us64;    /* timeout_us, exact: timeout_us saturates at
                                  UINT32_MAX (RPI 9 s x 512 is 4608 s) */
+    uint64_t opened_us;       /* monotonic time the connection was last
+                             established (its Forward Open answered) */
 } dr_conn_stats_t;
 
 dr_conn_state_t dr_conn_state(const dr_conn_t *conn);

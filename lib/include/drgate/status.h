@@ -15,7 +15,9 @@
  * connection, the session as a whole), DR_ENOANSWER is TCP's (a connect
  * that never completes, or the peer that stopped acknowledging), and
  * DR_ENOREGISTER a peer that took the TCP connection but never answered
- * RegisterSession.
+ * RegisterSession. A Class 1 connection that times out before its first
+ * T->O packet is DR_ENODATA: the adapter accepted it, and its data goes
+ * elsewhere (a firewall, or another address than the originator's).
  */
 #ifndef DRGATE_STATUS_H
 #define DRGATE_STATUS_H
@@ -61,7 +63,8 @@ typedef int32_t dr_status_t;
     X(DR_EADDRINUSE, 28, "address already in use")                             \
     X(DR_EADDRNOTAVAIL, 29, "address not available on this host")              \
     X(DR_EACCES, 30, "not permitted (firewall rule, prohibit route or privileged port)") \
-    X(DR_ENOMEM, 31, "out of memory")
+    X(DR_ENOMEM, 31, "out of memory")                                         \
+    X(DR_ENODATA, 32, "the robot accepted the connection but sends no data")
 
 enum {
 #define DR_STATUS_ENUM(name, value, text) name = value,

@@ -25,6 +25,11 @@
  *   - random: the client's own generator (the clock and a counter), which
  *     an attacker who knows roughly when the client started can predict:
  *     a firmware port should give its hardware RNG here.
+ *   - tcp_connect_from: none; a client given a local address
+ *     (dr_client_config_t.local_addr) is then refused (DR_EUNSUPPORTED),
+ *     since its TCP connection could leave from another address.
+ *   - tcp_local: the client cannot name the address its TCP connection
+ *     leaves from (dr_client_t2o_addr says 0.0.0.0).
  * Calls come only from the thread that drives the client (see client.h).
  */
 #ifndef DRGATE_TRANSPORT_H
@@ -109,6 +114,15 @@ typedef struct {
      * Added after 1.0.0, at the end: a table written for 1.0.0 must be
      * rebuilt against this header (docs/api-changes.md). */
     dr_status_t (*random)(void *ctx, uint8_t *buf, size_t len);
+    /* Optional. tcp_connect from the local address `from` (port 0: any).
+     * The client connects with it whenever it has a local address: an
+     * adapter takes the T->O address from the TCP peer (OpENer takes only
+     * the port from the 0x8001 item), so TCP must leave from the address
+     * the Forward Open announces. DR_EADDRNOTAVAIL: not of this host. */
+    dr_status_t (*tcp_connect_from)(void *ctx, dr_sockaddr_t from, dr_sockaddr_t to, int *h);
+    /* Optional. The local address of a TCP connection (after tcp_finish
+     * said DR_OK). */
+    dr_status_t (*tcp_local)(void *ctx, int h, dr_sockaddr_t *local);
 } dr_transport_ops_t;
 
 typedef struct {
