@@ -321,11 +321,15 @@ def test_o2t_follow_spacing(ppm):
     """o2t_timing = follow (the default) against a robot whose clock runs
     1.1 % slow (98.9 packets a second at RPI 10 ms, as a real adapter was
     measured) or 1.1 % fast (drsim --clock-ppm): over six seconds no
-    connection sends O->T faster than one packet per RPI, and no two of its
-    packets come closer than half an RPI (the bound is three quarters; the
-    rest is room for a loaded machine). drsim times the arrivals by the
-    kernel's receive stamp and reports them per connection at the Forward
-    Close. Before the fix: 104.7 packets a second, gaps of 0.02 ms."""
+    connection sends O->T faster than one packet per RPI. drsim times the
+    arrivals by the kernel's receive stamp and reports them per connection
+    at the Forward Close. Before the fix: 104.7 packets a second, gaps of
+    0.02 ms. The shortest gap is printed, not asserted: on a loaded machine
+    a packet built on time can leave late, just before the next one (29 us
+    was seen under make check beside other jobs); the rule that the client
+    never schedules two packets closer than three quarters of an RPI is
+    asserted in virtual time by test_client_fake's
+    test_class1_follow_spacing."""
     import re
     with running("o2t-spacing-%+d" % ppm, sim_args=("--clock-ppm", str(ppm))) as g:
         time.sleep(6.0)
@@ -341,7 +345,7 @@ def test_o2t_follow_spacing(ppm):
             assert why == "forward close" and n > 400, (why, n, span_us)
             # n - 1 intervals of at least one RPI, give or take one packet
             assert (n - 1) * 10000 <= span_us + 10000, (ppm, n, span_us)
-            assert gap_us >= 5000, (ppm, n, gap_us)
+            print("ppm %+d: %d packets in %d us, shortest gap %d us" % (ppm, n, span_us, gap_us))
 
 
 @pytest.mark.parametrize("policy", ["zero", "hold"])
