@@ -126,6 +126,8 @@ size_t gw_log_escape(char *out, size_t cap, const char *in, size_t n)
  * and one with a newline in it must not become two lines, the second of
  * them forged ("\n<0>..." is an emergency in the journal). */
 static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
+    GW_PRINTF(3, 0);
+static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
 {
     if (level > max_level)
         return;
