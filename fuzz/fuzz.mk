@@ -8,7 +8,7 @@
 #   make fuzz-corpus   regenerate fuzz/corpus/ from the library's builders
 
 FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
-                      sim_request cli usermap sparkplug
+                      sim_request cli usermap sparkplug http
 FUZZ_SECONDS       ?= 60
 # make check runs every harness this long: 10 x 7 s, two at a time
 # (FUZZ_JOBS, fuzz/run-fuzz.sh), keeps check-fuzz,
@@ -51,6 +51,10 @@ FUZZ_SRC_sparkplug   := gateway/mqtt/sparkplug.c gateway/mqtt/sparkplug_b.pb.c \
                         gateway/mqtt/deadband.c gateway/core/robot.c common/ev.c
 FUZZ_LIBS_sparkplug  := $(NANOPB_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
+# The console's login (its worker thread, a fake crypt), Host check, and
+# the path as logged and quoted (gateway/http/auth.c, request.c).
+FUZZ_SRC_http        := gateway/http/auth.c gateway/http/request.c gateway/http/passwd.c \
+                        gateway/core/log.c gateway/core/json.c common/ev.c
 # All of drcli but its main() (cli/drcli.c, on top of the rest).
 FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
                         $(filter-out $(FUZZ_LIB_SRC),$(LIB_SRC))

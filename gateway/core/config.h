@@ -247,6 +247,11 @@ typedef struct {
     unsigned max_connections_per_ip; /* default 8, 0: no limit of its own */
     unsigned timeout_s;       /* idle or slow client closed, default 10 */
     unsigned max_request_bytes; /* URL and headers, default 16384 */
+    char tls_priorities[256]; /* GnuTLS priority string, "" = the built-in
+                                 TLS 1.2+ AEAD one (north_http.c) */
+    unsigned max_streams;     /* live streams at once, default 16 */
+    unsigned max_streams_per_ip; /* of one client address, default 4 */
+    unsigned stream_max_s;    /* a live stream's age limit, default 3600 */
     unsigned tls_line, auth_line; /* where tls_cert and auth_file are */
     unsigned line;            /* the section's line */
 } gw_http_config_t;

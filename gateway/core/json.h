@@ -28,8 +28,11 @@ void gw_json_init(gw_json_t *j, char *buf, size_t cap);
 void gw_json_raw(gw_json_t *j, const char *s, size_t n);
 /* A C string as it is. */
 void gw_json_str(gw_json_t *j, const char *s);
-/* A JSON string of n arbitrary bytes: quotes, backslashes, control
- * characters and bytes above 0x7e escaped (\u00XX: the byte's value). */
+/* A JSON string of n arbitrary bytes: quotes and backslashes escaped,
+ * control characters (and DEL) as \u00XX, valid UTF-8 as it is, and each
+ * byte that starts no valid UTF-8 sequence (a stray continuation byte, an
+ * overlong form, a surrogate, a cut sequence) as U+FFFD: the text is
+ * always valid UTF-8 JSON. */
 void gw_json_quote(gw_json_t *j, const char *s, size_t n);
 /* A value as a JSON number: REALs shortest round-trip (dr_text_real),
  * non-finite ones null (JSON has no NaN). */

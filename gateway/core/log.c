@@ -62,7 +62,7 @@ void gw_log_ring_keep(bool on)
     ring_on = on;
 }
 
-static void ring_put(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
+static void ring_put(gw_log_level_t level, const char *text)
 {
     struct timespec ts;
     gw_log_event_t *e = &ring[ring_total % GW_LOG_RING];
@@ -71,10 +71,11 @@ static void ring_put(gw_log_level_t level, unsigned suppressed, const char *fmt,
                      ? (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u
                      : 0;
     e->level = level;
-    int n = vsnprintf(e->text, sizeof e->text, fmt, ap);
-    if (n >= 0 && (size_t)n < sizeof e->text && suppressed > 0)
-        snprintf(e->text + n, sizeof e->text - (size_t)n, " [%u similar message%s suppressed]",
-                 suppressed, suppressed == 1 ? "" : "s");
+    size_t n = strlen(text);
+    if (n >= sizeof e->text)
+        n = sizeof e->text - 1; /* cut, as the ring always kept them */
+    memcpy(e->text, text, n);
+    e->text[n] = '\0';
 }
 
 void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user)
@@ -94,28 +95,59 @@ const char *gw_log_level_name(gw_log_level_t level)
     return (unsigned)level < 8u ? words[level] : "";
 }
 
-/* suppressed: a count of the same kind to end the line with (0: none). */
+size_t gw_log_escape(char *out, size_t cap, const char *in, size_t n)
+{
+    static const char hex[] = "0123456789abcdef";
+    size_t len = 0;
+    if (cap == 0)
+        return 0;
+    for (size_t i = 0; i < n && in[i] != '\0'; i++) {
+        unsigned char ch = (unsigned char)in[i];
+        bool ctl = ch < 0x20 || ch == 0x7f;
+        if (len + (ctl ? 4u : 1u) >= cap)
+            break;
+        if (ctl) {
+            out[len++] = '\\';
+            out[len++] = 'x';
+            out[len++] = hex[ch >> 4];
+            out[len++] = hex[ch & 15u];
+        } else {
+            out[len++] = (char)ch;
+        }
+    }
+    out[len] = '\0';
+    return len;
+}
+
+/* suppressed: a count of the same kind to end the line with (0: none).
+ * The line is formatted once, and every control character in it escaped
+ * (gw_log_escape) before it is printed or kept: the texts of log lines
+ * come partly from outside (a user name, a topic, a client id, a path),
+ * and one with a newline in it must not become two lines, the second of
+ * them forged ("\n<0>..." is an emergency in the journal). */
+static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
+    GW_PRINTF(3, 0);
 static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
 {
     if (level > max_level)
         return;
-    va_list aq;
-    if (ring_on) {
-        va_copy(aq, ap);
-        ring_put(level, suppressed, fmt, aq);
-        va_end(aq);
-    }
+    char raw[GW_LOG_LINE_MAX], line[GW_LOG_LINE_MAX * 2];
+    int n = vsnprintf(raw, sizeof raw, fmt, ap);
+    if (n < 0)
+        raw[0] = '\0';
+    size_t len = gw_log_escape(line, sizeof line, raw, sizeof raw);
+    if (suppressed > 0)
+        snprintf(line + len, sizeof line - len, " [%u similar message%s suppressed]",
+                 suppressed, suppressed == 1 ? "" : "s");
+    if (ring_on)
+        ring_put(level, line);
     if (getenv("JOURNAL_STREAM") != NULL) {
-        fprintf(stderr, "<%d>", (int)level);
+        fprintf(stderr, "<%d>%s\n", (int)level, line);
     } else {
         char stamp[32];
-        fprintf(stderr, "%s drgatewayd: %s: ", time_stamp(stamp, sizeof stamp), words[level]);
+        fprintf(stderr, "%s drgatewayd: %s: %s\n", time_stamp(stamp, sizeof stamp), words[level],
+                line);
     }
-    vfprintf(stderr, fmt, ap);
-    if (suppressed > 0)
-        fprintf(stderr, " [%u similar message%s suppressed]", suppressed,
-                suppressed == 1 ? "" : "s");
-    fputc('\n', stderr);
 }
 
 void gw_log(gw_log_level_t level, const char *fmt, ...)

@@ -5,6 +5,7 @@
 #define DRGATE_GW_LOG_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 typedef enum { GW_LOG_ERROR = 3, GW_LOG_WARNING = 4, GW_LOG_INFO = 6, GW_LOG_DEBUG = 7 } gw_log_level_t;
@@ -19,7 +20,17 @@ int gw_log_level_parse(const char *name, gw_log_level_t *out);
 #define GW_PRINTF(a, b)
 #endif
 
+/* One line: formatted (at most GW_LOG_LINE_MAX bytes), its control
+ * characters escaped (gw_log_escape), then printed and kept. */
+#define GW_LOG_LINE_MAX 2048
 void gw_log(gw_log_level_t level, const char *fmt, ...) GW_PRINTF(2, 3);
+
+/* in[0..n) (up to a '\0') into out[cap] with every control character
+ * (0x00-0x1f, 0x7f) written as \xNN, so that text from outside (a user
+ * name, an MQTT topic, a client id, a path) can neither start a line of
+ * its own nor move the terminal; cut to fit, always terminated. Returns
+ * the length written. gw_log applies it to every line. */
+size_t gw_log_escape(char *out, size_t cap, const char *in, size_t n);
 
 /* The last GW_LOG_RING lines logged (those the level lets through, as
  * printed, without the time stamp), kept for the console's /api/v1/log. */

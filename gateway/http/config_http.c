@@ -13,7 +13,9 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
+#include <grp.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "http/passwd.h"
 
@@ -33,6 +35,10 @@ static const gw_cfg_key_t http_keys[] = {
     { .name = "max_connections", .type = GW_CFG_UINT, H(max_connections), .lo = 1, .hi = 1024, .def = 32, .help = "connections served at once; more wait unanswered in the kernel's backlog until one closes" },
     { .name = "max_connections_per_ip", .type = GW_CFG_UINT, H(max_connections_per_ip), .lo = 0, .hi = 1024, .def = 8, .allowed = "0..1024, 0 = no limit of its own", .help = "connections one client address may hold at once; one more is closed at once, so that one client cannot take every connection of `max_connections` (a browser opens about six)" },
     { .name = "timeout_s", .type = GW_CFG_UINT, H(timeout_s), .lo = 1, .hi = 3600, .def = 10, .help = "a client must send each request (its URL and headers) within this many seconds of connecting or of the last answer, and a connection idle this long is closed. Live pages (`/api/v1/events`) are kept" },
+    { .name = "tls_priorities", .type = GW_CFG_TEXT, H(tls_priorities), .valid = gw_cfg_no_blank, .allowed = "a GnuTLS priority string", .doc_default = "(built in: TLS 1.2 and 1.3, ECDHE, AEAD ciphers only)", .help = "the TLS versions, key exchanges and ciphers offered (gnutls_priority_init(3)); the default offers TLS 1.2 and 1.3 with ECDHE and AES-GCM or ChaCha20-Poly1305 only, and --check-config tries the string" },
+    { .name = "max_streams", .type = GW_CFG_UINT, H(max_streams), .lo = 0, .hi = 1024, .def = 16, .allowed = "0..1024, 0 = none", .help = "live-value streams (`/api/v1/events`, one per open robot page) at once, and at most half of `max_connections`; one more gets 503 and the page asks for values every second instead. Keeps room for the rest of the console, `/metrics` and `drgatewayd status`" },
+    { .name = "max_streams_per_ip", .type = GW_CFG_UINT, H(max_streams_per_ip), .lo = 1, .hi = 1024, .def = 4, .help = "live-value streams one client address may hold at once" },
+    { .name = "stream_max_s", .type = GW_CFG_UINT, H(stream_max_s), .lo = 10, .hi = 86400, .def = 3600, .help = "a live-value stream ends after this many seconds (the page opens a new one at once), and one whose client took no byte for `timeout_s` x 3 (at least 30 s) is closed" },
     { .name = "max_request_bytes", .type = GW_CFG_UINT, H(max_request_bytes), .lo = 4096, .hi = 1048576, .def = 16384, .help = "room for a request's URL and headers; a longer one is refused (414 or 431)" },
 };
 
@@ -105,6 +111,28 @@ static void check_pem(gw_cfg_ctx_t *c, const char *key, const char *path)
                                              : "-----BEGIN PRIVATE KEY-----");
 }
 
+/* A secret (the TLS key, the password file) readable or writable by
+ * others, or writable by the group, or readable by a group that is not
+ * the service's own (`drgate`, the Debian package's: chmod 640 and chgrp
+ * drgate, docs/http.md), is refused: whoever else reads the key can pose
+ * as the console, and the hashes can be guessed offline. */
+static void check_mode(gw_cfg_ctx_t *c, unsigned line, const char *key, const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return; /* said where the file is read */
+    const struct group *g = getgrnam("drgate");
+    bool own_group = g != NULL && g->gr_gid == st.st_gid;
+    if ((st.st_mode & (S_IRWXO | S_IWGRP | S_IXGRP)) != 0 ||
+        ((st.st_mode & S_IRGRP) != 0 && !own_group))
+        gw_cfg_fail(c, line,
+                    "[http] %s %s is readable or writable by %s (mode %04o): only the daemon's "
+                    "user may read it (allowed: chmod 600, or chmod 640 with group drgate; "
+                    "docs/security.md)",
+                    key, path, (st.st_mode & S_IRWXO) != 0 ? "other users" : "its group",
+                    (unsigned)(st.st_mode & 07777));
+}
+
 static bool is_loopback(const char *addr)
 {
     struct in_addr a;
@@ -125,12 +153,17 @@ static void check_files(gw_cfg_ctx_t *c, gw_http_config_t *h)
     if (cert) {
         check_pem(c, "tls_cert", h->tls_cert);
         check_pem(c, "tls_key", h->tls_key);
+        check_mode(c, gw_cfg_line(c, s, 0, "tls_key") ? gw_cfg_line(c, s, 0, "tls_key")
+                                                       : h->tls_line,
+                   "tls_key", h->tls_key);
     }
     if (h->auth_file[0] != '\0') {
         static gw_http_users_t users;
         char err[400];
         if (!gw_http_passwd_load(h->auth_file, &users, err, sizeof err))
             gw_cfg_fail(c, h->auth_line, "[http] auth_file %s", err);
+        else
+            check_mode(c, h->auth_line, "auth_file", h->auth_file);
     }
 }
 

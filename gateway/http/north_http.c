@@ -51,10 +51,12 @@
 #include "drgate/codec.h"
 #include "http/api.h"
 #include "http/asset.h"
+#include "http/auth.h"
 #include "http/http.h"
 #include "http/mhd_lib.h"
 #include "http/passwd.h"
 #include "http/report.h"
+#include "http/request.h"
 
 #define SSE_PERIOD_US 250000u      /* live values at most this often */
 #define SSE_KEEPALIVE_US 10000000u /* a comment line when nothing changed */
@@ -64,6 +66,26 @@
  * pages a response fills are ever touched. */
 #define RESP_MAX GW_HTTP_MAP_MAX
 #define REALM "drgatewayd"
+/* Connections kept beyond max_connections for clients on loopback:
+ * `drgatewayd status` and local tools get an answer when remote clients
+ * hold every other one. */
+#define RESERVED_LOCAL 4u
+/* Requests on one kept-alive connection; the answer to the last one says
+ * "Connection: close". */
+#define KEEPALIVE_MAX 1000u
+/* The TLS console's offer unless tls_priorities says otherwise: TLS 1.2
+ * and 1.3 only, ECDHE only, AEAD ciphers only (no CBC, no SHA-1 MACs, no
+ * RSA key transport), the server's order. */
+#define TLS_PRIORITIES                                                                           \
+    "NORMAL:-VERS-ALL:+VERS-TLS1.3:+VERS-TLS1.2:-CIPHER-ALL:+AES-256-GCM:+AES-128-GCM:"         \
+    "+CHACHA20-POLY1305:-MAC-ALL:+AEAD:-KX-ALL:+ECDHE-ECDSA:+ECDHE-RSA:%SERVER_PRECEDENCE"
+/* What every answer carries: the pages load nothing but their own files
+ * and may not be framed (clickjacking); no referrer leaves them. */
+#define CSP                                                                                      \
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "           \
+    "connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'none'; "              \
+    "frame-ancestors 'none'"
+#define HTTP_CODES 600
 
 typedef struct ht ht_t;
 
@@ -75,6 +97,8 @@ typedef struct {
     ev_t ev;  /* MHD's epoll descriptor in the loop */
     int lfd;  /* the listening socket we made (MHD closes it) */
     bool tls, loopback_only;
+    uint16_t port;
+    unsigned conns; /* connections open */
 } srv_t;
 
 /* One live-values stream. */
@@ -85,6 +109,9 @@ typedef struct sse {
     char robot[GW_NAME_MAX];
     uint32_t serial;     /* the robot's: a new one starts over */
     uint16_t link_state; /* as last sent */
+    uint32_t ip;         /* the client's */
+    int fd;              /* its socket (a stalled one is shut down) */
+    uint64_t started_us, progress_us; /* opened; last took bytes */
     bool suspended, closing, started;
     uint64_t next_us, quiet_since_us;
     size_t len, off; /* buf[off..len): not yet taken by MHD */
@@ -98,11 +125,20 @@ typedef struct sse {
  * the connection, or of the end of the previous answer, or the socket is
  * shut down (MHD then closes it as gone). No deadline while an answer is
  * being sent (a live page's, for its life). */
+typedef enum { AUTH_NONE, AUTH_PENDING, AUTH_OK, AUTH_REFUSED, AUTH_BUSY } auth_state_t;
+
 typedef struct hc {
     struct hc *next;
+    struct MHD_Connection *c;
     int fd;
+    uint32_t ip;     /* the client's IPv4 address, host order */
+    bool loopback;   /* from 127/8: no login asked */
     bool answering;
+    bool suspended;  /* waiting for its login's check, or its wait */
+    auth_state_t auth; /* this request's login */
+    unsigned requests; /* answered on this connection */
     uint64_t deadline_us;
+    uint64_t held_until; /* a refused login's answer is due then */
 } hc_t;
 
 struct ht {
@@ -114,7 +150,12 @@ struct ht {
     sse_t *streams;
     hc_t *conns;
     unsigned generation;
-    gw_log_limit_t mhd_limit, slow_limit;
+    gw_log_limit_t mhd_limit, slow_limit, stream_limit;
+    gw_http_auth_t *auth; /* logins (auth.h), with auth_file */
+    ev_t auth_ev;         /* its eventfd in the loop */
+    unsigned nstreams;
+    uint64_t streams_refused, streams_cut, hosts_refused;
+    uint64_t answers[HTTP_CODES]; /* by status code */
 };
 
 static const gw_mhdlib_t *ml; /* loaded by the first enabled side */
@@ -187,6 +228,29 @@ static void *unconst(const void *p)
     return q;
 }
 
+/* The request being answered (the loop has one at a time). */
+static srv_t *cur_sv;
+static hc_t *cur_hc;
+
+/* Every answer goes out here: the headers every answer carries, counted
+ * by status. */
+static enum MHD_Result queue(struct MHD_Connection *c, unsigned status, struct MHD_Response *r,
+                             bool auth_fail)
+{
+    (void)ml->add_response_header(r, "X-Content-Type-Options", "nosniff");
+    (void)ml->add_response_header(r, "Content-Security-Policy", CSP);
+    (void)ml->add_response_header(r, "X-Frame-Options", "DENY");
+    (void)ml->add_response_header(r, "Referrer-Policy", "no-referrer");
+    if (cur_sv != NULL && cur_sv->tls)
+        (void)ml->add_response_header(r, "Strict-Transport-Security", "max-age=31536000");
+    if (cur_hc != NULL && ++cur_hc->requests >= KEEPALIVE_MAX)
+        (void)ml->add_response_header(r, "Connection", "close");
+    if (cur_sv != NULL && status < HTTP_CODES)
+        cur_sv->t->answers[status]++;
+    return auth_fail ? ml->queue_basic_auth_fail_response(c, REALM, r)
+                     : ml->queue_response(c, status, r);
+}
+
 static enum MHD_Result send_buf(struct MHD_Connection *c, unsigned status, const char *type,
                                 const void *data, size_t len, bool copy)
 {
@@ -196,10 +260,13 @@ static enum MHD_Result send_buf(struct MHD_Connection *c, unsigned status, const
         return MHD_NO;
     (void)ml->add_response_header(r, "Content-Type", type);
     (void)ml->add_response_header(r, "Cache-Control", "no-store");
-    (void)ml->add_response_header(r, "X-Content-Type-Options", "nosniff");
     if (status == 405)
         (void)ml->add_response_header(r, "Allow", "GET, HEAD");
-    enum MHD_Result ok = ml->queue_response(c, status, r);
+    if (status == 503) { /* and the connection goes: a refused stream holds nothing */
+        (void)ml->add_response_header(r, "Retry-After", "5");
+        (void)ml->add_response_header(r, "Connection", "close");
+    }
+    enum MHD_Result ok = queue(c, status, r, false);
     ml->destroy_response(r);
     return ok;
 }
@@ -263,7 +330,7 @@ static enum MHD_Result send_summary(struct MHD_Connection *c, const gw_http_api_
     (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
     (void)ml->add_response_header(r, "Cache-Control", "no-store");
     (void)ml->add_response_header(r, "X-Robots-Down", down);
-    enum MHD_Result ok = ml->queue_response(c, 200, r);
+    enum MHD_Result ok = queue(c, 200, r, false);
     ml->destroy_response(r);
     return ok;
 }
@@ -339,6 +406,7 @@ static ssize_t sse_read(void *cls, uint64_t pos, char *buf, size_t max)
     size_t n = s->len - s->off < max ? s->len - s->off : max;
     memcpy(buf, s->buf + s->off, n);
     s->off += n;
+    s->progress_us = ev_now_us();
     return (ssize_t)n;
 }
 
@@ -348,6 +416,7 @@ static void sse_free(void *cls)
     for (sse_t **p = &s->t->streams; *p != NULL; p = &(*p)->next)
         if (*p == s) {
             *p = s->next;
+            s->t->nstreams--;
             break;
         }
     free(s->last);
@@ -363,6 +432,24 @@ static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const cha
     gw_http_api_t a = api_of(t);
     if (gw_http_api_find(&a, name) < 0)
         return send_error(c, 404, method, url, "no such robot");
+    /* Bounded in all (and to half the connections, so that the rest of
+     * the console, /metrics and `drgatewayd status` keep room) and per
+     * client address: one more gets 503, and the page polls instead. */
+    uint32_t ip = cur_hc != NULL ? cur_hc->ip : 0;
+    unsigned mine = 0, most = t->cfg.max_streams;
+    if (most > t->cfg.max_connections / 2u)
+        most = t->cfg.max_connections / 2u;
+    for (const sse_t *o = t->streams; o != NULL; o = o->next)
+        mine += o->ip == ip;
+    if (t->nstreams >= most || mine >= t->cfg.max_streams_per_ip) {
+        t->streams_refused++;
+        gw_log_limited(GW_LOG_INFO, &t->stream_limit,
+                       "http: live stream refused: %s (%u of %u open, %u from this address)",
+                       t->nstreams >= most ? "max_streams reached" : "max_streams_per_ip reached",
+                       t->nstreams, most, mine);
+        return send_error(c, 503, method, url,
+                          "too many live streams (the page asks for values every second)");
+    }
     sse_t *s = calloc(1, sizeof *s);
     if (s == NULL || (s->last = calloc(dr_leaf_count(), sizeof *s->last)) == NULL) {
         free(s);
@@ -370,8 +457,10 @@ static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const cha
     }
     s->t = t;
     s->c = c;
+    s->ip = ip;
+    s->fd = cur_hc != NULL ? cur_hc->fd : -1;
     snprintf(s->robot, sizeof s->robot, "%s", name);
-    s->quiet_since_us = ev_now_us();
+    s->quiet_since_us = s->started_us = s->progress_us = ev_now_us();
     struct MHD_Response *r =
         ml->create_response_from_callback(MHD_SIZE_UNKNOWN, 16384, sse_read, s, sse_free);
     if (r == NULL) {
@@ -381,11 +470,14 @@ static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const cha
     }
     s->next = t->streams;
     t->streams = s;
+    t->nstreams++;
     (void)ml->add_response_header(r, "Content-Type", "text/event-stream");
     (void)ml->add_response_header(r, "Cache-Control", "no-store");
-    /* A live page is not idle: only a write that fails ends it. */
+    /* A live page is not idle: MHD's idle timeout is off, and tick() ends
+     * the stream at its age limit or when its client stops taking bytes
+     * (sse_limits). */
     (void)ml->set_connection_option(c, MHD_CONNECTION_OPTION_TIMEOUT, 0u);
-    enum MHD_Result ok = ml->queue_response(c, 200, r);
+    enum MHD_Result ok = queue(c, 200, r, false);
     ml->destroy_response(r);
     return ok;
 }
@@ -409,6 +501,26 @@ static void sse_resume(ht_t *t, uint64_t now, bool closing)
     for (unsigned i = 0; any && i < 2; i++)
         if (t->srv[i].d != NULL)
             (void)ml->run(t->srv[i].d);
+}
+
+/* Streams past their age (stream_max_s) end at their next turn (the page
+ * opens a new one); one whose client took no byte for timeout_s x 3 (at
+ * least 30 s) is shut down: a client that holds a stream and reads
+ * nothing holds a connection and its buffers for nothing. */
+static void sse_limits(ht_t *t, uint64_t now)
+{
+    uint64_t stall = (uint64_t)t->cfg.timeout_s * 3u;
+    stall = (stall < 30u ? 30u : stall) * 1000000u;
+    for (sse_t *s = t->streams; s != NULL; s = s->next) {
+        if (!s->closing && now - s->started_us >= (uint64_t)t->cfg.stream_max_s * 1000000u)
+            s->closing = true;
+        if (s->fd >= 0 && now - s->progress_us >= stall) {
+            (void)shutdown(s->fd, SHUT_RDWR);
+            s->fd = -1;
+            s->closing = true;
+            t->streams_cut++;
+        }
+    }
 }
 
 /* ---- routes ------------------------------------------------------------------------ */
@@ -499,49 +611,132 @@ static enum MHD_Result route(ht_t *t, struct MHD_Connection *c, const char *meth
     return send_error(c, 404, method, url, "not found");
 }
 
-/* Basic authentication, for clients not on loopback when auth_file is
- * set: true when the request may go on (else the 401 is queued). */
-static bool authorized(ht_t *t, struct MHD_Connection *c, enum MHD_Result *ret)
+/* 401 with the realm (a login is asked). */
+static enum MHD_Result send_401(struct MHD_Connection *c)
 {
-    if (t->users.count == 0)
-        return true;
-    const union MHD_ConnectionInfo *ci =
-        ml->get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
-    if (ci != NULL && addr_loopback(ci->client_addr))
-        return true;
-    char *pass = NULL;
-    char *user = ml->basic_auth_get_username_password(c, &pass);
-    bool ok = false;
-    if (user != NULL && pass != NULL) {
-        const gw_http_user_t *u = gw_http_passwd_find(&t->users, user);
-        static struct crypt_data cd; /* 32 kB: not on the stack */
-        const char *h = u != NULL ? ml->crypt_r(pass, u->hash, &cd) : NULL;
-        if (h != NULL && strlen(h) == strlen(u->hash)) {
-            /* every byte compared, whatever the first difference */
-            unsigned char diff = 0;
-            for (size_t i = 0; h[i] != '\0'; i++)
-                diff |= (unsigned char)(h[i] ^ u->hash[i]);
-            ok = diff == 0;
-        }
-        if (!ok)
-            gw_log(GW_LOG_INFO, "http: login refused for user %.63s", user);
-    }
-    if (user != NULL)
-        ml->free(user);
-    if (pass != NULL)
-        ml->free(pass);
-    if (ok)
-        return true;
     static const char body[] = "401 login required\n";
     struct MHD_Response *r = ml->create_response_from_buffer(sizeof body - 1, unconst(body),
                                                              MHD_RESPMEM_PERSISTENT);
-    *ret = MHD_NO;
-    if (r != NULL) {
-        (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
-        *ret = ml->queue_basic_auth_fail_response(c, REALM, r);
-        ml->destroy_response(r);
+    if (r == NULL)
+        return MHD_NO;
+    (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    enum MHD_Result ret = queue(c, 401, r, true);
+    ml->destroy_response(r);
+    return ret;
+}
+
+static void hc_suspend(hc_t *h)
+{
+    if (!h->suspended) {
+        ml->suspend_connection(h->c);
+        h->suspended = true;
     }
+}
+
+static void hc_resume(ht_t *t, hc_t *h)
+{
+    if (h->suspended) {
+        h->suspended = false;
+        ml->resume_connection(h->c);
+        for (unsigned i = 0; i < 2; i++)
+            if (t->srv[i].d != NULL)
+                (void)ml->run(t->srv[i].d);
+    }
+}
+
+/* A check the worker finished (auth.h): the waiting request goes on, or
+ * gets its 401 when its address's wait is over. */
+static void on_auth_done(void *user, void *cookie, bool ok, uint64_t until)
+{
+    ht_t *t = user;
+    hc_t *h = cookie;
+    h->auth = ok ? AUTH_OK : AUTH_REFUSED;
+    h->held_until = ok ? 0 : until;
+    if (ok || until <= ev_now_us())
+        hc_resume(t, h);
+}
+
+static void on_auth_ready(void *obj, uint32_t events)
+{
+    ht_t *t = obj;
+    (void)events;
+    gw_http_auth_collect(t->auth, ev_now_us(), on_auth_done, t);
+}
+
+/* Basic authentication, for clients not on loopback when auth_file is
+ * set. The password is never checked here: a header checked before is a
+ * lookup (auth.c's cache), a new one is handed to the worker thread and
+ * the request waits, suspended, for its result; the loop goes on. True
+ * when the request may go on; else *ret is what to return (an answer
+ * queued, or MHD_YES with the connection suspended). */
+static bool authorized(ht_t *t, hc_t *h, struct MHD_Connection *c, enum MHD_Result *ret)
+{
+    if (t->auth == NULL || h->loopback)
+        return true;
+    *ret = MHD_YES;
+    switch (h->auth) {
+    case AUTH_OK:
+        return true;
+    case AUTH_REFUSED:
+        if (h->held_until > ev_now_us()) {
+            hc_suspend(h); /* tick() resumes it when the wait is over */
+            return false;
+        }
+        h->auth = AUTH_NONE;
+        *ret = send_401(c);
+        return false;
+    case AUTH_PENDING:
+        hc_suspend(h); /* resumed before its result: wait on */
+        return false;
+    case AUTH_BUSY:
+    case AUTH_NONE:
+        break;
+    }
+    const char *authz = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Authorization");
+    uint64_t until, now = ev_now_us();
+    switch (gw_http_auth_check(t->auth, authz, h->ip, h, now, &until)) {
+    case GW_HTTP_AUTH_OK:
+        h->auth = AUTH_OK;
+        return true;
+    case GW_HTTP_AUTH_PENDING:
+        h->auth = AUTH_PENDING;
+        hc_suspend(h);
+        return false;
+    case GW_HTTP_AUTH_BUSY: {
+        static const char busy[] = "{\"error\":\"logins are being checked: try again\"}\n";
+        h->auth = AUTH_NONE;
+        struct MHD_Response *r = ml->create_response_from_buffer(
+            sizeof busy - 1, unconst(busy), MHD_RESPMEM_PERSISTENT);
+        *ret = MHD_NO;
+        if (r != NULL) {
+            (void)ml->add_response_header(r, "Content-Type", "application/json");
+            (void)ml->add_response_header(r, "Retry-After", "1");
+            *ret = queue(c, 503, r, false);
+            ml->destroy_response(r);
+        }
+        return false;
+    }
+    case GW_HTTP_AUTH_REFUSED:
+        break;
+    }
+    h->auth = AUTH_REFUSED;
+    h->held_until = until;
+    if (until > now) {
+        hc_suspend(h);
+        return false;
+    }
+    h->auth = AUTH_NONE;
+    *ret = send_401(c);
     return false;
+}
+
+/* Does the request carry a body (which no route takes)? */
+static bool has_body(struct MHD_Connection *c)
+{
+    const char *len = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Content-Length");
+    return ml->lookup_connection_value(c, MHD_HEADER_KIND, "Transfer-Encoding") != NULL ||
+           (len != NULL && strspn(len, "0") != strlen(len));
 }
 
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
@@ -552,18 +747,40 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
     srv_t *sv = cls;
     ht_t *t = sv->t;
     (void)version, (void)upload_data;
-    /* Answered at the first call, once the headers are in: a body (which
-     * no route takes) is not waited for; MHD closes after the answer. */
-    *upload_data_size = 0;
-    *req_cls = sv;
     const union MHD_ConnectionInfo *ci =
         ml->get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
-    if (ci != NULL && ci->socket_context != NULL)
-        ((hc_t *)ci->socket_context)->answering = true;
+    hc_t *h = ci != NULL ? ci->socket_context : NULL;
+    bool get = strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
+    cur_sv = sv;
+    cur_hc = h;
+    *upload_data_size = 0;
+    if (h == NULL)
+        return send_error(c, 503, method, url, "out of memory");
+    if (*req_cls == NULL) {
+        /* The first call, the head in. A GET without a body is answered at
+         * the next call (MHD's last for the request): an answer queued now
+         * would make MHD close the connection, and every page poll would
+         * log in again. Others are answered now, and closed. */
+        *req_cls = sv;
+        h->answering = true;
+        if (get && !has_body(c))
+            return MHD_YES;
+    }
     enum MHD_Result ret = MHD_YES;
-    if (!authorized(t, c, &ret))
+    if (h->loopback || sv->loopback_only) {
+        /* served without a login: a browser here is only taken with a
+         * name of this machine (DNS rebinding) */
+        const char *host = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Host");
+        if (!gw_http_host_ok(host, sv->port, sv->loopback_only ? "127.0.0.1" : t->cfg.listen)) {
+            t->hosts_refused++;
+            return send_error(c, 421, method, url,
+                              "Host not served (allowed: localhost, 127.0.0.1, [::1] or the "
+                              "listen address, with this port)");
+        }
+    }
+    if (!authorized(t, h, c, &ret))
         return ret;
-    if (strcmp(method, "GET") != 0 && strcmp(method, "HEAD") != 0)
+    if (!get)
         return send_error(c, 405, method, url, "method not allowed (allowed: GET, HEAD)");
     return route(t, c, method, url);
 }
@@ -574,6 +791,10 @@ static enum MHD_Result on_accept(void *cls, const struct sockaddr *addr, socklen
     (void)len;
     if (sv->loopback_only)
         return addr_loopback(addr) ? MHD_YES : MHD_NO;
+    /* MHD's limit is max_connections + RESERVED_LOCAL: the last few are
+     * for loopback clients only */
+    if (sv->conns >= sv->t->cfg.max_connections && !addr_loopback(addr))
+        return MHD_NO;
     return allowed(&sv->t->cfg, addr) ? MHD_YES : MHD_NO;
 }
 
@@ -586,14 +807,31 @@ static void on_conn(void *cls, struct MHD_Connection *c, void **ctx,
     if (what == MHD_CONNECTION_NOTIFY_STARTED) {
         const union MHD_ConnectionInfo *ci =
             ml->get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+        sv->conns++;
         if (ci == NULL || (h = calloc(1, sizeof *h)) == NULL)
-            return; /* not tracked: MHD's idle timeout still applies */
+            return; /* not tracked: MHD's idle timeout still applies; 503 */
+        h->c = c;
         h->fd = ci->connect_fd;
+        const union MHD_ConnectionInfo *ai =
+            ml->get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+        h->loopback = ai != NULL && addr_loopback(ai->client_addr);
+        if (ai != NULL && ai->client_addr != NULL && ai->client_addr->sa_family == AF_INET) {
+            struct sockaddr_in in;
+            memcpy(&in, ai->client_addr, sizeof in);
+            h->ip = ntohl(in.sin_addr.s_addr);
+        }
         h->deadline_us = ev_now_us() + (uint64_t)t->cfg.timeout_s * 1000000u;
         h->next = t->conns;
         t->conns = h;
         *ctx = h;
-    } else if (what == MHD_CONNECTION_NOTIFY_CLOSED && h != NULL) {
+    } else if (what == MHD_CONNECTION_NOTIFY_CLOSED) {
+        sv->conns -= sv->conns > 0;
+        if (h == NULL)
+            return;
+        if (t->auth != NULL)
+            gw_http_auth_cancel(t->auth, h);
+        if (cur_hc == h)
+            cur_hc = NULL;
         for (hc_t **p = &t->conns; *p != NULL; p = &(*p)->next)
             if (*p == h) {
                 *p = h->next;
@@ -615,6 +853,8 @@ static void on_completed(void *cls, struct MHD_Connection *c, void **req_cls,
     hc_t *h = ci != NULL ? ci->socket_context : NULL;
     if (h != NULL) {
         h->answering = false;
+        h->auth = AUTH_NONE; /* each request logs in (a cache lookup) */
+        h->held_until = 0;
         h->deadline_us = ev_now_us() + (uint64_t)sv->t->cfg.timeout_s * 1000000u;
     }
 }
@@ -623,7 +863,7 @@ static void on_completed(void *cls, struct MHD_Connection *c, void **req_cls,
 static void cut_slow(ht_t *t, uint64_t now)
 {
     for (hc_t *h = t->conns; h != NULL; h = h->next)
-        if (!h->answering && now >= h->deadline_us) {
+        if (!h->answering && !h->suspended && now >= h->deadline_us) {
             (void)shutdown(h->fd, SHUT_RDWR);
             h->deadline_us = UINT64_MAX;
             gw_log_limited(GW_LOG_INFO, &t->slow_limit,
@@ -695,14 +935,20 @@ static bool srv_start(srv_t *sv, ht_t *t, char *err, size_t errlen)
         {MHD_OPTION_CONNECTION_TIMEOUT, (intptr_t)h->timeout_s, NULL},
         {MHD_OPTION_CONNECTION_MEMORY_LIMIT, (intptr_t)h->max_request_bytes, NULL},
         {MHD_OPTION_PER_IP_CONNECTION_LIMIT, (intptr_t)h->max_connections_per_ip, NULL},
-        {MHD_OPTION_END, 0, NULL}, /* TLS: two more, below */
+        {MHD_OPTION_END, 0, NULL}, /* TLS: three more, below */
+        {MHD_OPTION_END, 0, NULL},
         {MHD_OPTION_END, 0, NULL},
         {MHD_OPTION_END, 0, NULL},
     };
+    /* room kept for loopback clients (on_accept) */
+    opts[1].value = (intptr_t)(h->max_connections + (sv->loopback_only ? 0u : RESERVED_LOCAL));
     if (sv->tls) {
         flags |= MHD_USE_TLS;
         opts[5] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_CERT, 0, t->cert};
         opts[6] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_KEY, 0, t->key};
+        opts[7] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_PRIORITIES, 0,
+                                          unconst(h->tls_priorities[0] ? h->tls_priorities
+                                                                       : TLS_PRIORITIES)};
     }
     mhd_err = why;
     mhd_errlen = sizeof why;
@@ -762,8 +1008,22 @@ static void ht_free(ht_t *t)
          * its stream at its next turn, which MHD_run gives it. */
         sse_resume(t, UINT64_MAX, true);
     }
+    for (hc_t *h = t->conns; h != NULL && ml != NULL; h = h->next)
+        if (h->suspended) { /* a login waiting: refused now, then closed */
+            h->auth = AUTH_REFUSED;
+            h->held_until = 0;
+            h->suspended = false;
+            ml->resume_connection(h->c);
+        }
+    for (unsigned i = 0; i < 2; i++)
+        if (t->srv[i].d != NULL)
+            (void)ml->run(t->srv[i].d);
+    if (t->auth_ev.fd >= 0)
+        ev_unwatch(t->env->epfd, &t->auth_ev);
     for (unsigned i = 0; i < 2; i++)
         srv_stop(&t->srv[i], t->env->epfd);
+    gw_http_auth_free(t->auth);
+    gw_log_limit_end(&t->stream_limit);
     free(t->cert);
     free(t->key);
     free(t);
@@ -803,8 +1063,11 @@ static ht_t *ht_new(const gw_http_config_t *h, const gw_north_env_t *env, const 
     t->env = env;
     t->cfg = *h;
     for (unsigned i = 0; i < 2; i++) {
-        t->srv[i] = (srv_t){t, NULL, {on_ready, &t->srv[i], -1, 0}, -1, false, i == 1};
+        t->srv[i] = (srv_t){t, NULL, {on_ready, &t->srv[i], -1, 0}, -1, false, i == 1,
+                            i == 0 ? h->port : h->status_port, 0};
     }
+    t->auth_ev = (ev_t){on_auth_ready, t, -1, 0};
+    t->stream_limit.window_ms = 10000;
     if (!h->enabled)
         return t;
     if ((ml = gw_mhdlib_load(err, errlen)) == NULL) {
@@ -816,6 +1079,11 @@ static ht_t *ht_new(const gw_http_config_t *h, const gw_north_env_t *env, const 
         char why[400];
         snprintf(why, sizeof why, "%s", err);
         snprintf(err, errlen, "http: auth_file %s", why);
+        ht_free(t);
+        return NULL;
+    }
+    if (t->users.count > 0 &&
+        (t->auth = gw_http_auth_new(&t->users, ml->crypt_r, err, errlen)) == NULL) {
         ht_free(t);
         return NULL;
     }
@@ -842,6 +1110,9 @@ static ht_t *ht_new(const gw_http_config_t *h, const gw_north_env_t *env, const 
 
 static bool ht_watch(ht_t *t)
 {
+    if (t->auth != NULL &&
+        !ev_watch(t->env->epfd, &t->auth_ev, gw_http_auth_fd(t->auth), EPOLLIN))
+        return false;
     return srv_watch(&t->srv[0], t->env->epfd) && srv_watch(&t->srv[1], t->env->epfd);
 }
 
@@ -879,7 +1150,9 @@ static bool same_config(const gw_http_config_t *a, const gw_http_config_t *b)
         a->insecure != b->insecure || a->status_port != b->status_port ||
         a->max_connections != b->max_connections ||
         a->max_connections_per_ip != b->max_connections_per_ip || a->timeout_s != b->timeout_s ||
-        a->max_request_bytes != b->max_request_bytes)
+        a->max_request_bytes != b->max_request_bytes ||
+        strcmp(a->tls_priorities, b->tls_priorities) != 0 || a->max_streams != b->max_streams ||
+        a->max_streams_per_ip != b->max_streams_per_ip || a->stream_max_s != b->stream_max_s)
         return false;
     for (unsigned i = 0; i < a->allow_count; i++)
         if (a->allow[i].net != b->allow[i].net || a->allow[i].mask != b->allow[i].mask ||
@@ -932,8 +1205,12 @@ static void ht_tick(void *self, uint64_t now)
     ht_t *t = self;
     if (!t->cfg.enabled)
         return;
+    sse_limits(t, now);
     sse_resume(t, now, false);
     cut_slow(t, now);
+    for (hc_t *h = t->conns; h != NULL; h = h->next)
+        if (h->suspended && h->auth == AUTH_REFUSED && h->held_until <= now)
+            hc_resume(t, h); /* its wait is over: the 401 */
     for (unsigned i = 0; i < 2; i++) {
         MHD_UNSIGNED_LONG_LONG ms;
         if (t->srv[i].d != NULL && ml->get_timeout(t->srv[i].d, &ms) == MHD_YES && ms == 0)
@@ -950,9 +1227,14 @@ static uint64_t ht_deadline(const void *self)
     for (const sse_t *s = t->streams; s != NULL; s = s->next)
         if (s->suspended && s->next_us < d)
             d = s->next_us;
-    for (const hc_t *h = t->conns; h != NULL; h = h->next)
+    for (const hc_t *h = t->conns; h != NULL; h = h->next) {
         if (!h->answering && h->deadline_us < d)
             d = h->deadline_us;
+        if (h->suspended && h->auth == AUTH_REFUSED && h->held_until < d)
+            d = h->held_until;
+    }
+    if (t->streams != NULL && now + 1000000u < d)
+        d = now + 1000000u; /* sse_limits, once a second */
     for (unsigned i = 0; i < 2; i++) {
         MHD_UNSIGNED_LONG_LONG ms;
         if (t->srv[i].d != NULL && ml->get_timeout(t->srv[i].d, &ms) == MHD_YES &&
@@ -999,10 +1281,53 @@ static void ht_side_free(void *self)
     ht_free(self);
 }
 
+/* The console's own families (docs/http.md "Metrics"). */
+static void ht_metrics(const void *self, gw_prom_t *m)
+{
+    const ht_t *t = self;
+    if (!t->cfg.enabled)
+        return;
+    gw_prom_family(m, "drgate_http_requests_total", GW_PROM_COUNTER,
+                   "HTTP requests answered, by status code");
+    for (unsigned code = 100; code < HTTP_CODES; code++)
+        if (t->answers[code] > 0) {
+            char v[8];
+            snprintf(v, sizeof v, "%u", code);
+            gw_prom_label_t l = {"code", v};
+            gw_prom_sample(m, "drgate_http_requests_total", &l, 1, (double)t->answers[code]);
+        }
+    unsigned conns = t->srv[0].conns + t->srv[1].conns;
+    gw_prom_one(m, "drgate_http_connections", GW_PROM_GAUGE, "HTTP connections open",
+                (double)conns);
+    gw_prom_one(m, "drgate_http_streams", GW_PROM_GAUGE, "live-value streams open",
+                (double)t->nstreams);
+    gw_prom_one(m, "drgate_http_streams_refused_total", GW_PROM_COUNTER,
+                "live-value streams refused (max_streams, max_streams_per_ip)",
+                (double)t->streams_refused);
+    gw_prom_one(m, "drgate_http_streams_cut_total", GW_PROM_COUNTER,
+                "live-value streams closed because their client took nothing",
+                (double)t->streams_cut);
+    gw_prom_one(m, "drgate_http_host_refused_total", GW_PROM_COUNTER,
+                "requests without a login refused for their Host header (421)",
+                (double)t->hosts_refused);
+    gw_http_auth_stats_t a = {0, 0, 0, 0};
+    if (t->auth != NULL)
+        a = gw_http_auth_stats(t->auth);
+    gw_prom_one(m, "drgate_http_logins_total", GW_PROM_COUNTER, "logins accepted (checked once)",
+                (double)a.ok);
+    gw_prom_one(m, "drgate_http_logins_failed_total", GW_PROM_COUNTER,
+                "logins refused (wrong user or password, or an address waiting)",
+                (double)a.refused);
+    gw_prom_one(m, "drgate_http_login_checks_total", GW_PROM_COUNTER,
+                "passwords checked by the login worker (crypt_r)", (double)a.checks);
+    gw_prom_one(m, "drgate_http_logins_busy_total", GW_PROM_COUNTER,
+                "logins answered 503: the worker's queue was full", (double)a.busy);
+}
+
 const gw_north_ops_t gw_north_http = {
     "http",     ht_create,  ht_prepare,  ht_abort,   ht_commit, ht_tick,      ht_deadline,
     ht_on_data, ht_on_link, ht_on_fault, ht_refresh, ht_safe,   ht_side_free,
-    NULL,       NULL,
+    NULL,       ht_metrics,
 };
 
 /* ---- --check-config -------------------------------------------------------------------- */
@@ -1031,15 +1356,22 @@ bool gw_http_check_tls(const gw_config_t *cfg, char *err, size_t errlen)
                                  MHD_USE_ERROR_LOG,
                              0, NULL, NULL, on_request, NULL, MHD_OPTION_EXTERNAL_LOGGER,
                              on_mhd_log, &t, MHD_OPTION_HTTPS_MEM_CERT, t.cert,
-                             MHD_OPTION_HTTPS_MEM_KEY, t.key, MHD_OPTION_END);
+                             MHD_OPTION_HTTPS_MEM_KEY, t.key, MHD_OPTION_HTTPS_PRIORITIES,
+                             h->tls_priorities[0] ? h->tls_priorities : TLS_PRIORITIES,
+                             MHD_OPTION_END);
         mhd_err = NULL;
     }
     free(t.cert);
     free(t.key);
     if (d == NULL) {
-        snprintf(err, errlen, "%s:%u: [http] tls_cert %s and tls_key %s do not load: %s",
-                 cfg->path, h->tls_line, h->tls_cert, h->tls_key,
-                 why[0] ? why : "not a certificate and its key");
+        if (h->tls_priorities[0] != '\0' && t.key != NULL && strstr(why, "riorit") != NULL)
+            snprintf(err, errlen,
+                     "%s:%u: [http] tls_priorities %s: not a GnuTLS priority string: %s",
+                     cfg->path, h->line, h->tls_priorities, why);
+        else
+            snprintf(err, errlen, "%s:%u: [http] tls_cert %s and tls_key %s do not load: %s",
+                     cfg->path, h->tls_line, h->tls_cert, h->tls_key,
+                     why[0] ? why : "not a certificate and its key");
         return false;
     }
     ml->stop_daemon(d);

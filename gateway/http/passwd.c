@@ -3,7 +3,9 @@
 #include "http/passwd.h"
 
 #include <errno.h>
+#include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* The characters of a crypt(3) hash in the modular format: "$id$", then
@@ -46,6 +48,116 @@ static bool valid_hash(const char *h, size_t n, char *why, size_t whylen)
     return true;
 }
 
+/* crypt's base64 digit of ch, or -1. */
+static int b64_digit(char ch)
+{
+    static const char d[] = "./0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz";
+    const char *p = ch != '\0' ? strchr(d, ch) : NULL;
+    return p != NULL ? (int)(p - d) : -1;
+}
+
+/* One of yescrypt's variable-length numbers (its decode64_uint32) at *p,
+ * plus min; false if it is not one. */
+static bool yescrypt_num(const char **p, uint32_t min, uint32_t *out)
+{
+    uint32_t start = 0, end = 47, chars = 1, bits = 0;
+    int c = b64_digit(**p);
+    if (c < 0)
+        return false;
+    (*p)++;
+    *out = min;
+    while ((uint32_t)c > end) {
+        *out += (end + 1 - start) << bits;
+        start = end + 1;
+        end = start + (62 - end) / 2;
+        chars++;
+        bits += 6;
+    }
+    *out += ((uint32_t)c - start) << bits;
+    while (--chars) {
+        if ((c = b64_digit(**p)) < 0)
+            return false;
+        (*p)++;
+        bits -= 6;
+        *out += (uint32_t)c << bits;
+    }
+    return true;
+}
+
+/* The policy (docs/http.md, docs/security.md): hashes a login can verify
+ * in bounded time on the console's worker, and none that is broken. h is
+ * a '\0'-terminated "$id$..." that valid_hash let through. */
+static bool hash_policy(const char *h, char *why, size_t whylen)
+{
+    static const char use[] = "make one with `mkpasswd -m yescrypt` or `openssl passwd -6`";
+    if (strncmp(h, "$6$", 3) == 0 || strncmp(h, "$5$", 3) == 0) {
+        if (strncmp(h + 3, "rounds=", 7) != 0)
+            return true; /* 5000 rounds, crypt's default */
+        char *end;
+        errno = 0;
+        unsigned long long r = strtoull(h + 10, &end, 10);
+        if (*end != '$' || errno != 0 || r > GW_HTTP_SHA_ROUNDS_MAX) {
+            snprintf(why, whylen,
+                     "$%c$ with rounds=%.20s: more than %d rounds would hold every login for "
+                     "long (allowed: at most rounds=%d; %s)",
+                     h[1], h + 10, GW_HTTP_SHA_ROUNDS_MAX, GW_HTTP_SHA_ROUNDS_MAX, use);
+            return false;
+        }
+        return true;
+    }
+    if (strncmp(h, "$2b$", 4) == 0 || strncmp(h, "$2a$", 4) == 0 || strncmp(h, "$2y$", 4) == 0) {
+        if (h[4] < '0' || h[4] > '9' || h[5] < '0' || h[5] > '9' || h[6] != '$') {
+            snprintf(why, whylen, "bcrypt hash without a two-digit cost (%s)", use);
+            return false;
+        }
+        int cost = (h[4] - '0') * 10 + (h[5] - '0');
+        if (cost > GW_HTTP_BCRYPT_COST_MAX) {
+            snprintf(why, whylen,
+                     "bcrypt cost %d: 2^%d rounds would hold every login for long (allowed: "
+                     "a cost of at most %d; %s)",
+                     cost, cost, GW_HTTP_BCRYPT_COST_MAX, use);
+            return false;
+        }
+        return true;
+    }
+    if (strncmp(h, "$y$", 3) == 0) {
+        const char *p = h + 3;
+        uint32_t flavor, nlog2, r;
+        if (!yescrypt_num(&p, 0, &flavor) || !yescrypt_num(&p, 1, &nlog2) ||
+            !yescrypt_num(&p, 1, &r) || nlog2 > 63 || r == 0) {
+            snprintf(why, whylen, "yescrypt hash whose parameters do not read (%s)", use);
+            return false;
+        }
+        if (*p != '$') {
+            snprintf(why, whylen,
+                     "yescrypt hash with parameters beyond N and r (p, t, g or a ROM): not "
+                     "accepted (%s)", use);
+            return false;
+        }
+        /* memory: 128 * r * N bytes */
+        if (nlog2 > 30 || (uint64_t)r << nlog2 > (uint64_t)GW_HTTP_YESCRYPT_MIB_MAX << 13) {
+            snprintf(why, whylen,
+                     "yescrypt with N=2^%u and r=%u needs more than %d MiB per login "
+                     "(allowed: at most %d MiB, such as the default $y$j9T$ of "
+                     "`mkpasswd -m yescrypt`: 16 MiB)",
+                     (unsigned)nlog2, (unsigned)r, GW_HTTP_YESCRYPT_MIB_MAX,
+                     GW_HTTP_YESCRYPT_MIB_MAX);
+            return false;
+        }
+        return true;
+    }
+    if (strncmp(h, "$1$", 3) == 0) {
+        snprintf(why, whylen, "an MD5 hash ($1$): broken, found in seconds from the file (%s)",
+                 use);
+        return false;
+    }
+    snprintf(why, whylen,
+             "a %.*s hash: not one the console accepts (allowed: yescrypt $y$, SHA-512 $6$, "
+             "SHA-256 $5$, bcrypt $2b$; %s)",
+             (int)(strchr(h + 1, '$') != NULL ? strchr(h + 1, '$') - h + 1 : 4), h, use);
+    return false;
+}
+
 static bool valid_user(const char *u, size_t n, char *why, size_t whylen)
 {
     if (n == 0) {
@@ -78,6 +190,11 @@ static bool parse_line(const char *s, size_t n, gw_http_users_t *out, char *why,
     }
     size_t un = (size_t)(colon - s), hn = n - un - 1;
     if (!valid_user(s, un, why, whylen) || !valid_hash(colon + 1, hn, why, whylen))
+        return false;
+    char hash[GW_HTTP_HASH_MAX];
+    memcpy(hash, colon + 1, hn);
+    hash[hn] = '\0';
+    if (!hash_policy(hash, why, whylen))
         return false;
     char user[GW_HTTP_USER_MAX];
     memcpy(user, s, un);

@@ -3,7 +3,8 @@
  * The console's password file ([http] auth_file, docs/http.md): one
  * `user:HASH` line per user, HASH a crypt(3) hash as `openssl passwd -6`
  * or `mkpasswd` write them ($6$..., $5$..., $y$...); blank lines and
- * lines starting with '#' are skipped. Parsed here without a library (the
+ * lines starting with '#' are skipped. Only the kinds and costs of the
+ * policy below are accepted. Parsed here without a library (the
  * configuration check and the unit test use it); the daemon checks a
  * password against the hash with libcrypt's crypt_r (mhd_lib.h).
  */
@@ -17,6 +18,15 @@
 #define GW_HTTP_USER_MAX 64  /* bytes of a user name, its '\0' included */
 #define GW_HTTP_HASH_MAX 192 /* bytes of a hash, its '\0' included */
 #define GW_HTTP_PASSWD_FILE_MAX 65536
+
+/* The hash policy: what a line may hold (passwd.c hash_policy). Broken
+ * kinds (DES, MD5 $1$, anything but the four below) are refused, and so
+ * is a cost that would hold a login for long: SHA-crypt ($5$, $6$) above
+ * rounds=100000 (the default is 5000), bcrypt above cost 12, yescrypt
+ * above 64 MiB (the default $y$j9T$ is 16 MiB) or with p/t/g/ROM. */
+#define GW_HTTP_SHA_ROUNDS_MAX 100000
+#define GW_HTTP_BCRYPT_COST_MAX 12
+#define GW_HTTP_YESCRYPT_MIB_MAX 64
 
 typedef struct {
     char user[GW_HTTP_USER_MAX];

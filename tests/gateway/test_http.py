@@ -101,6 +101,42 @@ def test_robots_and_robot(gw):
     assert get_json(gw.http, "/api/v1/robots/r0")["link"] == "up"
 
 
+def test_host_checked_headers_and_keep_alive(gw):
+    """Served without a login (loopback), a request is only answered with
+    a name of this machine in Host (DNS rebinding: a page of the
+    attacker's site, its name now pointing at 127.0.0.1, gets 421); every
+    answer carries the security headers; a page's polls reuse one
+    connection (keep-alive)."""
+    st, hdr, body = get(gw.http, "/api/v1/status", headers={"Host": "evil.example:%d" % gw.http})
+    assert st == 421, (st, body)
+    assert get(gw.http, "/api/v1/status", headers={"Host": "evil.example"})[0] == 421
+    assert get(gw.http, "/api/v1/status", headers={"Host": "localhost:1"})[0] == 421
+    for host in ("localhost:%d" % gw.http, "127.0.0.1:%d" % gw.http, "[::1]:%d" % gw.http,
+                 "localhost"):
+        assert get(gw.http, "/api/v1/status", headers={"Host": host})[0] == 200, host
+    st, hdr, body = get(gw.http, "/")
+    assert st == 200
+    assert hdr["X-Content-Type-Options"] == "nosniff"
+    assert "frame-ancestors 'none'" in hdr["Content-Security-Policy"]
+    assert "default-src 'self'" in hdr["Content-Security-Policy"]
+    assert hdr["Referrer-Policy"] == "no-referrer"
+    assert hdr["X-Frame-Options"] == "DENY"
+    assert "Strict-Transport-Security" not in hdr  # plain HTTP: no HSTS
+    assert "nosniff" in get(gw.http, "/nope")[1]["X-Content-Type-Options"]
+    c = http.client.HTTPConnection(GW_ADDR, gw.http, timeout=timeout(10))
+    try:
+        socks = set()
+        for _ in range(5):
+            c.request("GET", "/api/v1/robots")
+            r = c.getresponse()
+            assert r.status == 200 and r.getheader("Connection") != "close"
+            r.read()
+            socks.add(id(c.sock))
+        assert len(socks) == 1  # one connection for all five
+    finally:
+        c.close()
+
+
 def tokens(text):
     """{"path": the value's JSON text as printed} of a flat JSON object."""
     return dict(re.findall(r'^\s*"([^"]+)": (.+?),?$', text, re.M))
@@ -180,7 +216,7 @@ class Events:
 
     def __init__(self, port, robot):
         self.sock = socket.create_connection((GW_ADDR, port), timeout=timeout(10))
-        self.sock.sendall(b"GET /api/v1/events?robot=%s HTTP/1.0\r\nHost: x\r\n\r\n"
+        self.sock.sendall(b"GET /api/v1/events?robot=%s HTTP/1.0\r\nHost: localhost\r\n\r\n"
                           % robot.encode())
         self.events, self.head, self.done = [], None, False
         self.t = threading.Thread(target=self.run, daemon=True)
@@ -436,6 +472,7 @@ def tls_dir(tmp_path_factory):
     h = subprocess.run(["openssl", "passwd", "-6", "s3cret"], capture_output=True, text=True,
                        check=True, timeout=timeout(30)).stdout.strip()
     (d / "users").write_text("# the console's users\nadmin:%s\n" % h)
+    (d / "users").chmod(0o600)  # --check-config refuses one others may read
     return d
 
 
@@ -495,7 +532,7 @@ def test_tls_and_login_from_another_address(tls_dir):
         assert req("nobody:s3cret")[0] == 401
         st, hdr, body = req("admin:s3cret")
         assert st == 200 and json.loads(body)["robots"][0]["name"] == "r0"
-        assert "login refused for user admin" in log.read_text()
+        assert 'login refused for user "admin" from 10.9.0.1' in log.read_text()
         # plain HTTP to the TLS port: no HTTP answer, the connection closed
         with in_netns(ns):
             s = socket.create_connection((NS_ADDR, 8443), timeout=timeout(10))
@@ -563,9 +600,36 @@ def test_check_config(tmp_path, tls_dir):
     assert rc == EXIT_CONFIG and "FILE:4: [http] tls_cert" in out and "do not load" in out
     bad = tmp_path / "bad_users"
     bad.write_text("# users\nadmin:$6$abcdefgh$0123456789\nroot:plaintext\n")
+    bad.chmod(0o600)
     rc, out = check(tmp_path, "port = 8080\nauth_file = %s\n" % bad)
     assert rc == EXIT_CONFIG
     assert "FILE:5: [http] auth_file %s:3: not a crypt(3) hash" % bad in out
+    # a password file or TLS key others may read is refused, with the line
+    (tmp_path / "open_users").write_text(users.read_text())
+    (tmp_path / "open_users").chmod(0o644)
+    rc, out = check(tmp_path, "port = 8080\nauth_file = %s\n" % (tmp_path / "open_users"))
+    assert rc == EXIT_CONFIG
+    assert "FILE:5: [http] auth_file %s is readable or writable by other users (mode 0644)" \
+        % (tmp_path / "open_users") in out
+    (tmp_path / "open.key").write_text(key.read_text())
+    (tmp_path / "open.key").chmod(0o640)
+    rc, out = check(tmp_path, "tls_cert = %s\ntls_key = %s\n" % (crt, tmp_path / "open.key"))
+    assert rc == EXIT_CONFIG and "FILE:5: [http] tls_key" in out and "by its group" in out
+    # a weak or unbounded hash: the line, and what to use instead
+    weak = tmp_path / "weak_users"
+    weak.write_text("admin:$1$uvQIcxeK$G9TGyFsvmD3mp.nhbWyis.\n")
+    weak.chmod(0o600)
+    rc, out = check(tmp_path, "port = 8080\nauth_file = %s\n" % weak)
+    assert rc == EXIT_CONFIG and "FILE:5: [http] auth_file %s:1: an MD5 hash" % weak in out
+    weak.write_text("admin:$6$rounds=999999999$abcdefgh$x5ue8x8ebAkvbD9dK\n")
+    rc, out = check(tmp_path, "port = 8080\nauth_file = %s\n" % weak)
+    assert rc == EXIT_CONFIG and "more than 100000 rounds" in out
+    # the TLS priority string is tried
+    rc, out = check(tmp_path, "tls_cert = %s\ntls_key = %s\ntls_priorities = NOPE:+X\n"
+                    % (crt, key))
+    assert rc == EXIT_CONFIG and "tls_priorities NOPE:+X" in out, out
+    assert check(tmp_path, "tls_cert = %s\ntls_key = %s\ntls_priorities = SECURE256\n"
+                 % (crt, key))[0] == 0
     rc, out = check(tmp_path, "allow = 10.0.0.1/8\n")
     assert rc == EXIT_CONFIG and "FILE:4: allow '10.0.0.1/8' invalid: host bits set" in out
     rc, out = check(tmp_path, "port = 502\n")

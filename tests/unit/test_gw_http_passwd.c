@@ -76,6 +76,41 @@ static void test_refused(void **state)
     assert_non_null(strstr(why, "NUL"));
 }
 
+/* The hash policy: broken kinds and costs that would hold a login for
+ * long are refused with what to use instead; the defaults of mkpasswd
+ * and openssl pass, and so do costs up to the bounds. */
+static void test_policy(void **state)
+{
+    unsigned line;
+    char why[200];
+    (void)state;
+    expect_refused("admin:$1$uvQIcxeK$G9TGyFsvmD3mp.nhbWyis.\n", 1, "MD5 hash ($1$): broken");
+    expect_refused("admin:$1$uvQIcxeK$G9TGyFsvmD3mp.nhbWyis.\n", 1, "mkpasswd -m yescrypt");
+    expect_refused("admin:$3$$8846f7eaee8fb117ad06bdd830b7586c\n", 1, "not one the console accepts");
+    expect_refused("admin:$md5$rounds=9$abcdefgh$x\n", 1, "not one the console accepts");
+    expect_refused("admin:$6$rounds=999999999$abcdefgh$x5ue8x8ebAkvbD9dK\n", 1,
+                   "more than 100000 rounds");
+    expect_refused("admin:$5$rounds=100001$abcdefgh$x5ue8x8ebAkvbD9dK\n", 1, "at most rounds=100000");
+    expect_refused("admin:$6$rounds=99999999999999999999999$ab$x5ue8x8ebAkvbD9dK\n", 1,
+                   "more than 100000 rounds");
+    expect_refused("admin:$2b$31$abcdefghijklmnopqrstuuvKFO6LV7gEhMK8RwhoBVR8VG5GulpU.\n", 1,
+                   "bcrypt cost 31");
+    expect_refused("admin:$2b$13$abcdefghijklmnopqrstuuvKFO6LV7gEhMK8RwhoBVR8VG5GulpU.\n", 1,
+                   "at most 12");
+    expect_refused("admin:$y$jDT$Zu7hVq4yGcsyZ0EQ7oP5H.$TOyP6LmcJhEZC6XK.1.E8Co1fhDMsHvkpkOpFupgtX9\n",
+                   1, "N=2^16 and r=32 needs more than 64 MiB");
+    expect_refused("admin:$y$j9T1$Zu7hVq4yGcsyZ0EQ7oP5H.$TOyP6LmcJhEZC6XK.1.E8Co1fhDMsHvkpkOpFupgtX9\n",
+                   1, "beyond N and r");
+    expect_refused("a:" SHA512 "\nb:$1$uvQIcxeK$G9TGyFsvmD3mp.nhbWyis.\n", 2, "MD5");
+    /* up to the bounds */
+    assert_true(parse("a:$6$rounds=100000$abcdefgh$x5ue8x8ebAkvbD9dK/v62FosX0uTCy8ci8OPN6cy1vP6L\n"
+                      "b:$2b$12$abcdefghijklmnopqrstuuvKFO6LV7gEhMK8RwhoBVR8VG5GulpU.\n"
+                      "c:$y$jBT$Zu7hVq4yGcsyZ0EQ7oP5H.$l2Ccp8S1WE/Pc8ly7ADanHHzhGBBq1Ns62YeF7lY9y5\n"
+                      "d:$5$abcdefgh$x5ue8x8ebAkvbD9dK/v62FosX0uTCy8ci8OPN6cy1vP6L\n",
+                      &line, why));
+    assert_int_equal(U.count, 4);
+}
+
 static void test_limits(void **state)
 {
     static char text[GW_HTTP_USERS_MAX * 200 + 400];
@@ -119,6 +154,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_good),
         cmocka_unit_test(test_refused),
+        cmocka_unit_test(test_policy),
         cmocka_unit_test(test_limits),
         cmocka_unit_test(test_load),
     };

@@ -5,7 +5,9 @@
  * GW_LOG_RING (200) of them, the oldest first, the oldest dropped when it
  * wraps; lines the level filters out are not kept; a held-back count ends
  * the kept line as it ends the printed one; gw_http_log_json writes them
- * as a JSON array with the time in UTC and the text escaped.
+ * as a JSON array with the time in UTC and the text escaped; control
+ * characters from outside (a user name with "\n<0>...") are escaped in
+ * the line itself, which stays one line.
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -15,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 #include <cmocka.h>
 
 #include "core/log.h"
@@ -72,6 +75,43 @@ static void test_wrap_and_order(void **state)
     assert_int_equal(gw_log_ring_total(), before + 450);
 }
 
+/* Text from outside with a newline in it (a user name "x\n<0>forged"):
+ * one line, the control characters escaped, in the journal's stream as
+ * in the ring; no second line that the journal would read as an
+ * emergency. */
+static void test_control_characters_escaped(void **state)
+{
+    (void)state;
+    char path[] = "/tmp/test_gw_log_ring.XXXXXX";
+    int fd = mkstemp(path);
+    assert_true(fd >= 0);
+    fflush(stderr);
+    int saved = dup(2);
+    assert_true(dup2(fd, 2) == 2);
+    setenv("JOURNAL_STREAM", "8:1", 1);
+    gw_log(GW_LOG_INFO, "http: login refused for user %s", "x\n<0>forged emergency\r\x1b[2J\x7f");
+    fflush(stderr);
+    unsetenv("JOURNAL_STREAM");
+    assert_true(dup2(saved, 2) == 2);
+    close(saved);
+    char out[512] = "";
+    FILE *f = fdopen(fd, "r");
+    assert_non_null(f);
+    rewind(f);
+    size_t n = fread(out, 1, sizeof out - 1, f);
+    out[n] = '\0';
+    fclose(f);
+    remove(path);
+    assert_string_equal(out, "<6>http: login refused for user x\\x0a<0>forged emergency\\x0d"
+                             "\\x1b[2J\\x7f\n");
+    seen_t s = ring();
+    assert_string_equal(s.last, "http: login refused for user x\\x0a<0>forged emergency\\x0d"
+                                "\\x1b[2J\\x7f");
+    char esc[8];
+    assert_int_equal(gw_log_escape(esc, 7, "ab\ncd", 5), 6); /* cut to fit */
+    assert_string_equal(esc, "ab\\x0a");
+}
+
 static void test_level_filtered(void **state)
 {
     (void)state;
@@ -107,7 +147,7 @@ static void test_json(void **state)
     gw_http_log_json(&j);
     assert_false(j.full);
     assert_true(buf[0] == '[' && buf[j.len - 1] == ']');
-    assert_non_null(strstr(buf, "\"level\":\"warning\",\"text\":\"robot \\\"r0\\\": link down\\u0009now\"}]"));
+    assert_non_null(strstr(buf, "\"level\":\"warning\",\"text\":\"robot \\\"r0\\\": link down\\\\x09now\"}]"));
     assert_non_null(strstr(buf, "[{\"time\":\"20"));
     assert_non_null(strstr(buf, "Z\",\"level\":\"info\",\"text\":\"filler 1\"}"));
     assert_null(strstr(buf, "\"filler 0\"")); /* 201 lines: the first left the ring */
@@ -155,6 +195,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_wrap_and_order),
+        cmocka_unit_test(test_control_characters_escaped),
         cmocka_unit_test(test_level_filtered),
         cmocka_unit_test(test_long_line_cut),
         cmocka_unit_test(test_json),
