@@ -30,9 +30,10 @@ FUZZ_REPLAY_BIN    := $(FUZZ_TARGETS:%=$(B)/fuzz-replay/fuzz_%)
 # into objects of their own here (instrumented) and taken from the plain
 # build for the replay programs, and libraries (FUZZ_LIBS_T).
 # The register map and what it needs: the robot's images, the user's map
-# (its views' names) and the JSON text of the console's map.
+# (its views' names), the JSON text of the console's map, and the one
+# write path (core/write.c) with the log it writes to.
 FUZZ_REGMAP_SRC      := gateway/modbus/regmap.c gateway/modbus/usermap.c gateway/core/robot.c \
-                        gateway/core/json.c
+                        gateway/core/json.c gateway/core/write.c gateway/core/log.c common/ev.c
 FUZZ_SRC_modbus      := gateway/modbus/mbproto.c $(FUZZ_REGMAP_SRC)
 FUZZ_LIBS_modbus     := $(MODBUS_LIBS)
 FUZZ_SRC_rtu         := gateway/modbus/mbproto.c $(FUZZ_REGMAP_SRC)
