@@ -198,7 +198,7 @@ static void check_read_back(const gw_mb_result_t *w)
                        w->area == GW_COILS ? 0x01 : 0x03,
                        (uint8_t)(w->addr >> 8), (uint8_t)w->addr,
                        (uint8_t)(w->count >> 8), (uint8_t)w->count};
-    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_TCP, NULL, NULL, NULL};
     /* Writes take at most 1968 bits or 123 registers: one read covers them. */
     FUZZ_CHECK(gw_mbs_decide(adu, sizeof adu, &env, &back) == 0);
     for (uint16_t i = 0; i < w->count; i++) {
@@ -304,7 +304,7 @@ static void request(const uint8_t *adu, size_t len)
     static gw_robot_t before_r[UNITS];
     memcpy(before, units, sizeof units);
     memcpy(before_r, robots, sizeof robots);
-    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_TCP, NULL, NULL, NULL};
     asked = told = 0;
     int ex = gw_mbs_decide(adu, len, &env, &res);
     uint8_t fc = adu[GW_MBAP_LEN];
@@ -373,7 +373,7 @@ static void request(const uint8_t *adu, size_t len)
         uint16_t rv[MODBUS_MAX_WR_READ_REGISTERS];
         uint16_t rn = res.rcount;
         memcpy(rv, res.rvalues, sizeof rv);
-        const gw_mb_env_t env2 = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+        const gw_mb_env_t env2 = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_TCP, NULL, NULL, NULL};
         FUZZ_CHECK(gw_mbs_decide(rd, sizeof rd, &env2, &back) == 0 && back.count == rn &&
                    memcmp(back.values, rv, rn * sizeof rv[0]) == 0);
     }
