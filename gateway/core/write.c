@@ -8,7 +8,7 @@ void gw_write_policy_set(gw_robot_t *r, const gw_config_t *cfg, unsigned index)
 {
     gw_write_policy_t *p = &r->write_policy;
     memset(p, 0, sizeof *p);
-    p->single_writer = cfg->modbus.single_writer;
+    p->one_owner = cfg->modbus.single_writer;
     for (unsigned i = 0; i < cfg->gpio_count && p->gpio_in_count < GW_MAX_GPIO; i++)
         if (cfg->gpio[i].dir == GW_GPIO_INPUT && cfg->gpio[i].robot_index == index)
             p->gpio_in[p->gpio_in_count++] = cfg->gpio[i].field;
@@ -20,7 +20,7 @@ gw_write_status_t gw_write_allowed(const gw_robot_t *r, const gw_write_origin_t 
         return GW_WRITE_OK; /* the wiring: its own bits, not a client */
     if (!o->may_write)
         return GW_WRITE_RIGHTS;
-    if (r->write_policy.single_writer &&
+    if (r->write_policy.one_owner &&
         (o->side == GW_ORIGIN_MQTT || o->side == GW_ORIGIN_SPARKPLUG ||
          (o->side == GW_ORIGIN_MODBUS_TCP && !o->owner)))
         return GW_WRITE_SINGLE;

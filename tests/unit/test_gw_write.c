@@ -146,7 +146,7 @@ static void test_rights(void **state)
 static void test_single_writer(void **state)
 {
     (void)state;
-    R.write_policy.single_writer = true;
+    R.write_policy.one_owner = true;
     gw_write_item_t it = item("int_in[2]", dr_value_int(7));
     static const gw_write_status_t owner[NSIDES] = {GW_WRITE_OK, GW_WRITE_OK, GW_WRITE_SINGLE,
                                                     GW_WRITE_SINGLE, GW_WRITE_OK};
@@ -157,7 +157,7 @@ static void test_single_writer(void **state)
     gw_write_origin_t other = origin(GW_ORIGIN_MODBUS_TCP);
     other.owner = false;
     assert_int_equal(gw_robot_write(&R, &it, 1, &other, NULL), GW_WRITE_SINGLE);
-    R.write_policy.single_writer = false;
+    R.write_policy.one_owner = false;
     assert_int_equal(gw_robot_write(&R, &it, 1, &other, NULL), GW_WRITE_OK);
 }
 
@@ -296,7 +296,7 @@ static void test_policy_from_config(void **state)
     c.gpio[1].robot_index = 1;
     c.gpio[1].field = ref("bit_in[2]");
     gw_write_policy_set(&R, &c, 0);
-    assert_true(R.write_policy.single_writer);
+    assert_true(R.write_policy.one_owner);
     assert_int_equal(R.write_policy.gpio_in_count, 1);
     assert_ptr_equal(R.write_policy.gpio_in[0].field, ref("bit_in[1]").field);
     assert_int_equal(R.write_policy.gpio_in[0].elem, 1);
