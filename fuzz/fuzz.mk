@@ -30,9 +30,11 @@ FUZZ_REPLAY_BIN    := $(FUZZ_TARGETS:%=$(B)/fuzz-replay/fuzz_%)
 # into objects of their own here (instrumented) and taken from the plain
 # build for the replay programs, and libraries (FUZZ_LIBS_T).
 # The register map and what it needs: the robot's images, the user's map
-# (its views' names) and the JSON text of the console's map.
+# (its views' names), the JSON text of the console's map, and the one
+# write path (core/write.c) with a log that formats and does not print
+# (fuzz/log_stub.c).
 FUZZ_REGMAP_SRC      := gateway/modbus/regmap.c gateway/modbus/usermap.c gateway/core/robot.c \
-                        gateway/core/json.c
+                        gateway/core/json.c gateway/core/write.c fuzz/log_stub.c
 FUZZ_SRC_modbus      := gateway/modbus/mbproto.c $(FUZZ_REGMAP_SRC)
 FUZZ_LIBS_modbus     := $(MODBUS_LIBS)
 FUZZ_SRC_rtu         := gateway/modbus/mbproto.c $(FUZZ_REGMAP_SRC)
@@ -69,6 +71,10 @@ $(FUZZ_DIR)/obj/%.o: %.c $(FUZZ_DIR)/obj/%.d fuzz/coverage-ignore.txt
 	@mkdir -p $(dir $@)
 	$(FUZZ_CC) $(FUZZ_CPPFLAGS) $(WARN) -fsanitize=fuzzer-no-link,address,undefined \
 	    $(FUZZ_SAN) $(DEPFLAGS) -c $< -o $@
+
+$(B)/fuzz/log_stub.o: fuzz/log_stub.c $(B)/fuzz/log_stub.d
+	@mkdir -p $(dir $@)
+	$(CC) $(FUZZ_CPPFLAGS) $(ALL_CFLAGS) $(DEPFLAGS) -c $< -o $@
 
 $(B)/fuzz-replay/standalone.o: fuzz/standalone.c $(B)/fuzz-replay/standalone.d
 	@mkdir -p $(dir $@)

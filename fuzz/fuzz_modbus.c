@@ -159,19 +159,23 @@ static void check_write_effect(const gw_unit_t *before, const gw_unit_t *after,
     FUZZ_CHECK(r->dirty >> DR_ASM_COUNT == 0);
     /* The robot's link facts, name and the rest: only images are written
      * back to it (the images come first). */
+    static gw_robot_t rx; /* ra, but the latch a reset cleared */
+    rx = *ra;
+    if (r->reset)
+        rx.fault = rb->fault;
     FUZZ_CHECK(same_bytes((const uint8_t *)rb + sizeof rb->img,
-                          (const uint8_t *)ra + sizeof ra->img, sizeof *rb - sizeof rb->img));
+                          (const uint8_t *)&rx + sizeof rx.img, sizeof *rb - sizeof rb->img));
     /* Member by member: *u = tmp need not copy the padding. */
     const gw_status_t *x = &before->status, *y = &after->status;
     FUZZ_CHECK(x->exceptions == y->exceptions && x->clients == y->clients &&
-               (x->write_fault == y->write_fault || r->reset) &&
+               (rb->fault == ra->fault || r->reset) &&
                x->writer_present == y->writer_present &&
                x->rtu_dropped == y->rtu_dropped && x->rtu_other == y->rtu_other);
     FUZZ_CHECK(before->order == after->order && before->on_loss == after->on_loss &&
                before->robot == after->robot);
     /* A bit a GPIO input drives is the input's. */
-    for (unsigned i = 0; i < before->gpio_in_count; i++) {
-        dr_ref_t g = before->gpio_in[i];
+    for (unsigned i = 0; i < rb->write_policy.gpio_in_count; i++) {
+        dr_ref_t g = rb->write_policy.gpio_in[i];
         size_t size = dr_asm_info((dr_asm_t)g.field->assembly)->size;
         dr_value_t x0, x1;
         FUZZ_CHECK(dr_field_get(rb->img[g.field->assembly], size, g, &x0) == DR_OK &&
@@ -194,7 +198,7 @@ static void check_read_back(const gw_mb_result_t *w)
                        w->area == GW_COILS ? 0x01 : 0x03,
                        (uint8_t)(w->addr >> 8), (uint8_t)w->addr,
                        (uint8_t)(w->count >> 8), (uint8_t)w->count};
-    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_TCP, NULL, NULL, NULL};
     /* Writes take at most 1968 bits or 123 registers: one read covers them. */
     FUZZ_CHECK(gw_mbs_decide(adu, sizeof adu, &env, &back) == 0);
     for (uint16_t i = 0; i < w->count; i++) {
@@ -300,7 +304,7 @@ static void request(const uint8_t *adu, size_t len)
     static gw_robot_t before_r[UNITS];
     memcpy(before, units, sizeof units);
     memcpy(before_r, robots, sizeof robots);
-    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_TCP, NULL, NULL, NULL};
     asked = told = 0;
     int ex = gw_mbs_decide(adu, len, &env, &res);
     uint8_t fc = adu[GW_MBAP_LEN];
@@ -310,20 +314,20 @@ static void request(const uint8_t *adu, size_t len)
                ex == GW_EX_ILLEGAL_VALUE || ex == 0x0A || ex == GW_EX_TARGET_FAILED ||
                ex == GW_EX_DEVICE_FAILURE);
     FUZZ_CHECK(told == (ex == 0 && is_write_fc(fc)));
-    bool latched = u != NULL && before[u - units].status.write_fault;
+    bool latched = u != NULL && before_r[u - units].fault;
     FUZZ_CHECK(res.reset == (latched && ex == 0 && is_write_fc(fc)));
     if (ex == GW_EX_DEVICE_FAILURE)
         FUZZ_CHECK(is_write_fc(fc) && latched);
     if (res.reset) {
         /* Only the reset passes a latched fault, and it clears it. */
-        FUZZ_CHECK(!u->status.write_fault && res.area == GW_HOLDING &&
+        FUZZ_CHECK(!u->robot->fault && res.area == GW_HOLDING &&
                    res.addr <= GW_HR_FAULT_RESET &&
                    (uint32_t)res.addr + res.count == GW_HR_FAULT_RESET + 1u &&
                    res.values[GW_HR_FAULT_RESET - res.addr] == 1);
     }
     FUZZ_CHECK(res.unit_id == adu[6] && res.fc == fc && res.unit == u);
     FUZZ_CHECK((ex == 0x0A) == (u == NULL));
-    FUZZ_CHECK(asked == (u != NULL && is_write_fc(fc)));
+    FUZZ_CHECK((asked > 0) == (u != NULL && is_write_fc(fc))); /* asked for writes only */
     if (u != NULL && !is_read_fc(fc) && !is_write_fc(fc) && fc != 0x2B)
         FUZZ_CHECK(ex == GW_EX_ILLEGAL_FUNCTION);
     if (ex == 0 && fc == 0x2B)
@@ -369,7 +373,7 @@ static void request(const uint8_t *adu, size_t len)
         uint16_t rv[MODBUS_MAX_WR_READ_REGISTERS];
         uint16_t rn = res.rcount;
         memcpy(rv, res.rvalues, sizeof rv);
-        const gw_mb_env_t env2 = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+        const gw_mb_env_t env2 = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_TCP, NULL, NULL, NULL};
         FUZZ_CHECK(gw_mbs_decide(rd, sizeof rd, &env2, &back) == 0 && back.count == rn &&
                    memcmp(back.values, rv, rn * sizeof rv[0]) == 0);
     }
@@ -405,9 +409,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (data[1] & 0x40u) {
             static const char *const owned[] = {"bit_in[3]", "io_control.cb_do[1]"};
             for (unsigned j = 0; j < 2; j++)
-                FUZZ_CHECK(dr_path_parse(owned[j], &u->gpio_in[u->gpio_in_count++]) == DR_OK);
+                FUZZ_CHECK(dr_path_parse(owned[j],
+                                         &u->robot->write_policy
+                                              .gpio_in[u->robot->write_policy.gpio_in_count++]) ==
+                           DR_OK);
         }
-        u->status.write_fault = (data[1] & 0x80u) != 0;
+        u->robot->fault = (data[1] & 0x80u) != 0;
         memcpy(u->robot->name, i == 0 ? "arm1" : "arm2", sizeof "arm1");
         u->robot->link.link_state = (flags & 0x10u) ? 2 : 0;
         u->robot->link.fresh = (flags & 0x10u) != 0;

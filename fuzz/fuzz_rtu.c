@@ -50,7 +50,7 @@ static void wrote(void *client)
 static void answer(const uint8_t *frame, size_t n)
 {
     static gw_mb_result_t res;
-    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7"};
+    const gw_mb_env_t env = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_RTU, NULL, NULL, NULL};
     if (unit_for(NULL, frame[0]) == NULL)
         return; /* another slave's, or a broadcast: no reply */
     int ex = gw_mb_handle(frame[0], frame + 1, n - 3, &env, &res);

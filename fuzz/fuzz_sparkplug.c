@@ -70,17 +70,25 @@ static bool io_room(void *user)
     return true;
 }
 
-/* The gateway's checks in short: the codec's (O->T only, range). */
-static bool io_write(void *user, unsigned robot, dr_ref_t ref, const dr_value_t *v, char *why,
-                     size_t whylen)
+/* The gateway's checks in short: the codec's (O->T only, range), on the
+ * whole command (decoded first: every item passed the codec's checks). */
+static bool io_write(void *user, unsigned robot, const gw_write_item_t *items, unsigned n,
+                     gw_write_result_t *res, char *why, size_t whylen)
 {
     (void)user;
     FUZZ_CHECK(robot == 0);
-    FUZZ_CHECK(dr_asm_info((dr_asm_t)ref.field->assembly)->dir == DR_DIR_O2T);
-    FUZZ_CHECK(dr_value_check(ref, v, DR_SET_O2T_ONLY) == DR_OK);
-    dr_asm_t a = (dr_asm_t)ref.field->assembly;
-    dr_status_t st = dr_field_set(R[0].img[a], dr_asm_info(a)->size, ref, v, DR_SET_O2T_ONLY);
-    FUZZ_CHECK(st == DR_OK);
+    FUZZ_CHECK(n >= 1 && n <= SPB_CMD_MAX);
+    memset(res, 0, sizeof *res);
+    for (unsigned i = 0; i < n; i++) {
+        dr_ref_t ref = items[i].ref;
+        dr_asm_t a = (dr_asm_t)ref.field->assembly;
+        FUZZ_CHECK(dr_asm_info(a)->dir == DR_DIR_O2T);
+        FUZZ_CHECK(dr_value_check(ref, &items[i].value, DR_SET_O2T_ONLY) == DR_OK);
+        dr_status_t st = dr_field_set(R[0].img[a], dr_asm_info(a)->size, ref, &items[i].value,
+                                      DR_SET_O2T_ONLY);
+        FUZZ_CHECK(st == DR_OK);
+        res->dirty |= 1u << a;
+    }
     snprintf(why, whylen, "ok");
     writes++;
     return true;

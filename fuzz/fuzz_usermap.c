@@ -70,8 +70,8 @@ static void serve(void)
         if (e->table != GW_UMAP_HR && e->table != GW_UMAP_CO)
             continue;
         gw_robot_t before = R;
-        unsigned dirty = 0;
-        int ex = gw_regmap_write(&U, (gw_area_t)e->table, e->addr, n, v, &dirty);
+        gw_write_result_t wres;
+        int ex = gw_regmap_write(&U, (gw_area_t)e->table, e->addr, n, v, NULL, &wres);
         if (!e->writable)
             FUZZ_CHECK(ex == GW_EX_ILLEGAL_ADDRESS);
         /* a value read back writes the same image (an INT16 view of a

@@ -35,11 +35,7 @@
 
 #include "core/config.h"
 
-#if defined(__GNUC__)
-#define GW_PRINTF(f, a) __attribute__((format(printf, f, a)))
-#else
-#define GW_PRINTF(f, a)
-#endif
+#include "core/log.h" /* GW_PRINTF */
 
 #define GW_CFG_COUNT(a) (sizeof(a) / sizeof((a)[0]))
 

@@ -22,6 +22,7 @@
 #include "core/report.h"
 #include "modbus/regmap.h" /* --print-map and --print-errors only */
 #include "core/robot.h"
+#include "core/write.h"
 
 #ifndef DRGATE_VERSION
 #define DRGATE_VERSION "0.0.0"
@@ -238,6 +239,7 @@ static void init_robots(gw_t *g)
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         gw_robot_init(&g->robots[r], g->cfg.robot[r].name, ++g->serial);
         g->robots[r].generation = g->generation;
+        gw_write_policy_set(&g->robots[r], &g->cfg, r);
     }
 }
 
@@ -383,6 +385,7 @@ static void reload(gw_t *g)
         gw_log_ring_keep(true); /* a console from now on: its log starts here */
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         g->robots[r].generation = g->generation;
+        gw_write_policy_set(&g->robots[r], &g->cfg, r);
         g->links[r] = links[r];
         gw_link_set_robot(links[r], r, &g->robots[r]);
     }

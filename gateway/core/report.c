@@ -149,20 +149,3 @@ void gw_lag_metrics(gw_prom_t *m, const gw_lag_t *l)
     gw_prom_one(m, "drgate_loop_lag_max_seconds", GW_PROM_GAUGE,
                 "The largest lag of the loop since the daemon started", (double)l->max_us / 1e6);
 }
-
-void gw_write_log(const gw_robot_t *r, gw_log_limit_t *limit)
-{
-    char fields[GW_WRITE_FIELDS * (GW_WRITE_PATH + 2) + 32];
-    gw_robot_write_fields_text(r, fields, sizeof fields);
-    limit->window_ms = GW_WRITE_LOG_MS;
-    gw_log_limited(GW_LOG_INFO, limit, "robot %s: write by %s: %s", r->name,
-                   r->last_write.client, fields);
-}
-
-void gw_write_accepted(gw_robot_t *r, gw_log_limit_t *limit, const char *client,
-                       const char *path)
-{
-    gw_robot_wrote(r, client);
-    gw_robot_write_field(r, path);
-    gw_write_log(r, limit);
-}

@@ -34,15 +34,6 @@ void gw_lag_observe(gw_lag_t *l, uint64_t late_us);
 /* drgate_loop_lag_seconds (histogram) and drgate_loop_lag_max_seconds. */
 void gw_lag_metrics(gw_prom_t *m, const gw_lag_t *l);
 
-/* Writes are logged: a side that accepted a write to robot r (and set
- * its last_write: gw_robot_wrote, gw_robot_write_field) logs it at info,
- * "robot R: write by CLIENT: FIELDS", at most one line per second per
- * client (`limit`, the client's own: the writes held back in between are
- * counted, gw_log_limited). */
-#define GW_WRITE_LOG_MS 1000u
-void gw_write_log(const gw_robot_t *r, gw_log_limit_t *limit);
-/* A write of one field (MQTT): last_write set, and logged as above. */
-void gw_write_accepted(gw_robot_t *r, gw_log_limit_t *limit, const char *client,
-                       const char *path);
+/* Writes are logged by the one write path: gw_write_log (core/write.h). */
 
 #endif /* DRGATE_GW_REPORT_H */

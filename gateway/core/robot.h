@@ -85,6 +85,14 @@ typedef struct {
     char fields[GW_WRITE_FIELDS][GW_WRITE_PATH];
 } gw_robot_write_t;
 
+/* What the one write path (core/write.h) needs of the configuration for
+ * this robot: set by gw_write_policy_set() at start and at each reload. */
+typedef struct {
+    bool one_owner; /* the outputs have one owner: single-writer mode */
+    unsigned gpio_in_count;
+    dr_ref_t gpio_in[GW_MAX_GPIO]; /* the O->T bits its GPIO inputs drive */
+} gw_write_policy_t;
+
 typedef struct {
     uint8_t img[DR_ASM_COUNT][DR_ASM_MAX_SIZE]; /* wire images, both ways */
     char name[GW_NAME_MAX];
@@ -109,9 +117,12 @@ typedef struct {
     bool clear_while_down;
     /* A fault latched for this robot by a side (the Modbus single writer's
      * watchdog) and told to every side (north.h: env->fault): the daemon
-     * keeps it here so that a side that starts or reloads later, and
-     * MQTT's write checks, know it. */
+     * keeps it here so that a side that starts or reloads later knows it,
+     * and the write path (core/write.h) refuses writes while it is set
+     * (a reset clears it at once; the other sides hear it at the next
+     * turn). Modbus's status block shows it (write_fault). */
     bool fault;
+    gw_write_policy_t write_policy;
     /* The daemon's, shown with the robot (refreshed ten times a second):
      * +1 every second, seconds since start, configuration generation. */
     uint16_t heartbeat;
@@ -179,9 +190,9 @@ void gw_robot_link_down(gw_robot_t *r);
  * is down with clear_while_down.) */
 bool gw_robot_takes_data(const gw_robot_t *r, bool link_up);
 
-/* A side accepted a write from `client` to the robot: last_write holds
- * it (its time now); add its fields with gw_robot_write_field(). Logging
- * the write is the caller's (gw_write_log: rate-limited per client). */
+/* A write from `client` was accepted (core/write.c, the one write path,
+ * calls these): last_write holds it (its time now); its fields are added
+ * with gw_robot_write_field(). */
 void gw_robot_wrote(gw_robot_t *r, const char *client);
 /* One more field of that write (a path already there is not repeated). */
 void gw_robot_write_field(gw_robot_t *r, const char *path);

@@ -9,6 +9,7 @@
 #include "common/ev.h"
 #include "gpio/gpio.h"
 #include "gpio/gpiomap.h"
+#include "core/write.h"
 #include "core/log.h"
 
 #define MAX_CHIPS 8
@@ -489,13 +490,17 @@ void gw_gpiomap_safe_all(gw_gpiomap_t *m)
 
 /* ---- inputs ----------------------------------------------------------------- */
 
-/* Inputs: the debounced values into their O->T bits. */
+/* Inputs: the debounced values into their O->T bits, each line its own
+ * write through the one write path (core/write.h: direction, plan, range;
+ * the single writer and the fault latch are the clients', not the
+ * wiring's; a line the path refuses does not hold the others back). */
 static void poll_inputs(gw_gpiomap_t *m, uint64_t now_ns)
 {
+    static const gw_write_origin_t gpio = {GW_ORIGIN_GPIO, "gpio", true, false, false, NULL};
     unsigned dirty[GW_MAX_ROBOTS] = {0};
     for (unsigned i = 0; i < m->nlines; i++) {
         line_t *l = m->lines[i];
-        if (l->cfg->dir != GW_GPIO_INPUT || l->req == NULL)
+        if (l->cfg->dir != GW_GPIO_INPUT || l->req == NULL || l->robot >= GW_MAX_ROBOTS)
             continue;
         int v;
         gw_gpio_error_t e;
@@ -503,13 +508,13 @@ static void poll_inputs(gw_gpiomap_t *m, uint64_t now_ns)
             gw_log_limited(GW_LOG_ERROR, &m->log_limit, "gpio %s: %s", l->cfg->name, e.msg);
             continue;
         }
-        const dr_field_t *f = l->cfg->field.field;
-        uint8_t *img = m->robots[l->robot].img[f->assembly];
-        size_t size = dr_asm_info((dr_asm_t)f->assembly)->size;
-        dr_value_t cur, nv = dr_value_uint((uint64_t)v);
-        if (dr_field_get(img, size, l->cfg->field, &cur) == DR_OK && cur.u != (uint64_t)v &&
-            dr_field_set(img, size, l->cfg->field, &nv, DR_SET_O2T_ONLY) == DR_OK)
-            dirty[l->robot] |= 1u << f->assembly;
+        dr_value_t cur;
+        gw_write_item_t item = {l->cfg->field, dr_value_uint((uint64_t)v), 0};
+        gw_write_result_t res;
+        if (gw_robot_get(&m->robots[l->robot], l->cfg->field, &cur) == DR_OK &&
+            cur.u != (uint64_t)v &&
+            gw_robot_write(&m->robots[l->robot], &item, 1, &gpio, &res) == GW_WRITE_OK)
+            dirty[l->robot] |= res.dirty;
     }
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         if (dirty[r] != 0 && m->hooks.on_input != NULL)

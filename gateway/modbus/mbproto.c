@@ -88,31 +88,56 @@ static bool is_fault_reset(gw_area_t area, uint16_t addr, uint16_t count, const 
            (uint32_t)addr + count <= GW_HR_FAULT_RESET + 1u && v[GW_HR_FAULT_RESET - addr] == 1;
 }
 
-/* A latched write fault lets only the reset through. */
-static int latch_check(const gw_unit_t *u, const gw_mb_result_t *r)
+/* The write path's origin for this request (the reset: see above). */
+static gw_write_origin_t origin(const gw_mb_env_t *env, const gw_mb_result_t *r)
 {
-    if (u->status.write_fault && !is_fault_reset(r->area, r->addr, r->count, r->values))
-        return GW_EX_DEVICE_FAILURE;
+    gw_write_origin_t o = {env->side, env->who, env->may_write(env->client),
+                           env->owner == NULL || env->owner(env->client), false, env->log};
+    o.reset = r->count > 0 && is_fault_reset(r->area, r->addr, r->count, r->values);
+    return o;
+}
+
+/* The rules of the write path that come before a request is parsed: the
+ * client's right and the single writer (0x01). */
+static int rights_check(const gw_unit_t *u, const gw_mb_env_t *env, gw_mb_result_t *r)
+{
+    gw_write_origin_t o = origin(env, r);
+    gw_write_status_t st = gw_write_allowed(u->robot, &o);
+    if (st == GW_WRITE_RIGHTS || st == GW_WRITE_SINGLE) {
+        r->wr.status = st;
+        return GW_EX_ILLEGAL_FUNCTION;
+    }
     return 0;
 }
 
-/* Check a decoded write against the fault latch, apply it, and tell the
- * server it was applied. */
+/* The latch, once the request is parsed: only the reset gets through
+ * (0x04), before the register map's checks. */
+static int latch_check(const gw_unit_t *u, const gw_mb_env_t *env, gw_mb_result_t *r)
+{
+    gw_write_origin_t o = origin(env, r);
+    if (gw_write_allowed(u->robot, &o) == GW_WRITE_FAULT) {
+        r->wr.status = GW_WRITE_FAULT;
+        return GW_EX_DEVICE_FAILURE;
+    }
+    return 0;
+}
+
+/* Decode the write into the robot's fields and hand it to the write path
+ * (gw_regmap_write), and tell the server it was applied. */
 static int apply_write(gw_unit_t *u, const gw_mb_env_t *env, gw_mb_result_t *r)
 {
-    bool reset = is_fault_reset(r->area, r->addr, r->count, r->values);
-    if (latch_check(u, r) != 0)
-        return GW_EX_DEVICE_FAILURE;
-    int ex = gw_regmap_write(u, r->area, r->addr, r->count, r->values, &r->dirty);
+    int ex = latch_check(u, env, r);
     if (ex != 0)
         return ex;
-    if (reset && u->status.write_fault) {
-        /* Cleared at once: a request pipelined behind the reset is not
-         * refused; the daemon puts the GPIO outputs back at its next turn
-         * (u->fault_reset). */
-        u->status.write_fault = false;
-        r->reset = true;
-    }
+    gw_write_origin_t o = origin(env, r);
+    ex = gw_regmap_write(u, r->area, r->addr, r->count, r->values, &o, &r->wr);
+    if (ex != 0)
+        return ex;
+    r->dirty = r->wr.dirty;
+    /* Cleared at once by the write path: a request pipelined behind the
+     * reset is not refused; the daemon puts the GPIO outputs back at its
+     * next turn (u->fault_reset). */
+    r->reset = r->wr.reset;
     env->wrote(env->client);
     return 0;
 }
@@ -127,7 +152,7 @@ static int decide_read_write(gw_unit_t *u, const gw_mb_env_t *env, const uint8_t
 {
     r->write = true;
     r->area = GW_HOLDING;
-    if (!env->may_write(env->client))
+    if (rights_check(u, env, r) != 0)
         return GW_EX_ILLEGAL_FUNCTION;
     if (pdu_len < 10)
         return GW_EX_ILLEGAL_VALUE;
@@ -141,7 +166,7 @@ static int decide_read_write(gw_unit_t *u, const gw_mb_env_t *env, const uint8_t
         return GW_EX_ILLEGAL_VALUE;
     for (uint16_t i = 0; i < r->count; i++)
         r->values[i] = be16(pdu + 10 + 2 * i);
-    int ex = latch_check(u, r);
+    int ex = latch_check(u, env, r);
     /* The read part's answer depends only on its addresses: checked now,
      * before anything is written. */
     if (ex == 0)
@@ -294,6 +319,7 @@ static int decide(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_
     r->addr = r->count = 0;
     r->dirty = 0;
     r->reset = false;
+    memset(&r->wr, 0, sizeof r->wr);
     r->raddr = r->rcount = 0;
     r->pdu_len = 0;
 
@@ -309,7 +335,7 @@ static int decide(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_
         return GW_EX_ILLEGAL_FUNCTION;
     r->write = fi.write;
     r->area = fi.area;
-    if (fi.write && !env->may_write(env->client))
+    if (fi.write && rights_check(u, env, r) != 0)
         return GW_EX_ILLEGAL_FUNCTION; /* read-only client, or not the writer */
 
     if (!fi.write) {

@@ -11,9 +11,13 @@
  * Order of the checks, each answered with the first exception that
  * applies: no unit with the unit ID (0x0A), a function code other than
  * 01-06, 0F, 10, 17, 2B (0x01), a write from a client that may not write
- * (0x01), a malformed request or count (0x03), a write other than the
- * fault reset to a unit whose write fault is latched (0x04), then the
- * register map's own answer (0x02, 0x03, 0x0B). A write that fails any
+ * or is not the single writer (0x01), a malformed request or count
+ * (0x03), a write other than the fault reset to a unit whose write fault
+ * is latched (0x04), then the register map's own answer (0x02, 0x03,
+ * 0x0B). The write rules (the client's right, the single writer, the
+ * latch, direction, plan, GPIO bits, ranges) are the one write path's
+ * (core/write.h): the handler asks it (gw_write_allowed) in this order
+ * and the register map hands it the decoded fields. A write that fails any
  * check changes nothing; FC 23 (read/write multiple registers) checks its
  * read part before it applies its write part, so a refused FC 23 changes
  * nothing either. FC 43 / MEI 14 (read device identification) answers
@@ -43,11 +47,15 @@ typedef enum {
 /* The first ADU of the stream buf[0..len). */
 gw_mbap_t gw_mbap_frame(const uint8_t *buf, size_t len, size_t *total);
 
-/* What a request may reach: the units (robots) by unit ID, and the
- * client's right to write. may_write is asked only for a write function
- * code to a unit that exists, and changes nothing; wrote is told after a
- * write was accepted and applied (in single-writer mode that makes the
- * client the owner if there is none: a refused write never does). */
+/* What a request may reach: the units (robots) by unit ID, and who
+ * writes. may_write (the client's right: [modbus] allow rw, [modbus_rtu]
+ * read_only = no) and owner (single-writer mode: the client owns the
+ * outputs, or nobody does; NULL: yes) describe the client to the one
+ * write path (core/write.h), which holds the rules; they change nothing.
+ * wrote is told after a write was accepted and applied (in single-writer
+ * mode that makes the client the owner if there is none: a refused write
+ * never does). side, who and log: the write path's origin (who: the write
+ * log's name for the client, log: its limiter; NULL: not logged). */
 typedef struct {
     gw_unit_t *(*unit_for)(void *units, uint8_t unit_id); /* NULL: none */
     void *units;
@@ -55,6 +63,10 @@ typedef struct {
     void (*wrote)(void *client);
     void *client;
     const char *version; /* the gateway's, for FC 43 (MajorMinorRevision) */
+    gw_origin_side_t side; /* GW_ORIGIN_MODBUS_TCP or _RTU */
+    const char *who;
+    gw_log_limit_t *log;
+    bool (*owner)(void *client);
 } gw_mb_env_t;
 
 /* What gw_mbs_decide found. */
@@ -68,6 +80,7 @@ typedef struct {
     gw_area_t area;    /* valid once the function code is known */
     uint16_t addr, count;
     unsigned dirty;    /* accepted write: O->T images written (bit per assembly) */
+    gw_write_result_t wr; /* write: the write path's answer (wr.status: why refused) */
     bool reset;        /* accepted write: it cleared the unit's latched write fault */
     /* Accepted read: the registers or bits (0/1) to answer with; write:
      * the values decoded from the request. */

@@ -85,17 +85,17 @@ static void send_reply(gw_rtu_t *t, uint8_t addr)
 /* One request for `addr` (0: broadcast). */
 static void handle_one(gw_rtu_t *t, uint8_t addr, const uint8_t *pdu, size_t pdu_len)
 {
-    const gw_mb_env_t env = {line_unit, t, line_may_write, line_wrote, t, t->hooks.version};
+    char who[GW_NAME_MAX + 32];
+    snprintf(who, sizeof who, "modbus_rtu %s unit %u", t->cfg.name, t->unit_of[addr]);
+    const gw_mb_env_t env = {line_unit, t, line_may_write, line_wrote, t, t->hooks.version,
+                             GW_ORIGIN_MODBUS_RTU, who, &t->wrote_log, NULL};
     int ex = gw_mb_handle(addr, pdu, pdu_len, &env, &t->result);
     if (ex < 0)
         return;
     if (ex == 0 && t->result.write && t->result.dirty != 0)
         t->hooks.on_write(t->hooks.user, t->result.unit, t->result.dirty);
-    if (t->hooks.on_request != NULL) {
-        char who[GW_NAME_MAX + 32];
-        snprintf(who, sizeof who, "modbus_rtu %s unit %u", t->cfg.name, t->unit_of[addr]);
+    if (t->hooks.on_request != NULL)
         t->hooks.on_request(t->hooks.user, &t->result, ex, who, &t->wrote_log);
-    }
     if (t->result.reset)
         gw_log(GW_LOG_INFO, "modbus_rtu %s: the master reset the write fault of unit %u",
                t->cfg.name, t->unit_of[addr]);

@@ -199,15 +199,21 @@ static void on_accept(void *obj, uint32_t events)
 
 /* ---- requests --------------------------------------------------------------- */
 
-/* The right to write; asking changes nothing (a write refused by a later
- * check must not make its client the owner). */
+/* The right to write ([modbus] allow), and whether the client owns the
+ * outputs or nobody does (the single-writer rule is the write path's,
+ * core/write.h); asking changes nothing (a write refused by a later check
+ * must not make its client the owner). */
 static bool client_may_write(void *obj)
 {
     const client_t *cl = obj;
+    return cl->rw;
+}
+
+static bool client_owner(void *obj)
+{
+    const client_t *cl = obj;
     const gw_mbs_t *s = cl->srv;
-    if (!cl->rw)
-        return false;
-    return !s->cfg.single_writer || s->writer == NULL || s->writer == cl;
+    return s->writer == NULL || s->writer == cl;
 }
 
 /* A write of this client was applied: in single-writer mode, with no
@@ -230,8 +236,11 @@ static void client_wrote(void *obj)
  * client must be dropped. */
 static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t len)
 {
+    char client[48] = "modbus ";
+    fmt_addr(cl->addr, cl->port, client + 7, sizeof client - 7);
     const gw_mb_env_t env = {s->hooks.unit_for, s->hooks.user, client_may_write, client_wrote,
-                             cl, s->hooks.version};
+                             cl, s->hooks.version, GW_ORIGIN_MODBUS_TCP, client, &cl->write_log,
+                             client_owner};
     int ex = gw_mbs_decide(req, len, &env, &s->result);
     if (ex < 0)
         return false; /* not reached: drain_frames hands whole frames only */
@@ -263,11 +272,8 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
         s->exceptions++;
         cl->exceptions++;
     }
-    if (s->hooks.on_request != NULL) {
-        char who[48] = "modbus ";
-        fmt_addr(cl->addr, cl->port, who + 7, sizeof who - 7);
-        s->hooks.on_request(s->hooks.user, &s->result, ex, who, &cl->write_log);
-    }
+    if (s->hooks.on_request != NULL)
+        s->hooks.on_request(s->hooks.user, &s->result, ex, client, &cl->write_log);
     /* All of it or the client is dropped, as libmodbus's send did. */
     uint8_t out[GW_ADU_MAX];
     size_t n = gw_mbap_reply(req, &s->result, out);

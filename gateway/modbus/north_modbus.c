@@ -5,7 +5,7 @@
  * through the one request handler (mbproto.c) from the same units.
  *
  * A unit (regmap.h) is Modbus's per-robot state: the [modbus] rules
- * (word order, on_link_loss, unmapped reads, the bits GPIO inputs own),
+ * (word order, on_link_loss, unmapped reads),
  * the single writer's watchdog register and write fault latch, and
  * Modbus's part of the status block; it points at the robot (robot.h),
  * whose images and link facts are the daemon's. The units are kept here
@@ -106,13 +106,8 @@ static void on_write(void *user, gw_unit_t *u, unsigned dirty)
     env->outputs_changed(env->user, (unsigned)(u->robot - env->robots), dirty);
 }
 
-static void write_field(void *user, const char *path)
-{
-    gw_robot_write_field(user, path);
-}
-
-/* Every request: counted; an accepted write that reached robot data is
- * the robot's last write, and logged (rate-limited per client). */
+/* Every request: counted (an accepted write that reached robot data was
+ * made the robot's last write, and logged, by the write path). */
 static void on_request(void *user, const gw_mb_result_t *r, int ex, const char *client,
                        gw_log_limit_t *log)
 {
@@ -121,16 +116,14 @@ static void on_request(void *user, const gw_mb_result_t *r, int ex, const char *
     n->by_fc[c->transport][r->fc & 0x7Fu]++;
     if (ex > 0)
         n->by_ex[c->transport][ex & 0xFF]++;
+    (void)client, (void)log;
     if (ex != 0 || !r->write || r->dirty == 0 || r->unit == NULL)
         return;
     n->writes[c->transport]++;
-    gw_robot_t *rb = r->unit->robot;
-    gw_robot_wrote(rb, client);
-    gw_regmap_write_fields(r->unit, r->area, r->addr, r->count, write_field, rb);
-    gw_write_log(rb, log);
 }
 
-/* What [modbus] and the [gpio] inputs decide about unit r, and its robot.
+/* What [modbus] decides about unit r, and its robot (the bits [gpio]
+ * inputs drive are the write path's: gw_robot_t.write_policy).
  * on_link_loss = zero is handed to the robot (robot.h: clear_while_down):
  * every side reads its images. */
 static void unit_policy(mb_t *m, unsigned r)
@@ -143,10 +136,6 @@ static void unit_policy(mb_t *m, unsigned r)
     u->order = cfg->modbus.word_order;
     u->on_loss = cfg->modbus.on_link_loss;
     u->unmapped = cfg->modbus.unmapped_read;
-    u->gpio_in_count = 0;
-    for (unsigned i = 0; i < cfg->gpio_count; i++)
-        if (cfg->gpio[i].dir == GW_GPIO_INPUT && cfg->gpio[i].robot_index == r)
-            u->gpio_in[u->gpio_in_count++] = cfg->gpio[i].field;
     u->robot->clear_while_down = cfg->modbus.on_link_loss == GW_LOSS_ZERO;
 }
 
@@ -224,7 +213,7 @@ static void writer_expired(tcp_t *t)
     gw_log(GW_LOG_WARNING, "modbus: single writer's watchdog expired: outputs to fallback");
     for (unsigned r = 0; r < env->cfg->robot_count; r++) {
         gw_unit_t *u = &t->ctx.mb->unit[r];
-        u->status.write_fault = true;
+        u->robot->fault = true; /* the write path refuses writes from now on */
         if (!env->cfg->robot[r].fallback_hold) {
             unsigned dirty = 0;
             for (unsigned a = 0; a < DR_ASM_COUNT; a++)
@@ -504,7 +493,7 @@ static void mb_on_link(void *self, unsigned robot, bool up)
 
 static void mb_on_fault(void *self, unsigned robot, bool latched)
 {
-    (void)self, (void)robot, (void)latched; /* its own: write_fault in the unit */
+    (void)self, (void)robot, (void)latched; /* set it: gw_robot_t.fault */
 }
 
 /* Modbus's part of the status block: clients, exceptions (TCP and every
@@ -609,7 +598,7 @@ static void mb_report(const void *self, gw_json_t *j)
              (unsigned long long)left);
     bool first = true;
     for (unsigned r = 0; r < cfg->robot_count; r++)
-        if (m->unit[r].status.write_fault) {
+        if (m->unit[r].robot->fault) {
             gw_json_str(j, first ? "" : ",");
             gw_json_quote(j, cfg->robot[r].name, strlen(cfg->robot[r].name));
             first = false;
@@ -687,7 +676,7 @@ static void mb_metrics(const void *self, gw_prom_t *p)
                    "1 while the robot's write fault (single writer's watchdog) is latched");
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         gw_prom_label_t l = {"robot", cfg->robot[r].name};
-        gw_prom_sample(p, "drgate_modbus_write_fault", &l, 1, m->unit[r].status.write_fault);
+        gw_prom_sample(p, "drgate_modbus_write_fault", &l, 1, m->unit[r].robot->fault);
     }
     if (m->rtu.count == 0)
         return;

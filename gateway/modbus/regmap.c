@@ -254,7 +254,7 @@ static uint16_t status_reg(const gw_unit_t *u, unsigned i)
     case 13: return st->clients;
     case 14: return (uint16_t)(rb->uptime_s >> 16);
     case 15: return (uint16_t)rb->uptime_s;
-    case 26: return st->write_fault;
+    case 26: return rb->fault;
     case 27: return st->writer_present;
     case 28: return (uint16_t)u->order;
     case 29: return rb->generation;
@@ -277,7 +277,7 @@ static uint16_t status_bit(const gw_unit_t *u, unsigned i)
     switch (i) {
     case 0: return u->robot->link.link_state == 2;
     case 1: return u->robot->link.fresh;
-    case 2: return u->status.write_fault;
+    case 2: return u->robot->fault;
     default: return u->status.writer_present;
     }
 }
@@ -521,96 +521,61 @@ int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
 
 /* ---- writing ------------------------------------------------------------- */
 
-/* The bits of field f that GPIO inputs drive (a BIT field: bit 0). */
-static uint64_t gpio_bits(const gw_unit_t *u, const dr_field_t *f)
-{
-    uint64_t m = 0;
-    for (unsigned i = 0; i < u->gpio_in_count && i < GW_MAX_GPIO; i++) {
-        const dr_ref_t *r = &u->gpio_in[i];
-        if (r->field == f)
-            m |= f->kind == DR_KIND_BITS && r->elem >= 0 && r->elem < 64
-                     ? (uint64_t)1 << r->elem : (uint64_t)1;
-    }
-    return m;
-}
+/* A write request decoded from registers or bits into field writes (the
+ * one write path, core/write.h, checks and applies them) and the control
+ * registers' effects, applied once the path accepted the rest. */
+typedef struct {
+    gw_write_item_t *items;
+    unsigned n;
+    bool watchdog_set, reset;
+    uint16_t watchdog;
+} decoded_t;
 
-/* A write may leave a GPIO-driven bit as it is, not change it: the input
- * would overwrite it at its next edge, or not, and nobody could tell. */
-static bool changes_gpio_bit(const gw_unit_t *u, const slot_t *s, int16_t elem,
-                             uint64_t v)
-{
-    const dr_field_t *f = slot_field(s);
-    uint64_t owned = gpio_bits(u, f);
-    if (owned == 0)
-        return false;
-    if (elem < 0) /* the whole mask */
-        return ((v ^ get_value(u, s, -1).u) & owned) != 0;
-    uint64_t bit = f->kind == DR_KIND_BITS ? (uint64_t)1 << elem : 1u;
-    return (owned & bit) != 0 && v != get_value(u, s, elem).u;
-}
+/* One request at a time (one loop, no threads): FC 15's 1968 coils. */
+static gw_write_item_t write_items[GW_WRITE_MAX_ITEMS];
 
-static int status_to_exception(dr_status_t st)
+static int add_item(decoded_t *d, const dr_field_t *f, int elem, dr_value_t v, uint64_t mask)
 {
-    return st == DR_OK ? 0 : (st == DR_EREADONLY ? GW_EX_ILLEGAL_ADDRESS : GW_EX_ILLEGAL_VALUE);
-}
-
-static int set_ref(gw_unit_t *u, const dr_field_t *f, int16_t elem, dr_value_t v,
-                   unsigned *dirty)
-{
-    dr_ref_t ref = {f, elem};
-    if (u->robot->o2t_unsent & (1u << f->assembly))
-        return GW_EX_ILLEGAL_ADDRESS;
-    int ex = status_to_exception(dr_field_set(u->robot->img[f->assembly], asm_size(f), ref, &v,
-                                              DR_SET_O2T_ONLY));
-    if (ex == 0)
-        *dirty |= 1u << f->assembly;
-    return ex;
-}
-
-static int set_field(gw_unit_t *u, const slot_t *s, int16_t elem, dr_value_t v,
-                     unsigned *dirty)
-{
-    return set_ref(u, slot_field(s), elem, v, dirty);
+    if (d->n >= GW_WRITE_MAX_ITEMS)
+        return GW_EX_ILLEGAL_VALUE; /* not reached: a request holds fewer */
+    d->items[d->n++] = (gw_write_item_t){{f, (int16_t)elem}, v, mask};
+    return 0;
 }
 
 /* Bits first..first+n-1 of a BIT/BITS field from v's bits 0..n-1. */
-static int user_set_bits(gw_unit_t *u, const dr_field_t *f, unsigned first, unsigned n,
-                         uint16_t v, unsigned *dirty)
+static int user_set_bits(decoded_t *d, const dr_field_t *f, unsigned first, unsigned n,
+                         uint16_t v)
 {
     if (f->kind == DR_KIND_BIT) {
         if (v > 1)
             return GW_EX_ILLEGAL_VALUE;
-        if (gpio_bits(u, f) != 0 && v != field_value(u, f, 0).u)
-            return GW_EX_ILLEGAL_ADDRESS; /* a GPIO input drives it */
-        return set_ref(u, f, 0, dr_value_uint(v), dirty);
+        return add_item(d, f, 0, dr_value_uint(v), 0);
+    }
+    if (n == 1) {
+        if (v > 1)
+            return GW_EX_ILLEGAL_VALUE;
+        return add_item(d, f, (int)first, dr_value_uint(v), 0);
     }
     uint64_t bits = (n >= 16 ? 0xFFFFu : (1u << n) - 1u);
-    if (n == 1 && v > 1)
-        return GW_EX_ILLEGAL_VALUE;
-    uint64_t mask = field_value(u, f, -1).u;
-    uint64_t next = (mask & ~(bits << first)) | (((uint64_t)v & bits) << first);
-    uint64_t owned = gpio_bits(u, f);
-    if (((next ^ mask) & owned) != 0)
-        return GW_EX_ILLEGAL_ADDRESS; /* a GPIO input drives it */
-    return set_ref(u, f, -1, dr_value_uint(next), dirty);
+    return add_item(d, f, -1, dr_value_uint(((uint64_t)v & bits) << first), bits << first);
 }
 
 /* One write to a user entry at values[*i] (a 32-bit view takes two). */
-static int user_write(gw_unit_t *u, const gw_umap_entry_t *e, uint32_t a, uint16_t *i,
-                      uint16_t count, const uint16_t *values, unsigned *dirty)
+static int user_write(decoded_t *d, const gw_unit_t *u, const gw_umap_entry_t *e, uint32_t a,
+                      uint16_t *i, uint16_t count, const uint16_t *values)
 {
     const dr_field_t *f = &dr_field_table[e->field];
     unsigned off = (unsigned)(a - e->addr);
     uint16_t v = values[*i];
-    int16_t elem = (int16_t)(e->elem + off);
+    int elem = (int)(e->elem + off);
     if (!e->writable)
         return GW_EX_ILLEGAL_ADDRESS;
     switch ((gw_view_t)e->view) {
     case GW_VIEW_BIT:
-        return user_set_bits(u, f, e->elem + off, 1, v, dirty);
+        return user_set_bits(d, f, e->elem + off, 1, v);
     case GW_VIEW_BITS: {
         unsigned first = 16u * off, left = e->count - first;
-        return user_set_bits(u, f, e->elem + first, left > 16 ? 16 : left, v, dirty);
+        return user_set_bits(d, f, e->elem + first, left > 16 ? 16 : left, v);
     }
     case GW_VIEW_REAL:
     case GW_VIEW_DINT: {
@@ -619,38 +584,37 @@ static int user_write(gw_unit_t *u, const gw_umap_entry_t *e, uint32_t a, uint16
         uint16_t w[2] = {v, values[*i + 1u]};
         uint32_t bits = gw_words_to_u32(w, u->order);
         (*i)++;
-        elem = (int16_t)(e->elem + off / 2u);
+        elem = (int)(e->elem + off / 2u);
         if (f->kind == DR_KIND_DINT)
-            return set_ref(u, f, elem, dr_value_int((int32_t)bits), dirty);
+            return add_item(d, f, elem, dr_value_int(bits <= INT32_MAX ? (int64_t)bits
+                                                                      : (int64_t)bits - 4294967296LL),
+                            0);
         float fl;
         memcpy(&fl, &bits, 4);
-        return set_ref(u, f, elem, dr_value_real((double)fl), dirty);
+        return add_item(d, f, elem, dr_value_real((double)fl), 0);
     }
     case GW_VIEW_INT16: {
         int32_t sv = v <= 0x7FFF ? (int32_t)v : (int32_t)v - 65536;
         if (f->kind == DR_KIND_BIT && e->scale == 1 && v <= 1)
-            return user_set_bits(u, f, 0, 1, v, dirty);
+            return user_set_bits(d, f, 0, 1, v);
         if (e->scale == 1)
-            return set_ref(u, f, elem, dr_value_int(sv), dirty);
-        return set_ref(u, f, elem, dr_value_real((double)sv / e->scale), dirty);
+            return add_item(d, f, elem, dr_value_int(sv), 0);
+        return add_item(d, f, elem, dr_value_real((double)sv / e->scale), 0);
     }
     case GW_VIEW_UINT16:
-        if (f->kind == DR_KIND_DINT) {
-            uint32_t old = (uint32_t)(int32_t)field_value(u, f, elem).i;
-            uint32_t next = e->half ? (old & 0xFFFFu) | (uint32_t)v << 16
-                                    : (old & 0xFFFF0000u) | v;
-            return set_ref(u, f, elem, dr_value_int((int32_t)next), dirty);
-        }
+        if (f->kind == DR_KIND_DINT) /* one half of the DINT: the other stays */
+            return add_item(d, f, elem, dr_value_uint(e->half ? (uint64_t)v << 16 : v),
+                            e->half ? 0xFFFF0000u : 0xFFFFu);
         if (f->kind == DR_KIND_BIT && v <= 1)
-            return user_set_bits(u, f, 0, 1, v, dirty);
-        return set_ref(u, f, elem, dr_value_uint(v), dirty);
+            return user_set_bits(d, f, 0, 1, v);
+        return add_item(d, f, elem, dr_value_uint(v), 0);
     }
     return GW_EX_ILLEGAL_ADDRESS;
 }
 
-/* Apply one write at map[area][*i] (a 32-bit value takes two). */
-static int write_slot(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t *i,
-                      uint16_t count, const uint16_t *values, unsigned *dirty)
+/* Decode one write at map[area][*i] (a 32-bit value takes two). */
+static int write_slot(decoded_t *d, const gw_unit_t *u, gw_area_t area, uint16_t addr,
+                      uint16_t *i, uint16_t count, const uint16_t *values)
 {
     const slot_t *s = &map[area][addr + *i];
     const dr_field_t *f = slot_field(s);
@@ -659,16 +623,11 @@ static int write_slot(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t *i,
     switch ((slot_kind_t)s->kind) {
     case SL_VALUE:
     case SL_BIT:
-        if (changes_gpio_bit(u, s, s->elem, v))
-            return GW_EX_ILLEGAL_ADDRESS;
-        return set_field(u, s, s->elem, dr_value_uint(v), dirty);
+        return add_item(d, f, s->elem, dr_value_uint(v), 0);
     case SL_PACKED: {
-        uint64_t mask = get_value(u, s, -1).u;
         unsigned shift = 16u * s->part;
-        mask = (mask & ~((uint64_t)0xFFFF << shift)) | (uint64_t)v << shift;
-        if (changes_gpio_bit(u, s, -1, mask))
-            return GW_EX_ILLEGAL_ADDRESS;
-        return set_field(u, s, -1, dr_value_uint(mask), dirty);
+        return add_item(d, f, -1, dr_value_uint((uint64_t)v << shift),
+                        (uint64_t)0xFFFF << shift);
     }
     case SL_WORD32: {
         /* Both halves must be in this request, or the value would be torn. */
@@ -680,63 +639,84 @@ static int write_slot(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t *i,
         uint32_t bits = gw_words_to_u32(w, u->order);
         (*i)++;
         if (f->kind == DR_KIND_DINT)
-            return set_field(u, s, s->elem,
-                             dr_value_int(bits <= INT32_MAX ? (int64_t)bits
-                                                            : (int64_t)bits - 4294967296LL),
-                             dirty);
+            return add_item(d, f, s->elem,
+                            dr_value_int(bits <= INT32_MAX ? (int64_t)bits
+                                                           : (int64_t)bits - 4294967296LL),
+                            0);
         float fl;
         memcpy(&fl, &bits, 4);
-        return set_field(u, s, s->elem, dr_value_real((double)fl), dirty);
+        return add_item(d, f, s->elem, dr_value_real((double)fl), 0);
     }
     case SL_SCALED: {
         int32_t sv = v <= 0x7FFF ? (int32_t)v : (int32_t)v - 65536;
-        return set_field(u, s, s->elem, dr_value_real((double)sv / gw_regmap_scale(f)), dirty);
+        return add_item(d, f, s->elem, dr_value_real((double)sv / gw_regmap_scale(f)), 0);
     }
     case SL_CONTROL:
         if (s->elem == GW_HR_WATCHDOG) {
-            u->watchdog = v;
+            d->watchdog_set = true;
+            d->watchdog = v;
             return 0;
         }
         if (v > 1)
             return GW_EX_ILLEGAL_VALUE;
-        u->fault_reset = u->fault_reset || v == 1;
+        d->reset = d->reset || v == 1;
         return 0;
     default:
         return GW_EX_ILLEGAL_ADDRESS;
     }
 }
 
-int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
-                    const uint16_t *values, unsigned *dirty)
+int gw_regmap_exception(gw_write_status_t st)
 {
+    switch (st) {
+    case GW_WRITE_OK: return 0;
+    case GW_WRITE_RIGHTS:
+    case GW_WRITE_SINGLE: return GW_EX_ILLEGAL_FUNCTION;
+    case GW_WRITE_FAULT: return GW_EX_DEVICE_FAILURE;
+    case GW_WRITE_VALUE: return GW_EX_ILLEGAL_VALUE;
+    case GW_WRITE_FIELD:
+    case GW_WRITE_DIRECTION:
+    case GW_WRITE_UNSENT:
+    case GW_WRITE_GPIO: break;
+    }
+    return GW_EX_ILLEGAL_ADDRESS;
+}
+
+int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
+                    const uint16_t *values, const gw_write_origin_t *o, gw_write_result_t *res)
+{
+    static const gw_write_origin_t plain = {GW_ORIGIN_MODBUS_TCP, NULL, true, true, false, NULL};
+    gw_write_result_t local;
+    if (res == NULL)
+        res = &local;
+    memset(res, 0, sizeof *res);
     if ((area != GW_HOLDING && area != GW_COILS) || count == 0 ||
         (uint32_t)addr + count > 65536u)
         return GW_EX_ILLEGAL_ADDRESS;
     for (uint32_t a = addr; a < (uint32_t)addr + count; a++)
         if (!default_slot(area, a) && user_at(u, area, a) == NULL)
             return GW_EX_ILLEGAL_ADDRESS;
-    /* Work on copies: the unit and the robot's images change only if
-     * every value passes; of the robot, only the O->T images written. */
-    gw_robot_t img = *u->robot;
-    gw_unit_t tmp = *u;
-    tmp.robot = &img;
-    unsigned d = 0;
+    /* Decode all of it first (addresses, halves, the control registers),
+     * then one write of its fields: nothing changes unless all of it
+     * passes. */
+    decoded_t d = {write_items, 0, false, false, 0};
     for (uint16_t i = 0; i < count; i++) {
         uint32_t a = (uint32_t)addr + i;
         if (default_slot(area, a) && u->default_ro && map[area][a].kind != SL_CONTROL)
             return GW_EX_ILLEGAL_ADDRESS; /* default_map_writes = no */
-        int ex = default_slot(area, a)
-                     ? write_slot(&tmp, area, addr, &i, count, values, &d)
-                     : user_write(&tmp, user_at(u, area, a), a, &i, count, values, &d);
+        int ex = default_slot(area, a) ? write_slot(&d, u, area, addr, &i, count, values)
+                                       : user_write(&d, u, user_at(u, area, a), a, &i, count,
+                                                    values);
         if (ex != 0)
             return ex;
     }
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        if (d & (1u << a))
-            memcpy(u->robot->img[a], img.img[a], sizeof img.img[a]);
-    tmp.robot = u->robot;
-    *u = tmp;
-    *dirty |= d;
+    int ex = gw_regmap_exception(gw_robot_write(u->robot, d.items, d.n, o != NULL ? o : &plain,
+                                                res));
+    if (ex != 0)
+        return ex;
+    if (d.watchdog_set)
+        u->watchdog = d.watchdog;
+    u->fault_reset = u->fault_reset || d.reset;
     return 0;
 }
 

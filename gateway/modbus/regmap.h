@@ -24,6 +24,7 @@
 #include "core/config.h"
 #include "core/json.h"
 #include "core/robot.h"
+#include "core/write.h"
 
 #define GW_MAP_LAYOUT_VERSION 1
 #define GW_AREA_SIZE 2048 /* addresses per area */
@@ -41,13 +42,12 @@ enum {
 
 /* Modbus's part of the status block (the rest is the robot's: link
  * state, freshness, counters, errors, connection states, heartbeat,
- * uptime and generation, from gw_robot_t). Refreshed ten times a second
- * by the Modbus side (north_modbus.c), but write_fault, which the request
- * handler and the watchdog change when it happens. */
+ * uptime and generation, from gw_robot_t; write_fault too: the robot's
+ * latch, gw_robot_t.fault). Refreshed ten times a second by the Modbus
+ * side (north_modbus.c). */
 typedef struct {
     uint32_t exceptions;      /* Modbus exceptions sent, TCP and RTU */
     uint16_t clients;
-    bool write_fault;         /* single writer's watchdog expired (latched) */
     bool writer_present;
     /* Modbus RTU lines of this robot: frames dropped (bad CRC, short,
      * long, cut by t3.5) and frames for other slave addresses (IR 40-43). */
@@ -66,11 +66,6 @@ typedef struct {
                              * them, robot.h) */
     gw_unmapped_read_t unmapped; /* reserved addresses: read 0 or 0x02 */
     gw_status_t status;
-    /* O->T bits driven by GPIO inputs (from the configuration): they
-     * belong to the input, and a Modbus write that would change one is
-     * refused (0x02). */
-    dr_ref_t gpio_in[GW_MAX_GPIO];
-    unsigned gpio_in_count;
     /* The robot's own map (its `map` lines, in the configuration the
      * daemon runs: unit_policy points here), served at the addresses the
      * default map leaves free. NULL or empty: the default map alone. */
@@ -104,14 +99,26 @@ bool gw_regmap_touches_robot_data(gw_area_t area, uint16_t addr, uint16_t count)
 int gw_regmap_read(const gw_unit_t *u, gw_area_t area, uint16_t addr,
                    uint16_t count, uint16_t *values);
 
-/* Check and apply a write of `count` values to holding registers or coils.
- * Returns 0 or an exception code (0x02 read-only or unmapped address, a
- * write that covers only one half of a 32-bit value, or one that would
- * change a bit a GPIO input drives; 0x03 a value out of
- * range, NaN/infinite REAL). On error nothing changes. On success
- * *dirty has bit (1 << assembly) set for every O->T image written. */
+/* A write of `count` values to holding registers or coils from `o`
+ * (NULL: a Modbus TCP client with every right, not logged): decoded here
+ * into field writes (addresses, the halves of 32-bit values, packed
+ * masks, the user's map, the control registers), then checked and
+ * applied by the one write path, gw_robot_write (core/write.h), whose
+ * refusal is mapped to the exception a PLC has always seen
+ * (gw_regmap_exception). Returns 0 or an exception code: 0x02 an
+ * unmapped address, the default map's data with default_map_writes = no,
+ * a user's entry that is not writable, a write that covers only one half
+ * of a 32-bit value; then the path's: 0x01 the client's right or the
+ * single writer, 0x04 the write fault latch, 0x02 a T->O field, an
+ * assembly the plan does not send, a bit a GPIO input drives, 0x03 a
+ * value out of range, NaN/infinite REAL. On error nothing changes. res
+ * (may be NULL): the path's result; res->dirty has bit (1 << assembly) set
+ * for every O->T image written. */
 int gw_regmap_write(gw_unit_t *u, gw_area_t area, uint16_t addr, uint16_t count,
-                    const uint16_t *values, unsigned *dirty);
+                    const uint16_t *values, const gw_write_origin_t *o, gw_write_result_t *res);
+
+/* The Modbus exception for a refusal of the write path (0: none). */
+int gw_regmap_exception(gw_write_status_t st);
 
 /* The fields a write of area/addr..addr+count-1 reaches, each once by
  * its canonical path (control registers left out), for the write log. */

@@ -77,6 +77,7 @@ typedef enum {
     MQ_REF_SINGLE,   /* single-writer mode */
     MQ_REF_FAULT,    /* write fault latched */
     MQ_REF_GPIO,     /* a GPIO input's bit */
+    MQ_REF_UNSENT,   /* an assembly the connection plan does not send */
     MQ_REF_KINDS
 } mq_refusal_t;
 
@@ -131,7 +132,6 @@ typedef struct {
     struct { unsigned long long published, received, accepted, connects; gw_log_limit_t write_log[GW_MAX_ROBOTS]; } con;
 } mq_t;
 
-static void mq_wrote(mq_t *t, unsigned robot, const char *topic, dr_ref_t ref);
 
 static unsigned lib_users; /* mosquitto_lib_init/cleanup around the sides */
 /* libmosquitto's functions (mqtt_lib.h): loaded by the first enabled
@@ -440,19 +440,6 @@ static void refuse(mq_t *t, unsigned robot, const struct mosquitto_message *m, m
     }
 }
 
-/* Is this bit driven by a GPIO input of the robot's (and so not the
- * plant's to write)? */
-static bool gpio_driven(const gw_config_t *cfg, unsigned robot, dr_ref_t ref)
-{
-    for (unsigned i = 0; i < cfg->gpio_count; i++) {
-        const gw_gpio_config_t *g = &cfg->gpio[i];
-        if (g->dir == GW_GPIO_INPUT && g->robot_index == robot && g->field.field == ref.field &&
-            (ref.elem < 0 || g->field.elem < 0 || g->field.elem == ref.elem))
-            return true;
-    }
-    return false;
-}
-
 /* Why a value's text does not fit the field: the codec's reason, except
  * for text the parser calls malformed, which for a number is the wrong
  * word: 1.5 for a DINT is a number, just not an integer. */
@@ -479,43 +466,64 @@ static void value_error(dr_ref_t ref, const char *text, dr_status_t st, char *wh
         snprintf(why, size, "invalid value: %s", what);
 }
 
-/* A parsed plant write into the robot's O->T image (JSON's set topics and
- * Sparkplug's DCMD alike), with the checks of a Modbus write: in
- * single-writer mode the outputs belong to the one Modbus writer, the
- * latched write fault, GPIO inputs' bits, the codec's checks. Returns
- * the kind of refusal (why says it), MQ_REF_KINDS when written. */
-static mq_refusal_t write_into(mq_t *t, unsigned robot, dr_ref_t ref, const dr_value_t *v,
-                               char *why, size_t whylen)
+/* The kind of refusal (for the log's limiter) of the write path's answer. */
+static mq_refusal_t refusal_kind(gw_write_status_t st)
 {
-    const gw_config_t *cfg = t->env->cfg;
-    gw_robot_t *rb = &t->env->robots[robot];
-    dr_asm_t a = (dr_asm_t)ref.field->assembly;
-    dr_status_t st;
-    if (cfg->modbus.single_writer) {
-        snprintf(why, whylen, "single-writer mode: the outputs belong to the Modbus writer");
-        return MQ_REF_SINGLE;
+    switch (st) {
+    case GW_WRITE_SINGLE: return MQ_REF_SINGLE;
+    case GW_WRITE_FAULT: return MQ_REF_FAULT;
+    case GW_WRITE_GPIO: return MQ_REF_GPIO;
+    case GW_WRITE_DIRECTION: return MQ_REF_READONLY;
+    case GW_WRITE_UNSENT: return MQ_REF_UNSENT;
+    case GW_WRITE_VALUE: return MQ_REF_VALUE;
+    case GW_WRITE_OK:
+    case GW_WRITE_RIGHTS:
+    case GW_WRITE_FIELD: break;
     }
-    if (rb->fault) {
-        snprintf(why, whylen, "write fault latched (reset it through Modbus)");
-        return MQ_REF_FAULT;
-    }
-    if (gpio_driven(cfg, robot, ref)) {
-        snprintf(why, whylen, "driven by a GPIO input");
-        return MQ_REF_GPIO;
-    }
-    st = dr_field_set(rb->img[a], dr_asm_info(a)->size, ref, v, DR_SET_O2T_ONLY);
-    if (st != DR_OK) {
-        snprintf(why, whylen, "invalid value: %s", dr_strerror(st));
-        return MQ_REF_VALUE;
-    }
-    t->env->outputs_changed(t->env->user, robot, 1u << a);
-    return MQ_REF_KINDS;
+    return MQ_REF_FIELD;
 }
 
-static bool write_checked(mq_t *t, unsigned robot, dr_ref_t ref, const dr_value_t *v,
-                          char *why, size_t whylen)
+/* The words of a refusal: the write path's, with the codec's reason for a
+ * value and the assembly the plan does not send. */
+static void refusal_text(const gw_write_item_t *items, const gw_write_result_t *res, char *why,
+                         size_t whylen)
 {
-    return write_into(t, robot, ref, v, why, whylen) == MQ_REF_KINDS;
+    if (res->status == GW_WRITE_VALUE)
+        snprintf(why, whylen, "invalid value: %s", dr_strerror(res->st));
+    else if (res->status == GW_WRITE_UNSENT)
+        snprintf(why, whylen, "not sent: the connection plan opens no connection for %s",
+                 dr_asm_info((dr_asm_t)items[res->item].ref.field->assembly)->name);
+    else if (res->status == GW_WRITE_RIGHTS)
+        snprintf(why, whylen, "writes are off ([mqtt] writes = no)");
+    else
+        snprintf(why, whylen, "%s", gw_write_status_text(res->status));
+}
+
+/* A decoded plant write (JSON's set topic: one field; Sparkplug's DCMD:
+ * every metric of the command) through the one write path (core/write.h),
+ * all or nothing, with the rules of every write: in single-writer mode the
+ * outputs belong to the one Modbus writer, the latched write fault, GPIO
+ * inputs' bits, the plan, the codec's checks. Accepted: logged by the
+ * path (the topic names the writer), the link told. Refused: *kind and
+ * why say why (res->item: which item). */
+static bool write_items(mq_t *t, unsigned robot, const char *top, const gw_write_item_t *items,
+                        unsigned n, gw_write_result_t *res, mq_refusal_t *kind, char *why,
+                        size_t whylen)
+{
+    char who[GW_WRITE_CLIENT];
+    snprintf(who, sizeof who, "mqtt %s", top);
+    gw_write_origin_t o = {t->spb != NULL ? GW_ORIGIN_SPARKPLUG : GW_ORIGIN_MQTT, who,
+                           t->cfg.writes, false, false, &t->con.write_log[robot]};
+    gw_write_status_t st = gw_robot_write(&t->env->robots[robot], items, n, &o, res);
+    if (st != GW_WRITE_OK) {
+        *kind = refusal_kind(st);
+        refusal_text(items, res, why, whylen);
+        return false;
+    }
+    t->con.accepted += n;
+    if (res->dirty != 0)
+        t->env->outputs_changed(t->env->user, robot, res->dirty);
+    return true;
 }
 
 /* <prefix>/<robot>/set/<path>, the payload the value as text: the same
@@ -551,11 +559,13 @@ static void on_set(mq_t *t, unsigned robot, const char *path, const struct mosqu
     else if (st != DR_OK) {
         value_error(ref, text, st, why, sizeof why);
         refuse(t, robot, m, MQ_REF_VALUE, why);
-    } else if ((kind = write_into(t, robot, ref, &v, why, sizeof why)) != MQ_REF_KINDS)
-        refuse(t, robot, m, kind, why);
-    else {
-        gw_log(GW_LOG_DEBUG, "mqtt: %s = %s", m->topic, text);
-        mq_wrote(t, robot, m->topic, ref);
+    } else {
+        gw_write_item_t item = {ref, v, 0};
+        gw_write_result_t res;
+        if (!write_items(t, robot, m->topic, &item, 1, &res, &kind, why, sizeof why))
+            refuse(t, robot, m, kind, why);
+        else
+            gw_log(GW_LOG_DEBUG, "mqtt: %s = %s", m->topic, text);
     }
 }
 
@@ -785,15 +795,13 @@ static bool spb_io_room(void *user)
     return room(user);
 }
 
-static bool spb_io_write(void *user, unsigned robot, dr_ref_t ref, const dr_value_t *v,
-                         char *why, size_t whylen)
+static bool spb_io_write(void *user, unsigned robot, const gw_write_item_t *items, unsigned n,
+                         gw_write_result_t *res, char *why, size_t whylen)
 {
     mq_t *t = user;
-    t->con.received++; /* a write asked for, as a set topic's message */
-    if (!write_checked(t, robot, ref, v, why, whylen))
-        return false;
-    mq_wrote(t, robot, "Sparkplug DCMD", ref);
-    return true;
+    mq_refusal_t kind;
+    t->con.received += n; /* writes asked for, as set topics' messages */
+    return write_items(t, robot, "Sparkplug DCMD", items, n, res, &kind, why, whylen);
 }
 
 static void spb_io_reconnect(void *user)
@@ -1325,19 +1333,6 @@ static void mq_side_free(void *self)
 }
 
 /* ---- the console: last write, report and metrics ------------------------------- */
-
-/* An accepted plant write (a set topic or a Sparkplug DCMD): the robot's
- * last write, logged (rate-limited per robot: the broker does not say
- * which plant client sent it, so the topic names the writer). */
-static void mq_wrote(mq_t *t, unsigned robot, const char *topic, dr_ref_t ref)
-{
-    char who[GW_WRITE_CLIENT], path[96];
-    if (dr_ref_path(ref, path, sizeof path) != DR_OK)
-        snprintf(path, sizeof path, "?");
-    snprintf(who, sizeof who, "mqtt %s", topic);
-    t->con.accepted++;
-    gw_write_accepted(&t->env->robots[robot], &t->con.write_log[robot], who, path);
-}
 
 /* "mqtt": {"broker", "client_id", "connected", "published", "writes":
  * {"accepted", "refused"}, "reconnects"}; nothing without [mqtt]. */

@@ -76,6 +76,10 @@ struct spb {
     uint8_t will[64];
     size_t will_len;
     Payload_Metric m; /* the metric being encoded or decoded */
+    /* The DCMD being decoded: its writes, and the leaf of each metric
+     * that named one (published back if the command is refused). */
+    gw_write_item_t cmd_items[SPB_CMD_MAX];
+    int cmd_leaf[SPB_CMD_MAX];
     uint8_t buf[SPB_BUF];
 };
 
@@ -639,30 +643,64 @@ static dr_status_t value_of(const Payload_Metric *m, dr_ref_t ref, dr_value_t *v
 typedef struct {
     spb_t *s;
     int robot; /* DCMD: the device; -1: NCMD */
+    /* DCMD: metrics seen (their leaves in s->cmd_leaf, up to SPB_CMD_MAX),
+     * writes decoded (s->cmd_items), and the first refusal: its metric
+     * and why (nothing of the command is written then). */
+    unsigned metrics, n;
+    bool refused;
+    char what[96], why[160];
 } cmd_t;
 
-/* A refused DCMD metric: logged (at most once a second, with the count
- * of those not logged), and the field's current value published back as
- * DDATA so that the host's tag shows what the robot has. */
-static void refuse(spb_t *s, unsigned robot, const Payload_Metric *m, int leaf, const char *why)
+/* The current value of every field a refused DCMD named, published back
+ * as DDATA, so that the host's tags show what the robot has: none of the
+ * command was written. */
+static void echo_leaves(spb_t *s, unsigned robot, const cmd_t *c)
+{
+    unsigned n = c->metrics < SPB_CMD_MAX ? c->metrics : SPB_CMD_MAX;
+    for (unsigned k = 0; k < n; k++) {
+        int leaf = s->cmd_leaf[k];
+        if (leaf < 0)
+            continue;
+        if (!s->dev_born[robot] || !s->io.room(s->io.user))
+            return;
+        enc_t e = {.kind = ENC_ECHO, .robot = robot, .echo_leaf = (uint16_t)leaf};
+        (void)publish_seq(s, &e, "DDATA", (int)robot);
+    }
+}
+
+/* A refused DCMD: logged (at most once a second, with the count of those
+ * not logged), its fields published back. */
+static void refuse(spb_t *s, unsigned robot, const cmd_t *c, const char *what, const char *why)
 {
     uint64_t now = ev_now_us();
     s->refused++;
     if (now >= s->refused_log_us) {
-        gw_log(GW_LOG_INFO, "mqtt: sparkplug: DCMD %s %s refused: %s%s",
-               s->env->cfg->robot[robot].name, m->has_name ? m->name : "(alias)", why,
+        gw_log(GW_LOG_INFO, "mqtt: sparkplug: DCMD %s %s refused: %s%s%s",
+               s->env->cfg->robot[robot].name, what, why,
+               c->metrics > 1 ? " (nothing of the command written)" : "",
                s->refused > 1 ? " (and earlier refusals not logged)" : "");
         s->refused = 0;
         s->refused_log_us = now + 1000000u;
     }
-    if (leaf < 0 || !s->dev_born[robot] || !s->io.room(s->io.user))
-        return;
-    enc_t e = {.kind = ENC_ECHO, .robot = robot, .echo_leaf = (uint16_t)leaf};
-    (void)publish_seq(s, &e, "DDATA", (int)robot);
+    echo_leaves(s, robot, c);
 }
 
-static void dcmd_metric(spb_t *s, unsigned robot, const Payload_Metric *m)
+/* The first refusal of a command is the one said. */
+static void cmd_refuse(cmd_t *c, const Payload_Metric *m, const char *why)
 {
+    if (c->refused)
+        return;
+    c->refused = true;
+    snprintf(c->what, sizeof c->what, "%s", m->has_name ? m->name : "(alias)");
+    snprintf(c->why, sizeof c->why, "%s", why);
+}
+
+/* One metric of a DCMD decoded into the command's writes (nothing is
+ * written yet: decode first, then one write). */
+static void dcmd_metric(cmd_t *c, const Payload_Metric *m)
+{
+    spb_t *s = c->s;
+    unsigned robot = (unsigned)c->robot;
     dr_ref_t ref;
     char why[160];
     int leaf = -1;
@@ -675,8 +713,15 @@ static void dcmd_metric(spb_t *s, unsigned robot, const Payload_Metric *m)
         if (dr_leaf_at((uint16_t)leaf, &ref) != DR_OK)
             leaf = -1;
     }
+    unsigned k = c->metrics++;
+    if (k >= SPB_CMD_MAX) {
+        snprintf(why, sizeof why, "more than %u metrics in one DCMD", SPB_CMD_MAX);
+        cmd_refuse(c, m, why);
+        return;
+    }
+    s->cmd_leaf[k] = leaf;
     if (leaf < 0) {
-        refuse(s, robot, m, -1, "unknown metric (name or alias)");
+        cmd_refuse(c, m, "unknown metric (name or alias)");
         return;
     }
     dr_value_t v;
@@ -684,28 +729,47 @@ static void dcmd_metric(spb_t *s, unsigned robot, const Payload_Metric *m)
     if (st == DR_OK) /* the codec's checks (direction, range) before any write */
         st = dr_value_check(ref, &v, DR_SET_O2T_ONLY);
     if (st == DR_EREADONLY) {
-        refuse(s, robot, m, leaf, "read-only: a T->O field");
+        cmd_refuse(c, m, "read-only: a T->O field");
         return;
     }
     if (st != DR_OK) {
         snprintf(why, sizeof why, "invalid value: %s", dr_strerror(st));
-        refuse(s, robot, m, leaf, why);
+        cmd_refuse(c, m, why);
         return;
     }
     if (!s->writes) {
-        refuse(s, robot, m, leaf, "writes are off ([mqtt] writes = no)");
+        cmd_refuse(c, m, "writes are off ([mqtt] writes = no)");
         return;
     }
-    if (!s->io.write(s->io.user, robot, ref, &v, why, sizeof why))
-        refuse(s, robot, m, leaf, why);
+    s->cmd_items[c->n++] = (gw_write_item_t){ref, v, 0};
+}
+
+/* The whole DCMD decoded: written in one go through the write path, or
+ * refused whole. */
+static void dcmd_write(spb_t *s, cmd_t *c)
+{
+    unsigned robot = (unsigned)c->robot;
+    if (c->refused) {
+        refuse(s, robot, c, c->what, c->why);
+        return;
+    }
+    if (c->n == 0)
+        return;
+    char why[160], what[96];
+    gw_write_result_t res;
+    if (s->io.write(s->io.user, robot, s->cmd_items, c->n, &res, why, sizeof why))
+        return;
+    if (res.item >= c->n || dr_ref_path(s->cmd_items[res.item].ref, what, sizeof what) != DR_OK)
+        snprintf(what, sizeof what, "?");
+    refuse(s, robot, c, what, why);
 }
 
 static bool on_cmd_metric(void *ctx, const Payload_Metric *m)
 {
-    const cmd_t *c = ctx;
+    cmd_t *c = ctx;
     spb_t *s = c->s;
     if (c->robot >= 0) {
-        dcmd_metric(s, (unsigned)c->robot, m);
+        dcmd_metric(c, m);
         return true;
     }
     bool rebirth = (m->has_name && strcmp(m->name, SPB_REBIRTH) == 0) ||
@@ -781,7 +845,7 @@ bool spb_message(spb_t *s, const char *top, const void *payload, size_t len)
             return true;
         }
     }
-    cmd_t c = {s, -1};
+    cmd_t c = {.s = s, .robot = -1};
     snprintf(want, sizeof want, SPB_NS "/%s/NCMD/%s", s->group, s->edge);
     if (strcmp(top, want) != 0) {
         snprintf(want, sizeof want, SPB_NS "/%s/DCMD/%s/", s->group, s->edge);
@@ -794,8 +858,15 @@ bool spb_message(spb_t *s, const char *top, const void *payload, size_t len)
         if (c.robot < 0 || !s->born)
             return true;
     }
-    if (!spb_decode_cmd(payload, len, on_cmd_metric, &c))
+    if (!spb_decode_cmd(payload, len, on_cmd_metric, &c)) {
+        /* Nothing of it is written, the metrics before the damage neither. */
         gw_log(GW_LOG_INFO, "mqtt: sparkplug: %s: malformed payload (%zu bytes) ignored", top,
                len);
+        if (c.robot >= 0)
+            echo_leaves(s, (unsigned)c.robot, &c);
+        return true;
+    }
+    if (c.robot >= 0)
+        dcmd_write(s, &c);
     return true;
 }

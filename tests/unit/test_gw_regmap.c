@@ -39,7 +39,7 @@ static dr_ref_t ref(const char *path)
 
 static void own(const char *path)
 {
-    U.gpio_in[U.gpio_in_count++] = ref(path);
+    R.write_policy.gpio_in[R.write_policy.gpio_in_count++] = ref(path);
 }
 
 static uint64_t get(const char *path)
@@ -53,8 +53,8 @@ static uint64_t get(const char *path)
 
 static int write1(gw_area_t area, uint16_t addr, uint16_t v)
 {
-    unsigned dirty = 0;
-    return gw_regmap_write(&U, area, addr, 1, &v, &dirty);
+    gw_write_result_t wres;
+    return gw_regmap_write(&U, area, addr, 1, &v, NULL, &wres);
 }
 
 /* Coils 200.. are bit_in[0..63], HR 200-203 the same bits packed. */
@@ -72,14 +72,14 @@ static void test_gpio_owned_bits(void **state)
     assert_int_equal(get("bit_in[2]"), 1);
     /* FC15 across it: refused whole, nothing of it applied */
     uint16_t bits[4] = {1, 0, 1, 1};
-    unsigned dirty = 0;
-    assert_int_equal(gw_regmap_write(&U, GW_COILS, 200, 4, bits, &dirty), GW_EX_ILLEGAL_ADDRESS);
+    gw_write_result_t wres;
+    assert_int_equal(gw_regmap_write(&U, GW_COILS, 200, 4, bits, NULL, &wres), GW_EX_ILLEGAL_ADDRESS);
     assert_int_equal(get("bit_in[0]"), 0);
-    assert_int_equal(dirty, 0);
+    assert_int_equal(wres.dirty, 0);
     bits[3] = 0;
-    assert_int_equal(gw_regmap_write(&U, GW_COILS, 200, 4, bits, &dirty), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_COILS, 200, 4, bits, NULL, &wres), 0);
     assert_int_equal(get("bit_in[0]"), 1);
-    assert_int_equal(dirty, 1u << DR_ASM_BIT_IN);
+    assert_int_equal(wres.dirty, 1u << DR_ASM_BIT_IN);
     /* the packed word: may keep the owned bit as it is, not change it */
     assert_int_equal(write1(GW_HOLDING, 200, 0x0008 | 0x0100), GW_EX_ILLEGAL_ADDRESS);
     assert_int_equal(get("bit_in[8]"), 0);
@@ -97,7 +97,7 @@ static void test_gpio_owned_bits(void **state)
     assert_int_equal(write1(GW_HOLDING, 100, 0x0002), 0);
     assert_int_equal(get("io_control.cb_do[2]"), 1);
     /* a unit with no inputs: everything goes */
-    U.gpio_in_count = 0;
+    R.write_policy.gpio_in_count = 0;
     assert_int_equal(write1(GW_COILS, 203, 0), 0);
     assert_int_equal(write1(GW_COILS, 100, 1), 0);
 }

@@ -124,7 +124,7 @@ static void test_serve(void **state)
 {
     (void)state;
     uint16_t v[16];
-    unsigned dirty = 0;
+    gw_write_result_t wres;
     ok("hr 2000 joint_state.position[1..2] real");
     ok("hr 2004 joint_state.position[1..2] int16 scale=10 saturate");
     ok("hr 2010 int_in[0..1] int16 writable saturate");
@@ -154,23 +154,23 @@ static void test_serve(void **state)
 
     /* writes: -2 through the INT16 view; half of a DINT */
     uint16_t w[2] = {0xFFFE, 7};
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2010, 2, w, &dirty), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2010, 2, w, NULL, &wres), 0);
     assert_int_equal(get_dint(DR_ASM_INT_IN, 0), -2);
     assert_int_equal(get_dint(DR_ASM_INT_IN, 1), 7);
-    assert_int_equal(dirty, 1u << DR_ASM_INT_IN);
+    assert_int_equal(wres.dirty, 1u << DR_ASM_INT_IN);
     put_dint(DR_ASM_INT_IN, 2, 0x12345678);
     uint16_t lo = 0xABCD;
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2012, 1, &lo, &dirty), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2012, 1, &lo, NULL, &wres), 0);
     assert_int_equal(get_dint(DR_ASM_INT_IN, 2), 0x1234ABCD);
     /* read-only blocks: 0x02 and nothing changes, also in a longer write */
     uint16_t three[3] = {1, 2, 3};
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2013, 1, three, &dirty),
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2013, 1, three, NULL, &wres),
                      GW_EX_ILLEGAL_ADDRESS);
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2011, 3, three, &dirty),
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2011, 3, three, NULL, &wres),
                      GW_EX_ILLEGAL_ADDRESS);
     assert_int_equal(get_dint(DR_ASM_INT_IN, 1), 7);
     assert_int_equal(get_dint(DR_ASM_INT_IN, 2), 0x1234ABCD);
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2000, 2, three, &dirty),
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2000, 2, three, NULL, &wres),
                      GW_EX_ILLEGAL_ADDRESS);
     /* the DINT saturates at both ends */
     put_dint(DR_ASM_INT_IN, 3, 40000);
@@ -189,17 +189,17 @@ static void test_bits(void **state)
 {
     (void)state;
     uint16_t v[4];
-    unsigned dirty = 0;
+    gw_write_result_t wres;
     ok("co 3000 bit_in[4..7] writable");
     ok("hr 3000 bit_in[0..19] bits writable");
     uint16_t on[4] = {1, 0, 1, 1};
-    assert_int_equal(gw_regmap_write(&U, GW_COILS, 3000, 4, on, &dirty), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_COILS, 3000, 4, on, NULL, &wres), 0);
     assert_int_equal(R.img[DR_ASM_BIT_IN][0], 0xD0);
     assert_int_equal(gw_regmap_read(&U, GW_HOLDING, 3000, 2, v), 0);
     assert_int_equal(v[0], 0x00D0);
     assert_int_equal(v[1], 0);
     uint16_t w[2] = {0x0001, 0xFFFF};
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 3000, 2, w, &dirty), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 3000, 2, w, NULL, &wres), 0);
     /* bits 16..19 only: the second register holds 4 elements */
     assert_int_equal(R.img[DR_ASM_BIT_IN][0], 0x01);
     assert_int_equal(R.img[DR_ASM_BIT_IN][2], 0x0F);
@@ -211,17 +211,17 @@ static void test_bits(void **state)
 static void test_default_read_only(void **state)
 {
     (void)state;
-    unsigned dirty = 0;
+    gw_write_result_t wres;
     uint16_t v[2] = {0, 5};
     ok("hr 2000 int_in[0] int16 writable saturate");
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 310, 2, v, &dirty), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 310, 2, v, NULL, &wres), 0);
     U.default_ro = true;
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 312, 2, v, &dirty), GW_EX_ILLEGAL_ADDRESS);
-    assert_int_equal(gw_regmap_write(&U, GW_COILS, 100, 1, v, &dirty), GW_EX_ILLEGAL_ADDRESS);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 312, 2, v, NULL, &wres), GW_EX_ILLEGAL_ADDRESS);
+    assert_int_equal(gw_regmap_write(&U, GW_COILS, 100, 1, v, NULL, &wres), GW_EX_ILLEGAL_ADDRESS);
     assert_int_equal(get_dint(DR_ASM_INT_IN, 6), 0);
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 0, 1, v + 1, &dirty), 0); /* watchdog */
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 0, 1, v + 1, NULL, &wres), 0); /* watchdog */
     assert_int_equal(U.watchdog, 5);
-    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2000, 1, v + 1, &dirty), 0);
+    assert_int_equal(gw_regmap_write(&U, GW_HOLDING, 2000, 1, v + 1, NULL, &wres), 0);
     assert_int_equal(get_dint(DR_ASM_INT_IN, 0), 5);
 }
 
