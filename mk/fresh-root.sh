@@ -46,6 +46,7 @@
 # prints how many went through and every refused one.
 # dpkg runs with force-unsafe-io in the copy (it is thrown away; no fsync).
 #
+# (dash: `local` is used.)
 # Environment: FRESH_CACHE, FRESH_TMP, FRESH_MAX_AGE (days),
 # FRESH_TIMEOUT (seconds per run command, 3600), FRESH_SEED (a directory
 # with SUITE.tar.zst made by the same recipe, copied when the cache has
@@ -85,7 +86,7 @@ apt_cache() { echo "$CACHE/apt-${1%-old}"; }
 # Up to date: there, made by today's recipe, younger than MAX_AGE days
 # (bookworm-old: and younger than the bookworm root it was made from).
 current() { # SUITE
-    t=$(tarball "$1")
+    local t; t=$(tarball "$1")
     [ -s "$t" ] && [ "$(cat "$t.recipe" 2>/dev/null)" = "$(recipe "$1")" ] &&
         [ -n "$(find "$t" -mtime -"$MAX_AGE")" ] || return 1
     [ "$1" != bookworm-old ] || [ ! "$(tarball bookworm)" -nt "$t" ]
@@ -106,7 +107,7 @@ ensure_root() { # SUITE: make it if it is not current (under a lock)
 }
 
 build_root() { # SUITE (under the lock)
-    s=$1 t=$(tarball "$1")
+    local s t t0; s=$1 t=$(tarball "$1")
     rm -f "$t" "$t.recipe"
     if [ "$s" = bookworm-old ]; then
         ensure_root bookworm || return 1
@@ -135,7 +136,7 @@ build_root() { # SUITE (under the lock)
 # packages of the sources in STALE claim OLD-VERSION (their relations to
 # each other at that version too), then checked: apt plans the upgrades.
 build_old() { # TARBALL
-    t0=$(date +%s)
+    local t0 d plan missing p l; t0=$(date +%s)
     d=$(mktemp -d "$TMPBASE/drgate-fresh-old.XXXXXX") || return 1
     mkdir "$d/root"
     zstd -dcq "$(tarball bookworm)" | tar -x --numeric-owner -C "$d/root" || { rm -rf "$d"; return 1; }
@@ -345,7 +346,7 @@ check() { # BUILD_DIR [RESULTS]
     done
     # one case: SUITE NAME COMMAND; its output in $b/fresh/SUITE-NAME.log
     case_run() {
-        log=$b/fresh/$1-$2.log
+        local log cst; log=$b/fresh/$1-$2.log
         echo "  $1: \$ $3"
         sh "$0" run "$1" -- sh -c "$3" < /dev/null > "$log" 2>&1; cst=$?
         grep '^fresh-root: ' "$log" | grep -v ': \$ ' | sed 's/^fresh-root: /    /'
