@@ -302,7 +302,8 @@ EOF
         say "$s: root $(age "$(tarball "$s")") h old, $c0 packages, /src at $(git -C "$top" log -1 --format='%h %s' | cut -c1-60), extracted in $(( $(date +%s) - t0 )) s; proxy allows: $hosts"
     [ -n "${FRESH_QUIET:-}" ] || [ -z "$(git -C "$top" status --porcelain --untracked-files=no)" ] ||
         say "$s: (uncommitted changes in $top are not in /src)"
-    [ -n "${FRESH_QUIET:-}" ] || say "$s: \$ $*"
+    show=${FRESH_SHOW:-$*}
+    [ -n "${FRESH_QUIET:-}" ] || say "$s: \$ $show"
     t1=$(date +%s)
     timeout -k 10 "$RUN_TIMEOUT" unshare --mount --pid --net --fork --kill-child --propagation private \
         sh "$tmp/inner.sh" "$root" "$sock" "$cache" "$PROXY_PORT" "$@" &
@@ -313,7 +314,7 @@ EOF
     na=$(grep -c ' allow ' "$tmp/proxy.log")
     nd=$(grep -c ' DENY ' "$tmp/proxy.log")
     [ "$st" != 124 ] || say "$s: timed out after $RUN_TIMEOUT s (FRESH_TIMEOUT)"
-    say "$s: \$ $*: exit $st, $((t2 - t1)) s; packages $c0 -> $c1 (+$((c1 - c0))); proxy: $na requests through, $nd refused"
+    say "$s: \$ $show: exit $st, $((t2 - t1)) s; packages $c0 -> $c1 (+$((c1 - c0))); proxy: $na requests through, $nd refused"
     grep ' DENY \| FAIL ' "$tmp/proxy.log" | sed "s/^/fresh-root: $s: proxy: /" | head -20
     return "$st"
 }
@@ -344,14 +345,15 @@ check() { # BUILD_DIR [RESULTS]
             fi
         fi
     done
-    # one case: SUITE NAME COMMAND; its output in $b/fresh/SUITE-NAME.log
+    # one case: SUITE NAME COMMAND [SHOWN]; its output in $b/fresh/SUITE-NAME.log
     case_run() {
         local log cst; log=$b/fresh/$1-$2.log
-        echo "  $1: \$ $3"
-        sh "$0" run "$1" -- sh -c "$3" < /dev/null > "$log" 2>&1; cst=$?
-        grep '^fresh-root: ' "$log" | grep -v ': \$ ' | sed 's/^fresh-root: /    /'
+        FRESH_SHOW=${4:-$3} sh "$0" run "$1" -- sh -c "$3" < /dev/null > "$log" 2>&1; cst=$?
+        grep '^fresh-root: ' "$log" | sed 's/^fresh-root: /    /'
         return $cst
     }
+    # the end of a failed case's log, its own lines only
+    log_tail() { grep -v '^fresh-root: \|^probe-' "$1" | tail -"$2" | sed 's/^/    | /'; }
     # bookworm and trixie: the README's `make demo`, then two probes of the
     # isolation (the proxy refuses another host; no route out but it)
     demo='DEPS_YES=1 make demo; st=$?
@@ -359,10 +361,10 @@ bash -c '\''exec 3<>/dev/tcp/127.0.0.1/'"$PROXY_PORT"' && printf "CONNECT exampl
 timeout 5 bash -c '\''exec 3<>/dev/tcp/151.101.2.132/80'\'' 2>&1 | sed "s/^/probe-direct: /"
 exit $st'
     for s in bookworm trixie; do
-        if case_run "$s" demo "$demo"; then
+        if case_run "$s" demo "$demo" "DEPS_YES=1 make demo  (then 2 probes of the isolation)"; then
             ok "$s: make demo exit 0"
         else
-            tail -25 "$b/fresh/$s-demo.log" | sed 's/^/    | /'
+            log_tail "$b/fresh/$s-demo.log" 12
             bad "$s: make demo failed (log: $b/fresh/$s-demo.log)"
         fi
         l=$b/fresh/$s-demo.log
@@ -380,7 +382,7 @@ exit $st'
     if case_run bookworm-old test-deps 'DEPS_YES=1 make test-deps'; then
         ok "bookworm-old: make test-deps exit 0"
     else
-        tail -15 "$b/fresh/bookworm-old-test-deps.log" | sed 's/^/    | /'
+        log_tail "$b/fresh/bookworm-old-test-deps.log" 8
         bad "bookworm-old: make test-deps failed (log: $b/fresh/bookworm-old-test-deps.log)"
     fi
     check_done
