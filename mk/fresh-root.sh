@@ -369,7 +369,7 @@ exit $st'
         fi
         l=$b/fresh/$s-demo.log
         if grep -q 'link up' "$l" && [ "$(grep -cE '^\[[0-9]+\]:' "$l")" -ge 20 ] &&
-                grep -qE '^\[[0-9]+\]: *4242$' "$l" && grep -qE '^Written [0-9]+ references' "$l" &&
+                grep -qE '^\[[0-9]+\]:[[:space:]]*4242$' "$l" && grep -qE '^Written [0-9]+ references' "$l" &&
                 grep -q 'Illegal data value' "$l"; then
             ok "$s: the demo's output (link up, registers, 4242 echoed, NaN refused)"
         else
