@@ -32,8 +32,7 @@
 # SUITE`, made again when older than FRESH_MAX_AGE days (7) or when the
 # recipe (SUITE.recipe beside it) changed. apt's downloads are kept in
 # FRESH_CACHE/apt-SUITE (bind-mounted over the root's
-# /var/cache/apt/archives), pip's in FRESH_CACHE/pip (over /root/.cache/pip),
-# so a second run downloads only the package lists and PyPI's indexes.
+# /var/cache/apt/archives), so a second run downloads only the package lists.
 #
 # In a run: the copy is extracted under FRESH_TMP (/var/tmp); the host's
 # /usr/local/share/ca-certificates/*.crt are added (this site's HTTPS has
@@ -203,7 +202,7 @@ mounts_under() { # DIR
 inner_script() {
     cat <<'EOF'
 set -eu
-r=$1 sock=$2 cache=$3 pipcache=$4 port=$5; shift 5
+r=$1 sock=$2 cache=$3 port=$4; shift 4
 # the root a mount point of its own: `ip netns exec` remounts / as a slave
 mount --bind "$r" "$r"
 mount -t proc -o nosuid,nodev,noexec proc "$r/proc"
@@ -221,8 +220,6 @@ ln -s /proc/self/fd "$r/dev/fd"; ln -s /proc/self/fd/0 "$r/dev/stdin"
 ln -s /proc/self/fd/1 "$r/dev/stdout"; ln -s /proc/self/fd/2 "$r/dev/stderr"
 mount -t tmpfs -o nosuid,nodev,mode=755 run "$r/run"
 mount --bind "$cache" "$r/var/cache/apt/archives"
-mkdir -p "$r/root/.cache/pip"
-mount --bind "$pipcache" "$r/root/.cache/pip"
 ip link set lo up
 # The proxy's port on loopback: the host's socat, in this network namespace.
 socat TCP-LISTEN:"$port",bind=127.0.0.1,reuseaddr,fork UNIX-CONNECT:"$sock" &
@@ -291,7 +288,7 @@ EOF
     git clone -q --no-checkout "$top" "$root/src" && git -C "$root/src" checkout -q "$sha" ||
         die "git clone of $top at $sha failed"
     cache=$(apt_cache "$s")
-    mkdir -p "$cache/partial" "$CACHE/pip"
+    mkdir -p "$cache/partial"
     hosts="$(apt_hosts "$root" | tr '\n' ' ')$PIP_HOSTS"
     sock=$tmp/px/proxy.sock
     "$PY" mk/fresh-proxy.py "$sock" "$tmp/proxy.log" $hosts &
@@ -311,7 +308,7 @@ EOF
     [ -n "${FRESH_QUIET:-}" ] || say "$s: \$ $show"
     t1=$(date +%s)
     timeout -k 10 "$RUN_TIMEOUT" unshare --mount --pid --net --fork --kill-child --propagation private \
-        sh "$tmp/inner.sh" "$root" "$sock" "$cache" "$CACHE/pip" "$PROXY_PORT" "$@" &
+        sh "$tmp/inner.sh" "$root" "$sock" "$cache" "$PROXY_PORT" "$@" &
     nspid=$!
     wait "$nspid"; st=$?; nspid=
     t2=$(date +%s)
