@@ -289,6 +289,9 @@ EOF
         die "git clone of $top at $sha failed"
     cache=$(apt_cache "$s")
     mkdir -p "$cache/partial"
+    # one run at a time per apt cache (apt's lock in it would fail the other)
+    exec 8>"$cache.lock"
+    flock -w 1800 8 || die "waited 30 min for $cache.lock (another run)"
     hosts="$(apt_hosts "$root" | tr '\n' ' ')$PIP_HOSTS"
     sock=$tmp/px/proxy.sock
     "$PY" mk/fresh-proxy.py "$sock" "$tmp/proxy.log" $hosts &
