@@ -236,6 +236,11 @@ chroot "$r" /usr/bin/env -i PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/b
     NO_PROXY=localhost,127.0.0.1,::1 /bin/sh -c \
     'update-ca-certificates >/dev/null 2>&1 || echo "fresh-root: update-ca-certificates failed" >&2
      cd /src && exec "$@"' sh "$@"
+st=$?
+# the cache keeps only what the archive still has
+[ -z "$(ls "$r/var/lib/apt/lists" | grep -v '^lock$\|^partial$\|^auxfiles$')" ] ||
+    chroot "$r" apt-get -qq autoclean >/dev/null 2>&1 || true
+exit $st
 EOF
 }
 
