@@ -50,7 +50,7 @@
 # Environment: FRESH_CACHE, FRESH_TMP, FRESH_MAX_AGE (days),
 # FRESH_TIMEOUT (seconds per run command, 3600), FRESH_SEED (a directory
 # with SUITE.tar.zst made by the same recipe, copied when the cache has
-# none: /var/cache/drgate-explore; empty: do not seed).
+# none; unset: do not seed).
 set -u
 cd "$(dirname "$0")/.."
 top=$(pwd)
@@ -58,7 +58,7 @@ CACHE=${FRESH_CACHE:-/var/cache/drgate}
 TMPBASE=${FRESH_TMP:-/var/tmp}
 MAX_AGE=${FRESH_MAX_AGE:-7}
 RUN_TIMEOUT=${FRESH_TIMEOUT:-3600}
-SEED=${FRESH_SEED-/var/cache/drgate-explore}
+SEED=${FRESH_SEED:-}
 INCLUDE=git,ca-certificates,make,iproute2
 # Bump when the way a root is made changes: every cached root is remade.
 RECIPE_VERSION=1
