@@ -333,7 +333,7 @@ EOF
 check() { # BUILD_DIR [RESULTS]
     . tests/skip.sh
     b=$1 res=${2:-}
-    label="fresh machines: make demo on bookworm and trixie, make test-deps on an old bookworm (mk/fresh-root.sh)"
+    label="fresh machines: make demo on bookworm and trixie, make test-deps on an old bookworm, the unit, gateway and package checks on trixie (mk/fresh-root.sh)"
     skip_name=check-fresh skip_results=$res skip_label=$label
     [ "$(id -u)" = 0 ] || skip "not root (unshare, chroot)"
     for t in mmdebstrap unshare zstd socat python3 flock; do
@@ -368,7 +368,7 @@ check() { # BUILD_DIR [RESULTS]
     # isolation (the proxy refuses another host; no route out but it)
     demo='DEPS_YES=1 make demo; st=$?
 bash -c '\''exec 3<>/dev/tcp/127.0.0.1/'"$PROXY_PORT"' && printf "CONNECT example.com:443 HTTP/1.1\r\n\r\n" >&3 && head -1 <&3'\'' 2>&1 | sed "s/^/probe-proxy: /"
-timeout 5 bash -c '\''exec 3<>/dev/tcp/151.101.2.132/80'\'' 2>&1 | sed "s/^/probe-direct: /"
+ip route get 192.0.2.1 2>&1 | sed "s/^/probe-direct: /"
 exit $st'
     for s in bookworm trixie; do
         l=$b/fresh/$s-demo.log
@@ -391,9 +391,40 @@ exit $st'
     done
     if case_run bookworm-old test-deps 'DEPS_YES=1 make test-deps'; then
         ok "bookworm-old: make test-deps exit 0"
+        # deps.sh named the upgrades before it made them
+        grep -q '^deps: and upgrade .* installed packages' "$b/fresh/bookworm-old-test-deps.log" &&
+            grep -q '^  perl-base 5.36.0-7 -> ' "$b/fresh/bookworm-old-test-deps.log" &&
+            ok "bookworm-old: the upgrades were named first (perl-base 5.36.0-7 -> $(sed -n 's/^  perl-base 5.36.0-7 -> //p' "$b/fresh/bookworm-old-test-deps.log"))" ||
+            bad "bookworm-old: deps.sh did not name the upgrade of perl-base"
     else
         log_tail "$b/fresh/bookworm-old-test-deps.log" 8
         bad "bookworm-old: make test-deps failed (log: $b/fresh/bookworm-old-test-deps.log)"
+    fi
+    # trixie: what make check can run there beyond the demo: the unit
+    # tests, the gateway's end-to-end suite and the Debian packages (amd64
+    # and arm64), after `make test-deps`. The inner make's results come back
+    # as "result: PASSED FAILED LABEL" lines of the log.
+    trixie_check='DEPS_YES=1 make test-deps && make -j2 all || exit 1
+make -k check-unit check-gateway check-deb check-arm64 RESULTS=/src/build/trixie-results; st=$?
+sed "s/^/result: /" build/trixie-results
+exit $st'
+    l=$b/fresh/trixie-check.log
+    case_run trixie check "$trixie_check" \
+        "DEPS_YES=1 make test-deps && make -j2 all && make check-unit check-gateway check-deb check-arm64"
+    cst=$?
+    if grep -q '^result: ' "$l"; then
+        # shellcheck disable=SC2034
+        sed -n 's/^result: //p' "$l" | while read -r p f what; do
+            [ "$f" = 0 ] && echo "  ok: trixie: $what: $p passed" ||
+                echo "  FAIL: trixie: $what: $p passed, $f failed"
+        done
+        n_bad=$(sed -n 's/^result: //p' "$l" | awk '$2 > 0' | grep -c .)
+        n_ok=$(sed -n 's/^result: //p' "$l" | awk '$2 == 0' | grep -c .)
+        pass=$((pass + n_ok)) fail=$((fail + n_bad))
+        [ "$cst" = 0 ] || [ "$n_bad" -gt 0 ] || bad "trixie: make check-... exit $cst (log: $l)"
+    else
+        log_tail "$l" 15
+        bad "trixie: make test-deps or the build failed (log: $l)"
     fi
     check_done
 }
