@@ -357,6 +357,8 @@ CHECK_TIMES := $(B)/check-times
 # even if an earlier one failed (mk/check-steps.sh), then the time per
 # step and the closing line "check: N passed, M failed". check-deps comes
 # last, when every file of the run has been built.
+# CHECK_BG_STEPS run beside them (mk/check-steps.sh: BG_STEPS).
+CHECK_BG_STEPS :=
 CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
                check-asan check-fuzz check-dep-split check-demo \
                check-install check-dissector check-deb check-arm64
@@ -369,7 +371,7 @@ CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be
 check:
 	@sh mk/deps.sh test
 	@rm -f $(RESULTS) $(CHECK_TIMES)
-	@MAKE="$(MAKE)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
+	@MAKE="$(MAKE)" BG_STEPS="$(CHECK_BG_STEPS)" sh mk/check-steps.sh $(RESULTS) $(CHECK_TIMES) \
 	    all $(CHECK_STEPS) check-deps || true
 	@$(MAKE) --no-print-directory check-summary
 
