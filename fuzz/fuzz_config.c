@@ -35,7 +35,7 @@ static bool same_bytes(const void *a, const void *b, size_t n)
  * after its element, for one) holds whatever its stack held. */
 static bool same_config(const gw_config_t *a, const gw_config_t *b)
 {
-    const gw_modbus_config_t *ma = &a->modbus, *mb = &b->modbus;
+    const gw_modbus_config_t *ma = &a->side.modbus, *mb = &b->side.modbus;
     bool same = strcmp(a->path, b->path) == 0 && strcmp(a->log_level, b->log_level) == 0 &&
                 strcmp(ma->listen, mb->listen) == 0 && ma->port == mb->port &&
                 ma->max_clients == mb->max_clients &&
@@ -43,7 +43,7 @@ static bool same_config(const gw_config_t *a, const gw_config_t *b)
                 ma->word_order == mb->word_order && ma->on_link_loss == mb->on_link_loss &&
                 ma->allow_count == mb->allow_count && ma->single_writer == mb->single_writer &&
                 ma->writer_watchdog_ms == mb->writer_watchdog_ms &&
-                a->robot_count == b->robot_count && a->gpio_count == b->gpio_count;
+                a->robot_count == b->robot_count && a->side.gpio.count == b->side.gpio.count;
     for (unsigned i = 0; same && i < ma->allow_count; i++)
         same = ma->allow[i].net == mb->allow[i].net && ma->allow[i].mask == mb->allow[i].mask &&
                ma->allow[i].read_write == mb->allow[i].read_write;
@@ -53,8 +53,8 @@ static bool same_config(const gw_config_t *a, const gw_config_t *b)
                x->unit_id == y->unit_id && x->fallback_hold == y->fallback_hold &&
                x->line == y->line;
     }
-    for (unsigned i = 0; same && i < a->gpio_count; i++) {
-        const gw_gpio_config_t *x = &a->gpio[i], *y = &b->gpio[i];
+    for (unsigned i = 0; same && i < a->side.gpio.count; i++) {
+        const gw_gpio_config_t *x = &a->side.gpio.line[i], *y = &b->side.gpio.line[i];
         same = strcmp(x->name, y->name) == 0 && strcmp(x->chip, y->chip) == 0 &&
                x->offset == y->offset && strcmp(x->line_name, y->line_name) == 0 &&
                x->dir == y->dir && strcmp(x->robot, y->robot) == 0 &&
@@ -119,7 +119,7 @@ static void check_config(const gw_config_t *c)
     FUZZ_CHECK(strcmp(c->log_level, "error") == 0 || strcmp(c->log_level, "warning") == 0 ||
                strcmp(c->log_level, "info") == 0 || strcmp(c->log_level, "debug") == 0);
 
-    const gw_modbus_config_t *m = &c->modbus;
+    const gw_modbus_config_t *m = &c->side.modbus;
     FUZZ_CHECK(terminated(m->listen, sizeof m->listen));
     FUZZ_CHECK(inet_pton(AF_INET, m->listen, &ia) == 1);
     FUZZ_CHECK(m->max_clients >= 1 && m->max_clients <= 256);
@@ -157,9 +157,9 @@ static void check_config(const gw_config_t *c)
         FUZZ_CHECK(gw_robot_config_same_link(r, r));
     }
 
-    FUZZ_CHECK(c->gpio_count <= GW_MAX_GPIO);
-    for (unsigned i = 0; i < c->gpio_count; i++) {
-        const gw_gpio_config_t *g = &c->gpio[i];
+    FUZZ_CHECK(c->side.gpio.count <= GW_MAX_GPIO);
+    for (unsigned i = 0; i < c->side.gpio.count; i++) {
+        const gw_gpio_config_t *g = &c->side.gpio.line[i];
         FUZZ_CHECK(terminated(g->name, sizeof g->name) && g->name[0] != '\0');
         FUZZ_CHECK(terminated(g->chip, sizeof g->chip) && g->chip[0] != '\0');
         FUZZ_CHECK(terminated(g->line_name, sizeof g->line_name));
@@ -175,7 +175,7 @@ static void check_config(const gw_config_t *c)
             FUZZ_CHECK(g->dir == GW_GPIO_OUTPUT && g->debounce_ms == 0);
         FUZZ_CHECK((unsigned)g->bias <= GW_BIAS_PULL_DOWN);
         for (unsigned j = 0; j < i; j++)
-            FUZZ_CHECK(strcmp(c->gpio[j].name, g->name) != 0);
+            FUZZ_CHECK(strcmp(c->side.gpio.line[j].name, g->name) != 0);
     }
 }
 

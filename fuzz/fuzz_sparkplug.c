@@ -127,7 +127,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         for (unsigned i = 0; i < dr_asm_info((dr_asm_t)a)->size; i++)
             R[0].img[a][i] = (uint8_t)(i * 37u + a);
-    gw_mqtt_config_t q = C.mqtt;
+    gw_mqtt_config_t q = C.side.mqtt;
     q.enabled = true;
     q.payload = GW_MQTT_SPARKPLUG;
     snprintf(q.group_id, sizeof q.group_id, "g");

@@ -55,6 +55,41 @@ else
     echo "0 1 $label" >> "$results"
 fi
 
+# Sides plug in (docs/gateway.md "Adding a side", issue 30): the core
+# (gateway/core/) includes no header of a side's folder and names no side's
+# operations or section list; it reaches the sides through core/north.h and
+# the side list gateway/sides.h, the only file that names them all. And a
+# side does not reach into another side's folder but for the Modbus
+# register map's own users (regmap.h is Modbus's); the console
+# (gateway/http/) includes no other side's header.
+slabel="gateway side boundary (core knows sides only through north.h and sides.h)"
+sfail=0
+sides=$(cd "$top/gateway" && for d in */; do d=${d%/}; [ "$d" = core ] || [ "$d" = examples ] || printf '%s\n' "$d"; done)
+sides_re=$(printf '%s\n' $sides | paste -sd'|' -)
+for f in "$top"/gateway/core/*.[ch]; do
+    rel=${f#"$top"/}
+    code=$("$cc" -fpreprocessed -dD -E -P -x c "$f" 2>/dev/null) || {
+        echo "$slabel: cannot read $rel"; sfail=1; continue; }
+    hit=$(printf '%s\n' "$code" | grep -nE "#[[:space:]]*include[[:space:]]*[<\"]($sides_re)/")
+    if [ -n "$hit" ]; then echo "$slabel: $rel includes a side's header:"; echo "$hit"; sfail=1; fi
+    hit=$(printf '%s\n' "$code" | grep -nE "gw_north_($sides_re)\b|gw_side_cfg_($sides_re)\b|gw_cfg_($sides_re)\b")
+    if [ -n "$hit" ]; then echo "$slabel: $rel names a side:"; echo "$hit"; sfail=1; fi
+done
+# Within the list: every side folder, once each, and nothing else.
+listed=$("$cc" -fpreprocessed -dD -E -P -x c "$top/gateway/sides.h" 2>/dev/null |
+         grep -oE '^[[:space:]]*X\([a-z_0-9]+\)' | sed 's/.*X(\(.*\))/\1/' | sort | paste -sd' ' -)
+folders=$(printf '%s\n' $sides | sort | paste -sd' ' -)
+if [ "$listed" != "$folders" ]; then
+    echo "$slabel: gateway/sides.h lists '$listed', the side folders are '$folders'"; sfail=1
+fi
+hit=$(cd "$top" && grep -nE '#[[:space:]]*include[[:space:]]*[<"](modbus|gpio|mqtt)/' gateway/http/*.[ch])
+if [ -n "$hit" ]; then echo "$slabel: the console includes another side's header:"; echo "$hit"; sfail=1; fi
+if [ "$sfail" -eq 0 ]; then
+    echo "$slabel: clean"; echo "1 0 $slabel" >> "$results"
+else
+    echo "0 1 $slabel" >> "$results"; fail=1
+fi
+
 # The library's private headers (lib/*_internal.h: the wire toolkit, the
 # client's parts, the field table) are for lib/ itself, drsim, the tests,
 # fuzzers and benchmarks; the programs built on the public API (drcli,

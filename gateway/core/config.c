@@ -13,6 +13,7 @@
  * *out is written: a bad file, or a bad reload, never half-applies.
  */
 #include "core/config_internal.h"
+#include "core/write.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -21,15 +22,37 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* ---- the sides ---------------------------------------------------------- */
+/* ---- the sections ----------------------------------------------------------- */
 
-/* Every section kind, in the order of "allowed:" lists, of did-you-mean
- * and of the checks once the file is read. */
-static const gw_cfg_side_t *const sides[] = {
-    &gw_cfg_daemon, &gw_cfg_modbus, &gw_cfg_robot,
-    &gw_cfg_gpio,   &gw_cfg_rtu,    &gw_cfg_mqtt, &gw_cfg_http,
+/* The sides, from the side list (gateway/sides.h): the core names no
+ * side. */
+#define GW_SIDE_CFG_ENTRY(name) &gw_side_cfg_##name,
+const gw_side_cfg_t *const gw_side_cfgs[GW_SIDE_COUNT] = {
+    GW_SIDES(GW_SIDE_CFG_ENTRY)
 };
-typedef char sides_fit[GW_CFG_COUNT(sides) <= GW_CFG_MAX_SIDES ? 1 : -1];
+#undef GW_SIDE_CFG_ENTRY
+
+/* Every section kind, in rank order: the order of "allowed:" lists, of
+ * did-you-mean and of the checks once the file is read. A side with more
+ * than GW_CFG_SIDE_SECTIONS sections has the rest left out (its unit
+ * test, test_gw_sides.c, says so). */
+unsigned gw_cfg_all_sections(const gw_cfg_side_t **out)
+{
+    unsigned n = 0;
+    out[n++] = &gw_cfg_daemon;
+    out[n++] = &gw_cfg_robot;
+    for (unsigned j = 0; j < GW_SIDE_COUNT; j++)
+        for (unsigned k = 0; k < GW_CFG_SIDE_SECTIONS && gw_side_cfgs[j]->sections[k] != NULL;
+             k++)
+            out[n++] = gw_side_cfgs[j]->sections[k];
+    for (unsigned i = 1; i < n; i++) /* insertion sort: stable, a dozen */
+        for (unsigned k = i; k > 0 && out[k - 1]->rank > out[k]->rank; k--) {
+            const gw_cfg_side_t *t = out[k];
+            out[k] = out[k - 1];
+            out[k - 1] = t;
+        }
+    return n;
+}
 
 /* [daemon]: the core's own section; its struct is gw_config_t itself. */
 static const gw_cfg_key_t daemon_keys[] = {
@@ -38,6 +61,7 @@ static const gw_cfg_key_t daemon_keys[] = {
 
 const gw_cfg_side_t gw_cfg_daemon = {
     .kw = "daemon",
+    .rank = 10,
     .name_off = GW_CFG_NONE,
     .line_off = GW_CFG_NONE,
     GW_CFG_KEYS(daemon_keys),
@@ -424,10 +448,10 @@ void *gw_cfg_at(gw_config_t *cfg, const gw_cfg_side_t *s, unsigned i)
     return (char *)cfg + s->base + (size_t)i * s->stride;
 }
 
-static unsigned side_index(const gw_cfg_side_t *s)
+static unsigned side_index(const gw_cfg_ctx_t *c, const gw_cfg_side_t *s)
 {
     unsigned j = 0;
-    while (j + 1 < GW_CFG_COUNT(sides) && sides[j] != s)
+    while (j + 1 < c->nsides && c->sides[j] != s)
         j++;
     return j;
 }
@@ -442,8 +466,8 @@ static size_t round16(size_t n)
 static bool alloc_records(gw_cfg_ctx_t *c)
 {
     size_t total = 0;
-    for (unsigned j = 0; j < GW_CFG_COUNT(sides); j++) {
-        const gw_cfg_side_t *s = sides[j];
+    for (unsigned j = 0; j < c->nsides; j++) {
+        const gw_cfg_side_t *s = c->sides[j];
         c->record_size[j] = round16((s->nkeys + 1u) * sizeof(unsigned)) +
                             round16(s->scratch);
         c->record_off[j] = total;
@@ -456,7 +480,7 @@ static bool alloc_records(gw_cfg_ctx_t *c)
 static unsigned char *record(gw_cfg_ctx_t *c, const gw_cfg_side_t *s,
                              unsigned i)
 {
-    unsigned j = side_index(s);
+    unsigned j = side_index(c, s);
     return c->record + c->record_off[j] + (size_t)i * c->record_size[j];
 }
 
@@ -663,9 +687,11 @@ void gw_cfg_key(gw_cfg_ctx_t *c, const char *name, const char *v)
 
 const char *gw_config_sections(void)
 {
-    static char text[160];
+    static char text[400];
+    const gw_cfg_side_t *sides[GW_CFG_MAX_SECTIONS];
+    unsigned n = gw_cfg_all_sections(sides);
     size_t len = 0;
-    for (unsigned j = 0; j < GW_CFG_COUNT(sides) && len < sizeof text; j++) {
+    for (unsigned j = 0; j < n && len < sizeof text; j++) {
         int w = snprintf(text + len, sizeof text - len, "%s[%s%s]",
                          j ? ", " : "", sides[j]->kw,
                          sides[j]->named ? " NAME" : "");
@@ -679,8 +705,8 @@ const char *gw_config_sections(void)
 static void unknown_section(gw_cfg_ctx_t *c, const char *kw, const char *rest)
 {
     gw_cfg_guess_t g = GW_CFG_GUESS(kw);
-    for (unsigned j = 0; j < GW_CFG_COUNT(sides); j++)
-        gw_cfg_guess(&g, sides[j]->kw);
+    for (unsigned j = 0; j < c->nsides; j++)
+        gw_cfg_guess(&g, c->sides[j]->kw);
     char close[80], hint[160];
     snprintf(close, sizeof close, "%s]", rest); /* [robto arm1]: [robot arm1] */
     gw_cfg_fail(c, c->lineno, "unknown section [%s] (%sallowed: %s)",
@@ -783,13 +809,13 @@ void gw_cfg_begin_section(gw_cfg_ctx_t *c, const char *raw)
     bool named = *rest != '\0';
 
     c->side = NULL;
-    for (unsigned j = 0; j < GW_CFG_COUNT(sides); j++) {
-        if (strcmp(kw, sides[j]->kw) != 0)
+    for (unsigned j = 0; j < c->nsides; j++) {
+        if (strcmp(kw, c->sides[j]->kw) != 0)
             continue;
-        if (sides[j]->named)
-            begin_named(c, sides[j], name, named);
+        if (c->sides[j]->named)
+            begin_named(c, c->sides[j], name, named);
         else
-            begin_single(c, sides[j], named);
+            begin_single(c, c->sides[j], named);
         return;
     }
     unknown_section(c, kw, rest);
@@ -826,8 +852,10 @@ static void side_defaults(const gw_cfg_side_t *s, void *sec)
 
 void gw_config_defaults(gw_config_t *cfg)
 {
+    const gw_cfg_side_t *sides[GW_CFG_MAX_SECTIONS];
+    unsigned n = gw_cfg_all_sections(sides);
     memset(cfg, 0, sizeof *cfg);
-    for (unsigned j = 0; j < GW_CFG_COUNT(sides); j++)
+    for (unsigned j = 0; j < n; j++)
         for (unsigned i = 0; i < (sides[j]->named ? sides[j]->max : 1u); i++)
             side_defaults(sides[j], gw_cfg_at(cfg, sides[j], i));
 }
@@ -845,6 +873,8 @@ bool gw_config_load(const char *path, gw_config_t *out, char *err,
         return false;
     }
     gw_cfg_ctx_t *c = calloc(1, sizeof *c);
+    if (c != NULL)
+        c->nsides = gw_cfg_all_sections(c->sides);
     if (c == NULL || !alloc_records(c)) {
         gw_cfg_file_error(err, errlen, path, "out of memory", NULL);
         free(c);
@@ -858,9 +888,9 @@ bool gw_config_load(const char *path, gw_config_t *out, char *err,
         memcpy(c->cfg.path, path, strlen(path) + 1);
         c->path = path;
         if (gw_cfg_ini_read(c, err, errlen)) {
-            for (unsigned j = 0; j < GW_CFG_COUNT(sides); j++)
-                if (c->err_line == 0 && sides[j]->check != NULL)
-                    sides[j]->check(c);
+            for (unsigned j = 0; j < c->nsides; j++)
+                if (c->err_line == 0 && c->sides[j]->check != NULL)
+                    c->sides[j]->check(c);
             if (c->err_line != 0) {
                 if (err != NULL && errlen > 0)
                     snprintf(err, errlen, "%s:%u: %s", path, c->err_line,
@@ -878,11 +908,41 @@ bool gw_config_load(const char *path, gw_config_t *out, char *err,
 
 bool gw_config_print_keys(FILE *out, const char *section)
 {
-    for (unsigned j = 0; j < GW_CFG_COUNT(sides); j++) {
+    const gw_cfg_side_t *sides[GW_CFG_MAX_SECTIONS];
+    unsigned n = gw_cfg_all_sections(sides);
+    for (unsigned j = 0; j < n; j++) {
         if (strcmp(section, sides[j]->kw) == 0) {
             gw_cfg_print_keys(out, sides[j]);
             return true;
         }
     }
+    return false;
+}
+
+/* ---- what the daemon asks of the sides' configuration ------------------------- */
+
+void gw_write_policy_set(gw_robot_t *r, const gw_config_t *cfg, unsigned index)
+{
+    memset(&r->write_policy, 0, sizeof r->write_policy);
+    for (unsigned j = 0; j < GW_SIDE_COUNT; j++)
+        if (gw_side_cfgs[j]->write_policy != NULL)
+            gw_side_cfgs[j]->write_policy(cfg, index, &r->write_policy);
+}
+
+const char *gw_config_brief(const gw_config_t *cfg)
+{
+    static char text[256];
+    snprintf(text, sizeof text, "%u robot(s)", cfg->robot_count);
+    for (unsigned j = 0; j < GW_SIDE_COUNT; j++)
+        if (gw_side_cfgs[j]->brief != NULL)
+            gw_side_cfgs[j]->brief(cfg, text, sizeof text);
+    return text;
+}
+
+bool gw_config_keeps_log(const gw_config_t *cfg)
+{
+    for (unsigned j = 0; j < GW_SIDE_COUNT; j++)
+        if (gw_side_cfgs[j]->keeps_log != NULL && gw_side_cfgs[j]->keeps_log(cfg))
+            return true;
     return false;
 }

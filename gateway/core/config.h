@@ -2,16 +2,14 @@
 /*
  * drgatewayd configuration: one INI file (parsed with libinih).
  *
- *   [daemon]            log level
- *   [modbus]            listen address/port, clients, word order, allowlist
- *   [robot NAME]        one section per robot, each with its own unit ID
- *   [gpio NAME]         one section per GPIO line
- *   [modbus_rtu NAME]   one section per serial line (Modbus RTU slave)
- *   [mqtt]              MQTT northbound side (north_mqtt.c), off without it
- *   [http]              the console: web pages, JSON API (north_http.c)
+ *   [daemon]            log level (the core's)
+ *   [robot NAME]        one section per robot (the core's)
+ *   the sides' own      each side's folder: its config_<side>.h (the
+ *                       struct) and config_<side>.c (the sections and
+ *                       their keys), listed once in gateway/sides.h
  *
  * "[robot NAME]" and "[robot.NAME]" are the same section ("[robot]" alone
- * names the robot "robot"); likewise "[gpio NAME]" and "[gpio.NAME]".
+ * names the robot "robot"); likewise for every named section.
  * Every key, default and range: docs/configuration.md.
  *
  * gw_config_load() validates everything and reports the first error as
@@ -27,24 +25,8 @@
 
 #include "drgate/codec.h"
 
-/* Robots per daemon (32: the robots-per-core goal of issue 15, measured by
- * mk/bench_scale.mk; each costs about 1.8 kB of gw_config_t (1.5 kB the room of its own
- * register map, GW_MAX_MAP blocks) and 5.6 kB of
- * mostly untouched bss in the daemon, docs/performance.md). The library's
- * shared UDP port takes as many clients (DR_UDP_PORT_MAX_CLIENTS), so all
- * robots can share 2222. */
-#ifndef GW_MAX_ROBOTS
-#define GW_MAX_ROBOTS 32
-#endif
-#define GW_MAX_GPIO 64
-#define GW_MAX_ALLOW 16
-#define GW_NAME_MAX 32
-#define GW_MAX_RTU 4
+#include "core/config_types.h"
 
-typedef enum { GW_WORD_ABCD = 0, GW_WORD_CDAB, GW_WORD_BADC, GW_WORD_DCBA } gw_word_order_t;
-typedef enum { GW_LOSS_HOLD = 0, GW_LOSS_ZERO, GW_LOSS_EXCEPTION } gw_link_loss_t;
-/* A read that covers reserved addresses between the map's blocks. */
-typedef enum { GW_UNMAPPED_ZERO = 0, GW_UNMAPPED_EXCEPTION } gw_unmapped_read_t;
 typedef enum { GW_MODE_IMPLICIT = 0, GW_MODE_EXPLICIT } gw_robot_mode_t;
 /* How a T->O assembly is opened (open.<assembly>): an exclusive owner
  * connection with its O->T partner, input-only or listen-only (heartbeat
@@ -55,31 +37,6 @@ typedef struct {
     gw_open_kind_t kind;
     int o2t; /* owner: the O->T dr_asm_t; else -1 */
 } gw_open_t;
-
-typedef struct {
-    uint32_t net;      /* IPv4 network, host order */
-    uint32_t mask;     /* prefix as mask */
-    bool read_write;   /* false: read-only */
-} gw_allow_t;
-
-typedef struct {
-    char listen[64];          /* address, default "0.0.0.0" */
-    uint16_t port;            /* default 502 */
-    unsigned max_clients;     /* default 16, 1..256 */
-    unsigned idle_timeout_s;  /* default 60; 0 = never */
-    bool keepalive;           /* default true */
-    gw_word_order_t word_order; /* default abcd */
-    gw_link_loss_t on_link_loss; /* default hold */
-    gw_unmapped_read_t unmapped_read; /* default zero */
-    unsigned allow_count;     /* 0: everyone read-write */
-    gw_allow_t allow[GW_MAX_ALLOW]; /* file order; the first match decides
-                                       (the loader refuses shadowed entries) */
-    /* Single-writer mode (EK9000-like write lock). */
-    bool single_writer;       /* default false */
-    unsigned writer_watchdog_ms; /* default 1000 */
-    /* A request must be complete this long after its first byte. */
-    unsigned request_timeout_ms; /* default 3000, 100..60000 */
-} gw_modbus_config_t;
 
 /* A user register map (docs/register-map.md "Your own map"): `map` lines
  * of [robot NAME], each a block of consecutive addresses in one table
@@ -160,115 +117,63 @@ typedef struct {
     unsigned line;            /* where the section starts, for messages */
 } gw_robot_config_t;
 
-typedef enum { GW_GPIO_OUTPUT = 0, GW_GPIO_INPUT } gw_gpio_dir_t;
-typedef enum { GW_BIAS_AS_IS = 0, GW_BIAS_DISABLE, GW_BIAS_PULL_UP, GW_BIAS_PULL_DOWN } gw_gpio_bias_t;
 
+
+
+/* The sides' structs, one member each, laid out by the side list. */
+#include "sides.h"
+
+#define GW_SIDE_CONFIG_MEMBER(name) gw_##name##_side_config_t name;
 typedef struct {
-    char name[GW_NAME_MAX];
-    char chip[64];            /* "gpiochip0", "/dev/gpiochip0" or a label */
-    int offset;               /* -1 when given by line name */
-    char line_name[64];
-    gw_gpio_dir_t dir;
-    char robot[GW_NAME_MAX];  /* robot it belongs to: always filled in by
-                                 gw_config_load (the only robot if omitted) */
-    unsigned robot_index;     /* that robot's index in gw_config_t.robot[] */
-    dr_ref_t field;           /* output: follows this bit; input: drives this O->T bit */
-    bool active_low;
-    gw_gpio_bias_t bias;
-    unsigned debounce_ms;     /* inputs only */
-    bool safe_value;          /* outputs: value on link loss, fault and exit */
-    unsigned line;
-} gw_gpio_config_t;
+    GW_SIDES(GW_SIDE_CONFIG_MEMBER)
+} gw_sides_config_t;
+#undef GW_SIDE_CONFIG_MEMBER
 
-typedef enum { GW_PARITY_NONE = 0, GW_PARITY_EVEN, GW_PARITY_ODD } gw_parity_t;
-
-/* One serial line on which the gateway is a Modbus RTU slave, answering
- * for some robots, each at its own slave address. */
-typedef struct {
-    char name[GW_NAME_MAX];
-    char device[128];         /* required: /dev/ttyS0, /dev/ttyUSB0, ... */
-    unsigned baud;            /* default 19200 */
-    gw_parity_t parity;       /* default even (the Modbus default) */
-    unsigned data_bits;       /* 8: RTU bytes are 8 bits */
-    unsigned stop_bits;       /* default 1 */
-    bool rs485;               /* ask the driver for RS-485 mode (TIOCSRS485) */
-    bool rts_on_send_low;     /* RS-485: RTS low while sending (default high) */
-    unsigned rts_before_ms, rts_after_ms; /* RS-485 RTS delays, default 0 */
-    bool read_only;           /* refuse writes with 0x01 (default no) */
-    unsigned slave_count;     /* robots on the line (default: all) */
-    unsigned slave_robot[GW_MAX_ROBOTS]; /* robot index */
-    uint8_t slave_addr[GW_MAX_ROBOTS];   /* 1..247, default the unit_id */
-    unsigned line;
-} gw_rtu_config_t;
-/* [mqtt]: present = enabled (docs/mqtt.md). Strings "" = not set. */
-typedef struct {
-    bool enabled;             /* the section is present */
-    char host[64];
-    uint16_t port;            /* default 1883 */
-    char client_id[64];       /* default "drgatewayd-<hostname>" */
-    char username[64];
-    char password_file[256];  /* first line is the password */
-    char ca_file[256];        /* set: TLS */
-    char cert_file[256];      /* client certificate, with key_file */
-    char key_file[256];
-    unsigned keepalive_s;     /* default 30, 5..3600 */
-    unsigned qos;             /* default 0, 0..2 */
-    char topic_prefix[128];   /* default "drgate/<hostname>" */
-    bool retain;              /* status/state/meta retained, default yes */
-    unsigned publish_interval_ms; /* per robot, default 100, 0..60000 */
-    double deadband;          /* REAL fields, absolute, default 0 */
-    bool writes;              /* plant writes via <prefix>/<robot>/set/<path> */
-    /* payload = sparkplug: Sparkplug B (mqtt/sparkplug.h) instead of JSON */
-    unsigned payload;         /* GW_MQTT_JSON (default) or GW_MQTT_SPARKPLUG */
-    char group_id[64];        /* Sparkplug group, required with sparkplug */
-    char edge_node_id[64];    /* default: the host name */
-    char primary_host_id[64]; /* set: births wait for its STATE online */
-    unsigned line;            /* the section's line */
-} gw_mqtt_config_t;
-enum { GW_MQTT_JSON = 0, GW_MQTT_SPARKPLUG };
-
-/* [http]: the console (docs/http.md); present = enabled. Strings "" = not
- * set. */
-typedef struct {
-    bool enabled;             /* the section is present */
-    char listen[64];          /* default "127.0.0.1" */
-    uint16_t port;            /* default 8080 */
-    unsigned allow_count;     /* 0: every address */
-    gw_allow_t allow[GW_MAX_ALLOW]; /* as [modbus] allow; ro/rw alike: the
-                                       console only reads */
-    char tls_cert[256];       /* PEM certificate, with tls_key: HTTPS */
-    char tls_key[256];
-    char auth_file[256];      /* user:crypt(3) hash lines: Basic auth for
-                                 clients not on loopback */
-    bool insecure;            /* plain, open console off loopback, knowingly */
-    uint16_t status_port;     /* with TLS: a plain listener on 127.0.0.1 for
-                                 drgatewayd status (0: none) */
-    unsigned max_connections; /* default 32 */
-    unsigned max_connections_per_ip; /* default 8, 0: no limit of its own */
-    unsigned timeout_s;       /* idle or slow client closed, default 10 */
-    unsigned max_request_bytes; /* URL and headers, default 16384 */
-    char tls_priorities[256]; /* GnuTLS priority string, "" = the built-in
-                                 TLS 1.2+ AEAD one (north_http.c) */
-    unsigned max_streams;     /* live streams at once, default 16 */
-    unsigned max_streams_per_ip; /* of one client address, default 4 */
-    unsigned stream_max_s;    /* a live stream's age limit, default 3600 */
-    unsigned tls_line, auth_line; /* where tls_cert and auth_file are */
-    unsigned line;            /* the section's line */
-} gw_http_config_t;
-
+/* One block, copied whole: a refused reload leaves the running one as it
+ * was, and a side may keep its own copy. The core reads its own members;
+ * `side` is the sides' (each reads its own member, named as in
+ * gateway/sides.h; the loader reaches them through their sections'
+ * offsets). */
 typedef struct {
     char path[256];
-    gw_modbus_config_t modbus;
     unsigned robot_count;
     gw_robot_config_t robot[GW_MAX_ROBOTS];
-    unsigned gpio_count;
-    gw_gpio_config_t gpio[GW_MAX_GPIO];
-    unsigned rtu_count;
-    gw_rtu_config_t rtu[GW_MAX_RTU];
     char log_level[16];       /* [daemon] log_level: error|warning|info|debug */
-    gw_mqtt_config_t mqtt;
-    gw_http_config_t http;
+    gw_sides_config_t side;
 } gw_config_t;
+
+/* What a side is to the configuration: gw_side_cfg_NAME, in its
+ * config_NAME.c, reached through the side list (gateway/sides.h). Every
+ * member but the sections may be NULL. */
+struct gw_cfg_side;    /* a section kind: core/config_internal.h */
+struct gw_write_policy; /* core/robot.h */
+typedef struct {
+    const char *name;
+    /* The sections it reads, NULL after the last (at most
+     * GW_CFG_SIDE_SECTIONS, config_internal.h). */
+    const struct gw_cfg_side *const *sections;
+    /* The write path's rules its settings make for robot `robot`
+     * (single-writer mode, bits GPIO inputs drive), added to p:
+     * gw_write_policy_set (core/write.h). */
+    void (*write_policy)(const gw_config_t *cfg, unsigned robot, struct gw_write_policy *p);
+    /* What --check-config and the start line say of it after the robots,
+     * appended to buf: ", 3 GPIO line(s)". */
+    void (*brief)(const gw_config_t *cfg, char *buf, size_t size);
+    /* Whether it shows the log (the console): the ring keeps it. */
+    bool (*keeps_log)(const gw_config_t *cfg);
+} gw_side_cfg_t;
+
+#define GW_SIDE_CFG_DECL(name) extern const gw_side_cfg_t gw_side_cfg_##name;
+GW_SIDES(GW_SIDE_CFG_DECL)
+#undef GW_SIDE_CFG_DECL
+
+/* Every side's, in list order (GW_SIDE_COUNT of them). */
+extern const gw_side_cfg_t *const gw_side_cfgs[];
+
+/* "2 robot(s), 3 GPIO line(s)": the robots, then each side's brief. */
+const char *gw_config_brief(const gw_config_t *cfg);
+/* Does a side show the log (keeps_log)? */
+bool gw_config_keeps_log(const gw_config_t *cfg);
 
 /* Load and validate `path`. On error returns false and writes
  * "FILE:LINE: what is wrong (allowed: ...)" into err[errlen] (errors about

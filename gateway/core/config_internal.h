@@ -11,20 +11,22 @@
  * printed from the same lines (`drgatewayd --help-config SECTION`).
  *
  * Who owns what:
- *   config.c         the side list, sections, the generic key parser, the
- *                    did-you-mean, defaults, the public API, [daemon]
+ *   config.c         the sections (the core's and, through the side list
+ *                    gateway/sides.h, every side's), the generic key
+ *                    parser, the did-you-mean, defaults, the public API,
+ *                    [daemon]
  *   config_ini.c     reading the file through libinih (its workarounds)
- *   config_check.c   what spans sections, once the whole file is read
+ *   config_check.c   the robots against each other, once the file is read
  *   config_robot.c   [robot NAME] (core): table, instance.* and open.*
- *   config_modbus.c  [modbus] and [modbus_rtu NAME] (the Modbus side), and
- *                    [robot NAME]'s unit_id_alias and map lines
- *   config_gpio.c    [gpio NAME] (the GPIO side)
- *   config_mqtt.c    [mqtt] (the MQTT side)
- *   config_http.c    [http] (the console)
+ *   NAME/config_NAME.c  each side's sections, keys and whole-file checks:
+ *                    modbus/ [modbus] and [modbus_rtu NAME] (and [robot
+ *                    NAME]'s unit_id_alias and map lines), gpio/ [gpio
+ *                    NAME], mqtt/ [mqtt], http/ [http]
  *   config_doc.c     the docs' key tables, printed from the tables
  *
- * A new key is one line in its side's table. A new side is its table, its
- * gw_cfg_side_t (extern below) and one entry in config.c's side list.
+ * A new key is one line in its side's table. A new side's sections are
+ * its gw_cfg_side_t's, listed in its gw_side_cfg_NAME (config_NAME.c,
+ * config.h), which the side list brings here: nothing in core/ changes.
  */
 #ifndef DRGATE_GW_CONFIG_INTERNAL_H
 #define DRGATE_GW_CONFIG_INTERNAL_H
@@ -96,11 +98,19 @@ struct gw_cfg_key {
 /* An ENUM's or WORD's names, in index order. */
 #define GW_CFG_NAMES(...) .names = (const char *const[]){ __VA_ARGS__, NULL }
 #define GW_CFG_NONE ((size_t)-1)
-#define GW_CFG_MAX_SIDES 8
 #define GW_CFG_MAX_KEYS 32 /* per side (what "allowed:" lists can hold) */
+/* Sections of one side (gw_cfg_NAME_sections[]), and of the whole daemon:
+ * the core's two and every listed side's. */
+#define GW_CFG_SIDE_SECTIONS 4u
+#define GW_CFG_MAX_SECTIONS (2u + GW_CFG_SIDE_SECTIONS * GW_SIDE_COUNT)
 
 struct gw_cfg_side {
     const char *kw;           /* [kw], [kw NAME], [kw.NAME] */
+    /* Where the section comes in "allowed:" lists, did-you-mean, the
+     * docs and the checks once the file is read: lowest first ([daemon]
+     * 10, [modbus] 20, [robot] 30, [gpio] 40, [modbus_rtu] 50, [mqtt] 60,
+     * [http] 70; a new side's next, 80, ...). */
+    unsigned rank;
     bool named;               /* one section per NAME (else one, no name) */
     unsigned max;             /* named: how many at most */
     const char *lone_name;    /* named: the name of a bare [kw] (NULL: a
@@ -126,8 +136,12 @@ struct gw_cfg_side {
 /* A side's key table. */
 #define GW_CFG_KEYS(table) .keys = (table), .nkeys = GW_CFG_COUNT(table)
 
-extern const gw_cfg_side_t gw_cfg_daemon, gw_cfg_modbus, gw_cfg_robot,
-    gw_cfg_gpio, gw_cfg_rtu, gw_cfg_mqtt, gw_cfg_http;
+/* The core's sections. */
+extern const gw_cfg_side_t gw_cfg_daemon, gw_cfg_robot;
+
+/* Every section, the core's and the sides', in rank order, into
+ * out[GW_CFG_MAX_SECTIONS]; how many. */
+unsigned gw_cfg_all_sections(const gw_cfg_side_t **out);
 
 /* The parse state. */
 struct gw_cfg_ctx {
@@ -143,22 +157,19 @@ struct gw_cfg_ctx {
     char sec_raw[64];          /* exactly as libinih reports it */
     char sec_text[64];         /* trimmed, for messages: "robot arm1" */
 
-    /* Per section of every side: where each key was set (0: not set),
+    /* Every section kind (gw_cfg_all_sections). */
+    const gw_cfg_side_t *sides[GW_CFG_MAX_SECTIONS];
+    unsigned nsides;
+
+    /* Per section of every kind: where each key was set (0: not set),
      * the header's line, then the side's scratch. */
     unsigned char *record;
-    size_t record_off[GW_CFG_MAX_SIDES], record_size[GW_CFG_MAX_SIDES];
+    size_t record_off[GW_CFG_MAX_SECTIONS], record_size[GW_CFG_MAX_SECTIONS];
 
     unsigned bad_header_line; /* a '[' line libinih will reject */
     unsigned err_line;        /* 0: no error yet; the first one wins */
     char err[512];
 };
-
-/* [modbus_rtu NAME] robots = ..., as written: resolved against the robot
- * sections once the file is read (config_check.c). The side's scratch. */
-typedef struct {
-    char robot[GW_MAX_ROBOTS][GW_NAME_MAX];
-    bool addr_given[GW_MAX_ROBOTS];
-} gw_cfg_rtu_robots_t;
 
 /* ---- config.c: for the sides' hooks and checks -------------------------- */
 
@@ -243,8 +254,8 @@ void gw_cfg_file_error(char *err, size_t errlen, const char *path,
 /* ---- config_check.c ----------------------------------------------------- */
 
 void gw_cfg_check_robots(gw_cfg_ctx_t *c);
-void gw_cfg_check_gpio(gw_cfg_ctx_t *c);
-void gw_cfg_check_rtu(gw_cfg_ctx_t *c);
+/* key_line if the key was set, else section_line. */
+unsigned gw_cfg_line_or(unsigned key_line, unsigned section_line);
 
 /* ---- config_robot.c: one robot's own checks ------------------------------- */
 

@@ -58,6 +58,7 @@ static void robot_defaults(void *sec);
 
 const gw_cfg_side_t gw_cfg_robot = {
     .kw = "robot",
+    .rank = 30,
     GW_CFG_NAMED(robot, robot_count, gw_robot_config_t),
     .lone_name = "robot",
     GW_CFG_KEYS(robot_keys),

@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * drgatewayd: keeps the robots' assemblies live over EtherNet/IP and serves
- * them to its northbound sides (north.h: Modbus TCP, Modbus RTU, GPIO
- * lines, MQTT). One thread, one epoll loop.
+ * them to its northbound sides (north.h; which ones: the side list,
+ * gateway/sides.h). One thread, one epoll loop. It names no side: what a
+ * side does for the command line (--print-map, status, --check-config) is
+ * one of its operations.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -17,10 +19,7 @@
 #include "core/link.h"
 #include "core/log.h"
 #include "core/north.h"
-#include "http/api.h"  /* STATUS= for systemd: the console's summary line */
-#include "http/http.h" /* drgatewayd status, --check-config of [http]'s TLS */
 #include "core/report.h"
-#include "modbus/regmap.h" /* --print-map and --print-errors only */
 #include "core/robot.h"
 #include "core/write.h"
 
@@ -99,17 +98,35 @@ static void on_data(void *user, unsigned robot, dr_asm_t a)
 
 static const gw_link_hooks_t link_hooks = {on_link, on_data, &G};
 
+/* Every running side's summary (north.h) that has a label, in list order,
+ * into out[max]: env->summaries. */
+static unsigned summaries(void *user, gw_side_summary_t *out, unsigned max)
+{
+    const gw_t *g = user;
+    unsigned n = 0;
+    for (unsigned i = 0; i < GW_NORTH_SIDES && n < max; i++) {
+        if (g->side[i] == NULL || gw_north_sides[i]->summary == NULL)
+            continue;
+        memset(&out[n], 0, sizeof out[n]);
+        gw_north_sides[i]->summary(g->side[i], &out[n]);
+        if (out[n].label[0] != '\0')
+            n++;
+    }
+    return n;
+}
+
 /* systemd's STATUS= (systemctl status shows it) when it changes: each
- * robot's link in words, as drgatewayd status says it, and the Modbus
- * clients and MQTT from the sides' reports. */
+ * robot's link in words, as drgatewayd status says it, and each side's
+ * brief from its summary (the Modbus clients, MQTT). */
 static void notify_status(gw_t *g)
 {
     char line[sizeof g->status_line];
+    static gw_side_summary_t sides[GW_NORTH_SIDES];
+    unsigned n = summaries(g, sides, GW_NORTH_SIDES);
     gw_json_t j;
-    gw_http_api_t a = {&g->env, 0, g->generation};
     gw_json_init(&j, line, sizeof line);
     gw_json_str(&j, "STATUS=");
-    gw_http_api_notify(&j, &a);
+    gw_report_notify(&j, g->robots, g->cfg.robot_count, sides, n);
     if (j.full || strcmp(line, g->status_line) == 0)
         return;
     memcpy(g->status_line, line, j.len + 1);
@@ -139,6 +156,16 @@ static void report(void *user, gw_json_t *j)
             first = false;
         }
     }
+}
+
+/* /api/v1/robots/NAME/map: from the first side that has a map. */
+static bool map(void *user, gw_json_t *j, unsigned robot)
+{
+    const gw_t *g = user;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (gw_north_sides[i]->map_json != NULL)
+            return gw_north_sides[i]->map_json(&g->cfg, robot, j);
+    return false;
 }
 
 static void metrics(void *user, gw_prom_t *m)
@@ -285,8 +312,6 @@ static bool start_links(gw_t *g)
     return true;
 }
 
-/* SIGHUP: a new config that does not validate is refused; robots whose
- * section did not change keep their connection and their data. */
 /* A failure the daemon cannot recover from: stop, and exit non-zero so
  * that systemd's Restart=on-failure brings it back. */
 static void fail_stop(gw_t *g)
@@ -381,7 +406,7 @@ static void reload(gw_t *g)
     memset(g->links, 0, sizeof g->links);
     g->generation++;
     g->serial = serial;
-    if (g->cfg.http.enabled)
+    if (gw_config_keeps_log(&g->cfg))
         gw_log_ring_keep(true); /* a console from now on: its log starts here */
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
         g->robots[r].generation = g->generation;
@@ -414,8 +439,18 @@ static void free_sides(gw_t *g)
 static bool start_sides(gw_t *g)
 {
     char err[512];
-    g->env = (gw_north_env_t){g->loop.epfd, &g->cfg, g->robots, outputs_changed, robot_link_up,
-                              fault, g, DRGATE_VERSION, report, metrics};
+    g->env = (gw_north_env_t){.epfd = g->loop.epfd,
+                              .cfg = &g->cfg,
+                              .robots = g->robots,
+                              .outputs_changed = outputs_changed,
+                              .link_up = robot_link_up,
+                              .fault = fault,
+                              .user = g,
+                              .version = DRGATE_VERSION,
+                              .report = report,
+                              .metrics = metrics,
+                              .summaries = summaries,
+                              .map = map};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
         if (g->side[i] == NULL) {
@@ -483,8 +518,7 @@ static int run(gw_t *g)
     if (sd_watchdog_enabled(0, &wd) > 0)
         g->watchdog_us = wd;
     sd_notify(0, "READY=1");
-    gw_log(GW_LOG_INFO, "drgatewayd %s running: %u robot(s), %u GPIO line(s)", DRGATE_VERSION,
-           g->cfg.robot_count, g->cfg.gpio_count);
+    gw_log(GW_LOG_INFO, "drgatewayd %s running: %s", DRGATE_VERSION, gw_config_brief(&g->cfg));
 
     while (!g->stop) {
         uint64_t due = next_deadline(g);
@@ -584,7 +618,11 @@ int main(int argc, char **argv)
             fprintf(stderr, "drgatewayd: status takes -c FILE only\n");
             return 2;
         }
-        return gw_http_status_command(config);
+        for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+            if (gw_north_sides[i]->status_command != NULL)
+                return gw_north_sides[i]->status_command(config);
+        fprintf(stderr, "drgatewayd: status: no side of this build answers it\n");
+        return 2;
     }
     const char *map_filter = NULL;
     if (print_map && optind + 1 == argc)
@@ -605,7 +643,9 @@ int main(int argc, char **argv)
             fprintf(stderr, "drgatewayd: --print-errors takes --markdown only, and no --print-map\n");
             return 2;
         }
-        gw_regmap_print_errors(stdout, fmt);
+        for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+            if (gw_north_sides[i]->print_errors != NULL)
+                gw_north_sides[i]->print_errors(stdout, fmt);
         return 0;
     }
     if (print_map) {
@@ -616,18 +656,22 @@ int main(int argc, char **argv)
             fprintf(stderr, "drgatewayd: %s\n", perr);
             return EX_CONFIG;
         }
-        gw_regmap_print_all(stdout, fmt, map_filter, with_cfg ? &G.cfg : NULL);
+        for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+            if (gw_north_sides[i]->print_map != NULL)
+                gw_north_sides[i]->print_map(stdout, fmt, map_filter, with_cfg ? &G.cfg : NULL);
         return 0;
     }
     char err[512];
     if (check != NULL) {
-        if (!gw_config_load(check, &G.cfg, err, sizeof err) ||
-            !gw_http_check_tls(&G.cfg, err, sizeof err)) {
+        bool ok = gw_config_load(check, &G.cfg, err, sizeof err);
+        for (unsigned i = 0; ok && i < GW_NORTH_SIDES; i++)
+            if (gw_north_sides[i]->check_config != NULL)
+                ok = gw_north_sides[i]->check_config(&G.cfg, err, sizeof err);
+        if (!ok) {
             fprintf(stderr, "drgatewayd: %s\n", err);
             return EX_CONFIG;
         }
-        printf("%s: valid (%u robot(s), %u GPIO line(s))\n", check, G.cfg.robot_count,
-               G.cfg.gpio_count);
+        printf("%s: valid (%s)\n", check, gw_config_brief(&G.cfg));
         return 0;
     }
     if (!gw_config_load(config, &G.cfg, err, sizeof err)) {
@@ -638,6 +682,6 @@ int main(int argc, char **argv)
     if (G.cfg.log_level[0] != '\0')
         (void)gw_log_level_parse(G.cfg.log_level, &level);
     gw_log_set_level(verbose ? GW_LOG_DEBUG : level);
-    gw_log_ring_keep(G.cfg.http.enabled);
+    gw_log_ring_keep(gw_config_keeps_log(&G.cfg));
     return run(&G);
 }

@@ -2,9 +2,9 @@
 /* The northbound sides the daemon runs: see north.h. */
 #include "core/north.h"
 
+/* From the side list (gateway/sides.h), in its order. */
+#define GW_NORTH_ENTRY(name) &gw_north_##name,
 const gw_north_ops_t *const gw_north_sides[GW_NORTH_SIDES] = {
-    &gw_north_modbus, /* TCP and RTU */
-    &gw_north_mqtt,
-    &gw_north_http,
-    &gw_north_gpio, /* last: its reload cannot be undone */
+    GW_SIDES(GW_NORTH_ENTRY)
 };
+#undef GW_NORTH_ENTRY

@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Northbound sides: what the gateway serves the robots' data to (Modbus
- * TCP and RTU, GPIO lines, MQTT). The daemon's loop (main.c) knows them
- * only through this interface and the list gw_north_sides[]: adding a side
- * (MQTT, OPC UA) means one more entry there and its configuration section,
- * nothing else in the loop.
+ * TCP and RTU, GPIO lines, MQTT, the console). The daemon (core/) knows
+ * them only through this interface and the side list (gateway/sides.h),
+ * from which gw_north_sides[] and GW_NORTH_SIDES are made: adding a side
+ * (OPC UA) is its folder and one entry in that list, nothing in core/
+ * (docs/gateway.md "Adding a side").
  *
  * A side registers its own descriptors in the loop's epoll set (env->epfd)
  * when it is created or reloaded, and tells the loop when it next needs a
@@ -30,11 +31,28 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "core/config.h"
 #include "core/json.h"
 #include "core/prom.h"
 #include "core/robot.h"
+
+/* What a side shows of itself in the status summary (`drgatewayd status`,
+ * the console's text answer) and in systemd's STATUS= line: a struct the
+ * side fills (its `summary` op), which the daemon and the console lay
+ * out; nothing is parsed back. */
+typedef struct {
+    char label[16];  /* "Modbus", "MQTT"; "" (left so): nothing to show */
+    char line[1280]; /* the summary's line after "LABEL: " */
+    char brief[96];  /* STATUS='s part after "; " ("": none) */
+} gw_side_summary_t;
+
+/* --print-map and --print-errors. */
+typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
+
+/* The bound of a map_json answer (the console's response buffer). */
+#define GW_NORTH_MAP_MAX (768u * 1024u)
 
 typedef struct {
     int epfd;
@@ -60,6 +78,13 @@ typedef struct {
      * daemon that has none (tests). */
     void (*report)(void *user, gw_json_t *j);
     void (*metrics)(void *user, gw_prom_t *m);
+    /* The status summary's part of every running side that has one (its
+     * `summary` op with a label), in list order, into out[max]; how many.
+     * NULL in a daemon that has none (tests). */
+    unsigned (*summaries)(void *user, gw_side_summary_t *out, unsigned max);
+    /* /api/v1/robots/NAME/map: robot's map of fields, by the first side
+     * with a `map_json` op; false: none (or j is full). NULL: none. */
+    bool (*map)(void *user, gw_json_t *j, unsigned robot);
 } gw_north_env_t;
 
 typedef enum {
@@ -102,17 +127,36 @@ typedef struct {
      * units. */
     void (*report)(const void *self, gw_json_t *j);
     void (*metrics)(const void *self, gw_prom_t *m);
+    /* The status summary (NULL: nothing to show): fill s, which comes
+     * zeroed; a side with nothing configured leaves the label empty. */
+    void (*summary)(const void *self, gw_side_summary_t *s);
+
+    /* --check-config: what the loader cannot check (TLS files load);
+     * false with "FILE:LINE: ..." in err. (What the daemon asks of a
+     * side's configuration alone: gw_side_cfg_t, core/config.h.) */
+    bool (*check_config)(const gw_config_t *cfg, char *err, size_t errlen);
+
+    /* The daemon's commands a side serves. */
+    /* /api/v1/robots/NAME/map (env->map): robot's fields with this side's
+     * addresses, at most GW_NORTH_MAP_MAX bytes; false: not served. */
+    bool (*map_json)(const gw_config_t *cfg, unsigned robot, gw_json_t *j);
+    /* --print-map [FILTER] (cfg NULL without -c) and --print-errors. */
+    void (*print_map)(FILE *out, gw_print_fmt_t fmt, const char *filter, const gw_config_t *cfg);
+    void (*print_errors)(FILE *out, gw_print_fmt_t fmt);
+    /* `drgatewayd status [-c FILE]`: the exit status (the first side
+     * that has it answers). */
+    int (*status_command)(const char *config);
 } gw_north_ops_t;
 
-/* Modbus TCP and RTU are one side (north_modbus.c): both answer from the
- * same units, whose rules and state (the single writer's watchdog, the
- * write fault latch, the status counters) are one. */
-extern const gw_north_ops_t gw_north_modbus, gw_north_gpio;
-extern const gw_north_ops_t gw_north_mqtt; /* north_mqtt.c */
-extern const gw_north_ops_t gw_north_http; /* http/north_http.c: the console */
+/* Every side's operations, gw_north_NAME (its north_NAME.c), from the
+ * side list (gateway/sides.h). */
+#define GW_NORTH_DECL(name) extern const gw_north_ops_t gw_north_##name;
+GW_SIDES(GW_NORTH_DECL)
+#undef GW_NORTH_DECL
 
-/* The sides the daemon runs, in this order (GPIO last, see above). */
+/* The sides the daemon runs, in the list's order (GPIO last, see above),
+ * and how many: both from the list. */
 extern const gw_north_ops_t *const gw_north_sides[];
-#define GW_NORTH_SIDES 4u
+#define GW_NORTH_SIDES GW_SIDE_COUNT
 
 #endif /* DRGATE_GW_NORTH_H */

@@ -149,3 +149,37 @@ void gw_lag_metrics(gw_prom_t *m, const gw_lag_t *l)
     gw_prom_one(m, "drgate_loop_lag_max_seconds", GW_PROM_GAUGE,
                 "The largest lag of the loop since the daemon started", (double)l->max_us / 1e6);
 }
+
+/* ---- the summaries ------------------------------------------------------------- */
+
+void gw_robot_state_text(const gw_robot_t *rb, char *out, size_t size)
+{
+    char why[200];
+    gw_robot_cause(rb, why, sizeof why);
+    if (rb->link.link_state == 2)
+        snprintf(out, size, "linked");
+    else
+        snprintf(out, size, "%s%s%s", rb->link.link_state == 1 ? "connecting" : "down",
+                 why[0] ? ": " : "", why);
+}
+
+void gw_report_notify(gw_json_t *j, const gw_robot_t *robots, unsigned count,
+                      const gw_side_summary_t *sides, unsigned nsides)
+{
+    if (count == 0)
+        gw_json_str(j, "no robot");
+    for (unsigned r = 0; r < count; r++) {
+        char st[240];
+        gw_robot_state_text(&robots[r], st, sizeof st);
+        if (r > 0)
+            gw_json_str(j, ", ");
+        gw_json_str(j, robots[r].name);
+        gw_json_str(j, " ");
+        gw_json_str(j, st);
+    }
+    for (unsigned i = 0; i < nsides; i++)
+        if (sides[i].brief[0] != '\0') {
+            gw_json_str(j, "; ");
+            gw_json_str(j, sides[i].brief);
+        }
+}

@@ -10,7 +10,9 @@
 
 #include <stdint.h>
 
+#include "core/json.h"
 #include "core/log.h"
+#include "core/north.h"
 #include "core/prom.h"
 #include "core/robot.h"
 
@@ -33,6 +35,16 @@ typedef struct {
 void gw_lag_observe(gw_lag_t *l, uint64_t late_us);
 /* drgate_loop_lag_seconds (histogram) and drgate_loop_lag_max_seconds. */
 void gw_lag_metrics(gw_prom_t *m, const gw_lag_t *l);
+
+/* A robot's state in words, as the summaries say it: "linked",
+ * "connecting", "down: connection refused". */
+void gw_robot_state_text(const gw_robot_t *rb, char *out, size_t size);
+
+/* One line for systemd's STATUS=: "arm1 linked, arm2 down: connection
+ * refused; 2 Modbus clients; MQTT connected": the robots, then each
+ * side's summary brief (north.h), in list order. */
+void gw_report_notify(gw_json_t *j, const gw_robot_t *robots, unsigned count,
+                      const gw_side_summary_t *sides, unsigned nsides);
 
 /* Writes are logged by the one write path: gw_write_log (core/write.h). */
 

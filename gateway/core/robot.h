@@ -87,7 +87,7 @@ typedef struct {
 
 /* What the one write path (core/write.h) needs of the configuration for
  * this robot: set by gw_write_policy_set() at start and at each reload. */
-typedef struct {
+typedef struct gw_write_policy {
     bool one_owner; /* the outputs have one owner: single-writer mode */
     unsigned gpio_in_count;
     dr_ref_t gpio_in[GW_MAX_GPIO]; /* the O->T bits its GPIO inputs drive */

@@ -4,16 +4,6 @@
 
 #include <string.h>
 
-void gw_write_policy_set(gw_robot_t *r, const gw_config_t *cfg, unsigned index)
-{
-    gw_write_policy_t *p = &r->write_policy;
-    memset(p, 0, sizeof *p);
-    p->one_owner = cfg->modbus.single_writer;
-    for (unsigned i = 0; i < cfg->gpio_count && p->gpio_in_count < GW_MAX_GPIO; i++)
-        if (cfg->gpio[i].dir == GW_GPIO_INPUT && cfg->gpio[i].robot_index == index)
-            p->gpio_in[p->gpio_in_count++] = cfg->gpio[i].field;
-}
-
 gw_write_status_t gw_write_allowed(const gw_robot_t *r, const gw_write_origin_t *o)
 {
     if (o->side == GW_ORIGIN_GPIO)

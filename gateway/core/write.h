@@ -96,7 +96,9 @@ typedef struct {
 
 /* The rules of robot `index` of cfg that the write path needs (single-
  * writer mode, the bits its GPIO inputs drive) into r->write_policy: at
- * start and at every reload, before any side writes. */
+ * start and at every reload, before any side writes. Each side says its
+ * part (gw_side_cfg_t.write_policy, core/config.h); defined in
+ * core/config.c with the side list. */
 void gw_write_policy_set(gw_robot_t *r, const gw_config_t *cfg, unsigned index);
 
 /* Rules 1-3 alone (no item looked at, nothing changed): a side that must

@@ -1,10 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The GPIO side's section (config_internal.h): [gpio NAME], one line that
- * follows or drives one bit of a robot. Its robot and what the direction
- * allows are checked once the whole file is read (config_check.c).
+ * follows or drives one bit of a robot (its struct: config_gpio.h). Its
+ * robot and what the direction allows are checked once the whole file is
+ * read (gpio_check, below).
  */
 #include "core/config_internal.h"
+#include "core/robot.h" /* gw_write_policy_t */
 
 #include <string.h>
 
@@ -29,17 +31,47 @@ static const gw_cfg_key_t gpio_keys[] = {
     { .name = "safe_value", .type = GW_CFG_ENUM, G(safe_value), GW_CFG_NAMES("0", "1"), .doc_allowed = "`0`, `1`, outputs only", .help = "logical value written on robot link loss, on a single-writer fault, at exit, and on every error path" },
 };
 
+static void gpio_check(gw_cfg_ctx_t *c);
+
 static void gpio_defaults(void *sec)
 {
     ((gw_gpio_config_t *)sec)->offset = -1; /* until given */
 }
 
-const gw_cfg_side_t gw_cfg_gpio = {
+static const gw_cfg_side_t gw_cfg_gpio = {
     .kw = "gpio",
-    GW_CFG_NAMED(gpio, gpio_count, gw_gpio_config_t),
+    .rank = 40,
+    GW_CFG_NAMED(side.gpio.line, side.gpio.count, gw_gpio_config_t),
     GW_CFG_KEYS(gpio_keys),
     .defaults = gpio_defaults,
-    .check = gw_cfg_check_gpio,
+    .check = gpio_check,
+};
+
+static const gw_cfg_side_t *const gpio_sections[] = { &gw_cfg_gpio, NULL };
+
+/* The O->T bits robot's GPIO inputs drive (the write path's rule 6). */
+static void gpio_write_policy(const gw_config_t *cfg, unsigned robot, gw_write_policy_t *p)
+{
+    const gw_gpio_side_config_t *g = &cfg->side.gpio;
+    for (unsigned i = 0; i < g->count && p->gpio_in_count < GW_MAX_GPIO; i++)
+        if (g->line[i].dir == GW_GPIO_INPUT && g->line[i].robot_index == robot)
+            p->gpio_in[p->gpio_in_count++] = g->line[i].field;
+}
+
+/* "(2 robot(s), 3 GPIO line(s))" */
+static void gpio_brief(const gw_config_t *cfg, char *buf, size_t size)
+{
+    size_t len = strlen(buf);
+    if (len < size)
+        snprintf(buf + len, size - len, ", %u GPIO line(s)", cfg->side.gpio.count);
+}
+
+/* The side to the configuration (config.h; gateway/sides.h lists it). */
+const gw_side_cfg_t gw_side_cfg_gpio = {
+    .name = "gpio",
+    .sections = gpio_sections,
+    .write_policy = gpio_write_policy,
+    .brief = gpio_brief,
 };
 
 /* A leading digit means an offset: "17x" is a typo, not a name. */
@@ -159,4 +191,168 @@ static void gpio_field(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     } else {
         g->field = ref;
     }
+}
+
+/* ---- [gpio NAME] ------------------------------------------------------------- */
+
+/* "/dev/gpiochip0", "gpiochip0" and "0" name the same chip (the spellings
+ * gateway/gpio/gpio.h accepts besides a label). */
+static void chip_key(const char *chip, char *out, size_t size)
+{
+    if (strncmp(chip, "/dev/", 5) == 0)
+        chip += 5;
+    bool number = *chip != '\0';
+    for (const char *p = chip; *p; p++)
+        if (!gw_cfg_is_digit(*p))
+            number = false;
+    snprintf(out, size, "%s%s", number ? "gpiochip" : "", chip);
+}
+
+/* Whether the robot's connection plan opens an owner connection for O->T
+ * assembly o2t: only those are written (Modbus writes to others get
+ * exception 0x02). */
+static bool has_owner(const gw_robot_config_t *r, int o2t)
+{
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (r->open[a].kind == GW_OPEN_OWNER && r->open[a].o2t == o2t)
+            return true;
+    return false;
+}
+
+/* An input on an O->T bit no connection writes would drive nothing. The
+ * hint names the T->O partner of the default plan when there is one. */
+static void unowned_input(gw_cfg_ctx_t *c, unsigned i, const char *path)
+{
+    const gw_gpio_config_t *gp = &c->cfg.side.gpio.line[i];
+    int o2t = (int)gp->field.field->assembly;
+    const char *o2t_name = dr_asm_info((dr_asm_t)o2t)->name;
+    gw_robot_config_t def;
+    memset(&def, 0, sizeof def);
+    gw_robot_default_plan(&def);
+    const char *t2o_name = "<T->O assembly>";
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        if (def.open[a].kind == GW_OPEN_OWNER && def.open[a].o2t == o2t)
+            t2o_name = dr_asm_info((dr_asm_t)a)->name;
+    gw_cfg_fail(c, gw_cfg_line(c, &gw_cfg_gpio, i, "field"),
+                "gpio '%s': input drives '%s', but robot '%s' opens no owner "
+                "connection for %s (its open.* plan), so nothing would send "
+                "it: give %s an owner (e.g. open.%s = owner:%s) or map the "
+                "input elsewhere",
+                gp->name, path, gp->robot, o2t_name, o2t_name, t2o_name,
+                o2t_name);
+}
+
+/* gpio i's robot (the only one if not named) into robot and robot_index. */
+static bool gpio_robot(gw_cfg_ctx_t *c, unsigned i)
+{
+    gw_config_t *g = &c->cfg;
+    gw_gpio_config_t *gp = &g->side.gpio.line[i];
+    const char *names[GW_MAX_ROBOTS];
+    for (unsigned r = 0; r < g->robot_count; r++)
+        names[r] = g->robot[r].name;
+    char allowed[GW_MAX_ROBOTS * (GW_NAME_MAX + 2)];
+    gw_cfg_join(names, g->robot_count, allowed, sizeof allowed);
+    if (gp->robot[0] == '\0') {
+        if (g->robot_count > 1) {
+            gw_cfg_fail(c, gp->line,
+                        "gpio '%s' has no robot (several robots, allowed: %s)",
+                        gp->name, allowed);
+            return false;
+        }
+        memcpy(gp->robot, g->robot[0].name, sizeof gp->robot);
+    }
+    for (unsigned r = 0; r < g->robot_count; r++) {
+        if (strcmp(g->robot[r].name, gp->robot) == 0) {
+            gp->robot_index = r;
+            return true;
+        }
+    }
+    gw_cfg_fail(c, gw_cfg_line(c, &gw_cfg_gpio, i, "robot"),
+                "gpio '%s': robot '%s' unknown (allowed: %s)", gp->name,
+                gp->robot, allowed);
+    return false;
+}
+
+/* What gpio i's direction allows: an input drives an O->T bit that its
+ * robot's plan sends, and has no safe_value; an output no debounce_ms. */
+static void gpio_direction(gw_cfg_ctx_t *c, unsigned i)
+{
+    const gw_cfg_side_t *s = &gw_cfg_gpio;
+    const gw_gpio_config_t *gp = &c->cfg.side.gpio.line[i];
+    char path[64];
+    if (dr_ref_path(gp->field, path, sizeof path) != DR_OK)
+        path[0] = '\0';
+    int o2t = (int)gp->field.field->assembly;
+    if (gp->dir != GW_GPIO_INPUT) {
+        if (gw_cfg_line(c, s, i, "debounce_ms") != 0)
+            gw_cfg_fail(c, gw_cfg_line(c, s, i, "debounce_ms"),
+                        "gpio '%s': debounce_ms applies to inputs only (this "
+                        "is an output)",
+                        gp->name);
+    } else if (dr_asm_info((dr_asm_t)o2t)->dir != DR_DIR_O2T) {
+        gw_cfg_fail(c, gw_cfg_line(c, s, i, "field"),
+                    "gpio '%s': input cannot drive '%s', which the robot "
+                    "produces (T->O); inputs drive O->T bits "
+                    "(io_control.cb_do[N], io_control.tool_do[N], "
+                    "io_control.ao_type.*, bit_in[N])",
+                    gp->name, path);
+    } else if (!has_owner(&c->cfg.robot[gp->robot_index], o2t)) {
+        unowned_input(c, i, path);
+    } else if (gw_cfg_line(c, s, i, "safe_value") != 0) {
+        gw_cfg_fail(c, gw_cfg_line(c, s, i, "safe_value"),
+                    "gpio '%s': safe_value applies to outputs only (this is "
+                    "an input)",
+                    gp->name);
+    }
+}
+
+/* Two GPIO sections on one line, or two inputs on one bit. Only the same
+ * spelling can be compared here: an offset and a line name, or a chip
+ * label, resolve at run time (where the kernel refuses a second request
+ * with EBUSY). */
+static bool gpio_pair(gw_cfg_ctx_t *c, unsigned i, unsigned j)
+{
+    const gw_gpio_config_t *b = &c->cfg.side.gpio.line[i], *a = &c->cfg.side.gpio.line[j];
+    bool same_line = b->offset >= 0 ? b->offset == a->offset
+                                    : a->offset < 0 &&
+                                          strcmp(a->line_name, b->line_name) == 0;
+    char ka[80], kb[80];
+    chip_key(a->chip, ka, sizeof ka);
+    chip_key(b->chip, kb, sizeof kb);
+    if (same_line && strcmp(ka, kb) == 0) {
+        char which[80];
+        if (b->offset >= 0)
+            snprintf(which, sizeof which, "%d", b->offset);
+        else
+            snprintf(which, sizeof which, "'%s'", b->line_name);
+        gw_cfg_fail(c, gw_cfg_line(c, &gw_cfg_gpio, i, "line"),
+                    "gpio '%s': line %s of %s is already used by gpio '%s' "
+                    "(line %u)",
+                    b->name, which, b->chip, a->name, a->line);
+        return false;
+    }
+    if (a->dir == GW_GPIO_INPUT && b->dir == GW_GPIO_INPUT &&
+        a->robot_index == b->robot_index && a->field.field == b->field.field &&
+        a->field.elem == b->field.elem) {
+        char path[64];
+        if (dr_ref_path(b->field, path, sizeof path) != DR_OK)
+            path[0] = '\0';
+        gw_cfg_fail(c, gw_cfg_line(c, &gw_cfg_gpio, i, "field"),
+                    "gpio '%s': %s of robot '%s' is already driven by input "
+                    "gpio '%s' (line %u; one input per bit)",
+                    b->name, path, b->robot, a->name, a->line);
+        return false;
+    }
+    return true;
+}
+
+static void gpio_check(gw_cfg_ctx_t *c)
+{
+    unsigned n = c->cfg.side.gpio.count;
+    for (unsigned i = 0; i < n && c->err_line == 0; i++)
+        if (gw_cfg_require(c, &gw_cfg_gpio, i) && gpio_robot(c, i))
+            gpio_direction(c, i);
+    for (unsigned i = 0; i < n && c->err_line == 0; i++)
+        for (unsigned j = 0; j < i && gpio_pair(c, i, j); j++)
+            ;
 }

@@ -209,8 +209,8 @@ static gw_gpiomap_t *resolve(const gw_config_t *cfg, gw_robot_t *robots, int epf
     for (unsigned r = 0; r < m->cfg.robot_count && r < GW_MAX_ROBOTS; r++)
         snprintf(m->robot[r].name, sizeof m->robot[r].name, "%s", m->cfg.robot[r].name);
     char why[400];
-    for (unsigned i = 0; i < m->cfg.gpio_count; i++) {
-        const gw_gpio_config_t *g = &m->cfg.gpio[i];
+    for (unsigned i = 0; i < m->cfg.side.gpio.count; i++) {
+        const gw_gpio_config_t *g = &m->cfg.side.gpio.line[i];
         line_t *l = calloc(1, sizeof *l);
         if (l == NULL) {
             snprintf(why, sizeof why, "out of memory");

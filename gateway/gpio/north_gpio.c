@@ -204,7 +204,19 @@ static void gpio_free(void *self)
 }
 
 const gw_north_ops_t gw_north_gpio = {
-    "gpio",       gpio_create,  gpio_prepare,  gpio_abort,  gpio_commit, gpio_tick, gpio_deadline,
-    gpio_on_data, gpio_on_link, gpio_on_fault, gpio_refresh, gpio_safe, gpio_free,
-    gpio_report,  gpio_metrics,
+    .name = "gpio",
+    .create = gpio_create,
+    .prepare = gpio_prepare,
+    .abort = gpio_abort,
+    .commit = gpio_commit,
+    .tick = gpio_tick,
+    .deadline = gpio_deadline,
+    .on_data = gpio_on_data,
+    .on_link = gpio_on_link,
+    .on_fault = gpio_on_fault,
+    .refresh = gpio_refresh,
+    .safe = gpio_safe,
+    .free = gpio_free,
+    .report = gpio_report,
+    .metrics = gpio_metrics,
 };

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "core/link.h"
+#include "core/report.h"
 #include "drgate/client.h"
 #include "drgate/text.h"
 #include "http/metrics.h"
@@ -239,75 +240,6 @@ static void duration(char *out, size_t size, uint64_t s)
         snprintf(out, size, "%llus", (unsigned long long)s);
 }
 
-/* "linked", "connecting", "down: connection refused" */
-static void robot_state(char *out, size_t size, const gw_robot_t *rb)
-{
-    char why[200];
-    gw_robot_cause(rb, why, sizeof why);
-    if (rb->link.link_state == 2)
-        snprintf(out, size, "linked");
-    else
-        snprintf(out, size, "%s%s%s", rb->link.link_state == 1 ? "connecting" : "down",
-                 why[0] ? ": " : "", why);
-}
-
-/* ---- what the sides report, for the summaries ---------------------------------- */
-
-/* The sides' report ("modbus":{...},"mqtt":{...}: env->report) in a
- * buffer of the caller's; "" when there is none. */
-static const char *sides_text(const gw_http_api_t *a, char *buf, size_t cap)
-{
-    gw_json_t j;
-    gw_json_init(&j, buf, cap);
-    if (a->env->report != NULL)
-        a->env->report(a->env->user, &j);
-    return j.full ? "" : buf;
-}
-
-/* The text of string member `key` after `from` and before `end` (NULL:
- * the text's end) into out; false if none. The sides' reports write
- * their strings through gw_json_quote, so a '"' inside is escaped. */
-static bool member_str(const char *from, const char *end, const char *key, char *out,
-                       size_t size)
-{
-    char pat[40];
-    snprintf(pat, sizeof pat, "\"%s\":\"", key);
-    const char *p = from != NULL ? strstr(from, pat) : NULL;
-    if (p == NULL || (end != NULL && p >= end))
-        return false;
-    p += strlen(pat);
-    size_t n = strcspn(p, "\"");
-    snprintf(out, size, "%.*s", (int)n, p);
-    return true;
-}
-
-/* The Modbus TCP clients the report lists: how many, and "address
- * (writer), ..." into out. */
-static unsigned modbus_clients(const char *sides, char *out, size_t size)
-{
-    const char *p = strstr(sides, "\"modbus\":{");
-    const char *list = p != NULL ? strstr(p, "\"clients\":[") : NULL;
-    const char *end = list != NULL ? strchr(list, ']') : NULL;
-    unsigned n = 0;
-    size_t len = 0;
-    out[0] = '\0';
-    for (const char *c = list; c != NULL && end != NULL && (c = strstr(c, "{\"address\":")) != NULL &&
-                               c < end;
-         c++) {
-        char addr[64];
-        const char *next = strchr(c + 1, '{');
-        (void)member_str(c, end, "address", addr, sizeof addr);
-        const char *w = strstr(c, "\"writer\":true");
-        bool writer = w != NULL && w < end && (next == NULL || next > end || w < next);
-        int k = snprintf(out + len, size - len, "%s%s%s", n > 0 ? ", " : "", addr,
-                         writer ? " (writer)" : "");
-        if (k > 0 && (size_t)k < size - len)
-            len += (size_t)k;
-        n++;
-    }
-    return n;
-}
-
 void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
 {
     const gw_config_t *cfg = a->env->cfg;
@@ -323,7 +255,7 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         const gw_robot_t *rb = &a->env->robots[r];
         char st[240];
-        robot_state(st, sizeof st, rb);
+        gw_robot_state_text(rb, st, sizeof st);
         if (rb->link.link_state == 2)
             snprintf(line, sizeof line,
                      "       %-12s %s (%s:%u, RPI %u ms, data age %lu ms, %lu packets, %lu lost)\n",
@@ -335,50 +267,15 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
                      cfg->robot[r].host, (unsigned)cfg->robot[r].tcp_port);
         gw_json_str(j, line);
     }
-    static char sides[16384];
-    const char *sd = sides_text(a, sides, sizeof sides);
-    char listen[80], list[1024], broker[200];
-    if (member_str(strstr(sd, "\"modbus\":{"), NULL, "listen", listen, sizeof listen)) {
-        unsigned n = modbus_clients(sd, list, sizeof list);
-        snprintf(line, sizeof line, "     Modbus: %s, %u client%s%s", listen, n,
-                 n == 1 ? "" : "s", n > 0 ? ": " : "");
+    /* Each side's line, as it fills it (north.h: summary). */
+    static gw_side_summary_t sides[GW_NORTH_SIDES];
+    unsigned n = a->env->summaries != NULL
+                     ? a->env->summaries(a->env->user, sides, GW_NORTH_SIDES)
+                     : 0;
+    for (unsigned i = 0; i < n; i++) {
+        snprintf(line, sizeof line, "%11.15s: ", sides[i].label);
         gw_json_str(j, line);
-        gw_json_str(j, list);
+        gw_json_str(j, sides[i].line);
         gw_json_str(j, "\n");
     }
-    const char *mq = strstr(sd, "\"mqtt\":{");
-    if (member_str(mq, NULL, "broker", broker, sizeof broker)) {
-        bool on = strstr(mq, "\"connected\":true") != NULL;
-        snprintf(line, sizeof line, "       MQTT: %s %s\n", on ? "connected to" : "not connected to",
-                 broker);
-        gw_json_str(j, line);
-    }
-}
-
-void gw_http_api_notify(gw_json_t *j, const gw_http_api_t *a)
-{
-    const gw_config_t *cfg = a->env->cfg;
-    if (cfg->robot_count == 0)
-        gw_json_str(j, "no robot");
-    for (unsigned r = 0; r < cfg->robot_count; r++) {
-        char st[240];
-        robot_state(st, sizeof st, &a->env->robots[r]);
-        if (r > 0)
-            gw_json_str(j, ", ");
-        gw_json_str(j, a->env->robots[r].name);
-        gw_json_str(j, " ");
-        gw_json_str(j, st);
-    }
-    static char sides[16384];
-    char list[1024], line[64];
-    const char *sd = sides_text(a, sides, sizeof sides);
-    if (strstr(sd, "\"modbus\":{") != NULL) {
-        unsigned n = modbus_clients(sd, list, sizeof list);
-        snprintf(line, sizeof line, "; %u Modbus client%s", n, n == 1 ? "" : "s");
-        gw_json_str(j, line);
-    }
-    const char *mq = strstr(sd, "\"mqtt\":{");
-    if (mq != NULL)
-        gw_json_str(j, strstr(mq, "\"connected\":true") != NULL ? "; MQTT connected"
-                                                              : "; MQTT not connected");
 }

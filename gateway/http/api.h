@@ -50,12 +50,11 @@ unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uin
 /* The link state in words: "up", "connecting", "down". */
 const char *gw_http_api_link_name(const gw_robot_t *rb);
 
-/* The human summary (`drgatewayd status`), lines of text. */
+/* The human summary (`drgatewayd status`), lines of text: the daemon,
+ * its robots, then each side's line (env->summaries). */
 void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a);
 /* Robots not linked. */
 unsigned gw_http_api_down(const gw_http_api_t *a);
-/* One line for systemd's STATUS=: "arm1 linked, arm2 down: connection
- * refused". */
-void gw_http_api_notify(gw_json_t *j, const gw_http_api_t *a);
+/* systemd's STATUS= line is the daemon's: gw_report_notify (core/report.h). */
 
 #endif

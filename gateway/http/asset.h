@@ -11,8 +11,8 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-#include "core/config.h"
 #include "core/json.h"
+#include "core/north.h"
 
 typedef struct {
     const char *name; /* "index.html", "robot.html", "console.js", ... */
@@ -26,9 +26,10 @@ const gw_http_asset_t *gw_http_asset_find(const char *name);
 
 /* /api/v1/robots/NAME/map: every field of robot `robot` with its type,
  * unit, direction, enum names and Modbus addresses. False: not served
- * (404), or j is full. GW_HTTP_MAP_MAX bytes always hold it (the largest
- * user map's; map.c checks it against the Modbus side's own bound). */
-#define GW_HTTP_MAP_MAX (768u * 1024u)
-bool gw_http_api_map(gw_json_t *j, const gw_config_t *cfg, unsigned robot);
+ * (404), or j is full. GW_HTTP_MAP_MAX bytes always hold it (a side's
+ * map_json answer is at most GW_NORTH_MAP_MAX: the Modbus side checks its
+ * largest user map's against it). */
+#define GW_HTTP_MAP_MAX GW_NORTH_MAP_MAX
+bool gw_http_api_map(gw_json_t *j, const gw_north_env_t *env, unsigned robot);
 
 #endif

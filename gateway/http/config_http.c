@@ -54,15 +54,31 @@ static void http_begin(void *sec)
 
 static void http_check(gw_cfg_ctx_t *c);
 
-const gw_cfg_side_t gw_cfg_http = {
+static const gw_cfg_side_t gw_cfg_http = {
     .kw = "http",
-    .base = offsetof(gw_config_t, http),
+    .rank = 70,
+    .base = offsetof(gw_config_t, side.http),
     .name_off = GW_CFG_NONE,
     .line_off = offsetof(gw_http_config_t, line),
     GW_CFG_KEYS(http_keys),
     .scratch = sizeof(http_lines_t),
     .begin = http_begin,
     .check = http_check,
+};
+
+static const gw_cfg_side_t *const http_sections[] = { &gw_cfg_http, NULL };
+
+/* A console shows the log: the ring keeps it (core/log.h). */
+static bool http_keeps_log(const gw_config_t *cfg)
+{
+    return cfg->side.http.enabled;
+}
+
+/* The side to the configuration (config.h; gateway/sides.h lists it). */
+const gw_side_cfg_t gw_side_cfg_http = {
+    .name = "http",
+    .sections = http_sections,
+    .keeps_log = http_keeps_log,
 };
 
 static void http_allow(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec, const char *name,
@@ -169,7 +185,7 @@ static void check_files(gw_cfg_ctx_t *c, gw_http_config_t *h)
 
 static void http_check(gw_cfg_ctx_t *c)
 {
-    gw_http_config_t *h = &c->cfg.http;
+    gw_http_config_t *h = &c->cfg.side.http;
     const gw_cfg_side_t *s = &gw_cfg_http;
     if (!h->enabled)
         return;
@@ -196,7 +212,7 @@ static void http_check(gw_cfg_ctx_t *c)
         gw_cfg_fail(c, gw_cfg_line(c, s, 0, "status_port"),
                     "[http] status_port is for a TLS console (drgatewayd status reads the "
                     "plain port itself): add tls_cert and tls_key, or remove it");
-    else if (c->cfg.modbus.port == h->port)
+    else if (c->cfg.side.modbus.port == h->port)
         gw_cfg_fail(c, gw_cfg_line(c, s, 0, "port") ? gw_cfg_line(c, s, 0, "port") : h->line,
                     "[http] port %u is the Modbus port (allowed: another port)",
                     (unsigned)h->port);

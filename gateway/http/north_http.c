@@ -570,7 +570,7 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
         else if (strcmp(rest, "/values") == 0)
             (void)gw_http_api_values(&j, &t->env->robots[r], true, NULL);
         else if (strcmp(rest, "/map") != 0 ||
-                 (!gw_http_api_map(&j, t->env->cfg, (unsigned)r) && !j.full))
+                 (!gw_http_api_map(&j, t->env, (unsigned)r) && !j.full))
             return send_error(c, 404, method, url, "not found");
         /* a map that does not fit is send_json's 500 "response too large" */
     } else {
@@ -1130,7 +1130,7 @@ static void *ht_create(const gw_north_env_t *env, char *err, size_t errlen)
 {
     if (start_us == 0)
         start_us = ev_now_us();
-    ht_t *t = ht_new(&env->cfg->http, env, NULL, err, errlen);
+    ht_t *t = ht_new(&env->cfg->side.http, env, NULL, err, errlen);
     if (t != NULL && !ht_watch(t)) {
         snprintf(err, errlen, "http: epoll: %s", strerror(errno));
         ht_free(t);
@@ -1169,11 +1169,11 @@ static gw_north_reload_t ht_prepare(void *self, const gw_config_t *next, const g
                                     void **out, char *err, size_t errlen)
 {
     ht_t *t = self;
-    if (same_config(&t->cfg, &next->http)) {
+    if (same_config(&t->cfg, &next->side.http)) {
         *out = self;
         return GW_NORTH_OK;
     }
-    *out = ht_new(&next->http, env, t, err, errlen);
+    *out = ht_new(&next->side.http, env, t, err, errlen);
     return *out != NULL ? GW_NORTH_OK : GW_NORTH_REFUSED;
 }
 
@@ -1324,17 +1324,12 @@ static void ht_metrics(const void *self, gw_prom_t *m)
                 "logins answered 503: the worker's queue was full", (double)a.busy);
 }
 
-const gw_north_ops_t gw_north_http = {
-    "http",     ht_create,  ht_prepare,  ht_abort,   ht_commit, ht_tick,      ht_deadline,
-    ht_on_data, ht_on_link, ht_on_fault, ht_refresh, ht_safe,   ht_side_free,
-    NULL,       ht_metrics,
-};
 
 /* ---- --check-config -------------------------------------------------------------------- */
 
 bool gw_http_check_tls(const gw_config_t *cfg, char *err, size_t errlen)
 {
-    const gw_http_config_t *h = &cfg->http;
+    const gw_http_config_t *h = &cfg->side.http;
     if (!h->enabled || h->tls_cert[0] == '\0')
         return true;
     char why[256] = "";
@@ -1377,3 +1372,22 @@ bool gw_http_check_tls(const gw_config_t *cfg, char *err, size_t errlen)
     ml->stop_daemon(d);
     return true;
 }
+
+const gw_north_ops_t gw_north_http = {
+    .name = "http",
+    .create = ht_create,
+    .prepare = ht_prepare,
+    .abort = ht_abort,
+    .commit = ht_commit,
+    .tick = ht_tick,
+    .deadline = ht_deadline,
+    .on_data = ht_on_data,
+    .on_link = ht_on_link,
+    .on_fault = ht_on_fault,
+    .refresh = ht_refresh,
+    .safe = ht_safe,
+    .free = ht_side_free,
+    .metrics = ht_metrics,
+    .check_config = gw_http_check_tls,
+    .status_command = gw_http_status_command,
+};

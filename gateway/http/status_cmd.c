@@ -141,7 +141,7 @@ int gw_http_status_command(const char *config)
         fprintf(stderr, "drgatewayd status: %s\n", err);
         return GW_HTTP_STATUS_UNREACHABLE;
     }
-    const gw_http_config_t *h = &cfg.http;
+    const gw_http_config_t *h = &cfg.side.http;
     if (!h->enabled) {
         fprintf(stderr,
                 "drgatewayd status: %s has no [http] section: the status is read from the "

@@ -2,8 +2,8 @@
 /*
  * The Modbus side's sections (config_internal.h): [modbus], the TCP
  * server, with its allowlist, and [modbus_rtu NAME], one serial line on
- * which the gateway is an RTU slave. Its robots are resolved once the
- * whole file is read (config_check.c).
+ * which the gateway is an RTU slave (their struct: config_modbus.h). Its
+ * robots are resolved once the whole file is read (rtu_check, below).
  */
 #include "core/config_internal.h"
 
@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/robot.h" /* gw_write_policy_t */
 #include "modbus/regmap.h"
 #include "modbus/usermap.h"
 
@@ -41,9 +42,10 @@ typedef struct {
     unsigned allow_line[GW_MAX_ALLOW];
 } modbus_lines_t;
 
-const gw_cfg_side_t gw_cfg_modbus = {
+static const gw_cfg_side_t gw_cfg_modbus = {
     .kw = "modbus",
-    .base = offsetof(gw_config_t, modbus),
+    .rank = 20,
+    .base = offsetof(gw_config_t, side.modbus),
     .name_off = GW_CFG_NONE,
     .line_off = GW_CFG_NONE,
     GW_CFG_KEYS(modbus_keys),
@@ -66,7 +68,15 @@ static void modbus_allow(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
 #define U(m) GW_CFG_AT(gw_rtu_config_t, m)
 #define BAUDS "1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400"
 
+/* [modbus_rtu NAME] robots = ..., as written: resolved against the robot
+ * sections once the file is read (rtu_check). The side's scratch. */
+typedef struct {
+    char robot[GW_MAX_ROBOTS][GW_NAME_MAX];
+    bool addr_given[GW_MAX_ROBOTS];
+} gw_cfg_rtu_robots_t;
+
 static gw_cfg_parse_fn rtu_baud, rtu_robots;
+static void rtu_check(gw_cfg_ctx_t *c);
 
 static const gw_cfg_key_t rtu_keys[] = {
     { .name = "device", .type = GW_CFG_TEXT, .flags = GW_CFG_REQUIRED, U(device), .valid = gw_cfg_no_blank, .allowed = "a serial port such as /dev/ttyS0", .doc_allowed = "a serial port, such as `/dev/ttyS1`, `/dev/ttyUSB0`, `/dev/ttyAMA0`; each line its own", .help = "opened non-blocking, raw, no flow control" },
@@ -82,12 +92,29 @@ static const gw_cfg_key_t rtu_keys[] = {
     { .name = "robots", .type = GW_CFG_HOOK, .parse = rtu_robots, .allowed = "robot names, each optionally NAME:ADDRESS (1..247)", .doc_default = "every robot, at its `unit_id`", .doc_allowed = "robot names separated by commas or blanks, each optionally `NAME:ADDRESS` (1..247)", .help = "the robots on this line and their slave addresses; an address must be unique on the line" },
 };
 
-const gw_cfg_side_t gw_cfg_rtu = {
+static const gw_cfg_side_t gw_cfg_rtu = {
     .kw = "modbus_rtu",
-    GW_CFG_NAMED(rtu, rtu_count, gw_rtu_config_t),
+    .rank = 50,
+    GW_CFG_NAMED(side.modbus.rtu, side.modbus.rtu_count, gw_rtu_config_t),
     GW_CFG_KEYS(rtu_keys),
     .scratch = sizeof(gw_cfg_rtu_robots_t),
-    .check = gw_cfg_check_rtu,
+    .check = rtu_check,
+};
+
+static const gw_cfg_side_t *const modbus_sections[] = { &gw_cfg_modbus, &gw_cfg_rtu, NULL };
+
+/* Single-writer mode: the outputs are one Modbus TCP client's. */
+static void modbus_write_policy(const gw_config_t *cfg, unsigned robot, gw_write_policy_t *p)
+{
+    (void)robot;
+    p->one_owner = cfg->side.modbus.single_writer;
+}
+
+/* The side to the configuration (config.h; gateway/sides.h lists it). */
+const gw_side_cfg_t gw_side_cfg_modbus = {
+    .name = "modbus",
+    .sections = modbus_sections,
+    .write_policy = modbus_write_policy,
 };
 
 static void rtu_baud(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
@@ -213,4 +240,88 @@ void gw_cfg_robot_map(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     (void)k;
     if (!gw_umap_parse(v, c->lineno, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
         gw_cfg_fail(c, c->lineno, "%s: %s", name, err);
+}
+
+/* ---- [modbus_rtu NAME] -------------------------------------------------------- */
+
+/* robots = as written, or every robot at its unit ID, into the slaves of
+ * line i. */
+static bool rtu_slaves(gw_cfg_ctx_t *c, unsigned i)
+{
+    gw_config_t *g = &c->cfg;
+    gw_rtu_config_t *u = &g->side.modbus.rtu[i];
+    const gw_cfg_rtu_robots_t *ul = gw_cfg_scratch(c, &gw_cfg_rtu, i);
+    unsigned robots_line = gw_cfg_line(c, &gw_cfg_rtu, i, "robots");
+    if (robots_line == 0) {
+        u->slave_count = g->robot_count;
+        for (unsigned r = 0; r < g->robot_count; r++) {
+            u->slave_robot[r] = r;
+            u->slave_addr[r] = g->robot[r].unit_id;
+        }
+        return true;
+    }
+    for (unsigned s = 0; s < u->slave_count; s++) {
+        unsigned r = 0;
+        while (r < g->robot_count && strcmp(g->robot[r].name, ul->robot[s]) != 0)
+            r++;
+        if (r == g->robot_count) {
+            gw_cfg_fail(c, robots_line,
+                        "modbus_rtu '%s': no robot '%s' (allowed: the NAME of "
+                        "a [robot NAME] section)",
+                        u->name, ul->robot[s]);
+            return false;
+        }
+        u->slave_robot[s] = r;
+        if (!ul->addr_given[s])
+            u->slave_addr[s] = g->robot[r].unit_id;
+    }
+    return true;
+}
+
+/* Each robot and each slave address once on line i. */
+static bool rtu_unique(gw_cfg_ctx_t *c, unsigned i)
+{
+    const gw_rtu_config_t *u = &c->cfg.side.modbus.rtu[i];
+    for (unsigned s = 0; s < u->slave_count; s++) {
+        for (unsigned t = 0; t < s; t++) {
+            bool robot = u->slave_robot[s] == u->slave_robot[t];
+            if (!robot && u->slave_addr[s] != u->slave_addr[t])
+                continue;
+            gw_cfg_fail(c,
+                        gw_cfg_line_or(gw_cfg_line(c, &gw_cfg_rtu, i, "robots"),
+                                u->line),
+                        robot ? "modbus_rtu '%s': robot '%s' listed twice"
+                              : "modbus_rtu '%s': robot '%s' has the slave "
+                                "address of another robot on the line (each "
+                                "needs its own, 1..247)",
+                        u->name, c->cfg.robot[u->slave_robot[s]].name);
+            return false;
+        }
+    }
+    return true;
+}
+
+/* Every [modbus_rtu]: a device, one not used by another line, robots that
+ * exist (all of them if not said), each slave address once. */
+static void rtu_check(gw_cfg_ctx_t *c)
+{
+    gw_config_t *g = &c->cfg;
+    for (unsigned i = 0; i < g->side.modbus.rtu_count; i++) {
+        const gw_rtu_config_t *u = &g->side.modbus.rtu[i];
+        if (!gw_cfg_require(c, &gw_cfg_rtu, i))
+            return;
+        for (unsigned j = 0; j < i; j++) {
+            if (strcmp(g->side.modbus.rtu[j].device, u->device) == 0) {
+                gw_cfg_fail(c,
+                            gw_cfg_line_or(gw_cfg_line(c, &gw_cfg_rtu, i, "device"),
+                                    u->line),
+                            "modbus_rtu '%s': device %s is already modbus_rtu "
+                            "'%s' (line %u)",
+                            u->name, u->device, g->side.modbus.rtu[j].name, g->side.modbus.rtu[j].line);
+                return;
+            }
+        }
+        if (!rtu_slaves(c, i) || !rtu_unique(c, i))
+            return;
+    }
 }

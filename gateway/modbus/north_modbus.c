@@ -24,6 +24,7 @@
 #include "core/report.h"
 #include "modbus/mbrtu.h"
 #include "modbus/mbserver.h"
+#include "modbus/regmap.h"
 #include "core/north.h"
 
 typedef struct mb mb_t;
@@ -133,10 +134,10 @@ static void unit_policy(mb_t *m, unsigned r)
     u->robot = &m->env->robots[r];
     u->umap = r < cfg->robot_count ? &cfg->robot[r].map : NULL;
     u->default_ro = r < cfg->robot_count && !cfg->robot[r].default_map_writes;
-    u->order = cfg->modbus.word_order;
-    u->on_loss = cfg->modbus.on_link_loss;
-    u->unmapped = cfg->modbus.unmapped_read;
-    u->robot->clear_while_down = cfg->modbus.on_link_loss == GW_LOSS_ZERO;
+    u->order = cfg->side.modbus.word_order;
+    u->on_loss = cfg->side.modbus.on_link_loss;
+    u->unmapped = cfg->side.modbus.unmapped_read;
+    u->robot->clear_while_down = cfg->side.modbus.on_link_loss == GW_LOSS_ZERO;
 }
 
 /* After a reload: each robot's unit from where the robot was (its serial,
@@ -163,7 +164,7 @@ static void units_move(mb_t *m)
 static void writer_wrote(void *side)
 {
     tcp_t *t = side;
-    if (t->ctx.mb->env->cfg->modbus.single_writer && !t->writer_seen) {
+    if (t->ctx.mb->env->cfg->side.modbus.single_writer && !t->writer_seen) {
         t->writer_seen = true;
         t->watchdog_change_us = ev_now_us();
     }
@@ -172,7 +173,7 @@ static void writer_wrote(void *side)
 static gw_mbs_t *tcp_server(tcp_t *t, char *err, size_t errlen)
 {
     gw_mbs_hooks_t mh = {unit_for, on_write, &t->ctx, t->ctx.mb->env->version, on_request};
-    return gw_mbs_new(&t->ctx.mb->env->cfg->modbus, t->ctx.mb->env->epfd, &mh, err, errlen);
+    return gw_mbs_new(&t->ctx.mb->env->cfg->side.modbus, t->ctx.mb->env->epfd, &mh, err, errlen);
 }
 
 static bool tcp_create(mb_t *m, char *err, size_t errlen)
@@ -192,7 +193,7 @@ static bool tcp_commit(tcp_t *t)
      * are compared from their current values on, not from the old order. */
     for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
         t->last_watchdog[r] = t->ctx.mb->unit[r].watchdog;
-    if (gw_mbs_reconfigure(t->mbs, &env->cfg->modbus))
+    if (gw_mbs_reconfigure(t->mbs, &env->cfg->side.modbus))
         return true;
     char err[512];
     gw_mbs_free(t->mbs);
@@ -248,10 +249,10 @@ static void writer_watchdog(tcp_t *t, uint64_t now)
         }
         /* Out of single-writer mode the register is just a register: a
          * value written then is no owner's sign of life later. */
-        if (!cfg->modbus.single_writer)
+        if (!cfg->side.modbus.single_writer)
             t->last_watchdog[r] = u->watchdog;
     }
-    if (!cfg->modbus.single_writer) {
+    if (!cfg->side.modbus.single_writer) {
         t->writer_seen = false; /* a reload into the mode starts afresh */
         return;
     }
@@ -271,7 +272,7 @@ static void writer_watchdog(tcp_t *t, uint64_t now)
             t->watchdog_change_us = now;
         }
     }
-    uint64_t limit = (uint64_t)cfg->modbus.writer_watchdog_ms * 1000u;
+    uint64_t limit = (uint64_t)cfg->side.modbus.writer_watchdog_ms * 1000u;
     if (t->writer_seen && now - t->watchdog_change_us >= limit)
         writer_expired(t);
 }
@@ -297,8 +298,8 @@ static bool rtu_create(mb_t *m, char *err, size_t errlen)
     rtu_t *t = &m->rtu;
     const gw_north_env_t *env = m->env;
     t->ctx = (mb_ctx_t){m, NULL, NULL, MB_RTU};
-    for (unsigned i = 0; i < env->cfg->rtu_count; i++) {
-        t->cfg[i] = env->cfg->rtu[i];
+    for (unsigned i = 0; i < env->cfg->side.modbus.rtu_count; i++) {
+        t->cfg[i] = env->cfg->side.modbus.rtu[i];
         t->line[i] = rtu_open(t, &t->cfg[i], env->cfg->robot, err, errlen);
         if (t->line[i] == NULL)
             return false;
@@ -346,11 +347,11 @@ static bool rtu_prepare(rtu_t *t, const gw_config_t *next, const gw_north_env_t 
 {
     t->pending_count = 0;
     memset(t->handed, 0, sizeof t->handed);
-    for (unsigned i = 0; i < next->rtu_count; i++) {
-        t->pending_cfg[i] = next->rtu[i];
+    for (unsigned i = 0; i < next->side.modbus.rtu_count; i++) {
+        t->pending_cfg[i] = next->side.modbus.rtu[i];
         t->pending[i] = NULL;
         for (unsigned o = 0; o < t->count && t->pending[i] == NULL; o++)
-            if (!t->handed[o] && same_line(&t->cfg[o], env->cfg->robot, &next->rtu[i], next->robot)) {
+            if (!t->handed[o] && same_line(&t->cfg[o], env->cfg->robot, &next->side.modbus.rtu[i], next->robot)) {
                 t->pending[i] = t->line[o];
                 t->handed[o] = true;
             }
@@ -580,21 +581,21 @@ static void mb_report(const void *self, gw_json_t *j)
     const tcp_t *t = &m->tcp;
     uint32_t ex = gw_mbs_exceptions(t->mbs);
     json_fmt(j, "\"modbus\":{\"listen\":\"%s:%u\",\"requests\":%lu,\"exceptions\":%lu,"
-             "\"clients\":[", cfg->modbus.listen, (unsigned)cfg->modbus.port,
+             "\"clients\":[", cfg->side.modbus.listen, (unsigned)cfg->side.modbus.port,
              (unsigned long)gw_mbs_requests(t->mbs), (unsigned long)ex);
     client_json_t cj = {j, true};
     gw_mbs_each_client(t->mbs, client_report, &cj);
     /* The single writer's watchdog: on in single-writer mode; running once
      * a writer wrote; the robots whose write fault it latched. */
-    uint64_t now = ev_now_us(), limit = (uint64_t)cfg->modbus.writer_watchdog_ms * 1000u;
+    uint64_t now = ev_now_us(), limit = (uint64_t)cfg->side.modbus.writer_watchdog_ms * 1000u;
     uint64_t left = t->writer_seen && now - t->watchdog_change_us < limit
                         ? (limit - (now - t->watchdog_change_us)) / 1000u
                         : 0;
     json_fmt(j, "],\"writer_watchdog\":{\"single_writer\":%s,\"timeout_ms\":%u,"
              "\"writer_present\":%s,\"running\":%s,\"remaining_ms\":%llu,\"faults\":[",
-             cfg->modbus.single_writer ? "true" : "false", cfg->modbus.writer_watchdog_ms,
+             cfg->side.modbus.single_writer ? "true" : "false", cfg->side.modbus.writer_watchdog_ms,
              gw_mbs_writer_present(t->mbs) ? "true" : "false",
-             t->writer_seen && cfg->modbus.single_writer ? "true" : "false",
+             t->writer_seen && cfg->side.modbus.single_writer ? "true" : "false",
              (unsigned long long)left);
     bool first = true;
     for (unsigned r = 0; r < cfg->robot_count; r++)
@@ -691,8 +692,67 @@ static void mb_metrics(const void *self, gw_prom_t *p)
              "Modbus RTU frames for other slave addresses", rtu_other);
 }
 
+/* ---- the status summary ------------------------------------------------------------ */
+
+/* The TCP clients: how many, and "address (writer), ..." (as long as the
+ * text has room). */
+typedef struct {
+    char text[1024];
+    size_t len;
+    unsigned n;
+} client_list_t;
+
+static void client_summary(void *user, const gw_mbs_client_info_t *c)
+{
+    client_list_t *l = user;
+    int k = snprintf(l->text + l->len, sizeof l->text - l->len, "%s%s%s", l->n > 0 ? ", " : "",
+                     c->address, c->writer ? " (writer)" : "");
+    if (k > 0 && (size_t)k < sizeof l->text - l->len)
+        l->len += (size_t)k;
+    l->n++;
+}
+
+/* "Modbus: 0.0.0.0:502, 2 clients: 10.0.0.7:50112 (writer), ..." */
+static void mb_summary(const void *self, gw_side_summary_t *s)
+{
+    const mb_t *m = self;
+    const gw_modbus_config_t *mc = &m->env->cfg->side.modbus;
+    client_list_t l = {"", 0, 0};
+    gw_mbs_each_client(m->tcp.mbs, client_summary, &l);
+    snprintf(s->label, sizeof s->label, "Modbus");
+    snprintf(s->line, sizeof s->line, "%s:%u, %u client%s%s%s", mc->listen, (unsigned)mc->port,
+             l.n, l.n == 1 ? "" : "s", l.n > 0 ? ": " : "", l.text);
+    snprintf(s->brief, sizeof s->brief, "%u Modbus client%s", l.n, l.n == 1 ? "" : "s");
+}
+
+/* ---- what the daemon asks of the configuration, and its commands --------------------- */
+
+/* The register map: the only side that has one (regmap.c). */
+typedef char mb_map_fits[GW_REGMAP_JSON_SIZE <= GW_NORTH_MAP_MAX ? 1 : -1]; // NOLINT(misc-redundant-expression)
+
+static bool mb_map_json(const gw_config_t *cfg, unsigned robot, gw_json_t *j)
+{
+    return gw_regmap_json(j, cfg, robot);
+}
+
 const gw_north_ops_t gw_north_modbus = {
-    "modbus",   mb_create,  mb_prepare,  mb_abort,   mb_commit, mb_tick, mb_deadline,
-    mb_on_data, mb_on_link, mb_on_fault, mb_refresh, mb_safe,   mb_free,
-    mb_report,  mb_metrics,
+    .name = "modbus",
+    .create = mb_create,
+    .prepare = mb_prepare,
+    .abort = mb_abort,
+    .commit = mb_commit,
+    .tick = mb_tick,
+    .deadline = mb_deadline,
+    .on_data = mb_on_data,
+    .on_link = mb_on_link,
+    .on_fault = mb_on_fault,
+    .refresh = mb_refresh,
+    .safe = mb_safe,
+    .free = mb_free,
+    .report = mb_report,
+    .metrics = mb_metrics,
+    .summary = mb_summary,
+    .map_json = mb_map_json,
+    .print_map = gw_regmap_print_all,
+    .print_errors = gw_regmap_print_errors,
 };

@@ -1176,8 +1176,8 @@ static void json_user_locs(gw_json_t *j, bool *first, const gw_umap_t *m, unsign
 /* A bit a GPIO input drives: Modbus may not write it (gw_regmap_write). */
 static bool gpio_driven(const gw_config_t *cfg, unsigned r, dr_ref_t ref)
 {
-    for (unsigned g = 0; g < cfg->gpio_count; g++) {
-        const gw_gpio_config_t *gp = &cfg->gpio[g];
+    for (unsigned g = 0; g < cfg->side.gpio.count; g++) {
+        const gw_gpio_config_t *gp = &cfg->side.gpio.line[g];
         if (gp->dir == GW_GPIO_INPUT && gp->robot_index == r && gp->field.field == ref.field &&
             (gp->field.elem == ref.elem || gp->field.elem < 0))
             return true;
@@ -1215,8 +1215,8 @@ static void json_leaf(gw_json_t *j, const gw_config_t *cfg, unsigned r, unsigned
     gw_json_str(j, ", \"modbus\": [");
     bool lfirst = true;
     bool writable = o2t && rc->default_map_writes && !gpio_driven(cfg, r, ref);
-    json_default_locs(j, &lfirst, field_leaf[fi] + elem, f, cfg->modbus.word_order, writable);
-    json_user_locs(j, &lfirst, &rc->map, fi, elem, cfg->modbus.word_order);
+    json_default_locs(j, &lfirst, field_leaf[fi] + elem, f, cfg->side.modbus.word_order, writable);
+    json_user_locs(j, &lfirst, &rc->map, fi, elem, cfg->side.modbus.word_order);
     gw_json_str(j, "]}");
 }
 
@@ -1230,7 +1230,7 @@ bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot)
     gw_json_quote(j, rc->name, strlen(rc->name));
     snprintf(t, sizeof t, ", \"unit_id\": %u, \"word_order\": \"%s\", \"default_map_writes\": %s, "
              "\"layout_version\": %u, \"fields\": [", (unsigned)rc->unit_id,
-             gw_word_order_name(cfg->modbus.word_order),
+             gw_word_order_name(cfg->side.modbus.word_order),
              rc->default_map_writes ? "true" : "false", (unsigned)GW_MAP_LAYOUT_VERSION);
     gw_json_str(j, t);
     bool first = true;

@@ -23,6 +23,7 @@
 #include "drgate/codec.h"
 #include "core/config.h"
 #include "core/json.h"
+#include "core/north.h"
 #include "core/robot.h"
 #include "core/write.h"
 
@@ -135,7 +136,7 @@ void gw_regmap_slot_name(gw_area_t area, uint16_t addr, char *buf, size_t size);
 unsigned gw_regmap_scale(const dr_field_t *f);
 
 /* Print the map: plain text, Markdown (docs/register-map.md) or JSON. */
-typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
+/* gw_print_fmt_t: core/north.h (the print_map side op). */
 void gw_regmap_print(FILE *out, gw_print_fmt_t fmt);
 /* The same, of the default map's entries whose name contains `filter`
  * (NULL: all), then, for each robot that has one, its own map. */

@@ -47,14 +47,23 @@ static void mqtt_begin(void *sec)
 
 static void mqtt_check(gw_cfg_ctx_t *c);
 
-const gw_cfg_side_t gw_cfg_mqtt = {
+static const gw_cfg_side_t gw_cfg_mqtt = {
     .kw = "mqtt",
-    .base = offsetof(gw_config_t, mqtt),
+    .rank = 60,
+    .base = offsetof(gw_config_t, side.mqtt),
     .name_off = GW_CFG_NONE,
     .line_off = offsetof(gw_mqtt_config_t, line),
     GW_CFG_KEYS(mqtt_keys),
     .begin = mqtt_begin,
     .check = mqtt_check,
+};
+
+static const gw_cfg_side_t *const mqtt_sections[] = { &gw_cfg_mqtt, NULL };
+
+/* The side to the configuration (config.h; gateway/sides.h lists it). */
+const gw_side_cfg_t gw_side_cfg_mqtt = {
+    .name = "mqtt",
+    .sections = mqtt_sections,
 };
 
 static bool valid_client_id(const char *s)
@@ -114,7 +123,7 @@ static void mqtt_deadband(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
 
 static void mqtt_check(gw_cfg_ctx_t *c)
 {
-    const gw_mqtt_config_t *q = &c->cfg.mqtt;
+    const gw_mqtt_config_t *q = &c->cfg.side.mqtt;
     const gw_cfg_side_t *s = &gw_cfg_mqtt;
     if (!q->enabled || !gw_cfg_require(c, s, 0))
         return;

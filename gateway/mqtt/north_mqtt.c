@@ -1096,7 +1096,7 @@ static void mq_free(mq_t *t)
 
 static void *mq_create(const gw_north_env_t *env, char *err, size_t errlen)
 {
-    mq_t *t = mq_new(&env->cfg->mqtt, env, err, errlen);
+    mq_t *t = mq_new(&env->cfg->side.mqtt, env, err, errlen);
     if (t != NULL && t->cfg.enabled) {
         mq_sync_robots(t, false);
         try_connect(t, ev_now_us());
@@ -1127,11 +1127,11 @@ static gw_north_reload_t mq_prepare(void *self, const gw_config_t *next,
                                     size_t errlen)
 {
     mq_t *t = self;
-    if (same_config(&t->cfg, &next->mqtt)) {
+    if (same_config(&t->cfg, &next->side.mqtt)) {
         *out = self;
         return GW_NORTH_OK;
     }
-    *out = mq_new(&next->mqtt, env, err, errlen);
+    *out = mq_new(&next->side.mqtt, env, err, errlen);
     return *out != NULL ? GW_NORTH_OK : GW_NORTH_REFUSED;
 }
 
@@ -1378,8 +1378,33 @@ static void mq_metrics(const void *self, gw_prom_t *p)
                 t->con.connects > 0 ? (double)(t->con.connects - 1u) : 0.0);
 }
 
+/* "MQTT: connected to broker:1883" */
+static void mq_summary(const void *self, gw_side_summary_t *s)
+{
+    const mq_t *t = self;
+    if (t == NULL || !t->cfg.enabled)
+        return;
+    snprintf(s->label, sizeof s->label, "MQTT");
+    snprintf(s->line, sizeof s->line, "%s %s:%u", t->connected ? "connected to" : "not connected to",
+             t->cfg.host, (unsigned)t->cfg.port);
+    snprintf(s->brief, sizeof s->brief, "%s", t->connected ? "MQTT connected" : "MQTT not connected");
+}
+
 const gw_north_ops_t gw_north_mqtt = {
-    "mqtt",     mq_create,  mq_prepare,  mq_abort,  mq_commit, mq_tick,      mq_deadline,
-    mq_on_data, mq_on_link, mq_on_fault, mq_refresh, mq_safe,  mq_side_free,
-    mq_report,  mq_metrics,
+    .name = "mqtt",
+    .create = mq_create,
+    .prepare = mq_prepare,
+    .abort = mq_abort,
+    .commit = mq_commit,
+    .tick = mq_tick,
+    .deadline = mq_deadline,
+    .on_data = mq_on_data,
+    .on_link = mq_on_link,
+    .on_fault = mq_on_fault,
+    .refresh = mq_refresh,
+    .safe = mq_safe,
+    .free = mq_side_free,
+    .report = mq_report,
+    .metrics = mq_metrics,
+    .summary = mq_summary,
 };

@@ -80,20 +80,20 @@ static void test_defaults(void **state)
     gw_config_t c;
     memset(&c, 0xA5, sizeof c);
     gw_config_defaults(&c);
-    assert_string_equal(c.modbus.listen, "0.0.0.0");
-    assert_int_equal(c.modbus.port, 502);
-    assert_int_equal(c.modbus.max_clients, 16);
-    assert_int_equal(c.modbus.idle_timeout_s, 60);
-    assert_true(c.modbus.keepalive);
-    assert_int_equal(c.modbus.word_order, GW_WORD_ABCD);
-    assert_int_equal(c.modbus.on_link_loss, GW_LOSS_HOLD);
-    assert_int_equal(c.modbus.unmapped_read, GW_UNMAPPED_ZERO);
-    assert_int_equal(c.modbus.allow_count, 0);
-    assert_false(c.modbus.single_writer);
-    assert_int_equal(c.modbus.writer_watchdog_ms, 1000);
-    assert_int_equal(c.modbus.request_timeout_ms, 3000);
+    assert_string_equal(c.side.modbus.listen, "0.0.0.0");
+    assert_int_equal(c.side.modbus.port, 502);
+    assert_int_equal(c.side.modbus.max_clients, 16);
+    assert_int_equal(c.side.modbus.idle_timeout_s, 60);
+    assert_true(c.side.modbus.keepalive);
+    assert_int_equal(c.side.modbus.word_order, GW_WORD_ABCD);
+    assert_int_equal(c.side.modbus.on_link_loss, GW_LOSS_HOLD);
+    assert_int_equal(c.side.modbus.unmapped_read, GW_UNMAPPED_ZERO);
+    assert_int_equal(c.side.modbus.allow_count, 0);
+    assert_false(c.side.modbus.single_writer);
+    assert_int_equal(c.side.modbus.writer_watchdog_ms, 1000);
+    assert_int_equal(c.side.modbus.request_timeout_ms, 3000);
     assert_int_equal(c.robot_count, 0);
-    assert_int_equal(c.gpio_count, 0);
+    assert_int_equal(c.side.gpio.count, 0);
     assert_string_equal(c.log_level, "info");
     const gw_robot_config_t *r = &c.robot[0];
     assert_int_equal(r->tcp_port, 44818);
@@ -110,8 +110,8 @@ static void test_defaults(void **state)
     assert_false(r->fallback_hold);
     assert_false(r->o2t_strict);
     assert_int_equal(r->originator_serial, 0); /* derived at start, see link.c */
-    assert_int_equal(c.gpio[0].offset, -1);
-    assert_int_equal(c.gpio[0].bias, GW_BIAS_AS_IS);
+    assert_int_equal(c.side.gpio.line[0].offset, -1);
+    assert_int_equal(c.side.gpio.line[0].bias, GW_BIAS_AS_IS);
 }
 
 static void test_minimal_gets_defaults(void **state)
@@ -124,7 +124,7 @@ static void test_minimal_gets_defaults(void **state)
     assert_string_equal(err, "");
     gw_config_defaults(&d);
     assert_string_equal(c.path, tmpini);
-    assert_memory_equal(&c.modbus, &d.modbus, sizeof c.modbus);
+    assert_memory_equal(&c.side.modbus, &d.side.modbus, sizeof c.side.modbus);
     assert_string_equal(c.log_level, "info");
     assert_int_equal(c.robot_count, 1);
     assert_string_equal(c.robot[0].name, "arm1");
@@ -136,7 +136,7 @@ static void test_minimal_gets_defaults(void **state)
     memcpy(r.host, d.robot[0].host, sizeof r.host);
     r.line = d.robot[0].line;
     assert_memory_equal(&r, &d.robot[0], sizeof r);
-    assert_int_equal(c.gpio_count, 0);
+    assert_int_equal(c.side.gpio.count, 0);
 }
 
 /* ---- good files ------------------------------------------------------------ */
@@ -151,7 +151,7 @@ static void test_all_keys(void **state)
         fail_msg("%s", err);
     assert_string_equal(c.log_level, "debug");
 
-    const gw_modbus_config_t *m = &c.modbus;
+    const gw_modbus_config_t *m = &c.side.modbus;
     assert_string_equal(m->listen, "127.0.0.1");
     assert_int_equal(m->port, 1502);
     assert_int_equal(m->max_clients, 3);
@@ -209,8 +209,8 @@ static void test_all_keys(void **state)
     assert_false(c.robot[1].fallback_hold);
     assert_false(c.robot[1].o2t_strict);
 
-    assert_int_equal(c.gpio_count, 2);
-    const gw_gpio_config_t *g = &c.gpio[0];
+    assert_int_equal(c.side.gpio.count, 2);
+    const gw_gpio_config_t *g = &c.side.gpio.line[0];
     char path[64];
     assert_string_equal(g->name, "lamp");
     assert_string_equal(g->chip, "/dev/gpiochip1");
@@ -224,7 +224,7 @@ static void test_all_keys(void **state)
     assert_true(g->active_low);
     assert_int_equal(g->bias, GW_BIAS_DISABLE);
     assert_true(g->safe_value);
-    g = &c.gpio[1];
+    g = &c.side.gpio.line[1];
     assert_string_equal(g->name, "button");
     assert_string_equal(g->chip, "gpio-mockup-A");
     assert_int_equal(g->offset, -1);
@@ -248,18 +248,18 @@ static void test_section_forms(void **state)
     bool ok = load_file("tests/gw_config/forms.ini", &c, err, sizeof err);
     if (!ok)
         fail_msg("%s", err);
-    assert_int_equal(c.modbus.port, 1503);
+    assert_int_equal(c.side.modbus.port, 1503);
     assert_int_equal(c.robot_count, 3);
     assert_string_equal(c.robot[0].name, "robot"); /* a lone [robot] */
     assert_string_equal(c.robot[1].name, "tab_and_spaces");
     assert_string_equal(c.robot[2].name, "dotted-name");
-    assert_int_equal(c.gpio_count, 2);
-    assert_string_equal(c.gpio[0].name, "spaced");
-    assert_int_equal(c.gpio[0].robot_index, 0);
-    assert_string_equal(c.gpio[1].name, "dotted");
-    assert_int_equal(c.gpio[1].robot_index, 2);
+    assert_int_equal(c.side.gpio.count, 2);
+    assert_string_equal(c.side.gpio.line[0].name, "spaced");
+    assert_int_equal(c.side.gpio.line[0].robot_index, 0);
+    assert_string_equal(c.side.gpio.line[1].name, "dotted");
+    assert_int_equal(c.side.gpio.line[1].robot_index, 2);
     char path[64];
-    assert_int_equal(dr_ref_path(c.gpio[1].field, path, sizeof path), DR_OK);
+    assert_int_equal(dr_ref_path(c.side.gpio.line[1].field, path, sizeof path), DR_OK);
     assert_string_equal(path, "io_state.aio_type.ai0");
 }
 
@@ -275,10 +275,10 @@ static void test_gpio_robot_defaults_to_the_only_one(void **state)
                   &c, err, sizeof err);
     if (!ok)
         fail_msg("%s", err);
-    assert_string_equal(c.gpio[0].robot, "cell");
-    assert_int_equal(c.gpio[0].robot_index, 0);
-    assert_false(c.gpio[0].safe_value);
-    assert_false(c.gpio[0].active_low);
+    assert_string_equal(c.side.gpio.line[0].robot, "cell");
+    assert_int_equal(c.side.gpio.line[0].robot_index, 0);
+    assert_false(c.side.gpio.line[0].safe_value);
+    assert_false(c.side.gpio.line[0].active_low);
 }
 
 static void test_text_variants(void **state)
@@ -335,28 +335,28 @@ static void test_example_values(void **state)
     gw_config_t c;
     char err[512];
     assert_true(load_file("gateway/examples/secure.ini", &c, err, sizeof err));
-    assert_int_equal(c.modbus.allow_count, 3);
-    assert_true(c.modbus.allow[0].read_write);
-    assert_false(c.modbus.allow[1].read_write);
-    assert_true(c.modbus.single_writer);
+    assert_int_equal(c.side.modbus.allow_count, 3);
+    assert_true(c.side.modbus.allow[0].read_write);
+    assert_false(c.side.modbus.allow[1].read_write);
+    assert_true(c.side.modbus.single_writer);
     assert_true(
         load_file("gateway/examples/two-robots.ini", &c, err, sizeof err));
     assert_int_equal(c.robot_count, 2);
     assert_int_equal(c.robot[1].unit_id, 2);
     assert_true(
         load_file("gateway/examples/gpio-cell.ini", &c, err, sizeof err));
-    assert_int_equal(c.gpio_count, 4);
-    assert_int_equal(c.gpio[2].dir, GW_GPIO_INPUT);
+    assert_int_equal(c.side.gpio.count, 4);
+    assert_int_equal(c.side.gpio.line[2].dir, GW_GPIO_INPUT);
     assert_true(load_file("gateway/examples/explicit-polling.ini", &c, err,
                           sizeof err));
     assert_int_equal(c.robot[0].mode, GW_MODE_EXPLICIT);
     assert_true(load_file("gateway/examples/rs485-cell.ini", &c, err, sizeof err));
-    assert_int_equal(c.rtu_count, 1);
-    assert_true(c.rtu[0].rs485);
-    assert_int_equal(c.rtu[0].parity, GW_PARITY_EVEN);
-    assert_int_equal(c.rtu[0].slave_count, 2);
-    assert_int_equal(c.rtu[0].slave_addr[0], 10); /* weld:10 */
-    assert_int_equal(c.rtu[0].slave_addr[1], 2);  /* handling: its unit_id */
+    assert_int_equal(c.side.modbus.rtu_count, 1);
+    assert_true(c.side.modbus.rtu[0].rs485);
+    assert_int_equal(c.side.modbus.rtu[0].parity, GW_PARITY_EVEN);
+    assert_int_equal(c.side.modbus.rtu[0].slave_count, 2);
+    assert_int_equal(c.side.modbus.rtu[0].slave_addr[0], 10); /* weld:10 */
+    assert_int_equal(c.side.modbus.rtu[0].slave_addr[1], 2);  /* handling: its unit_id */
 }
 
 /* [modbus_rtu]: defaults (19200 8E1, every robot at its unit_id). */
@@ -369,16 +369,16 @@ static void test_rtu_defaults(void **state)
                           "[robot b]\nhost = 10.0.0.2\nunit_id = 9\n"
                           "[modbus_rtu.l]\ndevice = /dev/ttyUSB0\n",
                           &c, err, sizeof err));
-    assert_int_equal(c.rtu_count, 1);
-    assert_string_equal(c.rtu[0].device, "/dev/ttyUSB0");
-    assert_int_equal(c.rtu[0].baud, 19200);
-    assert_int_equal(c.rtu[0].parity, GW_PARITY_EVEN);
-    assert_int_equal(c.rtu[0].stop_bits, 1);
-    assert_false(c.rtu[0].rs485);
-    assert_int_equal(c.rtu[0].slave_count, 2);
-    assert_int_equal(c.rtu[0].slave_robot[1], 1);
-    assert_int_equal(c.rtu[0].slave_addr[0], 7);
-    assert_int_equal(c.rtu[0].slave_addr[1], 9);
+    assert_int_equal(c.side.modbus.rtu_count, 1);
+    assert_string_equal(c.side.modbus.rtu[0].device, "/dev/ttyUSB0");
+    assert_int_equal(c.side.modbus.rtu[0].baud, 19200);
+    assert_int_equal(c.side.modbus.rtu[0].parity, GW_PARITY_EVEN);
+    assert_int_equal(c.side.modbus.rtu[0].stop_bits, 1);
+    assert_false(c.side.modbus.rtu[0].rs485);
+    assert_int_equal(c.side.modbus.rtu[0].slave_count, 2);
+    assert_int_equal(c.side.modbus.rtu[0].slave_robot[1], 1);
+    assert_int_equal(c.side.modbus.rtu[0].slave_addr[0], 7);
+    assert_int_equal(c.side.modbus.rtu[0].slave_addr[1], 9);
 }
 
 /* ---- errors ---------------------------------------------------------------- */
@@ -954,10 +954,10 @@ static void test_mqtt(void **state)
     char err[512];
     if (!load_text(ROBOT, &c, err, sizeof err))
         fail_msg("%s", err);
-    assert_false(c.mqtt.enabled);
+    assert_false(c.side.mqtt.enabled);
     if (!load_text(ROBOT "[mqtt]\nhost = broker.local\n", &c, err, sizeof err))
         fail_msg("%s", err);
-    const gw_mqtt_config_t *q = &c.mqtt;
+    const gw_mqtt_config_t *q = &c.side.mqtt;
     assert_true(q->enabled);
     assert_string_equal(q->host, "broker.local");
     assert_int_equal(q->port, 1883);
@@ -1111,7 +1111,7 @@ static void test_nothing_half_applied(void **state)
     assert_memory_equal(&c, &before, sizeof c);
     assert_true(
         load_text("[modbus]\nport = 1502\n" ROBOT, &c, err, sizeof err));
-    assert_int_equal(c.modbus.port, 1502);
+    assert_int_equal(c.side.modbus.port, 1502);
     assert_int_equal(c.robot_count, 1);
 }
 
@@ -1259,10 +1259,6 @@ static void test_word_order_name(void **state)
 
 /* ---- the key tables (gateway/core/config_internal.h) ----------------------------- */
 
-static const gw_cfg_side_t *const all_sides[] = {
-    &gw_cfg_daemon, &gw_cfg_modbus, &gw_cfg_robot,
-    &gw_cfg_gpio,   &gw_cfg_rtu,    &gw_cfg_mqtt,
-};
 
 static size_t names_in(const char *const *names)
 {
@@ -1313,7 +1309,11 @@ static void check_key(const gw_cfg_side_t *s, const gw_cfg_key_t *k)
 static void test_key_tables(void **state)
 {
     (void)state;
-    for (size_t j = 0; j < sizeof all_sides / sizeof all_sides[0]; j++) {
+    /* every section: the core's and, through the side list, the sides' */
+    const gw_cfg_side_t *all_sides[GW_CFG_MAX_SECTIONS];
+    unsigned n = gw_cfg_all_sections(all_sides);
+    assert_int_equal(n, 7);
+    for (size_t j = 0; j < n; j++) {
         const gw_cfg_side_t *s = all_sides[j];
         assert_true(s->nkeys > 0 && s->nkeys <= GW_CFG_MAX_KEYS);
         for (unsigned k = 0; k < s->nkeys; k++) {
@@ -1333,7 +1333,9 @@ static void test_print_keys(void **state)
 {
     (void)state;
     char text[8192];
-    for (size_t j = 0; j < sizeof all_sides / sizeof all_sides[0]; j++) {
+    const gw_cfg_side_t *all_sides[GW_CFG_MAX_SECTIONS];
+    unsigned n = gw_cfg_all_sections(all_sides);
+    for (size_t j = 0; j < n; j++) {
         const gw_cfg_side_t *s = all_sides[j];
         FILE *f = fmemopen(text, sizeof text, "w");
         assert_non_null(f);

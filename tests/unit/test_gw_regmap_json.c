@@ -40,7 +40,7 @@ static int setup(void **state)
         C.robot[r].unit_id = (uint8_t)(r + 1);
         C.robot[r].default_map_writes = true;
     }
-    C.modbus.word_order = GW_WORD_CDAB;
+    C.side.modbus.word_order = GW_WORD_CDAB;
     umap(&C.robot[0], "hr 3000 float_in[0..1] real writable");
     umap(&C.robot[0], "ir 3100 joint_state.position[1..6] int16 scale=100 saturate");
     umap(&C.robot[0], "ir 3200 io_state.cb_di bits");
@@ -242,14 +242,14 @@ static void test_write_rights(void **state)
     has(j, "float_in[0]", "\"writable\": true, \"user\": true}");
     /* a bit a GPIO input drives: not writable over Modbus */
     C.robot[0].default_map_writes = true;
-    C.gpio_count = 1;
-    C.gpio[0].dir = GW_GPIO_INPUT;
-    C.gpio[0].robot_index = 0;
-    assert_int_equal(dr_path_parse("bit_in[5]", &C.gpio[0].field), DR_OK);
+    C.side.gpio.count = 1;
+    C.side.gpio.line[0].dir = GW_GPIO_INPUT;
+    C.side.gpio.line[0].robot_index = 0;
+    assert_int_equal(dr_path_parse("bit_in[5]", &C.side.gpio.line[0].field), DR_OK);
     j = robot_json(0);
     lacks(j, "bit_in[5]", "\"writable\": true");
     has(j, "bit_in[6]", "\"writable\": true");
-    C.gpio_count = 0;
+    C.side.gpio.count = 0;
 }
 
 static void test_full_and_range(void **state)

@@ -90,7 +90,7 @@ static const gw_gpiomap_hooks_t hooks = {on_input, NULL};
 static void add_gpio(const char *name, const char *chip, const char *line, gw_gpio_dir_t dir,
                      const char *field)
 {
-    gw_gpio_config_t *g = &cfg.gpio[cfg.gpio_count++];
+    gw_gpio_config_t *g = &cfg.side.gpio.line[cfg.side.gpio.count++];
     memset(g, 0, sizeof *g);
     snprintf(g->name, sizeof g->name, "%s", name);
     snprintf(g->chip, sizeof g->chip, "%s", chip);
@@ -108,9 +108,9 @@ static void add_gpio(const char *name, const char *chip, const char *line, gw_gp
 
 static gw_gpio_config_t *gpio_named(const char *name)
 {
-    for (unsigned i = 0; i < cfg.gpio_count; i++)
-        if (strcmp(cfg.gpio[i].name, name) == 0)
-            return &cfg.gpio[i];
+    for (unsigned i = 0; i < cfg.side.gpio.count; i++)
+        if (strcmp(cfg.side.gpio.line[i].name, name) == 0)
+            return &cfg.side.gpio.line[i];
     fail_msg("no gpio %s", name);
     return NULL;
 }
@@ -388,7 +388,7 @@ static void test_errors(void **state)
 {
     (void)state;
     char err[512];
-    snprintf(gpio_named("button")->line_name, sizeof cfg.gpio[0].line_name, "NOPE");
+    snprintf(gpio_named("button")->line_name, sizeof cfg.side.gpio.line[0].line_name, "NOPE");
     assert_null(gw_gpiomap_new(&cfg, robots, 3, &hooks, err, sizeof err));
     assert_non_null(strstr(err, "gpio button: "));
     assert_non_null(strstr(err, "NOPE"));
@@ -454,7 +454,7 @@ static void test_reload_changes(void **state)
     snprintf(gpio_named("echo")->name, GW_NAME_MAX, "echo2");
     assert_int_equal(dr_path_parse("bit_out[1]", &gpio_named("echo2")->field), DR_OK);
     gw_gpio_config_t *door = gpio_named("door");
-    *door = cfg.gpio[--cfg.gpio_count]; /* the relay takes the door's place */
+    *door = cfg.side.gpio.line[--cfg.side.gpio.count]; /* the relay takes the door's place */
     add_gpio("new", "gpiochip0", "4", GW_GPIO_OUTPUT, "bit_out[0]");
     assert_int_equal(gw_gpiomap_reload(m, &cfg, robots, 3, &hooks, &n, err, sizeof err),
                      GW_GPIOMAP_OK);

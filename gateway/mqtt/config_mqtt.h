@@ -1,0 +1,40 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The MQTT side's configuration (config_mqtt.c reads it): [mqtt].
+ */
+#ifndef DRGATE_GW_MQTT_CONFIG_H
+#define DRGATE_GW_MQTT_CONFIG_H
+
+#include "core/config_types.h"
+
+/* [mqtt]: present = enabled (docs/mqtt.md). Strings "" = not set. */
+typedef struct {
+    bool enabled;             /* the section is present */
+    char host[64];
+    uint16_t port;            /* default 1883 */
+    char client_id[64];       /* default "drgatewayd-<hostname>" */
+    char username[64];
+    char password_file[256];  /* first line is the password */
+    char ca_file[256];        /* set: TLS */
+    char cert_file[256];      /* client certificate, with key_file */
+    char key_file[256];
+    unsigned keepalive_s;     /* default 30, 5..3600 */
+    unsigned qos;             /* default 0, 0..2 */
+    char topic_prefix[128];   /* default "drgate/<hostname>" */
+    bool retain;              /* status/state/meta retained, default yes */
+    unsigned publish_interval_ms; /* per robot, default 100, 0..60000 */
+    double deadband;          /* REAL fields, absolute, default 0 */
+    bool writes;              /* plant writes via <prefix>/<robot>/set/<path> */
+    /* payload = sparkplug: Sparkplug B (mqtt/sparkplug.h) instead of JSON */
+    unsigned payload;         /* GW_MQTT_JSON (default) or GW_MQTT_SPARKPLUG */
+    char group_id[64];        /* Sparkplug group, required with sparkplug */
+    char edge_node_id[64];    /* default: the host name */
+    char primary_host_id[64]; /* set: births wait for its STATE online */
+    unsigned line;            /* the section's line */
+} gw_mqtt_config_t;
+enum { GW_MQTT_JSON = 0, GW_MQTT_SPARKPLUG };
+
+/* The side's member of gw_config_t (gateway/sides.h). */
+typedef gw_mqtt_config_t gw_mqtt_side_config_t;
+
+#endif /* DRGATE_GW_MQTT_CONFIG_H */
