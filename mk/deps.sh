@@ -138,9 +138,18 @@ private_state() { # ARCH...
         APT_OPTS="$APT_OPTS -o APT::Architectures::=$a"
     done
     say "planning with architecture(s) $* in a private apt state (nothing added yet)"
+    chmod 755 "$tmp" # apt's download user reads and writes the lists there
     # shellcheck disable=SC2086
-    apt-get $APT_OPTS update -qq >/dev/null 2>"$tmp/update.err" || {
-        cat "$tmp/update.err" >&2; say "cannot fetch the package lists to plan"; exit 1; }
+    apt-get $APT_OPTS update -qq >/dev/null 2>"$tmp/update.err" || update_failed "$tmp/update.err"
+}
+
+# A mirror caught mid-sync serves an index that does not match its Release
+# file (seen for trixie-security's s390x Packages): apt ignores that list.
+# Planning goes on with what apt has; if a package then cannot be found,
+# the plan says which.
+update_failed() { # ERRORS
+    grep -v '^W: ' "$1" | sed 's/^/  /' >&2
+    say "apt-get update could not fetch every package list (above): going on with those it has"
 }
 
 # apt's plan for the packages in $@: its "Inst" lines; an upgrade carries the
@@ -190,7 +199,7 @@ install_missing() {
         # shellcheck disable=SC2086
         private_state $archs
     elif [ -z "$dry" ]; then
-        apt-get update -qq
+        apt-get update -qq 2>"$tmp/update.err" || update_failed "$tmp/update.err"
     fi
     args=$(pins "$@" | tr '\n' ' ')
     # shellcheck disable=SC2086
@@ -213,7 +222,7 @@ install_missing() {
     for a in $archs; do
         say "adding dpkg architecture $a"; dpkg --add-architecture "$a"
     done
-    [ -z "$archs" ] || apt-get update -qq
+    [ -z "$archs" ] || apt-get update -qq 2>"$tmp/update.err" || update_failed "$tmp/update.err"
     export DEBIAN_FRONTEND=noninteractive
     # tshark asks whether non-root users may capture; the default (no) is fine.
     case " $* " in *" tshark "*)
