@@ -534,7 +534,7 @@ rpi_ms = {RPI_MS}
                          f"{p99:.0f} us (p50 {p50:.0f}, p99.9 {p999:.0f}, max {mx:.0f}; "
                          f"in the loop p99 {loop99:.0f}; waiting for a CPU {rq:.0f} % "
                          f"of the time; n={n})",
-                         base, f"{r:.2f}x",
+                         base, f"{r:.2f}x" if goal else "",
                          f"<= {GOAL_LAT_VS_BARE:g}x" if goal else "(info)",
                          ok(r <= GOAL_LAT_VS_BARE) if goal else "-"))
         if not self.enip_check:
