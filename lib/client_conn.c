@@ -550,11 +550,29 @@ static void conn_produce(dr_conn_t *cn, uint64_t t)
  *    packet the timer sent is not the next period's);
  *  - deadlines only ever move later, never closer than one API apart, so
  *    the rate never exceeds one packet per API.
- * When arrivals keep falling outside the window (the connection has just
- * opened, or the two clocks drift apart, as real adapters' do) the
- * schedule moves: the next packet is due half a window after the next
- * expected arrival, which makes one interval longer, never shorter. Only
- * for equal APIs both ways: otherwise the arrivals do not mark our
+ * When arrivals keep falling outside the window (FOLLOW_MISSES in a row:
+ * the connection has just opened, or the two clocks drift apart, as real
+ * adapters' do) the schedule moves later towards "due half a window after
+ * the next expected arrival", by at most half a window per period: the
+ * next deadline never goes past the last packet + API + window / 2. Each
+ * further miss moves it again, until an arrival falls in the window.
+ *
+ * The longest O->T interval, in virtual time (the loop on time): API +
+ * window, reached by a packet sent a whole window early with an arrival
+ * and the next one on its deadline; a move adds at most window / 2 to an
+ * interval that began on a deadline, so it stays within that. With the
+ * gateway's window (RPI / 4, gateway/core/link.c) that is 1.25 RPI. The
+ * move used to go in one step (to the arrival + API + window / 2), which
+ * left out the packet then due: an interval of up to 2 API - window / 2
+ * against an adapter whose clock runs fast (arrivals drift out of the
+ * window's early end), 1.875 RPI with the gateway's window (1.9 RPI was
+ * measured at RPI 50 ms, issue 30), and up to 2 API + window / 2 with
+ * bunched arrivals. Against a fast adapter the schedule must move later by
+ * nearly an API to catch its next arrival (ours may not run faster than
+ * one packet per API); in steps of half a window that takes up to
+ * 2 API / window - 1 periods (7 with the gateway's window), in which the
+ * packets go on their timer. test_class1_follow_spacing asserts the bound.
+ * Only for equal APIs both ways: otherwise the arrivals do not mark our
  * periods. */
 #define FOLLOW_MISSES 3u
 
@@ -569,9 +587,12 @@ static void follow_t2o(dr_conn_t *cn, uint64_t t)
         if (spaced)
             conn_produce(cn, t);
     } else if (++cn->follow_misses >= FOLLOW_MISSES) {
-        cn->follow_misses = 0;
-        if (cn->next_tx_us < t + api + win / 2u)
-            cn->next_tx_us = t + api + win / 2u;
+        cn->follow_misses = FOLLOW_MISSES; /* and again at the next miss */
+        uint64_t to = t + api + win / 2u;
+        if (cn->last_tx_us != 0 && to > cn->last_tx_us + api + win / 2u)
+            to = cn->last_tx_us + api + win / 2u;
+        if (cn->next_tx_us < to)
+            cn->next_tx_us = to;
     }
 }
 

@@ -7,7 +7,8 @@
 # The results go to docs/performance.md ("Gateway" section) with
 # `make bench-gw GW_BENCH_ARGS=--write-doc`. See bench/gw_bench.py.
 
-GW_BENCH_BIN := $(B)/bench/gw_load $(B)/bench/gw_plain_server $(B)/bench/drgatewayd-lat
+GW_BENCH_BIN := $(B)/bench/gw_load $(B)/bench/gw_plain_server $(B)/bench/drgatewayd-lat \
+    $(B)/bench/lat_bare
 GW_BENCH_PY  ?= .venv/bin/python
 GW_BENCH_ARGS ?=
 

@@ -9,7 +9,10 @@
 #                   docs/http.md show them); about a minute
 #   bench-console   the daemon's CPU and the Modbus p99 with 10 live robot
 #                   pages open, and the RSS and mapped libraries without
-#                   [http] (bench/console_bench.py; in make bench)
+#                   [http]; then, in network namespaces (root), the Modbus
+#                   p99 with a remote page logged in over TLS and during a
+#                   wrong-password flood (bench/console_bench.py; in make
+#                   bench)
 #
 # The browser test itself runs with the rest of tests/gateway (check-gateway,
 # check-gateway-asan).

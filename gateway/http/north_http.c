@@ -1208,9 +1208,17 @@ static void ht_tick(void *self, uint64_t now)
     sse_limits(t, now);
     sse_resume(t, now, false);
     cut_slow(t, now);
-    for (hc_t *h = t->conns; h != NULL; h = h->next)
-        if (h->suspended && h->auth == AUTH_REFUSED && h->held_until <= now)
-            hc_resume(t, h); /* its wait is over: the 401 */
+    /* Each login whose wait is over gets its 401. hc_resume runs MHD,
+     * which may close, and so free, any connection of the list (a client
+     * that went away while its login was held): the walk starts again
+     * from the head after each one (it is no longer suspended). */
+    for (hc_t *h = t->conns; h != NULL;)
+        if (h->suspended && h->auth == AUTH_REFUSED && h->held_until <= now) {
+            hc_resume(t, h);
+            h = t->conns;
+        } else {
+            h = h->next;
+        }
     for (unsigned i = 0; i < 2; i++) {
         MHD_UNSIGNED_LONG_LONG ms;
         if (t->srv[i].d != NULL && ml->get_timeout(t->srv[i].d, &ms) == MHD_YES && ms == 0)

@@ -305,6 +305,56 @@ def test_unknown_user_costs_what_a_known_one_does(cell):
         cell.stop(p)
 
 
+def test_held_logins_of_clients_gone(cell):
+    """Wrong passwords from six addresses over TLS, two kept-alive
+    connections each, as the attacker of test_wrong_password_flood, which
+    then goes away while logins are held for their address's wait (from
+    the 5th refusal): when the waits end the daemon answers into closed
+    connections, which MHD closes and frees while the console walks its
+    list of connections (a use-after-free in ht_tick found by make
+    bench-console's flood: the daemon died of SIGSEGV, under ASan
+    heap-use-after-free). It lives on and answers a good login."""
+    p = cell.gateway("held", tls_http(cell, cell.dir))
+    ctx = ctx_for(cell)
+    stop = threading.Event()
+
+    def attacker(src, k):
+        i = 0
+        while not stop.is_set():
+            try:
+                s = ctx.wrap_socket(cell.sock(GW_IP, HTTPS_PORT, src))
+                s.settimeout(0.2)
+                while not stop.is_set():
+                    s.sendall(login_request("admin", "held%d-%d" % (k, i)))
+                    i += 1
+                    try:
+                        read_answer(s)
+                    except socket.timeout:
+                        break  # held: this client goes away
+                s.close()
+            except (OSError, ConnectionError, ssl.SSLError):
+                time.sleep(0.01)
+
+    try:
+        threads = [threading.Thread(target=attacker, args=(ATTACKERS[20 + k % 6], k), daemon=True)
+                   for k in range(12)]
+        for t in threads:
+            t.start()
+        time.sleep(4)
+        stop.set()
+        for t in threads:
+            t.join(timeout(30))
+        time.sleep(3)  # every wait (1, 2 s) is over
+        assert p.poll() is None, p.log.read_text()[-3000:]
+        s = ctx.wrap_socket(cell.sock(GW_IP, HTTPS_PORT, ATTACKERS[27]))
+        s.sendall(login_request("admin", "s3cret"))
+        assert read_answer(s) == 200
+        s.close()
+        assert p.poll() is None, p.log.read_text()[-3000:]
+    finally:
+        cell.stop(p)
+
+
 def test_forged_log_line_is_escaped(cell):
     """A user name "x\\n<0>forged ..." (an emergency in the journal if it
     became a line of its own) is logged on the refusal's own line, its

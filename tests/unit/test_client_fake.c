@@ -1922,8 +1922,8 @@ static void test_class1_trailing_item(void **state)
 /* o2t_follow_us: an O->T packet due within the window goes out with the
  * arriving T->O packet (one wake-up for both), on the shared port the
  * gateway uses; arrivals outside the window move the O->T schedule after
- * three in a row, later, without sending; with no window, arrivals never
- * send. */
+ * three in a row, later, without sending, by half a window a period at
+ * most; with no window, arrivals never send. */
 static void test_class1_follow(void **state)
 {
     (void)state;
@@ -1974,23 +1974,42 @@ static void test_class1_follow(void **state)
         d += 10000u;
     }
     /* The third: nothing goes now (the last packet left only 4 ms ago),
-     * the deadline moves later, to half a window after the next arrival:
-     * one interval of 15.25 ms. */
+     * and the deadline moves later, towards half a window after the next
+     * arrival (t + 11.25 ms), but by half a window at most: to d + 1.25 ms,
+     * an interval of 11.25 ms. The packet due then is not left out (it
+     * was, when the move went in one step: an interval of 15.25 ms). */
     sent = F.udp_sent;
     uint64_t t = d - 6000u;
     F.now = t;
     push_t2o(F.t2o_cid, seq++, 96);
     dr_udp_port_process(p);
     assert_int_equal(F.udp_sent, sent);
-    assert_int_equal(dr_client_next_deadline(c), t + 10000u + 1250u);
-    /* from now on each arrival sends, half a window before the deadline */
-    for (int i = 1; i <= 3; i++) {
+    assert_int_equal(dr_client_next_deadline(c), d + 1250u);
+    /* each further miss moves it again, half a window a period: the timer
+     * sends at d + 1.25, + 12.5 and + 23.75 ms (intervals of 11.25 ms),
+     * the arrivals at d + 4, + 14 and + 24 ms each move the next one */
+    static const uint32_t timer_at[3] = {1250u, 12500u, 23750u};
+    static const uint32_t moved_to[3] = {12500u, 23750u, 35000u};
+    for (int i = 0; i < 3; i++) {
+        sent = F.udp_sent;
+        F.now = d + timer_at[i];
+        dr_client_process_ready(c, NULL, 0);
+        assert_int_equal(F.udp_sent, sent + 1);
+        F.now = t + (uint64_t)(i + 1) * 10000u;
+        push_t2o(F.t2o_cid, seq++, 96);
+        dr_udp_port_process(p);
+        assert_int_equal(F.udp_sent, sent + 1);
+        assert_int_equal(dr_client_next_deadline(c), d + moved_to[i]);
+    }
+    /* from now on each arrival sends, 1 ms before the deadline (inside
+     * the window), and the deadline keeps its grid */
+    for (int i = 4; i <= 6; i++) {
         sent = F.udp_sent;
         F.now = t + (uint64_t)i * 10000u;
         push_t2o(F.t2o_cid, seq++, 96);
         dr_udp_port_process(p);
         assert_int_equal(F.udp_sent, sent + 1);
-        assert_int_equal(dr_client_next_deadline(c), t + (uint64_t)(i + 1) * 10000u + 1250u);
+        assert_int_equal(dr_client_next_deadline(c), t + (uint64_t)(i + 1) * 10000u + 1000u);
     }
     assert_int_equal(log.data, seq - 1);
 
@@ -2355,7 +2374,7 @@ static void follow_run(const follow_case_t *fc)
     assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
     uint64_t start = dr_client_next_deadline(c), end = start + 20000000u;
     uint64_t nominal = (uint64_t)((int64_t)start + fc->phase), arrival = nominal;
-    uint64_t rng = 0x9E3779B97F4A7C15ull, first = 0, last = 0, min_gap = UINT64_MAX;
+    uint64_t rng = 0x9E3779B97F4A7C15ull, first = 0, last = 0, min_gap = UINT64_MAX, max_gap = 0;
     unsigned n = 0, on_arrival = 0, arrivals = 0;
     uint16_t seq = 1;
     while (F.now < end) {
@@ -2378,17 +2397,24 @@ static void follow_run(const follow_case_t *fc)
         for (unsigned k = before; k < F.udp_sent; k++, n++) {
             if (n > 0 && F.now - last < min_gap)
                 min_gap = F.now - last;
+            if (n > 0 && F.now - last > max_gap)
+                max_gap = F.now - last;
             if (n == 0)
                 first = F.now;
             last = F.now;
             on_arrival += arrived;
         }
     }
-    print_message("%s: %u O->T packets in %.3f s (%u on arrival), shortest gap %.3f ms\n",
-                  fc->what, n, (double)(last - first) / 1e6, on_arrival, (double)min_gap / 1e3);
+    print_message("%s: %u O->T packets in %.3f s (%u on arrival), shortest gap %.3f ms, "
+                  "longest %.3f ms\n", fc->what, n, (double)(last - first) / 1e6, on_arrival,
+                  (double)min_gap / 1e3, (double)max_gap / 1e3);
     assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED); /* never timed out */
     /* never closer than API - window (10 ms - 2.5 ms) */
     assert_true(min_gap >= 7500u);
+    /* never further apart than API + window (10 ms + 2.5 ms): one packet
+     * sent a window early, the next on its deadline; the schedule moves
+     * later by at most half a window per period (issue 30) */
+    assert_true(max_gap <= 12500u);
     /* never more than one per API: n - 1 intervals fit in the span, give
      * or take the window the first one may leave early */
     assert_true((uint64_t)(n - 1u) * 10000u <= last - first + 2500u);
@@ -2411,6 +2437,7 @@ static void test_class1_follow_spacing(void **state)
         {"adapter 1.1 % slow", 10111u, 0u, 100},
         {"adapter 1.1 % fast", 9891u, 0u, 100},
         {"same clock, jitter", 10000u, 150u, 100},
+        {"adapter 1.1 % fast, jitter", 9891u, 1000u, 100},
         {"same clock, just early", 10000u, 0u, -100},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {

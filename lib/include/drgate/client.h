@@ -367,7 +367,8 @@ typedef struct {
                                  arrives: one wake-up per period instead of
                                  two, packets up to the window early, never
                                  two closer than API - window, never more
-                                 than one per API */
+                                 than one per API, never two further apart
+                                 than API + window */
     dr_conn_data_cb on_data;
     dr_conn_state_cb on_state;
     void *user;
