@@ -626,6 +626,44 @@ static enum MHD_Result send_401(struct MHD_Connection *c)
     return ret;
 }
 
+/* A login refused while its address waits out its back-off (auth.c) is
+ * held to the end of the wait: that slows a password guesser down at no
+ * cost to the loop. But a held login keeps its connection: four flooding
+ * addresses could keep every slot (max_connections_per_ip each) for up to
+ * 32 s (make bench-console). So at most HELD_PER_IP logins of one address
+ * are held; the others get 429 at once, with the wait, and their
+ * connection closes. (No bound in all: a connection answered at once is
+ * opened again, and each new TLS handshake costs the loop more than a
+ * held connection does.) */
+#define HELD_PER_IP 2u
+
+static bool may_hold(const ht_t *t, const hc_t *h)
+{
+    unsigned mine = 0;
+    for (const hc_t *o = t->conns; o != NULL; o = o->next)
+        mine += o != h && o->suspended && o->auth == AUTH_REFUSED && o->ip == h->ip;
+    return mine < HELD_PER_IP;
+}
+
+static enum MHD_Result send_429(struct MHD_Connection *c, uint64_t wait_us)
+{
+    static const char body[] = "429 too many failed logins from this address: "
+                               "try again after Retry-After seconds\n";
+    char secs[24];
+    (void)snprintf(secs, sizeof secs, "%lu", (unsigned long)((wait_us + 999999u) / 1000000u));
+    struct MHD_Response *r = ml->create_response_from_buffer(sizeof body - 1, unconst(body),
+                                                             MHD_RESPMEM_PERSISTENT);
+    if (r == NULL)
+        return MHD_NO;
+    (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    (void)ml->add_response_header(r, "Retry-After", secs);
+    (void)ml->add_response_header(r, "Connection", "close");
+    enum MHD_Result ret = queue(c, 429, r, false);
+    ml->destroy_response(r);
+    return ret;
+}
+
 static void hc_suspend(hc_t *h)
 {
     if (!h->suspended) {
@@ -653,8 +691,8 @@ static void on_auth_done(void *user, void *cookie, bool ok, uint64_t until)
     hc_t *h = cookie;
     h->auth = ok ? AUTH_OK : AUTH_REFUSED;
     h->held_until = ok ? 0 : until;
-    if (ok || until <= ev_now_us())
-        hc_resume(t, h);
+    if (ok || until <= ev_now_us() || !may_hold(t, h))
+        hc_resume(t, h); /* authorized() answers: 200, 401 or 429 */
 }
 
 static void on_auth_ready(void *obj, uint32_t events)
@@ -680,6 +718,11 @@ static bool authorized(ht_t *t, hc_t *h, struct MHD_Connection *c, enum MHD_Resu
         return true;
     case AUTH_REFUSED:
         if (h->held_until > ev_now_us()) {
+            if (!h->suspended && !may_hold(t, h)) {
+                h->auth = AUTH_NONE;
+                *ret = send_429(c, h->held_until - ev_now_us());
+                return false;
+            }
             hc_suspend(h); /* tick() resumes it when the wait is over */
             return false;
         }
@@ -723,6 +766,11 @@ static bool authorized(ht_t *t, hc_t *h, struct MHD_Connection *c, enum MHD_Resu
     h->auth = AUTH_REFUSED;
     h->held_until = until;
     if (until > now) {
+        if (!may_hold(t, h)) {
+            h->auth = AUTH_NONE;
+            *ret = send_429(c, until - now);
+            return false;
+        }
         hc_suspend(h);
         return false;
     }

@@ -355,6 +355,46 @@ def test_held_logins_of_clients_gone(cell):
         cell.stop(p)
 
 
+def test_held_logins_bounded_per_address(cell):
+    """From the 5th refusal of an address its logins are held to the end
+    of its wait, but two at a time at most: the other connections of that
+    address get 429 at once, with Retry-After, and are closed, so that a
+    few flooding addresses cannot keep every connection slot (before: each
+    held up to max_connections_per_ip connections for up to 32 s)."""
+    p = cell.gateway("held-bound", tls_http(cell, cell.dir))
+    ctx = ctx_for(cell)
+    src = ATTACKERS[35]
+    socks = []
+    try:
+        # refusals one after the other until the address's wait (1, 2, 4
+        # ... s after each) is 2 s or more: the next one is 4 s or more
+        for i in range(12):
+            s = ctx.wrap_socket(cell.sock(GW_IP, HTTPS_PORT, src))
+            s.settimeout(timeout(40))
+            t0 = time.monotonic()
+            s.sendall(login_request("admin", "bound%d" % i))
+            assert read_answer(s) == 401
+            s.close()
+            if time.monotonic() - t0 >= 1.9:
+                break
+        else:
+            assert False, "no wait of 2 s after 12 refusals"
+        # five more within that wait: two held, three answered 429 at once;
+        # the held ones get their 401 when the wait is over
+        for i in range(5):
+            s = ctx.wrap_socket(cell.sock(GW_IP, HTTPS_PORT, src))
+            s.settimeout(timeout(40))
+            s.sendall(login_request("admin", "held%d" % i))
+            socks.append(s)
+        answers = [read_answer(s) for s in socks]
+        print("\nfive logins of one address in its wait: %s" % answers)
+        assert answers.count(429) == 3 and answers.count(401) == 2, answers
+    finally:
+        for s in socks:
+            s.close()
+        cell.stop(p)
+
+
 def test_forged_log_line_is_escaped(cell):
     """A user name "x\\n<0>forged ..." (an emergency in the journal if it
     became a line of its own) is logged on the refusal's own line, its
