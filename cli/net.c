@@ -201,6 +201,8 @@ int cli_net_connect(const char *cmd, const dr_client_config_t *cfg,
     memset(net, 0, sizeof *net);
     net->cmd = cmd;
     net->layout = net_layout;
+    net->host = cfg->host;
+    net->tcp_port = cfg->tcp_port;
     net->timeout_ms = cfg->timeout_ms;
     snprintf(net->where, sizeof net->where, "%s:%u", cfg->host,
              (unsigned)cfg->tcp_port);

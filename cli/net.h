@@ -61,6 +61,8 @@ typedef struct {
     const char *cmd;
     dr_client_t *client;
     char where[300]; /* "host:port" */
+    const char *host;  /* as given */
+    uint16_t tcp_port;
     uint32_t timeout_ms;
     /* --layout: per_assembly reads and writes each assembly's instance;
      * combined and gpr_only the input point (T->O) or the output point

@@ -12,7 +12,8 @@ import subprocess
 
 import pytest
 
-from gwlib import (DRCLI, EX_ILLEGAL_ADDRESS, SIM_ADDR, dint_regs, f32, real_regs,
+from gwlib import (DRCLI, EX_ILLEGAL_ADDRESS, SIM_ADDR, Drsim, Gateway, dint_regs, f32,
+                   real_regs,
                    regs_dint, regs_real, running, timeout, wait_for)
 
 T2O = ["io_state", "joint_state", "task_state", "bit_out", "int_out", "float_out"]
@@ -143,3 +144,36 @@ def test_explicit_size_mismatch_names_both_sizes():
         line = log_line(g, "200 bytes, the plan's input_size is 476")
         assert "get input (instance 100)" in line, line
         assert g.status()[1] != 2  # link_state: never up
+
+
+@pytest.mark.parametrize("layout", ["per_assembly", "combined", "gpr_only"])
+def test_probe_prints_a_plan_that_links(layout):
+    """`drcli probe` against drsim in each layout: read-only (drsim sees no
+    Set and no Forward Open), names the layout, and the [robot] section it
+    prints brings drgatewayd's link up."""
+    sim = Drsim("probe-%s" % layout, "--layout", layout, "-v").start()  # every request
+    try:
+        out = subprocess.run([str(DRCLI), "-H", SIM_ADDR, "--port", str(sim.tcp), "probe"],
+                             capture_output=True, text=True, timeout=timeout(30))
+        assert out.returncode == 0, out.stdout + out.stderr
+        assert "layout: %s\n" % layout in out.stdout, out.stdout
+        section = out.stdout.split("[robot arm1]\n", 1)[1].splitlines()
+        assert "layout = %s" % layout in section
+        if layout != "per_assembly":
+            size = {"combined": (476, 212), "gpr_only": (200, 200)}[layout]
+            assert "input_size = %d" % size[0] in section, section
+            assert "output_size = %d" % size[1] in section, section
+            assert "input_instance = 100" in section and "output_instance = 150" in section
+        log = sim.log()
+        assert "request 0x0E class 0x04" in log, log[-2000:]  # it did ask
+        for svc in ("0x10", "0x54", "0x5B"):  # Set_Attribute_Single, Forward Opens
+            assert "request %s " % svc not in log, log[-2000:]
+        robot = "".join(x + "\n" for x in section
+                        if x and not x.startswith(("host", "tcp_port")))
+        g = Gateway("probe-%s" % layout, sim, robot=robot)
+        try:
+            g.start()  # waits for the link
+        finally:
+            g.kill()
+    finally:
+        sim.kill()
