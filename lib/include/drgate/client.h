@@ -368,6 +368,9 @@ typedef struct {
                                  two, packets up to the window early, never
                                  two closer than API - window, never more
                                  than one per API */
+    dr_conn_data_cb on_data;
+    dr_conn_state_cb on_state;
+    void *user;
     /* Connection points that are not one assembly (drgate/layout.h: a
      * combined layout carries several assemblies in one image). 0: the
      * assembly's own instance and size. A T->O point of its own still
@@ -376,9 +379,6 @@ typedef struct {
      * image, dr_conn_set_output takes one. Sizes up to DR_CLIENT_IO_MAX. */
     uint16_t t2o_instance, t2o_size;
     uint16_t o2t_instance, o2t_size;
-    dr_conn_data_cb on_data;
-    dr_conn_state_cb on_state;
-    void *user;
 } dr_conn_config_t;
 
 /* Add a connection; it opens once the session is up, and reopens after a
