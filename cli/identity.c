@@ -37,17 +37,24 @@ static const char probe_help[] =
     "Checks the device against the specification: for each of the ten\n"
     "assemblies, whether its instance (101..110, or as --instance says)\n"
     "exists and its size (attribute 4; where the device has no attribute 4,\n"
-    "the length of its data, attribute 3) against the specified size. Then\n"
-    "the Identity object (or ListIdentity) in one line.\n"
+    "the length of its data, attribute 3) against the specified size, and the\n"
+    "Identity object (or ListIdentity) in one line. When the ten are not all\n"
+    "there: the same for the two instances of a combined layout (input 100,\n"
+    "output 150, or as --instance input=N, output=N say) and the Assembly\n"
+    "object's class attributes (how many instances, the highest). Then the\n"
+    "layout the sizes match (per_assembly,\n"
+    "combined: 476 and 212 bytes, gpr_only: 200 and 200) and a [robot]\n"
+    "section for drgatewayd's configuration. Read-only: Get_Attribute_Single\n"
+    "and Get_Attributes_All, nothing is written, no connection opened.\n"
     "\n"
     "options:\n"
     CLI_NET_HELP
     "  -h, --help          this text\n"
     "\n"
-    "With --json: {\"assemblies\": [...], \"identity\": {...}, \"ok\": BOOL};\n"
-    "--raw does not apply.\n"
-    "Exit status: 0 every assembly exists with the specified size, 4 some do\n"
-    "not (the table says which), 2 usage, 3 network.\n";
+    "With --json: {\"assemblies\": [...], \"points\": [...], \"identity\": {...},\n"
+    "\"layout\": NAME or null, \"ok\": BOOL}; --raw does not apply.\n"
+    "Exit status: 0 the sizes match a layout, 4 they match none (the table\n"
+    "says what differs), 2 usage, 3 network.\n";
 
 /* ---- identity ------------------------------------------------------------ */
 
@@ -210,11 +217,12 @@ static bool not_supported(dr_status_t st)
 
 /* Probe one instance. Returns an exit code for failures that end the
  * probe (network); CIP errors land in row->error. */
-static int probe_asm(cli_net_t *net, dr_asm_t a, probe_row_t *row)
+static int probe_instance(cli_net_t *net, uint16_t instance, const char *label,
+                          probe_row_t *row)
 {
     uint16_t size = 0;
     memset(row, 0, sizeof *row);
-    row->instance = dr_client_instance(net->client, a);
+    row->instance = instance;
     row->size = -1;
     row->error = dr_client_read_asm_size_sync(net->client, row->instance, &size);
     if (row->error == DR_OK) {
@@ -229,12 +237,19 @@ static int probe_asm(cli_net_t *net, dr_asm_t a, probe_row_t *row)
         if (row->error == DR_OK)
             row->size = (int)got;
     }
-    if (row->error != DR_OK && !DR_IS_CIP(row->error) && row->error != DR_EMALFORMED) {
-        char label[64];
-        cli_net_asm_label(net, a, label, sizeof label);
+    /* An encapsulation error is how some targets (cpppo) answer a request
+     * for an object they do not have: it ends their session. */
+    if (row->error != DR_OK && !DR_IS_CIP(row->error) && row->error != DR_EMALFORMED &&
+        !DR_IS_ENCAP(row->error))
         return cli_net_fail(net, row->error, label);
-    }
     return CLI_EXIT_OK;
+}
+
+static int probe_asm(cli_net_t *net, dr_asm_t a, probe_row_t *row)
+{
+    char label[96];
+    cli_net_asm_label(net, a, label, sizeof label);
+    return probe_instance(net, dr_client_instance(net->client, a), label, row);
 }
 
 static bool row_ok(dr_asm_t a, const probe_row_t *row)
@@ -250,6 +265,47 @@ static void row_result(dr_asm_t a, const probe_row_t *row, char *out, size_t siz
         snprintf(out, size, "size differs%s", row->from_data ? " (size from data)" : "");
     else
         snprintf(out, size, "ok%s", row->from_data ? " (size from data, no attribute 4)" : "");
+}
+
+/* The two instances of a combined layout, the class attributes, and
+ * the layout everything matches. */
+typedef struct {
+    probe_row_t in, out;
+    bool asked;         /* the combined instances were probed */
+    int count, max;     /* class attributes 3 and 2; -1: not answered */
+    bool matched;
+    dr_layout_kind_t kind;
+} probe_layout_t;
+
+static void print_point(const char *what, const probe_row_t *r)
+{
+    if (r->error != DR_OK)
+        printf("%s instance %u: missing: %s\n", what, (unsigned)r->instance,
+               dr_strerror(r->error));
+    else
+        printf("%s instance %u: %d bytes%s\n", what, (unsigned)r->instance, r->size,
+               r->from_data ? " (size from data)" : "");
+}
+
+/* A [robot] section for drgatewayd with what the probe found. */
+static void print_section(const cli_net_t *net, const probe_layout_t *pl)
+{
+    printf("\n; for drgatewayd's configuration (docs/commissioning.md)\n[robot arm1]\n");
+    printf("host = %s\n", net->host);
+    if (net->tcp_port != DR_ENIP_TCP_PORT)
+        printf("tcp_port = %u\n", (unsigned)net->tcp_port);
+    printf("layout = %s\n", dr_layout_name(pl->kind));
+    if (pl->kind == DR_LAYOUT_PER_ASSEMBLY) {
+        for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+            uint16_t inst = dr_client_instance(net->client, (dr_asm_t)a);
+            if (inst != DR_ASM_DEFAULT_INSTANCE(a))
+                printf("instance.%s = %u\n", dr_asm_info((dr_asm_t)a)->name, (unsigned)inst);
+        }
+        return;
+    }
+    printf("input_instance = %u\ninput_size = %d\n", (unsigned)pl->in.instance, pl->in.size);
+    printf("output_instance = %u\noutput_size = %d\n", (unsigned)pl->out.instance,
+           pl->out.size);
 }
 
 static void print_probe(const probe_row_t *rows, const char *ident, unsigned good)
@@ -271,8 +327,85 @@ static void print_probe(const probe_row_t *rows, const char *ident, unsigned goo
     printf("%u of %u assemblies as specified\n", good, (unsigned)DR_ASM_COUNT);
 }
 
+static void print_layout(const cli_net_t *net, const probe_layout_t *pl)
+{
+    if (pl->asked) {
+        print_point("input", &pl->in);
+        print_point("output", &pl->out);
+    } else {
+        printf("input and output instances: not asked (the ten assemblies are there)\n");
+    }
+    if (!pl->asked)
+        ; /* the class attributes were not asked either */
+    else if (pl->count >= 0 && pl->max >= 0)
+        printf("assembly object: %d instances, the highest %d\n", pl->count, pl->max);
+    else
+        printf("assembly object: no class attributes\n");
+    if (!pl->matched) {
+        printf("layout: none matches (per_assembly wants the ten sizes above, combined "
+               "476 and 212 bytes, gpr_only 200 and 200)\n");
+        return;
+    }
+    printf("layout: %s\n", dr_layout_name(pl->kind));
+    print_section(net, pl);
+}
+
+/* A class attribute of the Assembly object (UINT); -1 if not answered. */
+static int class_attr(cli_net_t *net, uint8_t attr)
+{
+    uint8_t tmp[DR_ENCAP_MAX_LEN];
+    size_t got = 0;
+    dr_status_t st = dr_client_get_attr_sync(net->client, DR_CIP_CLASS_ASSEMBLY, 0, attr, tmp,
+                                             sizeof tmp, &got);
+    return st == DR_OK && got == 2 ? (int)dr_get_le16(tmp) : -1;
+}
+
+/* The combined layout's instances and the class attributes; then which
+ * layout the sizes match. */
+static int probe_points(cli_net_t *net, const probe_row_t *rows, probe_layout_t *pl)
+{
+    uint16_t in = net->layout.input.instance ? net->layout.input.instance
+                                             : DR_LAYOUT_INPUT_INSTANCE;
+    uint16_t out = net->layout.output.instance ? net->layout.output.instance
+                                               : DR_LAYOUT_OUTPUT_INSTANCE;
+    char label[64];
+    snprintf(label, sizeof label, "input (instance %u)", (unsigned)in);
+    pl->asked = true;
+    pl->count = pl->max = -1;
+    int rc = probe_instance(net, in, label, &pl->in);
+    if (rc == CLI_EXIT_OK && DR_IS_ENCAP(pl->in.error)) {
+        /* the session is gone: nothing more can be asked in it */
+        pl->out = pl->in;
+        pl->out.instance = out;
+    } else if (rc == CLI_EXIT_OK) {
+        snprintf(label, sizeof label, "output (instance %u)", (unsigned)out);
+        rc = probe_instance(net, out, label, &pl->out);
+    }
+    if (rc != CLI_EXIT_OK)
+        return rc;
+    if (!DR_IS_ENCAP(pl->out.error)) {
+        pl->count = class_attr(net, 3);
+        pl->max = class_attr(net, 2);
+    }
+    uint16_t sizes[DR_ASM_COUNT];
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        sizes[a] = rows[a].error == DR_OK && rows[a].size > 0 ? (uint16_t)rows[a].size : 0;
+    uint16_t si = pl->in.error == DR_OK && pl->in.size > 0 ? (uint16_t)pl->in.size : 0;
+    uint16_t so = pl->out.error == DR_OK && pl->out.size > 0 ? (uint16_t)pl->out.size : 0;
+    pl->matched = dr_layout_match(sizes, si, so, &pl->kind) == DR_OK;
+    return CLI_EXIT_OK;
+}
+
+static json_t *point_json(const char *name, const probe_row_t *r)
+{
+    return json_pack("{s:s, s:i, s:o, s:s?}", "name", name, "instance", (int)r->instance,
+                     "size", r->error == DR_OK && r->size >= 0 ? json_integer(r->size)
+                                                                : json_null(),
+                     "error", r->error != DR_OK ? dr_strerror(r->error) : NULL);
+}
+
 static json_t *probe_json(const probe_row_t *rows, const dr_identity_t *id,
-                          bool have_id, unsigned good)
+                          bool have_id, const probe_layout_t *pl)
 {
     json_t *arr = json_array();
     for (unsigned a = 0; arr != NULL && a < DR_ASM_COUNT; a++) {
@@ -296,8 +429,12 @@ static json_t *probe_json(const probe_row_t *rows, const dr_identity_t *id,
         }
     }
     json_t *ident = have_id ? identity_json(id, false) : json_null();
-    return json_pack("{s:o?, s:o?, s:b}", "assemblies", arr, "identity", ident,
-                     "ok", good == DR_ASM_COUNT);
+    json_t *points = pl->asked ? json_pack("[o?, o?]", point_json("input", &pl->in),
+                                           point_json("output", &pl->out))
+                               : json_array();
+    return json_pack("{s:o?, s:o?, s:o?, s:s?, s:b}", "assemblies", arr, "points", points,
+                     "identity", ident, "layout",
+                     pl->matched ? dr_layout_name(pl->kind) : NULL, "ok", pl->matched);
 }
 
 /* The Identity object, else ListIdentity, in one line. Network failures
@@ -342,14 +479,25 @@ static int run_probe(const char *cmd, int argc, char **argv,
     char ident[160];
     if (rc == CLI_EXIT_OK)
         rc = probe_identity(&net, &id, &have_id, ident, sizeof ident);
-    cli_net_close(&net);
-    if (rc != CLI_EXIT_OK)
-        return rc;
-    if (o.json)
-        rc = cli_json_print(cmd, probe_json(rows, &id, have_id, good));
-    else
+    /* The combined layout's instances only when the ten are not all
+     * there: a target may end the session over an object it lacks. */
+    probe_layout_t pl;
+    memset(&pl, 0, sizeof pl);
+    pl.count = pl.max = -1;
+    if (rc == CLI_EXIT_OK && good == DR_ASM_COUNT) {
+        pl.matched = true;
+        pl.kind = DR_LAYOUT_PER_ASSEMBLY;
+    } else if (rc == CLI_EXIT_OK) {
+        rc = probe_points(&net, rows, &pl);
+    }
+    if (rc == CLI_EXIT_OK && o.json)
+        rc = cli_json_print(cmd, probe_json(rows, &id, have_id, &pl));
+    else if (rc == CLI_EXIT_OK) {
         print_probe(rows, ident, good);
-    if (rc == CLI_EXIT_OK && good != DR_ASM_COUNT)
+        print_layout(&net, &pl);
+    }
+    cli_net_close(&net);
+    if (rc == CLI_EXIT_OK && !pl.matched)
         rc = CLI_EXIT_CIP;
     return rc;
 }

@@ -13,6 +13,7 @@
 
 #include "drgate/client.h"
 #include "drgate/codec.h"
+#include "drgate/layout.h"
 #include "opt.h"
 #include "util.h"
 
@@ -22,12 +23,13 @@ typedef struct {
     const char *host;    /* -H, --host; else $DRCLI_HOST */
     const char *port;    /* --port */
     const char *timeout; /* --timeout MS */
-    cli_multi_t instance; /* --instance ASSEMBLY=N */
+    cli_multi_t instance; /* --instance ASSEMBLY=N (input=N, output=N) */
+    const char *layout;  /* --layout per_assembly|combined|gpr_only */
     bool json, raw, route;
 } cli_net_opts_t;
 
 /* Number of entries cli_net_optv writes. */
-#define CLI_NET_NOPTS 7
+#define CLI_NET_NOPTS 8
 
 /* Write the table of the network options, storing into *o, to out[]; returns
  * CLI_NET_NOPTS. A command appends its own options after them. */
@@ -59,7 +61,13 @@ typedef struct {
     const char *cmd;
     dr_client_t *client;
     char where[300]; /* "host:port" */
+    const char *host;  /* as given */
+    uint16_t tcp_port;
     uint32_t timeout_ms;
+    /* --layout: per_assembly reads and writes each assembly's instance;
+     * combined and gpr_only the input point (T->O) or the output point
+     * (O->T) whole, and slice the assembly out of it. */
+    dr_layout_t layout;
 } cli_net_t;
 
 /* Create the client and register a session. Returns an exit code; on
@@ -79,8 +87,14 @@ int cli_net_fail(cli_net_t *net, dr_status_t st, const char *what);
 int cli_net_exit_code(dr_status_t st);
 
 /* Read one assembly (Get_Attribute_Single of attribute 3): an image of
- * exactly the specification's size. Returns an exit code. */
+ * exactly the specification's size (in a combined layout, sliced out of
+ * its point's image). Returns an exit code. */
 int cli_net_read_asm(cli_net_t *net, dr_asm_t a, uint8_t *img);
+
+/* Write one O->T assembly's image (Set_Attribute_Single of attribute 3;
+ * in a combined layout: read the output point, put the image in its
+ * place, write the point). Returns an exit code. */
+int cli_net_write_asm(cli_net_t *net, dr_asm_t a, const uint8_t *img);
 
 /* Read every wanted assembly, one request each. Returns an exit code. */
 int cli_net_read(cli_net_t *net, cli_images_t *im);

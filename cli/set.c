@@ -113,7 +113,7 @@ static int write_asm(cli_net_t *net, dr_asm_t a, const assignment_t *as,
 {
     const dr_asm_info_t *info = dr_asm_info(a);
     uint8_t img[DR_ASM_MAX_SIZE];
-    char label[64];
+    char label[96];
     cli_net_asm_label(net, a, label, sizeof label);
     int rc = cli_net_read_asm(net, a, img);
     if (rc != CLI_EXIT_OK)
@@ -124,11 +124,9 @@ static int write_asm(cli_net_t *net, dr_asm_t a, const assignment_t *as,
             return cli_error(CLI_EXIT_FAIL, net->cmd, "internal error applying "
                              "argument %zu", i + 1); /* checked before */
     if (!dry_run) {
-        dr_status_t st = dr_client_set_attr_sync(net->client, DR_CIP_CLASS_ASSEMBLY,
-                                                 dr_client_instance(net->client, a),
-                                                 DR_CIP_ASM_ATTR_DATA, img, info->size);
-        if (st != DR_OK)
-            return cli_net_fail(net, st, label);
+        rc = cli_net_write_asm(net, a, img);
+        if (rc != CLI_EXIT_OK)
+            return rc;
     }
     if (dry_run || raw) {
         printf("%s: %u bytes%s\n", label, (unsigned)info->size,

@@ -44,6 +44,10 @@ uint32_t dr_originator_serial(const char *host_id, const char *name)
  * structure and be aligned like the public storage unions (C99 has no
  * _Static_assert: a negative array size stops the build instead). */
 typedef char client_fits_storage[sizeof(struct dr_client) <= DR_CLIENT_STORAGE_SIZE ? 1 : -1];
+/* A combined T->O image (DR_CLIENT_IO_MAX) with its sequence count,
+ * run/idle header and CPF items (2 + 8 + 4 + 4 + 6) fits one datagram. */
+typedef char io_fits_datagram[DR_CLIENT_IO_MAX + 40 <= DR_CLIENT_UDP_BUF &&
+                              DR_CLIENT_IO_MAX >= DR_ASM_MAX_SIZE ? 1 : -1];
 typedef char port_fits_storage[sizeof(struct dr_udp_port) <= DR_UDP_PORT_STORAGE_SIZE ? 1 : -1];
 /* cppcheck-suppress unusedStructMember ; only offsetof reads them */
 struct client_align { char c; dr_client_storage_t s; };

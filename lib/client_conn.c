@@ -70,9 +70,10 @@ static void conn_path_inst(const dr_conn_t *cn, uint16_t inst[3])
 {
     const dr_client_t *c = cn->client;
     inst[0] = cn->cfg.config_instance;
-    inst[1] = cn->cfg.o2t_asm >= 0 ? c->cfg.instance[cn->cfg.o2t_asm]
-                                   : cn->cfg.heartbeat_instance;
-    inst[2] = c->cfg.instance[cn->cfg.t2o_asm];
+    inst[1] = cn->cfg.o2t_asm < 0      ? cn->cfg.heartbeat_instance
+              : cn->cfg.o2t_instance != 0 ? cn->cfg.o2t_instance
+                                          : c->cfg.instance[cn->cfg.o2t_asm];
+    inst[2] = cn->cfg.t2o_instance != 0 ? cn->cfg.t2o_instance : c->cfg.instance[cn->cfg.t2o_asm];
 }
 
 static size_t conn_path(const dr_conn_t *cn, uint8_t *buf, size_t cap)
@@ -402,7 +403,8 @@ dr_conn_t *dr_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
     const dr_asm_info_t *t2o = cfg ? dr_asm_info(cfg->t2o_asm) : NULL;
     const dr_asm_info_t *o2t = cfg && cfg->o2t_asm >= 0 ? dr_asm_info((dr_asm_t)cfg->o2t_asm) : NULL;
     if (t2o == NULL || t2o->dir != DR_DIR_T2O || (cfg->o2t_asm >= 0 && (o2t == NULL || o2t->dir != DR_DIR_O2T)) ||
-        cfg->rpi_us == 0 || cfg->timeout_mult > 7)
+        cfg->rpi_us == 0 || cfg->timeout_mult > 7 || cfg->t2o_size > DR_CLIENT_IO_MAX ||
+        cfg->o2t_size > DR_CLIENT_IO_MAX || (cfg->o2t_size != 0 && cfg->o2t_asm < 0))
         goto out;
     st = DR_EFULL;
     for (unsigned i = 0; i < DR_CLIENT_MAX_CONNS && cn == NULL; i++)
@@ -416,8 +418,8 @@ dr_conn_t *dr_conn_add(dr_client_t *c, const dr_conn_config_t *cfg,
     cn->cfg = *cfg;
     if (cn->cfg.config_instance == 0) cn->cfg.config_instance = 1;
     if (cn->cfg.heartbeat_instance == 0) cn->cfg.heartbeat_instance = 198;
-    cn->o2t_size = o2t ? o2t->size : 0;
-    cn->t2o_size = t2o->size;
+    cn->o2t_size = cfg->o2t_size != 0 ? cfg->o2t_size : o2t ? o2t->size : 0;
+    cn->t2o_size = cfg->t2o_size != 0 ? cfg->t2o_size : t2o->size;
     cn->run = true;
     cn->backoff_ms = c->cfg.backoff_min_ms;
     cn->state = DR_CONN_IDLE;

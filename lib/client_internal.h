@@ -103,7 +103,7 @@ struct dr_conn {
     dr_conn_config_t cfg;
     dr_conn_state_t state;
     dr_conn_stats_t stats;
-    uint16_t o2t_size, t2o_size; /* assembly bytes */
+    uint16_t o2t_size, t2o_size; /* data bytes (an assembly's, or a point's) */
     uint16_t conn_serial;
     bool large_now;
     dr_sockaddr_t o2t_to;
@@ -129,8 +129,8 @@ struct dr_conn {
     uint32_t resync_seq32;
     unsigned resync_n;
     bool run, have_in;
-    uint8_t out[DR_ASM_MAX_SIZE];
-    uint8_t in[DR_ASM_MAX_SIZE];
+    uint8_t out[DR_CLIENT_IO_MAX];
+    uint8_t in[DR_CLIENT_IO_MAX];
 };
 
 struct dr_client {

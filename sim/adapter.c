@@ -105,6 +105,29 @@ void drsim_config_default(drsim_config_t *cfg)
     cfg->udp_port = DR_ENIP_UDP_PORT;
     cfg->hb_input_only = DRSIM_HB_INPUT_ONLY;
     cfg->hb_listen_only = DRSIM_HB_LISTEN_ONLY;
+    dr_layout_default(&cfg->layout, DR_LAYOUT_PER_ASSEMBLY);
+}
+
+/* The Assembly instances of the configured layout: one per assembly, or
+ * the input point and (when it carries any) the output point. */
+static void points_init(drsim_t *s)
+{
+    s->npt = 0;
+    if (s->cfg.layout.kind == DR_LAYOUT_PER_ASSEMBLY) {
+        for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+            drsim_point_t *pt = &s->pt[s->npt++];
+            pt->dir = dr_asm_info((dr_asm_t)a)->dir;
+            pt->p.instance = s->cfg.instance[a];
+            pt->p.count = 1;
+            pt->p.asm_id[0] = (uint8_t)a;
+            pt->p.size = dr_asm_info((dr_asm_t)a)->size;
+        }
+        return;
+    }
+    if (dr_point_check(&s->cfg.layout.input, DR_DIR_T2O) == DR_OK)
+        s->pt[s->npt++] = (drsim_point_t){DR_DIR_T2O, s->cfg.layout.input};
+    if (dr_point_check(&s->cfg.layout.output, DR_DIR_O2T) == DR_OK)
+        s->pt[s->npt++] = (drsim_point_t){DR_DIR_O2T, s->cfg.layout.output};
 }
 
 void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns)
@@ -120,6 +143,7 @@ void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns)
     s->next_cid = (uint32_t)mix64(cfg->seed ^ 0xC1Du) | 1u;
     s->start_ns = now_ns;
     s->next_model_ns = now_ns + DRSIM_MODEL_PERIOD_NS;
+    points_init(s);
 
     dr_identity_t *id = &s->identity;
     id->vendor = DRSIM_VENDOR_ID;
@@ -140,15 +164,53 @@ void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns)
 
 int drsim_asm_of_instance(const drsim_t *s, uint16_t inst)
 {
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        if (s->cfg.instance[a] == inst)
-            return (int)a;
+    for (unsigned i = 0; i < s->npt; i++)
+        if (s->pt[i].p.instance == inst)
+            return (int)i;
     return -1;
 }
 
-static bool is_t2o(dr_asm_t a)
+static bool is_t2o(const drsim_t *s, int pt)
 {
-    return dr_asm_info(a)->dir == DR_DIR_T2O;
+    return s->pt[pt].dir == DR_DIR_T2O;
+}
+
+static uint16_t pt_size(const drsim_t *s, int pt)
+{
+    return s->pt[pt].p.size;
+}
+
+/* The point's name in log lines: its assembly's, or "input"/"output". */
+static const char *pt_name(const drsim_t *s, int pt)
+{
+    if (s->pt[pt].p.count == 1)
+        return dr_asm_info((dr_asm_t)s->pt[pt].p.asm_id[0])->name;
+    return is_t2o(s, pt) ? "input (combined)" : "output (combined)";
+}
+
+/* The point's image, from the assemblies' own: buf[pt_size]. */
+static const uint8_t *pt_read(const drsim_t *s, int pt, uint8_t *buf)
+{
+    const dr_point_t *p = &s->pt[pt].p;
+    if (p->count == 1)
+        return s->img.buf[p->asm_id[0]];
+    for (unsigned i = 0; i < p->count; i++) {
+        dr_asm_t a = (dr_asm_t)p->asm_id[i];
+        (void)dr_point_put(p, buf, p->size, a, s->img.buf[a], dr_asm_info(a)->size);
+    }
+    return buf;
+}
+
+/* O->T data of the point's size into the assemblies it carries, each
+ * then shown in the T->O images (drsim_robot_input). */
+static void pt_write(drsim_t *s, int pt, const uint8_t *data)
+{
+    const dr_point_t *p = &s->pt[pt].p;
+    for (unsigned i = 0; i < p->count; i++) {
+        dr_asm_t a = (dr_asm_t)p->asm_id[i];
+        if (dr_point_slice(p, data, p->size, a, s->img.buf[a], dr_asm_info(a)->size) == DR_OK)
+            drsim_robot_input(&s->robot, a, &s->img);
+    }
 }
 
 /* Connections in their slots, the held ones too: they still take one. */
@@ -310,21 +372,22 @@ static void identity_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
 static uint16_t max_instance(const drsim_t *s)
 {
     uint16_t m = 0;
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        if (s->cfg.instance[a] > m)
-            m = s->cfg.instance[a];
+    for (unsigned i = 0; i < s->npt; i++)
+        if (s->pt[i].p.instance > m)
+            m = s->pt[i].p.instance;
     return m;
 }
 
 static void assembly_get(req_ctx_t *ctx, const dr_cip_req_t *rq,
-                         const dr_epath_t *p, dr_asm_t a, dr_wr_t *w)
+                         const dr_epath_t *p, int a, dr_wr_t *w)
 {
-    uint16_t size = dr_asm_info(a)->size;
+    uint16_t size = pt_size(ctx->s, a);
+    uint8_t buf[DR_POINT_MAX_SIZE];
     /* Request data after a Get is ignored, as most targets do: pycomm3
      * with route_path=True and no route appends two zero bytes. */
     if (rq->service == DR_CIP_SVC_GET_ATTRIBUTES_ALL ||
         (p->has_attr && p->attr == DR_CIP_ASM_ATTR_DATA))
-        reply(w, rq->service, GS_OK, ctx->s->img.buf[a], size);
+        reply(w, rq->service, GS_OK, pt_read(ctx->s, a, buf), size);
     else if (!p->has_attr)
         reply(w, rq->service, GS_PATH_SEGMENT, NULL, 0);
     else if (p->attr == DR_CIP_ASM_ATTR_SIZE)
@@ -334,9 +397,9 @@ static void assembly_get(req_ctx_t *ctx, const dr_cip_req_t *rq,
 }
 
 static void assembly_set(req_ctx_t *ctx, const dr_cip_req_t *rq,
-                         const dr_epath_t *p, dr_asm_t a, dr_wr_t *w)
+                         const dr_epath_t *p, int a, dr_wr_t *w)
 {
-    uint16_t size = dr_asm_info(a)->size;
+    uint16_t size = pt_size(ctx->s, a);
     uint8_t gs;
     if (!p->has_attr)
         gs = GS_PATH_SEGMENT;
@@ -344,16 +407,15 @@ static void assembly_set(req_ctx_t *ctx, const dr_cip_req_t *rq,
         gs = GS_NOT_SETTABLE;
     else if (p->attr != DR_CIP_ASM_ATTR_DATA)
         gs = GS_ATTRIBUTE;
-    else if (is_t2o(a)) /* produced by the robot: the PLC may only read it */
+    else if (is_t2o(ctx->s, a)) /* produced by the robot: the PLC may only read it */
         gs = GS_NOT_SETTABLE;
     else if (rq->data_len < size)
         gs = GS_NOT_ENOUGH_DATA;
     else if (rq->data_len > size)
         gs = GS_TOO_MUCH_DATA;
     else {
-        memcpy(ctx->s->img.buf[a], rq->data, size);
-        drsim_robot_input(&ctx->s->robot, a, &ctx->s->img);
-        drsim_log(2, "set %s (%u bytes)", dr_asm_info(a)->name, (unsigned)size);
+        pt_write(ctx->s, a, rq->data);
+        drsim_log(2, "set %s (%u bytes)", pt_name(ctx->s, a), (unsigned)size);
         gs = GS_OK;
     }
     reply(w, rq->service, gs, NULL, 0);
@@ -363,7 +425,7 @@ static void assembly_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
                              const dr_epath_t *p, dr_wr_t *w)
 {
     if (p->inst == 0) {
-        class_attribute(w, rq, p, 2, max_instance(ctx->s), DR_ASM_COUNT);
+        class_attribute(w, rq, p, 2, max_instance(ctx->s), (uint16_t)ctx->s->npt);
         return;
     }
     int a = drsim_asm_of_instance(ctx->s, p->inst);
@@ -374,10 +436,10 @@ static void assembly_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
     switch (rq->service) {
     case DR_CIP_SVC_GET_ATTRIBUTES_ALL:
     case DR_CIP_SVC_GET_ATTRIBUTE_SINGLE:
-        assembly_get(ctx, rq, p, (dr_asm_t)a, w);
+        assembly_get(ctx, rq, p, a, w);
         break;
     case DR_CIP_SVC_SET_ATTRIBUTE_SINGLE:
-        assembly_set(ctx, rq, p, (dr_asm_t)a, w);
+        assembly_set(ctx, rq, p, a, w);
         break;
     default:
         reply(w, rq->service, GS_SERVICE, NULL, 0);
@@ -390,9 +452,9 @@ static void assembly_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
 /* What a Forward Open asks for, once its path is understood. */
 typedef struct {
     uint16_t config, o2t_point, t2o_point;
-    int o2t_asm; /* -1: heartbeat */
+    int o2t_asm; /* a point; -1: heartbeat */
     bool listen_only; /* on the listen-only heartbeat point */
-    dr_asm_t t2o_asm;
+    int t2o_asm; /* a point */
 } fo_plan_t;
 
 /* Understand the connection path: [key] 20 04 24 cfg 2C o2t 2C t2o.
@@ -421,7 +483,7 @@ static uint16_t fo_path(const drsim_t *s, const dr_fwd_open_t *fo, fo_plan_t *pl
     if (hb != 0 && (hb == s->cfg.hb_input_only || hb == s->cfg.hb_listen_only)) {
         plan->o2t_asm = -1;
         plan->listen_only = hb == s->cfg.hb_listen_only;
-    } else if (o >= 0 && !is_t2o((dr_asm_t)o)) {
+    } else if (o >= 0 && !is_t2o(s, o)) {
         plan->o2t_asm = o;
     } else if (o < 0) {
         /* Neither an O->T assembly nor a heartbeat point this target
@@ -430,24 +492,24 @@ static uint16_t fo_path(const drsim_t *s, const dr_fwd_open_t *fo, fo_plan_t *pl
     } else {
         return CM_BAD_SEGMENT;
     }
-    if (t < 0 || !is_t2o((dr_asm_t)t))
+    if (t < 0 || !is_t2o(s, t))
         return CM_BAD_SEGMENT;
-    plan->t2o_asm = (dr_asm_t)t;
+    plan->t2o_asm = t;
     return 0;
 }
 
 /* Network size the O->T direction needs: data + sequence count + run/idle
  * header; a heartbeat has no data (2 modeless, 6 with run/idle). */
-static uint16_t o2t_wanted(const fo_plan_t *plan, uint16_t asked)
+static uint16_t o2t_wanted(const drsim_t *s, const fo_plan_t *plan, uint16_t asked)
 {
     if (plan->o2t_asm < 0)
         return asked == 2 ? 2 : 6;
-    return (uint16_t)(dr_asm_info((dr_asm_t)plan->o2t_asm)->size + 6u);
+    return (uint16_t)(pt_size(s, plan->o2t_asm) + 6u);
 }
 
-static uint16_t t2o_wanted(const fo_plan_t *plan)
+static uint16_t t2o_wanted(const drsim_t *s, const fo_plan_t *plan)
 {
-    return (uint16_t)(dr_asm_info(plan->t2o_asm)->size + 2u);
+    return (uint16_t)(pt_size(s, plan->t2o_asm) + 2u);
 }
 
 static bool same_originator(const drsim_conn_t *c, uint16_t vendor, uint32_t orig)
@@ -470,7 +532,7 @@ static drsim_conn_t *conn_by_triad(drsim_t *s, uint16_t serial, uint16_t vendor,
 /* A listen-only connection joins the data of an exclusive owner or
  * input-only connection of the same T->O assembly (multicast on a real
  * target); without one there is nothing to listen to. */
-static bool t2o_produced(const drsim_t *s, dr_asm_t t2o)
+static bool t2o_produced(const drsim_t *s, int t2o)
 {
     for (unsigned i = 0; i < DRSIM_MAX_CONNS; i++)
         if (s->conn[i].used && !s->conn[i].listen_only && !s->conn[i].held &&
@@ -518,7 +580,7 @@ static uint16_t fo_check(drsim_t *s, const dr_fwd_open_t *fo, fo_plan_t *plan,
     uint16_t ext = fo_path(s, fo, plan);
     if (s->cfg.refuse_fo != 0) {
         /* Fault injection; the size named for 0x0109 is the right one. */
-        *want = ext == 0 ? o2t_wanted(plan, fo->o2t.size) : 0;
+        *want = ext == 0 ? o2t_wanted(s, plan, fo->o2t.size) : 0;
         return s->cfg.refuse_fo;
     }
     if (ext != 0)
@@ -534,10 +596,10 @@ static uint16_t fo_check(drsim_t *s, const dr_fwd_open_t *fo, fo_plan_t *plan,
         return CM_O2T_TYPE;
     if (fo->t2o.type != DR_CONN_TYPE_P2P) /* no multicast in drsim */
         return CM_T2O_TYPE;
-    *want = o2t_wanted(plan, fo->o2t.size);
+    *want = o2t_wanted(s, plan, fo->o2t.size);
     if (fo->o2t.size != *want)
         return CM_SIZE;
-    *want = t2o_wanted(plan);
+    *want = t2o_wanted(s, plan);
     if (fo->t2o.size != *want)
         return CM_SIZE;
     if (!rpi_ok(fo->o2t_rpi_us) || !rpi_ok(fo->t2o_rpi_us))
@@ -596,7 +658,7 @@ static drsim_conn_t *conn_open(req_ctx_t *ctx, const dr_fwd_open_t *fo,
     c->config_inst = plan->config;
     c->listen_only = plan->listen_only;
     c->o2t_run_idle = plan->o2t_asm >= 0 || fo->o2t.size == 6;
-    c->o2t_data_len = plan->o2t_asm >= 0 ? dr_asm_info((dr_asm_t)plan->o2t_asm)->size : 0;
+    c->o2t_data_len = plan->o2t_asm >= 0 ? pt_size(s, plan->o2t_asm) : 0;
     /* Timers run in nanoseconds: the APIs are the RPIs, unrounded unless
      * --tick asks for a coarser one. */
     c->o2t_api_us = api_of(s, fo->o2t_rpi_us);
@@ -654,7 +716,7 @@ static void forward_open(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
         if (owner != NULL)
             drsim_log(1, "  %s is owned by connection 0x%08X (%s) of originator"
                       " vendor 0x%04X serial 0x%08X",
-                      dr_asm_info((dr_asm_t)owner->o2t_asm)->name,
+                      pt_name(ctx->s, owner->o2t_asm),
                       (unsigned)owner->o2t_cid, owner->held ? "timed out, held" : "established",
                       (unsigned)owner->vendor, (unsigned)owner->orig_serial);
         return;
@@ -675,7 +737,7 @@ static void forward_open(req_ctx_t *ctx, const dr_cip_req_t *rq, dr_wr_t *w)
     drsim_log(1, "connection open: O->T %u (0x%08X, %s) T->O %u (0x%08X) -> %s:%u,"
               " API %u/%u us, timeout %llu ms",
               (unsigned)c->o2t_point, (unsigned)c->o2t_cid,
-              c->o2t_asm >= 0 ? dr_asm_info((dr_asm_t)c->o2t_asm)->name : "heartbeat",
+              c->o2t_asm >= 0 ? pt_name(ctx->s, c->o2t_asm) : "heartbeat",
               (unsigned)c->t2o_point, (unsigned)c->t2o_cid,
               ip_text(c->t2o_dest.addr, ip), (unsigned)c->t2o_dest.port,
               (unsigned)c->o2t_api_us, (unsigned)c->t2o_api_us,
@@ -712,7 +774,7 @@ static void conn_close(drsim_conn_t *c, const char *why)
 static void conn_end(drsim_t *s, drsim_conn_t *c, const char *why)
 {
     bool producer = !c->listen_only;
-    dr_asm_t t2o = c->t2o_asm;
+    int t2o = c->t2o_asm;
     conn_close(c, why); /* logged first: the listeners' lines follow it */
     if (!producer || t2o_produced(s, t2o))
         return;
@@ -1081,8 +1143,7 @@ void drsim_io_receive(drsim_t *s, uint64_t now_ns, const dr_sockaddr_t *from,
         return;
     c->o2t_cip_seq = f.cip_seq;
     if (run && c->o2t_asm >= 0) {
-        memcpy(s->img.buf[c->o2t_asm], f.data, f.data_len);
-        drsim_robot_input(&s->robot, (dr_asm_t)c->o2t_asm, &s->img);
+        pt_write(s, c->o2t_asm, f.data);
         c->applied++;
     }
 }
@@ -1119,8 +1180,9 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
         c->stopped = true;
         return;
     }
-    const uint8_t *data = s->img.buf[c->t2o_asm];
-    size_t size = dr_asm_info(c->t2o_asm)->size;
+    uint8_t buf[DR_POINT_MAX_SIZE];
+    const uint8_t *data = pt_read(s, c->t2o_asm, buf);
+    size_t size = pt_size(s, c->t2o_asm);
     bool first = c->produced + c->produce_dropped == 0;
     /* The encapsulation sequence number moves with every packet; the CIP
      * sequence count with new data only under --seq-on-change. */
@@ -1132,7 +1194,7 @@ static void produce(drsim_t *s, drsim_conn_t *c, uint64_t now,
     dr_io_frame_t f = {.cid = c->t2o_cid, .encap_seq = c->t2o_encap_seq,
                        .cip_seq = c->t2o_cip_seq, .data = data, .data_len = size,
                        .has_run_idle = false};
-    uint8_t pkt[64 + DR_ASM_MAX_SIZE];
+    uint8_t pkt[64 + DR_POINT_MAX_SIZE];
     size_t n;
     if (dr_io_frame_write(pkt, sizeof pkt, &f, &n) == DR_OK) {
         if (s->cfg.drop_t2o || drop_packet(s))
@@ -1171,12 +1233,12 @@ static void conn_timeout(drsim_t *s, drsim_conn_t *c, uint64_t now)
     }
     drsim_log(1, "connection 0x%08X timed out (%s): held, %s may only be taken over by"
               " its originator, vendor 0x%04X serial 0x%08X; %llu produced, %llu consumed",
-              (unsigned)c->o2t_cid, why, dr_asm_info((dr_asm_t)c->o2t_asm)->name,
+              (unsigned)c->o2t_cid, why, pt_name(s, c->o2t_asm),
               (unsigned)c->vendor, (unsigned)c->orig_serial,
               (unsigned long long)c->produced, (unsigned long long)c->consumed);
     c->held = true;
     c->held_ns = now;
-    dr_asm_t t2o = c->t2o_asm;
+    int t2o = c->t2o_asm;
     if (t2o_produced(s, t2o))
         return;
     /* its listeners have nothing left to listen to, as in conn_end */

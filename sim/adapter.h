@@ -19,6 +19,7 @@
 
 #include "cip_internal.h"
 #include "drgate/codec.h"
+#include "drgate/layout.h"
 #include "robot.h"
 
 #define DRSIM_MAX_CONNS 64u
@@ -41,7 +42,11 @@
 #define DRSIM_PRODUCT_NAME "drsim Doosan robot simulator"
 
 typedef struct {
-    uint16_t instance[DR_ASM_COUNT]; /* assembly instance per dr_asm_t */
+    uint16_t instance[DR_ASM_COUNT]; /* assembly instance per dr_asm_t
+                                        (layout per_assembly) */
+    /* How the assemblies are offered (--layout): one instance each, or
+     * the combined points of layout.input and layout.output. */
+    dr_layout_t layout;
     bool echo;                 /* GPR inputs echo to outputs */
     unsigned max_conns;        /* Class 1 connections, 1..DRSIM_MAX_CONNS */
     uint16_t refuse_fo;        /* refuse every Forward Open with 0x01/this; 0 no */
@@ -100,14 +105,24 @@ typedef struct {
     uint32_t session;    /* registered session handle; 0: none yet */
 } drsim_peer_t;
 
+/* One instance of the Assembly object drsim offers: a "point" carrying
+ * one assembly (layout per_assembly) or several back to back. */
+#define DRSIM_MAX_POINTS DR_ASM_COUNT
+typedef struct {
+    dr_dir_t dir;
+    dr_point_t p; /* instance, size, the assemblies in wire order */
+} drsim_point_t;
+
 /* One Class 1 connection. */
 typedef struct {
     bool used;
     uint32_t o2t_cid, t2o_cid;
     uint16_t conn_serial, vendor;
     uint32_t orig_serial;
-    int o2t_asm;               /* dr_asm_t, or -1 for a heartbeat point */
-    dr_asm_t t2o_asm;
+    int o2t_asm;               /* the O->T point (drsim_t.pt: in layout
+                                  per_assembly the dr_asm_t), or -1 for a
+                                  heartbeat point */
+    int t2o_asm;               /* the T->O point, likewise */
     uint16_t o2t_point, t2o_point, config_inst;
     bool o2t_run_idle;         /* O->T carries the 32-bit run/idle header */
     bool listen_only;          /* opened on the listen-only heartbeat point */
@@ -126,7 +141,7 @@ typedef struct {
     bool held;                 /* an owner that timed out, kept for its
                                   originator (vendor + orig_serial) */
     uint64_t held_ns;          /* since when */
-    uint8_t last_t2o[DR_ASM_MAX_SIZE]; /* last data produced (seq_on_change) */
+    uint8_t last_t2o[DR_POINT_MAX_SIZE]; /* last data produced (seq_on_change) */
     /* counters */
     uint64_t produced, produce_dropped, consumed, applied, stale, rx_dropped;
     /* O->T timing as consumed, by arrival time (what a strict adapter
@@ -140,6 +155,8 @@ typedef struct {
     drsim_images_t img;
     drsim_robot_t robot;
     drsim_conn_t conn[DRSIM_MAX_CONNS];
+    drsim_point_t pt[DRSIM_MAX_POINTS]; /* the Assembly instances offered */
+    unsigned npt;
     dr_identity_t identity;
     uint64_t rng;              /* drop decisions */
     uint32_t next_session;
@@ -151,7 +168,8 @@ typedef struct {
 /* Start the adapter at monotonic time `now_ns`. */
 void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns);
 
-/* Which assembly instance `inst` is; -1 if none. */
+/* Which point (index into s->pt) instance `inst` is; -1 if none. In
+ * layout per_assembly the index is the dr_asm_t. */
 int drsim_asm_of_instance(const drsim_t *s, uint16_t inst);
 
 /* What the event loop does with a frame's result. */

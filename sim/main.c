@@ -46,6 +46,8 @@ typedef struct {
     drsim_config_t cfg;
     uint64_t delay_ns;
     uint64_t drop_session_ns;
+    dr_layout_kind_t layout;
+    uint16_t input_instance, output_instance; /* 0: the layout's default */
 } options_t;
 
 static void usage(FILE *f)
@@ -62,7 +64,15 @@ static void usage(FILE *f)
 "  -u, --udp-port N          Class 1 I/O port (default 2222); announced to\n"
 "                            originators in the Forward Open reply (0x8000)\n"
 "  -i, --instance NAME=N     assembly instance for NAME (canonical name or\n"
-"                            drN alias), repeatable; defaults 101..110\n"
+"                            drN alias), repeatable; defaults 101..110; with\n"
+"                            --layout combined or gpr_only, NAME is input or\n"
+"                            output (defaults 100 and 150)\n"
+"      --layout NAME         how the assemblies are offered: per_assembly (one\n"
+"                            instance each, the default), combined (one T->O\n"
+"                            instance of 476 bytes, the six T->O assemblies\n"
+"                            back to back, and one O->T instance of 212\n"
+"                            bytes) or gpr_only (the register assemblies\n"
+"                            only: 200 bytes each way)\n"
 "      --max-connections N   Class 1 connections at once, 1..64 (default 16)\n"
 "\n"
 "Robot:\n"
@@ -166,8 +176,9 @@ static int parse_seconds(const char *s, uint64_t *ns)
     return 0;
 }
 
-static int parse_instance(const char *arg, drsim_config_t *cfg)
+static int parse_instance(const char *arg, options_t *o)
 {
+    drsim_config_t *cfg = &o->cfg;
     const char *eq = strchr(arg, '=');
     char name[32];
     unsigned long n;
@@ -176,7 +187,14 @@ static int parse_instance(const char *arg, drsim_config_t *cfg)
     memcpy(name, arg, (size_t)(eq - arg));
     name[eq - arg] = '\0';
     dr_asm_t a;
-    if (dr_asm_lookup(name, &a) != DR_OK || parse_uint(eq + 1, 1, 0xFFFF, &n) != 0)
+    bool in = strcmp(name, "input") == 0, out = strcmp(name, "output") == 0;
+    if (parse_uint(eq + 1, 1, 0xFFFF, &n) != 0)
+        return -1;
+    if (in || out) {
+        *(in ? &o->input_instance : &o->output_instance) = (uint16_t)n;
+        return 0;
+    }
+    if (dr_asm_lookup(name, &a) != DR_OK)
         return -1;
     cfg->instance[a] = (uint16_t)n;
     return 0;
@@ -186,7 +204,21 @@ static int parse_instance(const char *arg, drsim_config_t *cfg)
  * connection points. */
 static int check_instances(const drsim_config_t *cfg)
 {
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+    const dr_layout_t *l = &cfg->layout;
+    if (l->kind != DR_LAYOUT_PER_ASSEMBLY) {
+        uint16_t pts[2] = {l->input.instance, l->output.instance};
+        for (unsigned i = 0; i < 2; i++)
+            if (pts[i] == cfg->hb_input_only || pts[i] == cfg->hb_listen_only) {
+                fprintf(stderr, "drsim: instance %u is a heartbeat connection point\n",
+                        (unsigned)pts[i]);
+                return -1;
+            }
+        if (pts[0] == pts[1]) {
+            fprintf(stderr, "drsim: input and output both use instance %u\n", (unsigned)pts[0]);
+            return -1;
+        }
+    }
+    for (unsigned a = 0; a < DR_ASM_COUNT && l->kind == DR_LAYOUT_PER_ASSEMBLY; a++) {
         uint16_t v = cfg->instance[a];
         if ((v == cfg->hb_input_only || v == cfg->hb_listen_only) && v != 0) {
             fprintf(stderr, "drsim: instance %u is a heartbeat connection point\n", v);
@@ -214,7 +246,7 @@ enum {
     OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
     OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM,
     OPT_OWNER_HOLD,
-    OPT_CLOCK_PPM, OPT_DROP_T2O, OPT_T2O_TO_PEER
+    OPT_CLOCK_PPM, OPT_DROP_T2O, OPT_T2O_TO_PEER, OPT_LAYOUT
 };
 
 static const struct option long_options[] = {
@@ -222,6 +254,7 @@ static const struct option long_options[] = {
     {"tcp-port", required_argument, NULL, 'p'},
     {"udp-port", required_argument, NULL, 'u'},
     {"instance", required_argument, NULL, 'i'},
+    {"layout", required_argument, NULL, OPT_LAYOUT},
     {"max-connections", required_argument, NULL, OPT_MAX_CONNS},
     {"config-instance", required_argument, NULL, OPT_CONFIG_INSTANCE},
     {"input-only-heartbeat", required_argument, NULL, OPT_HB_INPUT_ONLY},
@@ -260,6 +293,8 @@ static int parse_options(int argc, char **argv, options_t *o)
     drsim_config_default(&o->cfg);
     o->delay_ns = 0;
     o->drop_session_ns = 0;
+    o->layout = DR_LAYOUT_PER_ASSEMBLY;
+    o->input_instance = o->output_instance = 0;
     unsigned long n;
     struct in_addr ia;
     int c;
@@ -281,8 +316,12 @@ static int parse_options(int argc, char **argv, options_t *o)
             o->cfg.udp_port = (uint16_t)n;
             break;
         case 'i':
-            if (parse_instance(optarg, &o->cfg) != 0)
+            if (parse_instance(optarg, o) != 0)
                 return bad("--instance (want NAME=N, e.g. io_state=100)", optarg);
+            break;
+        case OPT_LAYOUT:
+            if (dr_layout_lookup(optarg, &o->layout) != DR_OK)
+                return bad("--layout (want per_assembly, combined or gpr_only)", optarg);
             break;
         case OPT_MAX_CONNS:
             if (parse_uint(optarg, 1, DRSIM_MAX_CONNS, &n) != 0)
@@ -392,6 +431,15 @@ static int parse_options(int argc, char **argv, options_t *o)
         fprintf(stderr, "drsim: unexpected argument '%s'\n", argv[optind]);
         return 2;
     }
+    dr_layout_default(&o->cfg.layout, o->layout);
+    if (o->layout == DR_LAYOUT_PER_ASSEMBLY && (o->input_instance || o->output_instance)) {
+        fprintf(stderr, "drsim: --instance input=/output= needs --layout combined or gpr_only\n");
+        return 2;
+    }
+    if (o->input_instance)
+        o->cfg.layout.input.instance = o->input_instance;
+    if (o->output_instance)
+        o->cfg.layout.output.instance = o->output_instance;
     return check_instances(&o->cfg) == 0 ? -1 : 2;
 }
 
@@ -931,11 +979,18 @@ static int setup(loop_t *L)
         return -1;
     drsim_init(&L->sim, cfg, ev_now_ns());
     char ip[INET_ADDRSTRLEN];
-    drsim_log(1, "listening on %s, TCP/UDP %u (encapsulation), UDP %u (I/O);"
-              " instances %u..%u%s", ip_str(cfg->address, ip),
-              (unsigned)cfg->tcp_port, (unsigned)cfg->udp_port,
-              (unsigned)cfg->instance[0], (unsigned)cfg->instance[DR_ASM_COUNT - 1],
-              cfg->echo ? "" : ", no echo");
+    char inst[64];
+    if (cfg->layout.kind == DR_LAYOUT_PER_ASSEMBLY)
+        snprintf(inst, sizeof inst, "instances %u..%u", (unsigned)cfg->instance[0],
+                 (unsigned)cfg->instance[DR_ASM_COUNT - 1]);
+    else
+        snprintf(inst, sizeof inst, "layout %s: input %u (%u bytes), output %u (%u bytes)",
+                 dr_layout_name(cfg->layout.kind), (unsigned)cfg->layout.input.instance,
+                 (unsigned)cfg->layout.input.size, (unsigned)cfg->layout.output.instance,
+                 (unsigned)cfg->layout.output.size);
+    drsim_log(1, "listening on %s, TCP/UDP %u (encapsulation), UDP %u (I/O); %s%s",
+              ip_str(cfg->address, ip), (unsigned)cfg->tcp_port, (unsigned)cfg->udp_port,
+              inst, cfg->echo ? "" : ", no echo");
     return 0;
 }
 

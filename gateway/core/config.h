@@ -24,6 +24,7 @@
 #include <stdio.h>
 
 #include "drgate/codec.h"
+#include "drgate/layout.h"
 
 #include "core/config_types.h"
 
@@ -99,6 +100,15 @@ typedef struct {
     uint16_t input_only_heartbeat;
     uint16_t listen_only_heartbeat;
     gw_open_t open[DR_ASM_COUNT];
+    /* How the assemblies travel (drgate/layout.h). per_assembly (the
+     * default): instance[] and open[] above. combined, gpr_only: one
+     * Class 1 connection (explicit mode: one Get and one Set per period)
+     * between the point `input` (T->O) and the point `output` (O->T;
+     * count 0: none, an input-only connection on input_only_heartbeat);
+     * instance[] and open[] are not used, and the checks leave open[]
+     * all GW_OPEN_NONE. Sizes equal their assemblies' sum (checked). */
+    dr_layout_kind_t layout;
+    dr_point_t input, output;
     /* O->T image applied when the single writer's watchdog expires:
      * "zero" (default) or "hold". */
     bool fallback_hold;
@@ -180,6 +190,13 @@ bool gw_config_keeps_log(const gw_config_t *cfg);
  * the file itself, such as "cannot open", have no LINE); *out is written
  * only on success, so a failed reload leaves the running config intact. */
 bool gw_config_load(const char *path, gw_config_t *out, char *err, size_t errlen);
+
+/* The robot's plan carries O->T assembly a with an owner connection
+ * (per_assembly: an open.* owner of it; combined: the output point has
+ * it), so that writes to it reach the robot. */
+bool gw_robot_owns(const gw_robot_config_t *r, dr_asm_t a);
+/* The plan reads T->O assembly a (opens or polls it). */
+bool gw_robot_reads(const gw_robot_config_t *r, dr_asm_t a);
 
 /* Today's connection plan (see gw_robot_config_t.open) into r. */
 void gw_robot_default_plan(gw_robot_config_t *r);

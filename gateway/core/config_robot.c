@@ -15,7 +15,7 @@
 #define LINK GW_CFG_LINK
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
 
-static gw_cfg_parse_fn robot_serial, robot_instance, robot_open;
+static gw_cfg_parse_fn robot_serial, robot_instance, robot_open, robot_point;
 static const char *asm_item(unsigned i);
 
 static const gw_cfg_key_t robot_keys[] = {
@@ -42,6 +42,13 @@ static const gw_cfg_key_t robot_keys[] = {
     { .name = "listen_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(listen_only_heartbeat), .lo = 1, .hi = 65535, .def = 199, .help = "O->T connection point of listen-only connections" },
     /* often written in hex, as tools show it; 0 (the default): derived at start (link.c) */
     { .name = "originator_serial", .type = GW_CFG_HOOK, .flags = LINK, R(originator_serial), .parse = robot_serial, .allowed = "1..4294967295, or 0x1..0xFFFFFFFF", .doc_default = "derived from the machine and the robot's name, see [below](#originator_serial)", .help = "the originator serial number of every Forward Open: the robot gives the owner connections of a gateway that stopped uncleanly back only to the same serial" },
+    { .name = "layout", .type = GW_CFG_ENUM, .flags = LINK, R(layout), GW_CFG_NAMES("per_assembly", "combined", "gpr_only"), .def = DR_LAYOUT_PER_ASSEMBLY, .help = "how the robot offers the assemblies: `per_assembly`, one instance each (`instance.*`, `open.*`); `combined`, one T->O instance carrying the six T->O assemblies back to back (476 bytes) and one O->T instance carrying the four O->T ones (212 bytes), one connection between them; `gpr_only`, the same with the register assemblies only (200 bytes each way). See [Layouts](#layouts)" },
+    { .name = "input_instance", .type = GW_CFG_UINT, .flags = LINK, R(input.instance), .lo = 1, .hi = 65535, .def = DR_LAYOUT_INPUT_INSTANCE, .help = "`combined`, `gpr_only`: the T->O (input) assembly instance" },
+    { .name = "input_assemblies", .type = GW_CFG_HOOK, .flags = LINK, R(input), .parse = robot_point, .allowed = "T->O assembly names in wire order, separated by commas or blanks", .doc_default = "the layout's: all six T->O assemblies (`combined`), `bit_out, int_out, float_out` (`gpr_only`)", .doc_allowed = "T->O assembly names in wire order", .help = "`combined`, `gpr_only`: what the input instance carries, back to back, in that order" },
+    { .name = "input_size", .type = GW_CFG_UINT, .flags = LINK, R(input.size), .lo = 0, .hi = 65535, .doc_allowed = "0..65535, 0 = the sum", .doc_default = "the sum of `input_assemblies`", .help = "`combined`, `gpr_only`: the input instance's size in bytes, as the robot's EDS or `drcli probe` gives it; `--check-config` refuses one that is not the sum of `input_assemblies`" },
+    { .name = "output_instance", .type = GW_CFG_UINT, .flags = LINK, R(output.instance), .lo = 1, .hi = 65535, .def = DR_LAYOUT_OUTPUT_INSTANCE, .help = "`combined`, `gpr_only`: the O->T (output) assembly instance" },
+    { .name = "output_assemblies", .type = GW_CFG_HOOK, .flags = LINK, R(output), .parse = robot_point, .allowed = "O->T assembly names in wire order, separated by commas or blanks, or none", .doc_default = "the layout's: all four O->T assemblies (`combined`), `bit_in, int_in, float_in` (`gpr_only`)", .doc_allowed = "O->T assembly names in wire order, or `none`", .help = "`combined`, `gpr_only`: what the output instance carries; `none`: no output, the connection is input-only (another device, a PLC, owns the outputs)" },
+    { .name = "output_size", .type = GW_CFG_UINT, .flags = LINK, R(output.size), .lo = 0, .hi = 65535, .doc_allowed = "0..65535, 0 = the sum", .doc_default = "the sum of `output_assemblies`", .help = "`combined`, `gpr_only`: the output instance's size in bytes; must be the sum of `output_assemblies`" },
     /* the families last: "allowed:" lists them after the plain keys */
     { .name = "instance.<assembly>", .type = GW_CFG_PREFIX, .flags = LINK, R(instance), .parse = robot_instance, .item = asm_item, .doc_default = "see below", .doc_allowed = "1..65535, one per assembly", .help = "assembly instance numbers, if the robot is configured differently" },
     { .name = "open.<T->O assembly>", .type = GW_CFG_PREFIX, .flags = LINK, R(open), .parse = robot_open, .item = asm_item, .doc_default = "see below", .doc_allowed = "`owner:<O->T assembly>`, `input_only`, `listen_only`, `none`", .help = "how the connection for that T->O assembly is opened" },
@@ -52,6 +59,7 @@ static const gw_cfg_key_t robot_keys[] = {
 typedef struct {
     unsigned instance[DR_ASM_COUNT];
     unsigned open[DR_ASM_COUNT];
+    bool output_none; /* output_assemblies = none */
 } robot_lines_t;
 
 static void robot_defaults(void *sec);
@@ -248,6 +256,58 @@ static void robot_open(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     open_value(c, name, v, &r->open[a]);
 }
 
+/* input_assemblies / output_assemblies: assembly names of the key's
+ * direction, each once, in wire order; output_assemblies may be none. */
+static void robot_point(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                        const char *name, const char *v)
+{
+    gw_robot_config_t *r = sec;
+    bool in = strcmp(name, "input_assemblies") == 0;
+    dr_point_t *p = in ? &r->input : &r->output;
+    dr_dir_t dir = in ? DR_DIR_T2O : DR_DIR_O2T;
+    (void)k;
+    uint16_t instance = p->instance, size = p->size;
+    dr_point_t np;
+    memset(&np, 0, sizeof np);
+    if (!in && strcmp(v, "none") == 0) {
+        lines_of(c, c->idx)->output_none = true;
+        *p = np;
+        p->instance = instance;
+        p->size = size;
+        return;
+    }
+    char buf[200];
+    snprintf(buf, sizeof buf, "%s", v);
+    char subject[300];
+    for (char *tok = strtok(buf, ", \t"); tok != NULL; tok = strtok(NULL, ", \t")) {
+        dr_asm_t a;
+        snprintf(subject, sizeof subject, "%s '%s'", name, tok);
+        if (!assembly_of(c, name, tok, dir, subject,
+                         in ? "is consumed by the robot (O->T); the input carries T->O assemblies"
+                            : "is produced by the robot (T->O); the output carries O->T assemblies",
+                         &a))
+            return;
+        for (unsigned i = 0; i < np.count; i++)
+            if (np.asm_id[i] == (uint8_t)a) {
+                gw_cfg_fail(c, c->lineno, "%s: %s named twice", name, asm_item(a));
+                return;
+            }
+        if (np.count >= DR_POINT_MAX_ASM) { /* a repeat would have been caught */
+            gw_cfg_fail(c, c->lineno, "%s: more than %u assemblies", name, DR_POINT_MAX_ASM);
+            return;
+        }
+        np.asm_id[np.count++] = (uint8_t)a;
+    }
+    if (np.count == 0) {
+        gw_cfg_fail(c, c->lineno, "%s has no value (allowed: %s)", name,
+                    in ? "T->O assembly names" : "O->T assembly names, or none");
+        return;
+    }
+    np.instance = instance;
+    np.size = size;
+    *p = np;
+}
+
 /* ---- defaults ------------------------------------------------------------- */
 
 static void robot_defaults(void *sec)
@@ -427,10 +487,162 @@ static bool check_plan(gw_cfg_ctx_t *c, unsigned i)
             check_point(c, i, "listen_only_heartbeat", r->listen_only_heartbeat));
 }
 
+/* "io_state 36 + joint_state 144 = 180" for the point's assemblies. */
+static void point_sum_text(const dr_point_t *p, char *buf, size_t size)
+{
+    size_t n = 0;
+    buf[0] = '\0';
+    for (unsigned k = 0; k < p->count && n < size; k++) {
+        const dr_asm_info_t *info = dr_asm_info((dr_asm_t)p->asm_id[k]);
+        int w = snprintf(buf + n, size - n, "%s%s %u", k ? " + " : "", info->name,
+                         (unsigned)info->size);
+        if (w < 0)
+            return;
+        n += (size_t)w;
+    }
+    if (n < size)
+        snprintf(buf + n, size - n, " = %u", (unsigned)dr_point_sum(p));
+}
+
+/* The layout keys apply to their layout only; a combined layout's points
+ * get their default assemblies and sizes here, and a size that does not
+ * add up is refused where it is written. False after the message. */
+static bool check_layout(gw_cfg_ctx_t *c, unsigned i)
+{
+    gw_robot_config_t *r = &c->cfg.robot[i];
+    const robot_lines_t *rl = lines_of(c, i);
+    static const char *const point_keys[] = { "input_instance", "input_assemblies",
+                                              "input_size", "output_instance",
+                                              "output_assemblies", "output_size" };
+    if (r->layout == DR_LAYOUT_PER_ASSEMBLY) {
+        for (unsigned k = 0; k < GW_CFG_COUNT(point_keys); k++) {
+            unsigned line = gw_cfg_line(c, &gw_cfg_robot, i, point_keys[k]);
+            if (line == 0)
+                continue;
+            gw_cfg_fail(c, line,
+                        "robot '%s': %s applies to layout combined or gpr_only (this "
+                        "robot's layout is per_assembly: set layout = combined, or "
+                        "use instance.* and open.*)",
+                        r->name, point_keys[k]);
+            return false;
+        }
+        return true;
+    }
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        unsigned line = rl->instance[a] ? rl->instance[a] : rl->open[a];
+        if (line == 0)
+            continue;
+        gw_cfg_fail(c, line,
+                    "robot '%s': %s.%s applies to layout per_assembly (layout %s has "
+                    "input_instance and output_instance)",
+                    r->name, rl->instance[a] ? "instance" : "open", asm_item(a),
+                    dr_layout_name(r->layout));
+        return false;
+    }
+    dr_layout_t def;
+    dr_layout_default(&def, r->layout);
+    dr_point_t *pts[2] = { &r->input, &r->output };
+    const dr_point_t *defs[2] = { &def.input, &def.output };
+    for (unsigned k = 0; k < 2; k++) {
+        dr_point_t *p = pts[k];
+        bool none = k == 1 && rl->output_none;
+        if (p->count == 0 && !none) { /* the layout's assemblies */
+            uint16_t inst = p->instance, size = p->size;
+            *p = *defs[k];
+            p->instance = inst;
+            p->size = size;
+        }
+        const char *what = k == 0 ? "input" : "output";
+        char key[24];
+        snprintf(key, sizeof key, "%s_size", what);
+        unsigned size_line = gw_cfg_line(c, &gw_cfg_robot, i, key);
+        if (none) {
+            if (size_line != 0) {
+                gw_cfg_fail(c, size_line,
+                            "robot '%s': output_size %u, but output_assemblies is none",
+                            r->name, (unsigned)p->size);
+                return false;
+            }
+            p->size = 0;
+            continue;
+        }
+        uint16_t sum = dr_point_sum(p);
+        if (p->size == 0)
+            p->size = sum;
+        if (p->size != sum) {
+            char text[200];
+            point_sum_text(p, text, sizeof text);
+            snprintf(key, sizeof key, "%s_assemblies", what);
+            unsigned asm_line = gw_cfg_line(c, &gw_cfg_robot, i, key);
+            gw_cfg_fail(c, max_line(line_or(size_line, r->line), asm_line),
+                        "robot '%s': %s_size %u does not add up: %s bytes (layout %s; "
+                        "set %s_size to %u, or %s_assemblies to what the robot's EDS or "
+                        "drcli probe says its instance carries)",
+                        r->name, what, (unsigned)p->size, text, dr_layout_name(r->layout),
+                        what, (unsigned)sum, what);
+            return false;
+        }
+    }
+    unsigned li = line_or(gw_cfg_line(c, &gw_cfg_robot, i, "input_instance"), r->line);
+    unsigned lo = line_or(gw_cfg_line(c, &gw_cfg_robot, i, "output_instance"), r->line);
+    if (r->output.count != 0 && r->input.instance == r->output.instance) {
+        gw_cfg_fail(c, max_line(li, lo),
+                    "robot '%s': input_instance and output_instance are both %u (each "
+                    "needs its own instance)",
+                    r->name, (unsigned)r->input.instance);
+        return false;
+    }
+    struct { const char *key; uint16_t v; bool used; } pt[] = {
+        { "config_instance", r->config_instance, true },
+        { "input_only_heartbeat", r->input_only_heartbeat, r->output.count == 0 },
+    };
+    for (unsigned k = 0; k < GW_CFG_COUNT(pt); k++) {
+        if (!pt[k].used)
+            continue;
+        bool in = pt[k].v == r->input.instance;
+        if (!in && !(r->output.count != 0 && pt[k].v == r->output.instance))
+            continue;
+        gw_cfg_fail(c,
+                    max_line(line_or(gw_cfg_line(c, &gw_cfg_robot, i, pt[k].key), r->line),
+                             in ? li : lo),
+                    "robot '%s': %s %u is also the %s instance (a connection point "
+                    "names one thing)",
+                    r->name, pt[k].key, (unsigned)pt[k].v, in ? "input" : "output");
+        return false;
+    }
+    if (r->mode == GW_MODE_IMPLICIT && r->output.count == 0 &&
+        !check_config_point(c, i, "input_only_heartbeat", r->input_only_heartbeat))
+        return false;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        r->open[a] = (gw_open_t){ GW_OPEN_NONE, -1 };
+    return true;
+}
+
 bool gw_cfg_robot_check(gw_cfg_ctx_t *c, unsigned i)
 {
+    if (!check_layout(c, i))
+        return false;
+    if (c->cfg.robot[i].layout != DR_LAYOUT_PER_ASSEMBLY)
+        return true;
     return check_instances(c, &c->cfg.robot[i], lines_of(c, i)) &&
            check_plan(c, i);
+}
+
+bool gw_robot_owns(const gw_robot_config_t *r, dr_asm_t a)
+{
+    if (r->layout != DR_LAYOUT_PER_ASSEMBLY)
+        return dr_point_has(&r->output, a);
+    for (unsigned t = 0; t < DR_ASM_COUNT; t++)
+        if (r->open[t].kind == GW_OPEN_OWNER && r->open[t].o2t == (int)a)
+            return true;
+    return false;
+}
+
+bool gw_robot_reads(const gw_robot_config_t *r, dr_asm_t a)
+{
+    if (r->layout != DR_LAYOUT_PER_ASSEMBLY)
+        return dr_point_has(&r->input, a);
+    return r->open[a].kind != GW_OPEN_NONE;
 }
 
 /* ---- public API ------------------------------------------------------------ */

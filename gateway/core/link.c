@@ -37,6 +37,7 @@ typedef struct {
 typedef struct {
     struct gw_link *link;
     dr_asm_t a;
+    bool point; /* a combined layout's input or output point, not `a` alone */
 } poll_ctx_t;
 
 struct gw_link {
@@ -62,6 +63,9 @@ struct gw_link {
     unsigned poll_ok;        /* replies of the current cycle */
     unsigned dirty;          /* O->T images still to send */
     poll_ctx_t poll_ctx[DR_ASM_COUNT];
+    poll_ctx_t poll_in, poll_out; /* combined layouts: the two points */
+    /* combined layouts: the output point's image as last sent */
+    uint8_t out_img[DR_POINT_MAX_SIZE];
     gw_log_limit_t log_limit;
     gw_log_limit_t sess_limit; /* the session's failures: a kind of their own */
     gw_log_limit_t sess_end_limit; /* sessions that end under a live link */
@@ -206,6 +210,37 @@ static void on_session(dr_client_t *c, dr_status_t why, void *user)
                    was_ready ? "session lost" : dr_client_last_step(c), cause);
 }
 
+/* ---- layouts --------------------------------------------------------------- */
+
+/* A combined layout (combined, gpr_only): one connection, in slot 0. */
+static bool combined(const gw_link_t *l)
+{
+    return l->cfg.layout != DR_LAYOUT_PER_ASSEMBLY;
+}
+
+/* Slot i's connection carries T->O assembly a. */
+static bool slot_has(const gw_link_t *l, unsigned i, dr_asm_t a)
+{
+    if (combined(l))
+        return i == 0 && dr_point_has(&l->cfg.input, a);
+    return i < NPAIRS && slot_t2o[i] == a;
+}
+
+/* The output point's image from the robot's O->T images. */
+static const uint8_t *output_image(gw_link_t *l)
+{
+    const dr_point_t *p = &l->cfg.output;
+    for (unsigned k = 0; k < p->count; k++) {
+        dr_asm_t a = (dr_asm_t)p->asm_id[k];
+        (void)dr_point_put(p, l->out_img, p->size, a, l->data->img[a], dr_asm_info(a)->size);
+    }
+    return l->out_img;
+}
+
+/* T->O assembly a of a new image is in the robot's image: tell whoever
+ * listens. */
+static void t2o_taken(gw_link_t *l, dr_asm_t a);
+
 /* ---- descriptors ----------------------------------------------------------- */
 
 static void on_client_fd(void *obj, uint32_t events);
@@ -292,9 +327,44 @@ static bool all_flowing(const gw_link_t *l)
     return true;
 }
 
+static void t2o_taken(gw_link_t *l, dr_asm_t a)
+{
+    l->data->link.rx_us = l->last_rx_us[a];
+    observe_t2o(l, a); /* the new data is now what a Modbus read gets */
+    if (l->hooks.on_data != NULL)
+        l->hooks.on_data(l->hooks.user, l->robot, a);
+}
+
+/* A combined layout's input image: every assembly it carries, sliced
+ * out of it into the robot's own images. */
+static void take_input(gw_link_t *l, const uint8_t *data, size_t len, uint64_t now)
+{
+    const dr_point_t *p = &l->cfg.input;
+    for (unsigned k = 0; k < p->count; k++)
+        l->last_rx_us[p->asm_id[k]] = now;
+    if (data_withheld(l))
+        return;
+    for (unsigned k = 0; k < p->count; k++) {
+        dr_asm_t a = (dr_asm_t)p->asm_id[k];
+        if (dr_point_slice(p, data, len, a, l->data->img[a], dr_asm_info(a)->size) == DR_OK)
+            t2o_taken(l, a);
+    }
+}
+
 static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void *user)
 {
     gw_link_t *l = user;
+    if (combined(l)) {
+        if (l->conn[0] != conn)
+            return;
+        if (!l->flowing[0]) {
+            l->flowing[0] = true;
+            if (all_flowing(l))
+                link_set_up(l, true, DR_OK);
+        }
+        take_input(l, data, len, ev_now_us());
+        return;
+    }
     for (unsigned i = 0; i < NPAIRS; i++) {
         if (l->conn[i] != conn)
             continue;
@@ -311,10 +381,7 @@ static void on_conn_data(dr_conn_t *conn, const uint8_t *data, size_t len, void 
         if (data_withheld(l))
             continue;
         memcpy(l->data->img[a], data, len);
-        l->data->link.rx_us = l->last_rx_us[a];
-        observe_t2o(l, a); /* the new data is now what a Modbus read gets */
-        if (l->hooks.on_data != NULL)
-            l->hooks.on_data(l->hooks.user, l->robot, a);
+        t2o_taken(l, a);
     }
 }
 
@@ -331,9 +398,20 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
         if (l->conn[i] == conn)
             a = slot_t2o[i];
     const gw_open_t *o = &l->cfg.open[a];
-    char how[48];
-    unsigned o2t;
-    if (o->kind == GW_OPEN_OWNER) {
+    char how[48], what[48];
+    unsigned o2t, t2o = l->cfg.instance[a];
+    snprintf(what, sizeof what, "%s", dr_asm_info(a)->name);
+    if (combined(l)) {
+        snprintf(what, sizeof what, "input (layout %s)", dr_layout_name(l->cfg.layout));
+        t2o = l->cfg.input.instance;
+        if (l->cfg.output.count != 0) {
+            snprintf(how, sizeof how, "owner output");
+            o2t = l->cfg.output.instance;
+        } else {
+            snprintf(how, sizeof how, "input-only");
+            o2t = l->cfg.input_only_heartbeat;
+        }
+    } else if (o->kind == GW_OPEN_OWNER) {
         snprintf(how, sizeof how, "owner %s", dr_asm_info((dr_asm_t)o->o2t)->name);
         o2t = l->cfg.instance[o->o2t];
     } else if (o->kind == GW_OPEN_LISTEN_ONLY) {
@@ -343,14 +421,30 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
         snprintf(how, sizeof how, "input-only");
         o2t = l->cfg.input_only_heartbeat;
     }
+    /* A size the robot refused: both sizes, ours and the robot's, with
+     * what they count (the data, the 2-byte sequence count and, O->T
+     * with data, the 4-byte run/idle header), so that the plan can be
+     * set to the robot's. */
+    char sizes[200] = "";
+    if (why == DR_CIP(0x01, 0x0109)) {
+        unsigned in = combined(l) ? l->cfg.input.size : dr_asm_info(a)->size, out = 0;
+        if (combined(l))
+            out = l->cfg.output.size;
+        else if (o->kind == GW_OPEN_OWNER)
+            out = dr_asm_info((dr_asm_t)o->o2t)->size;
+        unsigned want = dr_conn_stats(conn)->size_wanted;
+        snprintf(sizes, sizeof sizes,
+                 "; sizes: this plan's T->O %u bytes (%u data), O->T %u bytes (%u data), "
+                 "the robot's %u bytes",
+                 in + 2u, in, out + (out ? 6u : 2u), out, want);
+    }
     if (DR_IS_CIP(why))
         gw_log_limited(GW_LOG_WARNING, &l->log_limit,
                        "robot %s: %s (%s): %s: Forward Open refused: CIP 0x%02X/0x%04X %s "
-                       "(path: config %u, O->T %u, T->O %u)",
-                       l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
+                       "(path: config %u, O->T %u, T->O %u%s)",
+                       l->cfg.name, what, how, dr_conn_state_name(st),
                        (unsigned)DR_CIP_GENERAL(why), (unsigned)DR_CIP_EXTENDED(why),
-                       dr_strerror(why), (unsigned)l->cfg.config_instance, o2t,
-                       (unsigned)l->cfg.instance[a]);
+                       dr_strerror(why), (unsigned)l->cfg.config_instance, o2t, t2o, sizes);
     else if (st == DR_CONN_TIMED_OUT && (why == DR_ETIMEDOUT || why == DR_ENODATA)) {
         /* not "timed out: timed out": say what timed out, and how long
          * the robot was silent (the first packet has a grace of 2 s more
@@ -366,11 +460,11 @@ static void log_conn_error(gw_link_t *l, dr_conn_t *conn, dr_conn_state_t st, dr
                        why == DR_ENODATA ? "robot %s: %s (%s): %s (nothing for %u ms)"
                                          : "robot %s: %s (%s): timed out: %sno packet from the "
                                            "robot for %u ms",
-                       l->cfg.name, dr_asm_info(a)->name, how,
+                       l->cfg.name, what, how,
                        why == DR_ENODATA ? cause : "", waited);
     } else
         gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s (%s): %s: %s",
-                       l->cfg.name, dr_asm_info(a)->name, how, dr_conn_state_name(st),
+                       l->cfg.name, what, how, dr_conn_state_name(st),
                        dr_strerror(why));
 }
 
@@ -402,8 +496,42 @@ static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, 
     link_set_up(l, false, why);
 }
 
+/* The connection of a combined layout, in slot 0: input point T->O,
+ * output point O->T (or the input-only heartbeat when there is none). */
+static bool add_combined(gw_link_t *l)
+{
+    const dr_point_t *in = &l->cfg.input, *out = &l->cfg.output;
+    dr_conn_config_t cc;
+    memset(&cc, 0, sizeof cc);
+    cc.t2o_asm = (dr_asm_t)in->asm_id[0];
+    cc.t2o_instance = in->instance;
+    cc.t2o_size = in->size;
+    cc.o2t_asm = out->count != 0 ? (int)out->asm_id[0] : -1;
+    if (out->count != 0) {
+        cc.o2t_instance = out->instance;
+        cc.o2t_size = out->size;
+    }
+    cc.config_instance = l->cfg.config_instance;
+    cc.heartbeat_instance = l->cfg.input_only_heartbeat;
+    cc.rpi_us = l->cfg.rpi_ms * 1000u;
+    cc.timeout_mult = l->cfg.timeout_mult;
+    cc.o2t_follow_us = l->cfg.o2t_strict ? 0u : cc.rpi_us / 4u;
+    cc.on_data = on_conn_data;
+    cc.on_state = on_conn_state;
+    cc.user = l;
+    dr_status_t err;
+    l->conn[0] = dr_conn_add(l->client, &cc, &err);
+    if (l->conn[0] == NULL)
+        return false;
+    if (out->count != 0)
+        (void)dr_conn_set_output(l->conn[0], output_image(l), out->size);
+    return true;
+}
+
 static bool add_connections(gw_link_t *l)
 {
+    if (combined(l))
+        return add_combined(l);
     for (unsigned i = 0; i < NPAIRS; i++) {
         const gw_open_t *o = &l->cfg.open[slot_t2o[i]];
         if (o->kind == GW_OPEN_NONE)
@@ -447,6 +575,53 @@ static unsigned planned_t2o(const gw_link_t *l)
     return n;
 }
 
+/* A combined layout's Get of the input point or Set of the output point
+ * came back. A reply of another size than the plan's is the link's
+ * failure, logged with both sizes. */
+static void on_point_reply(gw_link_t *l, const poll_ctx_t *pc, dr_status_t st,
+                           const uint8_t *data, size_t len)
+{
+    bool get = pc == &l->poll_in;
+    const dr_point_t *p = get ? &l->cfg.input : &l->cfg.output;
+    if (st == DR_OK && get && len != p->size) {
+        gw_log_limited(GW_LOG_WARNING, &l->log_limit,
+                       "robot %s: get input (instance %u): %u bytes, the plan's input_size "
+                       "is %u (layout %s)",
+                       l->cfg.name, (unsigned)p->instance, (unsigned)len, (unsigned)p->size,
+                       dr_layout_name(l->cfg.layout));
+        st = DR_ELENGTH;
+    }
+    if (st != DR_OK) {
+        char cause[160];
+        gw_robot_error_text(st, cause, sizeof cause);
+        if (!get) {
+            l->dirty |= l->o2t_planned; /* send it again next cycle */
+            if (DR_IS_CIP(st)) { /* the Set's own failure, as for one assembly */
+                l->data->link.sets_refused++;
+                link_record_error(l, st);
+                gw_log_limited(GW_LOG_WARNING, &l->set_limit,
+                               "robot %s: set output (instance %u, %u bytes) refused: %s",
+                               l->cfg.name, (unsigned)p->instance, (unsigned)p->size, cause);
+                return;
+            }
+        }
+        if (st != DR_ELENGTH)
+            gw_log_limited(GW_LOG_WARNING, &l->log_limit, "robot %s: %s %s (instance %u): %s",
+                           l->cfg.name, get ? "get" : "set", get ? "input" : "output",
+                           (unsigned)p->instance, cause);
+        link_record_error(l, st);
+        link_set_up(l, false, st);
+        return;
+    }
+    if (!get)
+        return;
+    uint64_t now = ev_now_us();
+    l->data->link.rx_packets++;
+    l->data->link.conn_rx[0]++;
+    take_input(l, data, len, now);
+    link_set_up(l, true, DR_OK);
+}
+
 static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, size_t len,
                           void *user)
 {
@@ -456,6 +631,10 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
     (void)c;
     if (l->in_flight > 0)
         l->in_flight--;
+    if (pc->point) {
+        on_point_reply(l, pc, st, data, len);
+        return;
+    }
     if (st == DR_OK && info->dir == DR_DIR_T2O && len != info->size)
         st = DR_ELENGTH;
     if (st != DR_OK && info->dir == DR_DIR_O2T && DR_IS_CIP(st)) {
@@ -499,6 +678,29 @@ static void on_poll_reply(dr_client_t *c, dr_status_t st, const uint8_t *data, s
         link_set_up(l, true, DR_OK);
 }
 
+/* A combined layout's period: one Get of the input point, one Set of
+ * the output point when one of its assemblies changed. */
+static void explicit_poll_points(gw_link_t *l)
+{
+    for (unsigned k = 0; k < 2; k++) {
+        const dr_point_t *p = k == 0 ? &l->cfg.input : &l->cfg.output;
+        if (p->count == 0 || (k == 1 && !(l->dirty & l->o2t_planned)))
+            continue;
+        uint8_t path[12];
+        size_t path_len = dr_cip_path(path, sizeof path, DR_CIP_CLASS_ASSEMBLY, p->instance,
+                                      DR_CIP_ASM_ATTR_DATA);
+        dr_status_t st = dr_client_call_async(
+            l->client, k == 0 ? DR_CIP_SVC_GET_ATTRIBUTE_SINGLE : DR_CIP_SVC_SET_ATTRIBUTE_SINGLE,
+            path, path_len, k == 0 ? NULL : output_image(l), k == 0 ? 0 : p->size,
+            on_poll_reply, k == 0 ? &l->poll_in : &l->poll_out);
+        if (st == DR_OK) {
+            l->in_flight++;
+            if (k == 1)
+                l->dirty &= ~l->o2t_planned;
+        }
+    }
+}
+
 static void explicit_poll(gw_link_t *l, uint64_t now)
 {
     if (now < l->next_poll_us)
@@ -507,6 +709,10 @@ static void explicit_poll(gw_link_t *l, uint64_t now)
     if (!dr_client_ready(l->client) || l->in_flight > 0)
         return; /* the previous cycle is still out: skip, never pile up */
     l->poll_ok = 0;
+    if (combined(l)) {
+        explicit_poll_points(l);
+        return;
+    }
     for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
         const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
         bool t2o = info->dir == DR_DIR_T2O;
@@ -632,18 +838,18 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     l->cfg = *rc;
     l->epfd = epfd;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
-        const gw_open_t *o = &rc->open[a];
-        if (o->kind == GW_OPEN_NONE)
-            continue;
-        l->t2o_planned |= 1u << a;
-        if (o->kind == GW_OPEN_OWNER)
-            l->o2t_planned |= 1u << o->o2t;
+        if (gw_robot_reads(rc, (dr_asm_t)a))
+            l->t2o_planned |= 1u << a;
+        if (gw_robot_owns(rc, (dr_asm_t)a))
+            l->o2t_planned |= 1u << a;
     }
     l->hooks = *hooks;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
         l->poll_ctx[a].link = l;
         l->poll_ctx[a].a = (dr_asm_t)a;
     }
+    l->poll_in = (poll_ctx_t){ l, (dr_asm_t)rc->input.asm_id[0], true };
+    l->poll_out = (poll_ctx_t){ l, (dr_asm_t)rc->output.asm_id[0], true };
     for (unsigned i = 0; i < DR_CLIENT_MAX_FDS; i++) {
         l->ev[i].link = l;
         l->ev[i].ev.fn = on_client_fd;
@@ -654,9 +860,14 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     l->rx_base = data->link.rx_packets;
     l->lost_base = data->link.lost_packets;
     for (unsigned i = 0; i < GW_ROBOT_CONNS; i++) {
-        /* the slots the plan fills (explicit mode: the polled assemblies) */
+        /* the slots the plan fills (explicit mode: the polled assemblies);
+         * a combined layout's one connection, in slot 0, is named by the
+         * first assembly its input carries */
         bool used = i < NPAIRS && rc->open[slot_t2o[i]].kind != GW_OPEN_NONE;
-        data->link.conn_t2o[i] = (uint16_t)(used ? slot_t2o[i] : DR_ASM_COUNT);
+        uint16_t t2o = used ? (uint16_t)slot_t2o[i] : (uint16_t)DR_ASM_COUNT;
+        if (rc->layout != DR_LAYOUT_PER_ASSEMBLY)
+            t2o = i == 0 ? rc->input.asm_id[0] : (uint16_t)DR_ASM_COUNT;
+        data->link.conn_t2o[i] = t2o;
         data->link.conn_rx[i] = data->link.conn_lost[i] = 0;
         data->link.conn_dropped_seq[i] = data->link.conn_dropped_addr[i] = 0;
         data->link.conn_resyncs[i] = 0;
@@ -709,10 +920,16 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
     /* Before the start, whose first attempt may fail (and say so) at once. */
     bool named = strcmp(ip, rc->host) != 0; /* a host name: show its address too */
-    gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s, RPI %u ms, unit ID %u, "
+    char lay[96] = "";
+    if (rc->layout != DR_LAYOUT_PER_ASSEMBLY)
+        snprintf(lay, sizeof lay, ", layout %s: input %u (%u bytes), output %u (%u bytes)",
+                 dr_layout_name(rc->layout), (unsigned)rc->input.instance,
+                 (unsigned)rc->input.size, (unsigned)rc->output.instance,
+                 (unsigned)rc->output.size);
+    gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s%s, RPI %u ms, unit ID %u, "
            "originator serial 0x%08lX)",
            rc->name, rc->host, named ? " (" : "", named ? ip : "", named ? ")" : "",
-           rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", rc->rpi_ms, rc->unit_id,
+           rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", lay, rc->rpi_ms, rc->unit_id,
            (unsigned long)cc.serial);
     dr_client_start(l->client);
     process(l);
@@ -748,6 +965,11 @@ void gw_link_outputs_changed(gw_link_t *l, unsigned dirty)
         l->next_poll_us = 0; /* send soon, not a whole period later */
         return;
     }
+    if (combined(l)) {
+        if ((dirty & l->o2t_planned) && l->conn[0] != NULL)
+            (void)dr_conn_set_output(l->conn[0], output_image(l), l->cfg.output.size);
+        return;
+    }
     for (unsigned i = 0; i < NPAIRS; i++) {
         const gw_open_t *o = &l->cfg.open[slot_t2o[i]];
         if (o->kind == GW_OPEN_OWNER && (dirty & (1u << o->o2t)))
@@ -780,8 +1002,9 @@ static void update_status(gw_link_t *l, uint64_t now)
     if (l->cfg.mode == GW_MODE_IMPLICIT)
         for (unsigned i = 0; i < NPAIRS; i++) {
             uint64_t t = l->conn[i] ? dr_conn_stats(l->conn[i])->last_rx_us : 0;
-            if (t > l->last_rx_us[slot_t2o[i]])
-                l->last_rx_us[slot_t2o[i]] = t;
+            for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+                if (slot_has(l, i, (dr_asm_t)a) && t > l->last_rx_us[a])
+                    l->last_rx_us[a] = t;
         }
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if ((l->t2o_planned & (1u << a)) && l->last_rx_us[a] < oldest)

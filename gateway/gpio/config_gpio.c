@@ -213,10 +213,7 @@ static void chip_key(const char *chip, char *out, size_t size)
  * exception 0x02). */
 static bool has_owner(const gw_robot_config_t *r, int o2t)
 {
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        if (r->open[a].kind == GW_OPEN_OWNER && r->open[a].o2t == o2t)
-            return true;
-    return false;
+    return gw_robot_owns(r, (dr_asm_t)o2t);
 }
 
 /* An input on an O->T bit no connection writes would drive nothing. The

@@ -47,8 +47,14 @@ static void connections(gw_json_t *j, const gw_robot_config_t *rc, const gw_robo
     bool first = true;
     int a;
     for (unsigned i = 0; i < GW_ROBOT_CONNS && (a = gw_link_slot_asm(i)) >= 0; i++) {
-        if (rc->mode == GW_MODE_IMPLICIT && rc->open[a].kind == GW_OPEN_NONE)
+        /* a combined layout has one connection (slot 0), named by the
+         * first assembly its input carries */
+        if (rc->layout != DR_LAYOUT_PER_ASSEMBLY ? i > 0 || rb->link.conn_t2o[0] >= DR_ASM_COUNT
+                                                 : rc->mode == GW_MODE_IMPLICIT &&
+                                                       rc->open[a].kind == GW_OPEN_NONE)
             continue;
+        if (rc->layout != DR_LAYOUT_PER_ASSEMBLY)
+            a = rb->link.conn_t2o[0];
         gw_json_str(j, first ? "{\"assembly\":" : ",{\"assembly\":");
         first = false;
         qstr(j, dr_asm_info((dr_asm_t)a)->name);

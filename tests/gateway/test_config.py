@@ -42,6 +42,13 @@ BAD = {
     "section": (ROBOT + "[robots b]\nhost = 1.2.3.4\n", 3, ["robots"]),
     "instance": (ROBOT + "instance.io_state = 101\ninstance.dr1 = 102\n", 4, ["instance"]),
     "timeout_mult": (ROBOT + "timeout_multiplier = 8\n", 3, ["0..7"]),
+    # a layout whose sizes do not add up (issue 31)
+    "layout_size": (ROBOT + "layout = combined\ninput_size = 480\n", 4,
+                    ["input_size 480 does not add up", "= 476 bytes", "set input_size to 476"]),
+    "layout_gpr_size": (ROBOT + "layout = gpr_only\noutput_size = 32\n", 4,
+                        ["output_size 32 does not add up", "= 200 bytes"]),
+    "layout_key": (ROBOT + "input_instance = 100\n", 3,
+                   ["applies to layout combined or gpr_only"]),
 }
 
 

@@ -401,6 +401,8 @@ typedef struct {
     "rpi_ms, "                                                                 \
     "timeout_multiplier, timeout_ms, fallback, o2t_timing, config_instance, "  \
     "input_only_heartbeat, listen_only_heartbeat, originator_serial, "        \
+    "layout, input_instance, input_assemblies, input_size, output_instance, " \
+    "output_assemblies, output_size, "                                         \
     "instance.<assembly>, open.<T->O assembly>"
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
 #define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], [mqtt], [http]"
@@ -411,6 +413,52 @@ typedef struct {
 #define RTU_HEAD "[modbus_rtu l]\ndevice = /dev/ttyS1\n" /* then lines 5.. */
 
 static const err_case_t err_cases[] = {
+    /* layouts (issue 31) */
+    { ROBOT "layout = combined\ninput_size = 480\n",
+      "4: robot 'a': input_size 480 does not add up: io_state 36 + joint_state 144 + "
+      "task_state 96 + bit_out 8 + int_out 96 + float_out 96 = 476 bytes (layout "
+      "combined; set input_size to 476, or input_assemblies to what the robot's EDS or "
+      "drcli probe says its instance carries)" },
+    { ROBOT "layout = gpr_only\noutput_size = 212\n",
+      "4: robot 'a': output_size 212 does not add up: bit_in 8 + int_in 96 + float_in 96 "
+      "= 200 bytes (layout gpr_only; set output_size to 200, or output_assemblies to what "
+      "the robot's EDS or drcli probe says its instance carries)" },
+    { ROBOT "layout = combined\noutput_size = 24\noutput_assemblies = io_control, bit_in\n",
+      "5: robot 'a': output_size 24 does not add up: io_control 12 + bit_in 8 = 20 bytes "
+      "(layout combined; set output_size to 20, or output_assemblies to what the robot's "
+      "EDS or drcli probe says its instance carries)" },
+    { ROBOT "input_instance = 100\n",
+      "3: robot 'a': input_instance applies to layout combined or gpr_only (this robot's "
+      "layout is per_assembly: set layout = combined, or use instance.* and open.*)" },
+    { ROBOT "layout = combined\ninstance.io_state = 5\n",
+      "4: robot 'a': instance.io_state applies to layout per_assembly (layout combined has "
+      "input_instance and output_instance)" },
+    { ROBOT "layout = combined\nopen.bit_out = none\n",
+      "4: robot 'a': open.bit_out applies to layout per_assembly (layout combined has "
+      "input_instance and output_instance)" },
+    { ROBOT "layout = combined\ninput_assemblies = io_state, io_control\n",
+      "4: input_assemblies 'io_control' invalid: io_control is consumed by the robot "
+      "(O->T); the input carries T->O assemblies (allowed: io_state, joint_state, "
+      "task_state, bit_out, int_out, float_out)" },
+    { ROBOT "layout = combined\noutput_assemblies = bit_in dr8\n",
+      "4: output_assemblies: bit_in named twice" },
+    { ROBOT "layout = combined\noutput_assemblies = bit_in, bitt_in\n",
+      "4: unknown assembly 'bitt_in' in 'output_assemblies' (did you mean 'bit_in'? "
+      "allowed: io_state, joint_state, task_state, bit_out, int_out, float_out, "
+      "io_control, bit_in, int_in, float_in, or dr1..dr10)" },
+    { ROBOT "layout = combined\ninput_instance = 7\noutput_instance = 7\n",
+      "5: robot 'a': input_instance and output_instance are both 7 (each needs its own "
+      "instance)" },
+    { ROBOT "layout = gpr_only\nconfig_instance = 150\n",
+      "4: robot 'a': config_instance 150 is also the output instance (a connection point "
+      "names one thing)" },
+    { ROBOT "layout = combined\noutput_assemblies = none\noutput_size = 4\n",
+      "5: robot 'a': output_size 4, but output_assemblies is none" },
+    { ROBOT "layout = combined\noutput_assemblies = none\ninput_only_heartbeat = 100\n",
+      "5: robot 'a': input_only_heartbeat 100 is also the input instance (a connection "
+      "point names one thing)" },
+    { ROBOT "layout = sliced\n",
+      "3: layout 'sliced' invalid (allowed: per_assembly, combined, gpr_only)" },
     /* [modbus_rtu NAME] */
     { ROBOT "[modbus_rtu]\ndevice = /dev/ttyS1\n",
       "3: section [modbus_rtu] needs a name (allowed: [modbus_rtu NAME] or "
@@ -1185,6 +1233,57 @@ static void test_same_link(void **state)
 }
 
 /* The default plan is today's six connections; the keys change it. */
+/* Layouts: the defaults of each, assemblies of one's own, no output. */
+static void test_layouts(void **state)
+{
+    (void)state;
+    gw_config_t c;
+    char err[512];
+    const gw_robot_config_t *r = &c.robot[0];
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\n", &c, err, sizeof err));
+    assert_int_equal(r->layout, DR_LAYOUT_PER_ASSEMBLY);
+    assert_true(gw_robot_owns(r, DR_ASM_INT_IN));
+    assert_true(gw_robot_reads(r, DR_ASM_JOINT_STATE));
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nlayout = combined\n", &c, err,
+                          sizeof err));
+    assert_int_equal(r->layout, DR_LAYOUT_COMBINED);
+    assert_int_equal(r->input.instance, 100);
+    assert_int_equal(r->input.size, 476);
+    assert_int_equal(r->input.count, 6);
+    assert_int_equal(r->output.instance, 150);
+    assert_int_equal(r->output.size, 212);
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
+        assert_int_equal(r->open[a].kind, GW_OPEN_NONE);
+        assert_true(dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O ? gw_robot_reads(r, (dr_asm_t)a)
+                                                                : gw_robot_owns(r, (dr_asm_t)a));
+    }
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nlayout = gpr_only\ninput_size = 200\n"
+                          "input_instance = 3\noutput_instance = 4\n",
+                          &c, err, sizeof err));
+    assert_int_equal(r->input.size, 200);
+    assert_int_equal(r->output.size, 200);
+    assert_int_equal(r->input.instance, 3);
+    assert_false(gw_robot_reads(r, DR_ASM_IO_STATE));
+    assert_false(gw_robot_owns(r, DR_ASM_IO_CONTROL));
+    assert_true(gw_robot_owns(r, DR_ASM_FLOAT_IN));
+    /* the EDS's order, not ours; an input-only plan */
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nlayout = combined\n"
+                          "input_assemblies = float_out int_out\ninput_size = 192\n"
+                          "output_assemblies = none\n",
+                          &c, err, sizeof err));
+    assert_int_equal(r->input.count, 2);
+    assert_int_equal(dr_point_offset(&r->input, DR_ASM_INT_OUT), 96);
+    assert_int_equal(r->output.count, 0);
+    assert_false(gw_robot_owns(r, DR_ASM_FLOAT_IN));
+    /* the layout is part of the link: a change reconnects */
+    gw_config_t d;
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nlayout = combined\n", &c, err,
+                          sizeof err));
+    assert_true(load_text("[robot a]\nhost = 10.0.0.1\nlayout = combined\n"
+                          "output_instance = 151\n", &d, err, sizeof err));
+    assert_false(gw_robot_config_same_link(&c.robot[0], &d.robot[0]));
+}
+
 static void test_connection_plan(void **state)
 {
     (void)state;
@@ -1382,6 +1481,7 @@ int main(void)
         cmocka_unit_test(test_same_link),
         cmocka_unit_test(test_word_order_name),
         cmocka_unit_test(test_connection_plan),
+        cmocka_unit_test(test_layouts),
         cmocka_unit_test(test_key_tables),
         cmocka_unit_test(test_print_keys),
     };

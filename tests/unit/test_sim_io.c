@@ -822,6 +822,86 @@ static void test_trailing_item(void **state)
     assert_int_equal(f.cpf_extra, 0);
 }
 
+/* --layout combined: instance 100 is the six T->O assemblies back to back
+ * (476 bytes), 150 the four O->T ones (212); the per-assembly instances
+ * are gone. Explicit Get/Set and a Class 1 connection carry the same
+ * bytes as the assemblies' own images. gpr_only: 200 bytes each way. */
+static void test_layouts(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    dr_layout_default(&cfg.layout, DR_LAYOUT_COMBINED);
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    /* explicit: sizes, data, class attribute 3 (instances) */
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 100, 4, NULL, 0), DR_OK);
+    assert_int_equal(dr_get_le16(f.rsp.data), 476);
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 150, 4, NULL, 0), DR_OK);
+    assert_int_equal(dr_get_le16(f.rsp.data), 212);
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 0, 3, NULL, 0), DR_OK);
+    assert_int_equal(dr_get_le16(f.rsp.data), 2);
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 101, 3, NULL, 0),
+                     DR_CIP(0x05, 0));
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 100, 3, NULL, 0), DR_OK);
+    assert_int_equal(f.rsp.data_len, 476);
+    assert_memory_equal(f.rsp.data, f.sim.img.buf[DR_ASM_IO_STATE], 36);
+    assert_memory_equal(f.rsp.data + 36, f.sim.img.buf[DR_ASM_JOINT_STATE], 144);
+    assert_memory_equal(f.rsp.data + 380, f.sim.img.buf[DR_ASM_FLOAT_OUT], 96);
+    uint8_t out[212];
+    for (unsigned i = 0; i < sizeof out; i++)
+        out[i] = (uint8_t)(i * 7u + 3u);
+    memset(out, 0, 12); /* io_control: reserved bits must stay 0 */
+    out[0] = 0x05;
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, 4, 150, 3, out, 211),
+                     DR_CIP(0x13, 0));
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_SET_ATTRIBUTE_SINGLE, 4, 150, 3, out, 212), DR_OK);
+    assert_memory_equal(f.sim.img.buf[DR_ASM_IO_CONTROL], out, 12);
+    assert_memory_equal(f.sim.img.buf[DR_ASM_BIT_IN], out + 12, 8);
+    assert_memory_equal(f.sim.img.buf[DR_ASM_INT_IN], out + 20, 96);
+    assert_memory_equal(f.sim.img.buf[DR_ASM_INT_OUT], out + 20, 96); /* echo */
+    assert_memory_equal(f.sim.img.buf[DR_ASM_FLOAT_IN], out + 116, 96);
+
+    /* Class 1: sizes with the headers, 0x0109 names the wanted one */
+    uint8_t path[16];
+    dr_fwd_open_t fo = fo_make(150, 100, 212 + 6, 476, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_CIP(0x01, 0x0109));
+    assert_int_equal(f.rsp.ext[1], 478);
+    fo = fo_make(150, 100, 212 + 6, 476 + 2, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+    dr_fwd_open_reply_t r;
+    assert_int_equal(dr_fwd_open_reply_parse(f.rsp.data, f.rsp.data_len, &r), DR_OK);
+    drsim_run(&f.sim, T0, fx_capture, &f);
+    dr_io_frame_t io;
+    assert_int_equal(dr_io_frame_parse(f.pkt, f.pkt_len, false, &io), DR_OK);
+    assert_int_equal(io.data_len, 476);
+    assert_memory_equal(io.data + 276, f.sim.img.buf[DR_ASM_BIT_OUT], 8);
+    out[12] = 0xA5;
+    uint8_t pkt[64 + 212];
+    size_t n = o2t_packet(pkt, sizeof pkt, r.o2t_cid, 1, 1, true, out, 212);
+    dr_sockaddr_t from = {0x7F000001u, 2222};
+    drsim_io_receive(&f.sim, T0 + 1 * MS, &from, pkt, n);
+    assert_int_equal(f.sim.img.buf[DR_ASM_BIT_IN][0], 0xA5);
+    assert_int_equal(f.sim.img.buf[DR_ASM_BIT_OUT][0], 0xA5);
+    /* one owner for the whole O->T image */
+    dr_fwd_open_t two = fo_make(150, 100, 212 + 6, 478, 10000, path, sizeof path);
+    two.orig_serial = 0xBEEF;
+    assert_int_equal(fo_send(&f, &two, NULL), DR_CIP(0x01, 0x0106));
+
+    /* gpr_only: registers only, 200 bytes each way */
+    dr_layout_default(&cfg.layout, DR_LAYOUT_GPR_ONLY);
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 100, 3, NULL, 0), DR_OK);
+    assert_int_equal(f.rsp.data_len, 200);
+    assert_memory_equal(f.rsp.data, f.sim.img.buf[DR_ASM_BIT_OUT], 8);
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 4, 150, 4, NULL, 0), DR_OK);
+    assert_int_equal(dr_get_le16(f.rsp.data), 200);
+    fo = fo_make(150, 100, 200 + 6, 200 + 2, 10000, path, sizeof path);
+    assert_int_equal(fo_send(&f, &fo, NULL), DR_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -840,6 +920,7 @@ int main(void)
         cmocka_unit_test(test_seq_on_change),
         cmocka_unit_test(test_tick_and_api_report),
         cmocka_unit_test(test_trailing_item),
+        cmocka_unit_test(test_layouts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -29,7 +29,7 @@ typedef struct {
     /* packets sent by drsim_run */
     unsigned sent;
     dr_sockaddr_t sent_to;
-    uint8_t pkt[256];
+    uint8_t pkt[64 + DR_POINT_MAX_SIZE];
     size_t pkt_len;
 } fx_t;
 

@@ -149,7 +149,7 @@ uint32_t dr_originator_serial_local(const char *name);
 #define DR_CLIENT_STORAGE_SIZE                                                \
     (DR_CLIENT_HOST_MAX + DR_ENCAP_MAX_LEN + DR_CLIENT_TX_BUF +               \
      DR_UDP_PORT_STORAGE_SIZE + DR_CLIENT_MAX_REQS * (64 + 4 * sizeof(void *)) + \
-     DR_CLIENT_MAX_CONNS * (2 * DR_ASM_MAX_SIZE + DR_CLIENT_UDP_BUF + 272 +   \
+     DR_CLIENT_MAX_CONNS * (2 * DR_CLIENT_IO_MAX + DR_CLIENT_UDP_BUF + 272 +  \
                             8 * sizeof(void *)) +                             \
      256 + 16 * sizeof(void *))
 
@@ -372,6 +372,14 @@ typedef struct {
     dr_conn_data_cb on_data;
     dr_conn_state_cb on_state;
     void *user;
+    /* Connection points that are not one assembly (drgate/layout.h: a
+     * combined layout carries several assemblies in one image). 0: the
+     * assembly's own instance and size. A T->O point of its own still
+     * needs t2o_asm (a T->O assembly it carries), an O->T one o2t_asm >= 0
+     * (an O->T assembly it carries); on_data then gets the point's whole
+     * image, dr_conn_set_output takes one. Sizes up to DR_CLIENT_IO_MAX. */
+    uint16_t t2o_instance, t2o_size;
+    uint16_t o2t_instance, o2t_size;
 } dr_conn_config_t;
 
 /* Add a connection; it opens once the session is up, and reopens after a

@@ -14,10 +14,17 @@
 #define DRGATE_CONFIG_H
 
 /* Class 1 connections per client (default 16). Each costs about
- * 2 x 144 bytes of assembly data, a UDP frame (DR_CLIENT_UDP_BUF) and
+ * 2 x DR_CLIENT_IO_MAX bytes of data, a UDP frame (DR_CLIENT_UDP_BUF) and
  * ~250 bytes of state. */
 #ifndef DR_CLIENT_MAX_CONNS
 #define DR_CLIENT_MAX_CONNS 16
+#endif
+
+/* The largest Class 1 data a connection carries, each way (default 476:
+ * the combined layout's T->O image, drgate/layout.h; at least 144, the
+ * largest assembly). Each connection has two buffers of it. */
+#ifndef DR_CLIENT_IO_MAX
+#define DR_CLIENT_IO_MAX 476
 #endif
 
 /* Requests in flight per client (default 8): explicit requests plus the

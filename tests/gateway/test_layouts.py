@@ -1,0 +1,179 @@
+# SPDX-License-Identifier: MIT
+"""Assembly layouts (issue 31): drgatewayd against drsim speaking each
+layout (--layout per_assembly, combined, gpr_only), implicit and explicit.
+Every field the layout carries reads the same through Modbus as `drcli get`
+says over explicit messaging (drcli with the same --layout), O->T values
+written through Modbus reach the robot, the assemblies a layout does not
+carry read 0 and refuse writes, and a plan whose sizes are not the
+adapter's is refused with both sizes in the log."""
+import json
+import struct
+import subprocess
+
+import pytest
+
+from gwlib import (DRCLI, EX_ILLEGAL_ADDRESS, SIM_ADDR, Drsim, Gateway, dint_regs, f32,
+                   real_regs,
+                   regs_dint, regs_real, running, timeout, wait_for)
+
+T2O = ["io_state", "joint_state", "task_state", "bit_out", "int_out", "float_out"]
+O2T = ["io_control", "bit_in", "int_in", "float_in"]
+GPR = {"bit_out", "int_out", "float_out", "bit_in", "int_in", "float_in"}
+CARRIED = {"per_assembly": set(T2O + O2T), "combined": set(T2O + O2T), "gpr_only": GPR}
+
+
+def drcli_get(sim, layout, assemblies):
+    out = subprocess.run([str(DRCLI), "-H", SIM_ADDR, "--port", str(sim.tcp), "--layout",
+                          layout, "get", "--json"] + sorted(assemblies),
+                         capture_output=True, text=True, timeout=timeout(30))
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def modbus_value(m, e):
+    """The value of regmap entry e as Modbus shows it, or None for a type
+    this comparison does not cover (scaled views, packed masks)."""
+    t, area, a = e["type"], e["area"], e["address"]
+    if t == "bit":
+        return bool(m.read(1 if area == "CO" else 2, a, 1)[0])
+    fc = 3 if area == "HR" else 4
+    if t.startswith("REAL, 2 registers"):
+        return regs_real(m.read(fc, a, 2), "abcd")
+    if t.startswith("DINT, 2 registers"):
+        return regs_dint(m.read(fc, a, 2), "abcd")
+    if t.startswith("BOOL"):
+        return bool(m.read(fc, a, 1)[0])
+    if t.startswith("USINT"):
+        return m.read(fc, a, 1)[0]
+    return None
+
+
+def same(mb, cli):
+    if isinstance(mb, float):
+        return mb == f32(cli) or (mb != mb and cli == "nan")
+    return mb == cli
+
+
+def write_outputs(m, regmap, layout):
+    """O->T values through Modbus, which drsim echoes into T->O."""
+    m.write_regs(regmap.addr("HR", "int_in[2]"), dint_regs(-123456, "abcd"))
+    m.write_regs(regmap.addr("HR", "float_in[1]"), real_regs(2.5, "abcd"))
+    m.write_coil(regmap.addr("CO", "bit_in[3]"), True)
+    if layout != "gpr_only":
+        m.write_coil(regmap.addr("CO", "io_control.cb_do[2]"), True)
+    def echoed():
+        return (regs_dint(m.read(4, regmap.addr("IR", "int_out[2]"), 2), "abcd") == -123456
+                and regs_real(m.read(4, regmap.addr("IR", "float_out[1]"), 2), "abcd") == 2.5
+                and m.read(2, regmap.addr("DI", "bit_out[3]"), 1)[0]
+                and (layout == "gpr_only" or m.read(2, regmap.addr("DI", "io_state.cb_do[2]"),
+                                                    1)[0]))
+    # one O->T packet may leave between two writes: wait for every echo
+    wait_for(echoed, 10, "int_out[2], float_out[1], bit_out[3] echoing the writes")
+
+
+CASES = [("per_assembly", "implicit"), ("combined", "implicit"), ("gpr_only", "implicit"),
+         ("combined", "explicit"), ("gpr_only", "explicit")]
+
+
+@pytest.mark.parametrize("layout,mode", CASES)
+def test_every_field_as_drcli_reads_it(regmap, layout, mode):
+    robot = "layout = %s\nmode = %s\nrpi_ms = 20\n" % (layout, mode)
+    with running("layout-%s-%s" % (layout, mode), sim_args=("--layout", layout, "--still"),
+                 robot=robot) as g:
+        assert ("layout %s" % layout in g.log()) == (layout != "per_assembly")
+        with g.raw() as m:
+            if "io_state" in CARRIED[layout]:
+                wait_for(lambda: m.read(4, regmap.addr("IR", "io_state.robot_state"), 1)[0]
+                         == 2, 15, "robot_state OPERATING")
+            write_outputs(m, regmap, layout)
+            cli = drcli_get(g.sim, layout, CARRIED[layout])
+            compared = 0
+            for e in regmap.entries:
+                asm = e["name"].split(".")[0].split("[")[0]
+                if asm not in CARRIED["combined"] or e["type"].startswith("INT16 = REAL"):
+                    continue
+                mb = modbus_value(m, e)
+                if mb is None:
+                    continue
+                if asm not in CARRIED[layout]:
+                    # not carried by this layout: never received, reads 0
+                    assert not mb, (e["name"], mb)
+                    continue
+                assert e["name"] in cli, e["name"]
+                assert same(mb, cli[e["name"]]), (e["name"], mb, cli[e["name"]])
+                compared += 1
+            # every leaf of the carried assemblies that the map shows
+            assert compared >= (180 if layout == "gpr_only" else 350), compared
+            assert cli["int_out[2]"] == -123456 and cli["float_out[1]"] == 2.5
+            assert cli["bit_out[3]"] is True
+            if layout == "gpr_only":
+                # io_control is not carried: nothing would send a write
+                write = struct.pack(">BHH", 0x05, regmap.addr("CO", "io_control.cb_do[1]"),
+                                    0xFF00)
+                assert m.exception(write) == EX_ILLEGAL_ADDRESS
+            else:
+                assert cli["io_state.cb_do[2]"] is True
+        assert "refused" not in g.sim.log()
+
+
+def log_line(g, text, seconds=20):
+    g.log_wait(text, seconds)
+    return next(x for x in g.log().splitlines() if text in x)
+
+
+def test_size_mismatch_names_both_sizes():
+    """The gateway's plan is combined (T->O 478, O->T 218 bytes with their
+    headers), the adapter offers gpr_only (200 + 6 = 206 O->T): the Forward
+    Open is refused with 0x0109, and the log names the plan's sizes and
+    the adapter's."""
+    with running("layout-mismatch", sim_args=("--layout", "gpr_only"),
+                 robot="layout = combined\n", start=False) as g:
+        g.start(wait_link=False)
+        line = log_line(g, "0x0109")
+        assert "input (layout combined)" in line, line
+        assert "T->O 478 bytes (476 data)" in line and "O->T 218 bytes (212 data)" in line, line
+        assert "the robot's 206 bytes" in line, line
+
+
+def test_explicit_size_mismatch_names_both_sizes():
+    """Explicit mode: the input instance answers with 200 bytes, the plan
+    says 476; the link stays down and the log says both."""
+    with running("layout-mismatch-explicit", sim_args=("--layout", "gpr_only"),
+                 robot="layout = combined\nmode = explicit\n", start=False) as g:
+        g.start(wait_link=False)
+        line = log_line(g, "200 bytes, the plan's input_size is 476")
+        assert "get input (instance 100)" in line, line
+        assert g.status()[1] != 2  # link_state: never up
+
+
+@pytest.mark.parametrize("layout", ["per_assembly", "combined", "gpr_only"])
+def test_probe_prints_a_plan_that_links(layout):
+    """`drcli probe` against drsim in each layout: read-only (drsim sees no
+    Set and no Forward Open), names the layout, and the [robot] section it
+    prints brings drgatewayd's link up."""
+    sim = Drsim("probe-%s" % layout, "--layout", layout, "-v").start()  # every request
+    try:
+        out = subprocess.run([str(DRCLI), "-H", SIM_ADDR, "--port", str(sim.tcp), "probe"],
+                             capture_output=True, text=True, timeout=timeout(30))
+        assert out.returncode == 0, out.stdout + out.stderr
+        assert "layout: %s\n" % layout in out.stdout, out.stdout
+        section = out.stdout.split("[robot arm1]\n", 1)[1].splitlines()
+        assert "layout = %s" % layout in section
+        if layout != "per_assembly":
+            size = {"combined": (476, 212), "gpr_only": (200, 200)}[layout]
+            assert "input_size = %d" % size[0] in section, section
+            assert "output_size = %d" % size[1] in section, section
+            assert "input_instance = 100" in section and "output_instance = 150" in section
+        log = sim.log()
+        assert "request 0x0E class 0x04" in log, log[-2000:]  # it did ask
+        for svc in ("0x10", "0x54", "0x5B"):  # Set_Attribute_Single, Forward Opens
+            assert "request %s " % svc not in log, log[-2000:]
+        robot = "".join(x + "\n" for x in section
+                        if x and not x.startswith(("host", "tcp_port")))
+        g = Gateway("probe-%s" % layout, sim, robot=robot)
+        try:
+            g.start()  # waits for the link
+        finally:
+            g.kill()
+    finally:
+        sim.kill()
