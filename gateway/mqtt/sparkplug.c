@@ -669,16 +669,23 @@ void spb_sync(spb_t *s, bool links)
     s->nbirth_due = true; /* robots may have come, gone or moved */
 }
 
-/* The Will was encoded at the connect: a deliberate stop sends its own
- * NDEATH, the same bdSeq stamped now (QoS 1, not retained). */
-void spb_goodbye(spb_t *s)
+/* The Will was encoded at the connect: a deliberate disconnect sends its
+ * own NDEATH, the same bdSeq stamped now. */
+static void goodbye(spb_t *s, int qos)
 {
     if (!s->connected)
         return;
     enc_t e = {.kind = ENC_NDEATH};
     size_t n = encode(s, &e, s->bye, sizeof s->bye, -1);
     if (n > 0)
-        (void)s->io.publish(s->io.user, s->will_topic, s->bye, n, 1, false);
+        (void)s->io.publish(s->io.user, s->will_topic, s->bye, n, qos, false);
+}
+
+/* Stop or reload (the client is destroyed after it): QoS 1, not retained,
+ * as the Will. */
+void spb_goodbye(spb_t *s)
+{
+    goodbye(s, 1);
 }
 
 void spb_on_data(spb_t *s, unsigned robot, dr_asm_t a)
@@ -1104,7 +1111,11 @@ static void on_state(spb_t *s, const char *p, size_t len)
     if (online)
         s->nbirth_due = true;
     else if (s->born) {
-        spb_goodbye(s);
+        /* QoS 0: the same client connects again at once, and libmosquitto
+         * would send an unacknowledged QoS 1 NDEATH again on the new
+         * connection, after its births: a host would take it as the new
+         * session's death. The host this is for is offline anyway. */
+        goodbye(s, 0);
         s->io.reconnect(s->io.user);
     }
 }
