@@ -97,7 +97,8 @@ def spb_has(value, sub):
     for _, top, p in sub.since(0):
         if "/DBIRTH/" in top:
             alias = {m.name: m.alias for m in Payload.FromString(p).metrics}
-    want, a = value & 0xffffffff, alias["int_out[0]"]
+    # by the default (folder) name, or the canonical one
+    want, a = value & 0xffffffff, alias.get("int_out/0", alias.get("int_out[0]"))
 
     def has(top, p):
         if "/DDATA/" not in top:

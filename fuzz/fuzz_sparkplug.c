@@ -41,19 +41,32 @@ void gw_log(gw_log_level_t level, const char *fmt, ...)
     va_end(ap);
 }
 
-static bool count_metric(void *ctx, const Payload_Metric *m)
+static bool count_metric(void *ctx, const spb_metric_t *m)
 {
     (void)m;
     ++*(unsigned *)ctx;
     return true;
 }
 
-static bool io_publish(void *user, const char *topic, const void *p, size_t len, bool retain)
+/* What the gateway publishes keeps Sparkplug 3.0's rules: every metric
+ * timestamped, Node Control/Rebirth never aliased. */
+static bool check_metric(void *ctx, const spb_metric_t *m)
+{
+    FUZZ_CHECK(m->pb.has_timestamp);
+    FUZZ_CHECK(!(m->has_name && strcmp(m->name, SPB_REBIRTH) == 0 && m->pb.has_alias));
+    ++*(unsigned *)ctx;
+    return true;
+}
+
+static bool io_publish(void *user, const char *topic, const void *p, size_t len, int qos,
+                       bool retain)
 {
     unsigned n = 0;
     (void)user;
     FUZZ_CHECK(strncmp(topic, "spBv1.0/g/", 10) == 0 && !retain);
-    FUZZ_CHECK(spb_decode_cmd(p, len, count_metric, &n));
+    /* NDEATH: QoS 1 at a stop, 0 before a reconnect for an offline host */
+    FUZZ_CHECK(qos == 0 || (qos == 1 && strstr(topic, "/NDEATH/") != NULL));
+    FUZZ_CHECK(spb_decode_cmd(p, len, check_metric, &n));
     published++;
     return true;
 }
@@ -132,6 +145,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     q.payload = GW_MQTT_SPARKPLUG;
     snprintf(q.group_id, sizeof q.group_id, "g");
     snprintf(q.edge_node_id, sizeof q.edge_node_id, "e");
+    /* where nothing can be written: bdSeq is not kept (logged, once) */
+    snprintf(q.bdseq_file, sizeof q.bdseq_file, "/nonexistent-drgate-fuzz/bdseq");
     q.writes = (data[0] & 1u) != 0;
     if (data[0] & 2u)
         snprintf(q.primary_host_id, sizeof q.primary_host_id, "h");

@@ -28,7 +28,7 @@ static const gw_cfg_key_t mqtt_keys[] = {
     { .name = "cert_file", .type = GW_CFG_TEXT, Q(cert_file), .allowed = "a PEM client certificate", .help = "client certificate (PEM), with `key_file`; needs `ca_file`" },
     { .name = "key_file", .type = GW_CFG_TEXT, Q(key_file), .allowed = "a PEM private key", .help = "the client certificate's key (PEM), with `cert_file`" },
     { .name = "keepalive_s", .type = GW_CFG_UINT, Q(keepalive_s), .lo = 5, .hi = 3600, .def = 30, .help = "MQTT keepalive; a broker that stops answering is found after about 1.5 times this" },
-    { .name = "qos", .type = GW_CFG_UINT, Q(qos), .lo = 0, .hi = 2, .help = "QoS of every publication, of the Last Will and of the `set` subscription" },
+    { .name = "qos", .type = GW_CFG_UINT, Q(qos), .lo = 0, .hi = 2, .help = "QoS of every publication, of the Last Will and of the `set` subscription. Not with `payload = sparkplug`, whose births and data are QoS 0 and its Will QoS 1 (Sparkplug 3.0)" },
     { .name = "topic_prefix", .type = GW_CFG_TEXT, Q(topic_prefix), .valid = valid_topic, .allowed = "topic levels such as drgate/cell1", .invalid = "topic levels separated by '/', no wildcards, blanks or empty levels, e.g. drgate/cell1", .doc_default = "`drgate/<hostname>`", .doc_allowed = "topic levels separated by `/`, no wildcards, blanks or empty levels", .help = "topics are `<prefix>/status` and `<prefix>/<robot>/...`" },
     { .name = "retain", .type = GW_CFG_BOOL, Q(retain), .def = 1, .help = "`status`, `state`, `meta` and `snapshot` are retained messages (the Will too)" },
     { .name = "publish_interval_ms", .type = GW_CFG_UINT, Q(publish_interval_ms), .lo = 0, .hi = 60000, .def = 100, .help = "at most one `data` message per robot this often; `0` = on every change" },
@@ -38,6 +38,8 @@ static const gw_cfg_key_t mqtt_keys[] = {
     { .name = "group_id", .type = GW_CFG_TEXT, Q(group_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_allowed = SPB_ID_DOC, .help = "Sparkplug group ID; required with `payload = sparkplug`" },
     { .name = "edge_node_id", .type = GW_CFG_TEXT, Q(edge_node_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_default = "the host name", .doc_allowed = SPB_ID_DOC, .help = "Sparkplug edge node ID, unique in the group" },
     { .name = "primary_host_id", .type = GW_CFG_TEXT, Q(primary_host_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_default = "(none: births at once)", .doc_allowed = SPB_ID_DOC, .help = "Sparkplug primary host application: births wait until its `spBv1.0/STATE/<id>` says online; when it goes offline the gateway disconnects (NDEATH) and waits again" },
+    { .name = "metric_names", .type = GW_CFG_ENUM, Q(metric_names), GW_CFG_NAMES("folders", "canonical"), .def = 0, .help = "Sparkplug metric names: `folders` (`joint_state/position/1`: a folder hierarchy, as Ignition takes tag names, which may not have `.` or `[]`) or `canonical` (`joint_state.position[1]`, as the JSON payload); the canonical path is each metric's `path` property either way" },
+    { .name = "bdseq_file", .type = GW_CFG_TEXT, Q(bdseq_file), .allowed = "a file the daemon may write", .doc_default = "`$STATE_DIRECTORY/sparkplug-<group_id>-<edge_node_id>.bdseq` (systemd's `StateDirectory`), else the same name in `/var/lib/drgate`", .help = "Sparkplug: where the next bdSeq is kept, so that it keeps growing over restarts of the daemon (written at each CONNECT the broker answers); a file that cannot be written is logged and bdSeq starts at 0 at each start" },
 };
 
 static void mqtt_begin(void *sec)
@@ -142,4 +144,9 @@ static void mqtt_check(gw_cfg_ctx_t *c)
     else if (q->payload == GW_MQTT_SPARKPLUG && q->group_id[0] == '\0')
         gw_cfg_fail(c, gw_cfg_line(c, s, 0, "payload"),
                     "[mqtt] payload = sparkplug needs group_id");
+    else if (q->payload == GW_MQTT_SPARKPLUG && q->qos != 0)
+        gw_cfg_fail(c, gw_cfg_line(c, s, 0, "qos"),
+                    "[mqtt] qos = %u with payload = sparkplug: Sparkplug 3.0 publishes births "
+                    "and data at QoS 0 and its Will (NDEATH) at QoS 1 (allowed: qos = 0, or "
+                    "no qos)", q->qos);
 }

@@ -30,6 +30,8 @@ typedef struct {
     char group_id[64];        /* Sparkplug group, required with sparkplug */
     char edge_node_id[64];    /* default: the host name */
     char primary_host_id[64]; /* set: births wait for its STATE online */
+    unsigned metric_names;    /* SPB_NAMES_FOLDERS (default) or SPB_NAMES_CANONICAL */
+    char bdseq_file[256];     /* "": $STATE_DIRECTORY or /var/lib/drgate, see sparkplug.c */
     unsigned line;            /* the section's line */
 } gw_mqtt_config_t;
 enum { GW_MQTT_JSON = 0, GW_MQTT_SPARKPLUG };

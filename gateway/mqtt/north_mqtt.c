@@ -157,18 +157,25 @@ static bool room(const mq_t *t)
            (t->cfg.qos == 0 || t->inflight < MQ_MAX_INFLIGHT);
 }
 
-static bool publish(mq_t *t, const char *top, const void *payload, size_t len, bool retain)
+static bool publish_qos(mq_t *t, const char *top, const void *payload, size_t len, int qos,
+                        bool retain)
 {
     int mid = 0;
-    int rc = ml->publish(t->mosq, &mid, top, (int)len, payload, (int)t->cfg.qos, retain);
+    int rc = ml->publish(t->mosq, &mid, top, (int)len, payload, qos, retain);
     if (rc != MOSQ_ERR_SUCCESS) {
         gw_log(GW_LOG_DEBUG, "mqtt: publish %s: %s", top, ml->strerror(rc));
         return false;
     }
-    if (t->cfg.qos > 0)
+    if (qos > 0)
         t->inflight++;
     t->con.published++;
     return true;
+}
+
+/* With [mqtt] qos (the JSON payload; Sparkplug says its own). */
+static bool publish(mq_t *t, const char *top, const void *payload, size_t len, bool retain)
+{
+    return publish_qos(t, top, payload, len, (int)t->cfg.qos, retain);
 }
 
 static bool publish_text(mq_t *t, int robot, const char *leaf, const char *text, bool retain)
@@ -603,6 +610,8 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     if (rc != 0) {
         gw_log(GW_LOG_WARNING, "mqtt: broker %s:%u refused the connection: %s", t->cfg.host,
                t->cfg.port, ml->connack_string(rc));
+        if (t->spb != NULL)
+            spb_connect_answered(t->spb, false); /* its bdSeq is used */
         return; /* libmosquitto closes; tick() retries */
     }
     gw_log(GW_LOG_INFO, "mqtt: connected to %s:%u", t->cfg.host, t->cfg.port);
@@ -776,9 +785,10 @@ static void on_ready(void *obj, uint32_t events)
 
 /* ---- Sparkplug B (sparkplug.h): what it asks of the connection --------------------- */
 
-static bool spb_io_publish(void *user, const char *top, const void *p, size_t len, bool retain)
+static bool spb_io_publish(void *user, const char *top, const void *p, size_t len, int qos,
+                           bool retain)
 {
-    return publish(user, top, p, len, retain);
+    return publish_qos(user, top, p, len, qos, retain);
 }
 
 static bool spb_io_subscribe(void *user, const char *top, int qos)
@@ -1117,7 +1127,8 @@ static bool same_config(const gw_mqtt_config_t *a, const gw_mqtt_config_t *b)
            !(a->deadband < b->deadband || a->deadband > b->deadband) && a->writes == b->writes &&
            a->payload == b->payload && strcmp(a->group_id, b->group_id) == 0 &&
            strcmp(a->edge_node_id, b->edge_node_id) == 0 &&
-           strcmp(a->primary_host_id, b->primary_host_id) == 0;
+           strcmp(a->primary_host_id, b->primary_host_id) == 0 &&
+           a->metric_names == b->metric_names && strcmp(a->bdseq_file, b->bdseq_file) == 0;
 }
 
 /* An unchanged [mqtt] keeps its connection; a changed one is prepared
@@ -1149,6 +1160,8 @@ static void *mq_commit(void *self, void *out, const gw_north_env_t *env)
     if (n != t) {
         retire_for(t, n);
         mq_goodbye(t, "reload: [mqtt] changed");
+        if (t->spb != NULL && n->spb != NULL)
+            spb_carry(n->spb, t->spb); /* bdSeq goes on growing */
         mq_free(t);
         if (n->cfg.enabled)
             try_connect(n, ev_now_us());

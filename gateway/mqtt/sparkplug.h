@@ -42,6 +42,17 @@
 
 #define SPB_REBIRTH "Node Control/Rebirth"
 
+/* Metric names (the `metric_names` key): folders for Ignition, whose tag
+ * names take no '.' or '[]' (joint_state/position/1), or the canonical
+ * path (joint_state.position[1]); either way the canonical path is the
+ * metric's `path` property in the births. */
+enum { SPB_NAMES_FOLDERS = 0, SPB_NAMES_CANONICAL };
+
+/* A command's name or string value longer than these is marked too long
+ * (an unknown metric, a refused value), the payload still decoded. */
+#define SPB_NAME_MAX 256u
+#define SPB_STR_MAX 256u
+
 /* The most metrics one DCMD may write; a longer one is refused whole. */
 #define SPB_CMD_MAX 256u
 
@@ -50,8 +61,9 @@ typedef struct spb spb_t;
 /* What the module asks of the connection (north_mqtt.c). */
 typedef struct {
     void *user;
-    /* Queue one message with [mqtt] qos; false: not queued. */
-    bool (*publish)(void *user, const char *topic, const void *payload, size_t len,
+    /* Queue one message (Sparkplug 3.0: QoS 0 but for NDEATH, 1; never
+     * retained); false: not queued. */
+    bool (*publish)(void *user, const char *topic, const void *payload, size_t len, int qos,
                     bool retain);
     bool (*subscribe)(void *user, const char *topic, int qos);
     /* Room for one more message now (nothing unsent, in-flight bound). */
@@ -73,8 +85,17 @@ spb_t *spb_new(const gw_mqtt_config_t *q, const gw_north_env_t *env, const spb_i
 void spb_free(spb_t *s);
 
 /* The Will of the next connection: NDEATH with the next bdSeq (each
- * connection takes a new one). Valid until the next call. */
+ * CONNECT the broker answers takes a new one). Valid until the next call. */
 void spb_will(spb_t *s, const char **topic, const void **payload, size_t *len);
+
+/* The broker answered the CONNECT (accepted or refused, `accepted`): its
+ * bdSeq is used; the next connection takes the next one (kept in
+ * [mqtt] bdseq_file, so a restart goes on from there). */
+void spb_connect_answered(spb_t *s, bool accepted);
+
+/* A reload that replaces the side: the new one goes on with the old
+ * one's bdSeq (a host must see it grow with every CONNECT). */
+void spb_carry(spb_t *next, const spb_t *old);
 
 /* The connection is up (subscribes; births once the primary host, if
  * any, is online) or gone. */
@@ -98,9 +119,26 @@ void spb_sync(spb_t *s, bool links);
  * send the Will then). */
 void spb_goodbye(spb_t *s);
 
+/* A decoded command metric: pb has the numeric members and which_value;
+ * the name and a string value are here (the properties are skipped). */
+typedef struct {
+    Payload_Metric pb;
+    bool has_name, name_long; /* name_long: longer than SPB_NAME_MAX - 1 */
+    char name[SPB_NAME_MAX];
+    bool str_long;            /* the string value longer than SPB_STR_MAX - 1 */
+    char str[SPB_STR_MAX];    /* pb.which_value == Payload_Metric_string_value_tag */
+} spb_metric_t;
+
 /* Decode an NCMD/DCMD payload's metrics: calls `fn` for each metric;
- * false if the payload is malformed or `fn` said so. */
-typedef bool (*spb_metric_fn)(void *ctx, const Payload_Metric *m);
+ * false if the payload is malformed or `fn` said so. Any legal payload
+ * decodes (unused members skipped, long strings marked). */
+typedef bool (*spb_metric_fn)(void *ctx, const spb_metric_t *m);
+
+/* The canonical path of a metric name of either style (folders or
+ * canonical) into out; false if it is neither. */
+bool spb_name_to_path(const char *name, char *out, size_t size);
+/* The folder-style name of a canonical path. */
+void spb_path_to_folders(const char *path, char *out, size_t size);
 bool spb_decode_cmd(const void *payload, size_t len, spb_metric_fn fn, void *ctx);
 
 #endif

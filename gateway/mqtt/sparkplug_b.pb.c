@@ -30,7 +30,7 @@ PB_BIND(Payload_DataSet_DataSetValue, Payload_DataSet_DataSetValue, AUTO)
 PB_BIND(Payload_DataSet_Row, Payload_DataSet_Row, AUTO)
 
 
-PB_BIND(Payload_Metric, Payload_Metric, 2)
+PB_BIND(Payload_Metric, Payload_Metric, AUTO)
 
 
 

@@ -18,8 +18,6 @@ typedef struct _Payload {
     pb_callback_t metrics;
     bool has_seq;
     uint64_t seq; /* 0..255 */
-    bool has_uuid;
-    char uuid[40];
     pb_extension_t *extensions;
 } Payload;
 
@@ -35,7 +33,7 @@ typedef struct _Payload_PropertyValue {
         float float_value;
         double double_value;
         bool boolean_value;
-        char string_value[24];
+        char string_value[64];
     } value;
 } Payload_PropertyValue;
 
@@ -94,8 +92,7 @@ typedef struct _Payload_DataSet_Row {
 } Payload_DataSet_Row;
 
 typedef struct _Payload_Metric {
-    bool has_name;
-    char name[96];
+    pb_callback_t name;
     bool has_alias;
     uint64_t alias;
     bool has_timestamp;
@@ -108,8 +105,7 @@ typedef struct _Payload_Metric {
     bool is_transient;
     bool has_is_null;
     bool is_null;
-    bool has_properties;
-    Payload_PropertySet properties;
+    pb_callback_t properties;
     pb_size_t which_value;
     union {
         uint32_t int_value;
@@ -117,7 +113,7 @@ typedef struct _Payload_Metric {
         float float_value;
         double double_value;
         bool boolean_value;
-        char string_value[72];
+        pb_callback_t string_value;
     } value;
 } Payload_Metric;
 
@@ -127,7 +123,7 @@ extern "C" {
 #endif
 
 /* Initializer values for message structs */
-#define Payload_init_default                     {false, 0, {{NULL}, NULL}, false, 0, false, "", NULL}
+#define Payload_init_default                     {false, 0, {{NULL}, NULL}, false, 0, NULL}
 #define Payload_PropertyValue_init_default       {false, 0, false, 0, 0, {0}}
 #define Payload_PropertySet_init_default         {0, {"", ""}, 0, {Payload_PropertyValue_init_default, Payload_PropertyValue_init_default}, NULL}
 #define Payload_PropertySetList_init_default     {{{NULL}, NULL}, NULL}
@@ -135,8 +131,8 @@ extern "C" {
 #define Payload_DataSet_init_default             {false, 0, {{NULL}, NULL}, {{NULL}, NULL}, {{NULL}, NULL}, NULL}
 #define Payload_DataSet_DataSetValue_init_default {0, {0}}
 #define Payload_DataSet_Row_init_default         {{{NULL}, NULL}, NULL}
-#define Payload_Metric_init_default              {false, "", false, 0, false, 0, false, 0, false, 0, false, 0, false, 0, false, Payload_PropertySet_init_default, 0, {0}}
-#define Payload_init_zero                        {false, 0, {{NULL}, NULL}, false, 0, false, "", NULL}
+#define Payload_Metric_init_default              {{{NULL}, NULL}, false, 0, false, 0, false, 0, false, 0, false, 0, false, 0, {{NULL}, NULL}, 0, {0}}
+#define Payload_init_zero                        {false, 0, {{NULL}, NULL}, false, 0, NULL}
 #define Payload_PropertyValue_init_zero          {false, 0, false, 0, 0, {0}}
 #define Payload_PropertySet_init_zero            {0, {"", ""}, 0, {Payload_PropertyValue_init_zero, Payload_PropertyValue_init_zero}, NULL}
 #define Payload_PropertySetList_init_zero        {{{NULL}, NULL}, NULL}
@@ -144,13 +140,12 @@ extern "C" {
 #define Payload_DataSet_init_zero                {false, 0, {{NULL}, NULL}, {{NULL}, NULL}, {{NULL}, NULL}, NULL}
 #define Payload_DataSet_DataSetValue_init_zero   {0, {0}}
 #define Payload_DataSet_Row_init_zero            {{{NULL}, NULL}, NULL}
-#define Payload_Metric_init_zero                 {false, "", false, 0, false, 0, false, 0, false, 0, false, 0, false, 0, false, Payload_PropertySet_init_zero, 0, {0}}
+#define Payload_Metric_init_zero                 {{{NULL}, NULL}, false, 0, false, 0, false, 0, false, 0, false, 0, false, 0, {{NULL}, NULL}, 0, {0}}
 
 /* Field tags (for use in manual encoding/decoding) */
 #define Payload_timestamp_tag                    1
 #define Payload_metrics_tag                      2
 #define Payload_seq_tag                          3
-#define Payload_uuid_tag                         4
 #define Payload_PropertyValue_type_tag           1
 #define Payload_PropertyValue_is_null_tag        2
 #define Payload_PropertyValue_int_value_tag      3
@@ -201,7 +196,6 @@ extern "C" {
 X(a, STATIC,   OPTIONAL, UINT64,   timestamp,         1) \
 X(a, CALLBACK, REPEATED, MESSAGE,  metrics,           2) \
 X(a, STATIC,   OPTIONAL, UINT64,   seq,               3) \
-X(a, STATIC,   OPTIONAL, STRING,   uuid,              4) \
 X(a, CALLBACK, OPTIONAL, EXTENSION, extensions,        6)
 #define Payload_CALLBACK pb_default_field_callback
 #define Payload_DEFAULT NULL
@@ -275,21 +269,22 @@ X(a, CALLBACK, OPTIONAL, EXTENSION, extensions,        2)
 #define Payload_DataSet_Row_elements_MSGTYPE Payload_DataSet_DataSetValue
 
 #define Payload_Metric_FIELDLIST(X, a) \
-X(a, STATIC,   OPTIONAL, STRING,   name,              1) \
+X(a, CALLBACK, OPTIONAL, STRING,   name,              1) \
 X(a, STATIC,   OPTIONAL, UINT64,   alias,             2) \
 X(a, STATIC,   OPTIONAL, UINT64,   timestamp,         3) \
 X(a, STATIC,   OPTIONAL, UINT32,   datatype,          4) \
 X(a, STATIC,   OPTIONAL, BOOL,     is_historical,     5) \
 X(a, STATIC,   OPTIONAL, BOOL,     is_transient,      6) \
 X(a, STATIC,   OPTIONAL, BOOL,     is_null,           7) \
-X(a, STATIC,   OPTIONAL, MESSAGE,  properties,        9) \
+X(a, CALLBACK, OPTIONAL, MESSAGE,  properties,        9) \
 X(a, STATIC,   ONEOF,    UINT32,   (value,int_value,value.int_value),  10) \
 X(a, STATIC,   ONEOF,    UINT64,   (value,long_value,value.long_value),  11) \
 X(a, STATIC,   ONEOF,    FLOAT,    (value,float_value,value.float_value),  12) \
 X(a, STATIC,   ONEOF,    DOUBLE,   (value,double_value,value.double_value),  13) \
 X(a, STATIC,   ONEOF,    BOOL,     (value,boolean_value,value.boolean_value),  14) \
-X(a, STATIC,   ONEOF,    STRING,   (value,string_value,value.string_value),  15)
-#define Payload_Metric_CALLBACK NULL
+X(a, CALLBACK, ONEOF,    STRING,   (value,string_value,value.string_value),  15)
+extern bool spb_metric_field(pb_istream_t *istream, pb_ostream_t *ostream, const pb_field_t *field);
+#define Payload_Metric_CALLBACK spb_metric_field
 #define Payload_Metric_DEFAULT NULL
 #define Payload_Metric_properties_MSGTYPE Payload_PropertySet
 
@@ -321,9 +316,9 @@ extern const pb_msgdesc_t Payload_Metric_msg;
 /* Payload_DataSet_size depends on runtime parameters */
 /* Payload_DataSet_DataSetValue_size depends on runtime parameters */
 /* Payload_DataSet_Row_size depends on runtime parameters */
-#define Payload_Metric_size                      310
-#define Payload_PropertySet_size                 104
-#define Payload_PropertyValue_size               33
+/* Payload_Metric_size depends on runtime parameters */
+#define Payload_PropertySet_size                 184
+#define Payload_PropertyValue_size               73
 
 /* Mapping from canonical names (mangle_names or overridden package name) */
 #define org_eclipse_tahu_protobuf_Payload Payload

@@ -15,6 +15,7 @@ import ctypes.util
 import json
 import math
 import os
+import shutil
 import random
 import signal
 import socket
@@ -314,6 +315,10 @@ class Gateway:
         self.proc = None
         if self.log_path.exists():
             self.log_path.unlink()
+        # the daemon's state (Sparkplug's bdSeq file), as systemd's
+        # StateDirectory gives it: one per test, empty at its start
+        self.state_dir = LOGDIR / ("%s.state" % name)
+        shutil.rmtree(self.state_dir, ignore_errors=True)
 
     def config_text(self, modbus=None, robot=None, extra=None, port=None, listen=None):
         modbus = self.modbus_extra if modbus is None else modbus
@@ -342,7 +347,11 @@ class Gateway:
             self.local_udp = [free_port(GW_ADDR, tcp=False) for _ in self.sims]
             self.write_config()
             mark = len(self.log())
-            self.proc = spawn([DRGATEWAYD, "-c", self.conf] + list(args), self.log_path, env)
+            self.state_dir.mkdir(parents=True, exist_ok=True)
+            run_env = dict(os.environ if env is None else env)
+            run_env.setdefault("STATE_DIRECTORY", str(self.state_dir))
+            self.proc = spawn([DRGATEWAYD, "-c", self.conf] + list(args), self.log_path,
+                              run_env)
             wait_for(lambda: self.proc.poll() is not None or self.listening(), 10,
                      "drgatewayd to start")
             if self.proc.poll() is None:

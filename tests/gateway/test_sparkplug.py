@@ -36,8 +36,10 @@ TYPES = {"BOOL": DataType.BOOLEAN, "USINT": DataType.UINT8, "USINT enum": DataTy
 
 
 def spb_section(broker, extra=""):
+    # canonical metric names (the default, folders, is test_sparkplug_tck.py's)
     return ("\n[mqtt]\nhost = %s\nport = %d\nkeepalive_s = 5\npayload = sparkplug\n"
-            "group_id = %s\nedge_node_id = %s\n%s\n" % (GW_ADDR, broker.port, GROUP, EDGE, extra))
+            "group_id = %s\nedge_node_id = %s\nmetric_names = canonical\n%s\n"
+            % (GW_ADDR, broker.port, GROUP, EDGE, extra))
 
 
 class Host:
@@ -158,7 +160,8 @@ def test_births_list_every_field_with_type_and_unit(broker):
         assert set(names) == {f["path"] for f in fields}
         for f in fields:
             assert names[f["path"]].datatype == TYPES[f["type"]], f
-        aliases = [m.alias for m in db.metrics] + [rb.alias]
+        assert rb.alias is None  # Sparkplug 3.0: Rebirth is never aliased
+        aliases = [m.alias for m in db.metrics]
         assert None not in aliases and len(set(aliases)) == len(aliases)
         assert db.timestamp > 1.6e12 and all(m.timestamp for m in db.metrics)
         # engUnit properties, read with the peer's own protobuf module

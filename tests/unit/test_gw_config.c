@@ -970,7 +970,7 @@ static const err_case_t err_cases[] = {
       "5: unknown key 'topic_prefx' in [mqtt] (did you mean 'topic_prefix'? allowed: "
       "host, port, client_id, username, password_file, ca_file, cert_file, key_file, "
       "keepalive_s, qos, topic_prefix, retain, publish_interval_ms, deadband, writes, "
-      "payload, group_id, edge_node_id, primary_host_id)" },
+      "payload, group_id, edge_node_id, primary_host_id, metric_names, bdseq_file)" },
     { ROBOT "[mqtt]\nhost = b\ntopic_prefix = plant/#\n",
       "5: topic_prefix 'plant/#' invalid (allowed: topic levels separated by '/', no "
       "wildcards, blanks or empty levels, e.g. drgate/cell1)" },
