@@ -18,7 +18,7 @@ trap 'rm -rf "$tmp"' EXIT
 
 # Test tools by name, whatever the lists say (a test tool moved into the
 # demo set is caught here even if it also left the test-only set).
-TOOLS='^(clang|clang-tidy|libclang-rt-.*|cppcheck|valgrind|gcovr|tshark|wireshark.*|qemu-.*|gcc-arm-none-eabi|libnewlib-arm-none-eabi|gcc-s390x-linux-gnu|.*-s390x-cross|libcmocka-dev|socat|mosquitto|liblwip-dev|python3-venv|gpiod|debhelper|lintian|mmdebstrap|gcc-aarch64-linux-gnu|.*-arm64-cross|chromium|chromium-driver|prometheus|nanopb)$'
+TOOLS='^(clang|clang-tidy|libclang-rt-.*|cppcheck|valgrind|gcovr|tshark|wireshark.*|qemu-.*|gcc-arm-none-eabi|libnewlib-arm-none-eabi|gcc-s390x-linux-gnu|.*-s390x-cross|libcmocka-dev|socat|mosquitto|liblwip-dev|python3-venv|gpiod|debhelper|lintian|mmdebstrap|gcc-aarch64-linux-gnu|.*-arm64-cross|chromium|chromium-driver|prometheus|nanopb|nodejs|npm)$'
 
 sh mk/deps.sh --list demo > "$tmp/demo"
 sh mk/deps.sh --list test-only | sort -u > "$tmp/test"

@@ -57,7 +57,7 @@ TEST_PKGS="libcmocka-dev gpiod \
  tshark socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
  liblwip-dev mosquitto openssl \
  debhelper lintian mmdebstrap zstd gcc-aarch64-linux-gnu libc6-dev-arm64-cross \
- chromium chromium-driver prometheus nanopb"
+ chromium chromium-driver prometheus nanopb nodejs"
 # Need `dpkg --add-architecture`: the big-endian test runtime (check-be),
 # and the packages' arm64 build dependencies (check-arm64: dpkg-buildpackage
 # -a arm64; pkgconf:arm64 is aarch64-linux-gnu-pkg-config).
@@ -116,6 +116,11 @@ pins() { # PKG...
 
 missing_of() { # SET
     for p in $(list_set "$1"); do installed "$p" || printf ' %s' "$p"; done
+    # npm (the Sparkplug tests' Eclipse Tahu host): Debian's package, unless
+    # the Node.js installed brings its own (NodeSource's conflicts with it)
+    case "$1" in test*)
+        installed npm || { installed nodejs && command -v npm >/dev/null; } || printf ' npm' ;;
+    esac
 }
 
 # The foreign architectures the packages name (s390x, arm64) that dpkg does
@@ -279,6 +284,19 @@ else
 fi
 
 [ "$set_arg" = test ] || exit 0
+
+# Eclipse Tahu's JavaScript Sparkplug packages (tests/gateway/test_sparkplug_tck.py),
+# pinned by tests/tahu/package-lock.json, into tests/tahu/node_modules.
+lock=tests/tahu/package-lock.json
+nstamp=tests/tahu/node_modules/.lock.stamp
+if [ -f "$lock" ] && ! cmp -s "$lock" "$nstamp" 2>/dev/null; then
+    say "npm ci in tests/tahu (Eclipse Tahu's sparkplug-client and sparkplug-payload, pinned)"
+    if [ -z "$dry" ]; then
+        (cd tests/tahu && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error) ||
+            { say "npm ci in tests/tahu failed (above)"; exit 1; }
+        cp "$lock" "$nstamp"
+    fi
+fi
 
 # Python test peers, pinned, in a venv under the repository.
 req=tests/requirements.txt

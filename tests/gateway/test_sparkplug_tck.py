@@ -27,8 +27,12 @@ import spb_tck
 TAHU = TOP / "tests" / "tahu"
 NODE = shutil.which("node")
 if NODE is None or not (TAHU / "node_modules" / "sparkplug-payload").is_dir():
-    pytest.skip("Eclipse Tahu's JavaScript packages are not installed in tests/tahu "
-                "(make test-deps)", allow_module_level=True)
+    # (as gwlib.skip: the banner, and under CI a failure: CI runs every check)
+    _why = "Eclipse Tahu's JavaScript packages are not installed in tests/tahu (make test-deps)"
+    print("\n%s\n### test_sparkplug_tck SKIPPED: %s\n%s" % ("#" * 67, _why, "#" * 67))
+    if os.environ.get("CI"):
+        pytest.fail("skipped in CI: " + _why, pytrace=False)
+    pytest.skip(_why, allow_module_level=True)
 
 GROUP, EDGE = "cell1", "gw1"
 NS = "spBv1.0/%s/" % GROUP
