@@ -53,6 +53,21 @@ elif command -v apt-get >/dev/null && [ -r /var/lib/dpkg/status ] && sh mk/minim
     if DEPS_ADMINDIR=$tmp/root sh mk/deps.sh --dry-run demo > "$tmp/fresh" 2>&1 &&
             grep -q '^deps: would: Inst ' "$tmp/fresh"; then
         check_plan "$tmp/fresh" "demo deps on a fresh bookworm"
+        # A user other than root gets the command to run as root; pasted,
+        # apt takes it (it read "--no-install-recommendsbuild-essential").
+        if command -v setpriv >/dev/null; then
+            chmod 755 "$tmp" "$tmp/root"; chmod 644 "$tmp/root/status"
+            hint=$(cd / && setpriv --reuid=65534 --regid=65534 --clear-groups \
+                   env DEPS_ADMINDIR="$tmp/root" sh "$OLDPWD/mk/deps.sh" demo 2>&1 >/dev/null)
+            pk=$(echo "$hint" | sed -n "s/.*apt-get install --no-install-recommends \([^']*\)'.*/\1/p")
+            # shellcheck disable=SC2086
+            if [ -n "$pk" ] && apt-get -s -q -o Dir::State::status="$tmp/root/status" \
+                    install --no-install-recommends $pk >/dev/null 2>&1; then
+                ok "not root: the hint's apt-get command is one apt takes ($(echo $pk | wc -w) packages)"
+            else
+                bad "not root: the hint is not a command apt takes: $hint"
+            fi
+        fi
     else
         bad "dry run against a minimal bookworm planned nothing: $(tail -3 "$tmp/fresh")"
     fi
