@@ -213,7 +213,7 @@ GW_TEST_CFLAGS = $(ALL_CPPFLAGS) -Igateway -Itests -Itests/gpio -DGW_TEST_TOP='"
                  $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 
-.PHONY: all lib gateway clean install uninstall check check-unit check-cli check-docs \
+.PHONY: all lib gateway clean install eds uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
         check-dep-split check-demo check-install dissector check-dissector deb check-deb \
@@ -507,7 +507,14 @@ MAN_SED     := -e 's|docs/\([A-Za-z0-9_-]*\.md\)|$(DOCDIR)/\1|g' \
                -e 's|/usr/local/share/drgate|$(DATADIR)|g' \
                -e 's|/usr/local/lib/systemd/system|$(UNITDIR)|g'
 
-install: all
+# make eds: drsim's EDS (default layout, per_assembly) from the field
+# table, by drcli eds --write; installed with drsim (docs/commissioning.md).
+EDS_FILE    := $(B)/drsim.eds
+eds: $(EDS_FILE)
+$(EDS_FILE): $(CLI_BIN)
+	$(CLI_BIN) eds --write > $@.tmp && mv $@.tmp $@
+
+install: all $(EDS_FILE)
 	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/drgate \
 	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1 \
 	    $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DATADIR)/examples \
@@ -532,6 +539,7 @@ install: all
 	    > $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	chmod 644 $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	install -m 644 $(GW_EXAMPLES) $(DESTDIR)$(DATADIR)/examples/
+	install -m 644 $(EDS_FILE) $(DESTDIR)$(DATADIR)/drsim.eds
 
 # ---- Wireshark dissector ---------------------------------------------------
 # dissector/drgate.lua is generated from the field table (drcli list
@@ -579,6 +587,7 @@ uninstall:
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/man8/,$(notdir $(wildcard man/*.8)))
 	rm -f $(DESTDIR)$(UNITDIR)/drgatewayd.service
 	rm -f $(addprefix $(DESTDIR)$(DATADIR)/examples/,$(notdir $(GW_EXAMPLES)))
+	rm -f $(DESTDIR)$(DATADIR)/drsim.eds
 	rm -f $(addprefix $(DESTDIR)$(DOCDIR)/,$(notdir $(DOCS)))
 	rm -f $(DESTDIR)$(WIRESHARK_LUADIR)/drgate.lua
 	-rmdir $(DESTDIR)$(DATADIR)/examples $(DESTDIR)$(DATADIR) $(DESTDIR)$(DOCDIR) 2>/dev/null

@@ -31,6 +31,7 @@ extern const cli_cmd_t cli_cmd_set;
 extern const cli_cmd_t cli_cmd_watch;
 extern const cli_cmd_t cli_cmd_identity;
 extern const cli_cmd_t cli_cmd_probe;
+extern const cli_cmd_t cli_cmd_eds;
 
 /* Print the full help of a command on stdout; the line CLI_NET_HELP in it
  * becomes the text of the network options. */

@@ -32,6 +32,7 @@ static const cli_cmd_t *const commands[] = {
     &cli_cmd_watch,
     &cli_cmd_identity,
     &cli_cmd_probe,
+    &cli_cmd_eds,
 };
 #define NCOMMANDS (sizeof commands / sizeof commands[0])
 

@@ -290,22 +290,11 @@ static void print_point(const char *what, const probe_row_t *r)
 /* A [robot] section for drgatewayd with what the probe found. */
 static void print_section(const cli_net_t *net, const probe_layout_t *pl)
 {
-    printf("\n; for drgatewayd's configuration (docs/commissioning.md)\n[robot arm1]\n");
-    printf("host = %s\n", net->host);
-    if (net->tcp_port != DR_ENIP_TCP_PORT)
-        printf("tcp_port = %u\n", (unsigned)net->tcp_port);
-    printf("layout = %s\n", dr_layout_name(pl->kind));
-    if (pl->kind == DR_LAYOUT_PER_ASSEMBLY) {
-        for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
-            uint16_t inst = dr_client_instance(net->client, (dr_asm_t)a);
-            if (inst != DR_ASM_DEFAULT_INSTANCE(a))
-                printf("instance.%s = %u\n", dr_asm_info((dr_asm_t)a)->name, (unsigned)inst);
-        }
-        return;
-    }
-    printf("input_instance = %u\ninput_size = %d\n", (unsigned)pl->in.instance, pl->in.size);
-    printf("output_instance = %u\noutput_size = %d\n", (unsigned)pl->out.instance,
-           pl->out.size);
+    uint16_t inst[DR_ASM_COUNT];
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        inst[a] = dr_client_instance(net->client, (dr_asm_t)a);
+    cli_print_robot_section(net->host, net->tcp_port, pl->kind, inst, pl->in.instance,
+                            pl->in.size, pl->out.instance, pl->out.size);
 }
 
 static void print_probe(const probe_row_t *rows, const char *ident, unsigned good)

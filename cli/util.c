@@ -8,6 +8,8 @@
 
 #include "error.h"
 #include "util.h"
+
+#include "drgate/enip.h"
 #include "drgate/text.h"
 
 /* ---- assemblies ----------------------------------------------------------- */
@@ -281,4 +283,24 @@ void cli_print_raw(const uint8_t *img, size_t len)
         cli_hex_string(img + at, n, hex, sizeof hex);
         printf("  %4zu: %s\n", at, hex);
     }
+}
+
+void cli_print_robot_section(const char *host, uint16_t tcp_port, dr_layout_kind_t kind,
+                             const uint16_t *inst, unsigned in_instance, int in_size,
+                             unsigned out_instance, int out_size)
+{
+    printf("\n; for drgatewayd's configuration (docs/commissioning.md)\n[robot arm1]\n");
+    printf("host = %s\n", host);
+    if (tcp_port != DR_ENIP_TCP_PORT)
+        printf("tcp_port = %u\n", (unsigned)tcp_port);
+    printf("layout = %s\n", dr_layout_name(kind));
+    if (kind == DR_LAYOUT_PER_ASSEMBLY) {
+        for (unsigned a = 0; inst != NULL && a < DR_ASM_COUNT; a++)
+            if (inst[a] != DR_ASM_DEFAULT_INSTANCE(a))
+                printf("instance.%s = %u\n", dr_asm_info((dr_asm_t)a)->name,
+                       (unsigned)inst[a]);
+        return;
+    }
+    printf("input_instance = %u\ninput_size = %d\n", in_instance, in_size);
+    printf("output_instance = %u\noutput_size = %d\n", out_instance, out_size);
 }

@@ -14,6 +14,7 @@
 #include <jansson.h>
 
 #include "drgate/codec.h"
+#include "drgate/layout.h"
 
 /* ---- assemblies, values --------------------------------------------------- */
 
@@ -89,5 +90,13 @@ void cli_hex_string(const uint8_t *buf, size_t len, char *out, size_t size);
 /* An image as hex, 16 bytes a line, each line led by the decimal offset of
  * its first byte (as `drcli list` gives offsets) and indented. */
 void cli_print_raw(const uint8_t *img, size_t len);
+
+/* Print a [robot] section for drgatewayd's configuration (drcli probe,
+ * drcli eds): a comment line, the header, host (tcp_port when not 44818),
+ * the layout; per_assembly: the instances of inst[] (NULL: all 101..110)
+ * that are not the defaults; combined and gpr_only: the two points. */
+void cli_print_robot_section(const char *host, uint16_t tcp_port, dr_layout_kind_t kind,
+                             const uint16_t *inst, unsigned in_instance, int in_size,
+                             unsigned out_instance, int out_size);
 
 #endif /* DRCLI_UTIL_H */

@@ -64,6 +64,7 @@ else
     for f in /usr/bin/drgatewayd /usr/bin/drcli /usr/bin/drsim /etc/drgate/drgatewayd.ini \
              /usr/lib/systemd/system/drgatewayd.service /usr/share/doc/drgate/deployment.md \
              /usr/share/man/man8/drgatewayd.8.gz /usr/share/drgate/examples/minimal.ini \
+             /usr/share/drgate/drsim.eds \
              /usr/include/drgate/codec.h; do
         [ -e "$root$f" ] || missing="${missing:-} $f"
     done

@@ -122,6 +122,19 @@ t err_hexodd     'printf "000\n" | "$DRCLI" decode --hex io_control'
 t err_nofile     '"$DRCLI" decode io_control no-such-file'
 t err_decode_use '"$DRCLI" decode io_control a b'
 
+# ---- eds -----------------------------------------------------------------------
+# A vendor-style EDS (one input, one output, a configuration assembly, RPI
+# limits) into its plan; malformed ones refused with FILE:LINE; drsim's
+# EDS written and read back.
+cp "$here"/eds/*.eds "$tmp/work/"
+t eds_vendor      '"$DRCLI" eds -H 192.168.137.100 vendor_robot.eds'
+t eds_malformed   '"$DRCLI" eds malformed.eds'
+t eds_unclosed    '"$DRCLI" eds unclosed.eds'
+t eds_roundtrip   '"$DRCLI" eds --write > drsim.eds && "$DRCLI" eds drsim.eds'
+t eds_combined    '"$DRCLI" eds --write --layout combined > c.eds && "$DRCLI" eds c.eds | tail -9'
+t eds_gpr_only    '"$DRCLI" eds --write --layout gpr_only > g.eds && "$DRCLI" eds g.eds | tail -9'
+t eds_bad_layout  '"$DRCLI" eds --write --layout nope'
+
 # ---- independent cross-check -------------------------------------------------
 if [ "$update" = 0 ]; then
     if command -v python3 >/dev/null 2>&1; then
@@ -131,6 +144,12 @@ if [ "$update" = 0 ]; then
     fi
 fi
 
+# drsim's EDS read by eds_pie (an independent parser, tests/requirements.txt)
+if [ "$update" = 0 ]; then
+    py=$here/../../.venv/bin/python3
+    [ -x "$py" ] || py=python3
+    check eds_pie "'$py' '$here/eds_check.py' '$DRCLI'"
+fi
 if [ "$update" = 1 ]; then
     echo "golden files rewritten in $golden; review with git diff"
     exit 0
