@@ -8,7 +8,7 @@
 #   make fuzz-corpus   regenerate fuzz/corpus/ from the library's builders
 
 FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
-                      sim_request cli usermap sparkplug http
+                      sim_request cli usermap sparkplug http eds
 FUZZ_SECONDS       ?= 60
 # make check runs every harness this long: 10 x 7 s, two at a time
 # (FUZZ_JOBS, fuzz/run-fuzz.sh), keeps check-fuzz,
@@ -61,6 +61,8 @@ FUZZ_SRC_http        := gateway/http/auth.c gateway/http/request.c gateway/http/
 FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
                         $(filter-out $(FUZZ_LIB_SRC),$(LIB_SRC))
 FUZZ_LIBS_cli        := $(JSON_LIBS)
+# drcli's EDS reader alone (no I/O, no jansson).
+FUZZ_SRC_eds         := cli/eds.c
 # Every harness and every object gets all the packages' flags: they only
 # add include directories.
 FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(JSON_CFLAGS)

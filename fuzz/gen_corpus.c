@@ -712,8 +712,10 @@ static void gen_modbus(void)
 
 /* ---- fuzz_config: the example files and a few of our own ---------------- */
 
-static void copy_dir(const char *target, const char *dir, const char *prefix)
+/* Every DIR/NAME.EXT as seed PREFIXNAME of `target`. */
+static void copy_dir(const char *target, const char *dir, const char *prefix, const char *ext)
 {
+    size_t el = strlen(ext);
     DIR *d = opendir(dir);
     if (d == NULL) {
         perror(dir);
@@ -723,7 +725,8 @@ static void copy_dir(const char *target, const char *dir, const char *prefix)
     struct dirent *e;
     while ((e = readdir(d)) != NULL) {
         size_t len = strlen(e->d_name);
-        if (len < 5 || strcmp(e->d_name + len - 4, ".ini") != 0)
+        if (len < el + 2 || e->d_name[len - el - 1] != '.' ||
+            strcmp(e->d_name + len - el, ext) != 0)
             continue;
         char path[512], name[300];
         static uint8_t data[65536];
@@ -734,7 +737,7 @@ static void copy_dir(const char *target, const char *dir, const char *prefix)
             perror(path);
             failed = 1;
         } else {
-            snprintf(name, sizeof name, "%s%.*s", prefix, (int)(len - 4), e->d_name);
+            snprintf(name, sizeof name, "%s%.*s", prefix, (int)(len - el - 1), e->d_name);
             put(target, name, data, n);
         }
         if (f != NULL)
@@ -745,8 +748,8 @@ static void copy_dir(const char *target, const char *dir, const char *prefix)
 
 static void gen_config(void)
 {
-    copy_dir("config", "gateway/examples", "example_");
-    copy_dir("config", "tests/gw_config", "test_");
+    copy_dir("config", "gateway/examples", "example_", "ini");
+    copy_dir("config", "tests/gw_config", "test_", "ini");
     const struct {
         const char *name, *text;
     } s[] = {
@@ -1107,6 +1110,14 @@ static void gen_sparkplug(void)
     put("sparkplug", "state_offline", (const uint8_t *)state_off, sizeof state_off - 1);
 }
 
+/* ---- fuzz_eds: the test EDS files (the first byte sizes the error
+ * buffer) ---------------------------------------------------------------- */
+
+static void gen_eds(void)
+{
+    copy_dir("eds", "tests/cli/eds", "", "eds");
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1)
@@ -1124,5 +1135,6 @@ int main(int argc, char **argv)
     gen_sim_request();
     gen_cli();
     gen_sparkplug();
+    gen_eds();
     return failed;
 }
