@@ -21,7 +21,7 @@ FUZZ_SAN           := -g -O1 -fno-sanitize-recover=all -fno-omit-frame-pointer \
 FUZZ_FLAGS         := -fsanitize=fuzzer,address,undefined $(FUZZ_SAN)
 # Only what the harnesses call: other lib/ files in progress cannot break it.
 # Compiled once (instrumented, no libFuzzer main) for all the harnesses.
-FUZZ_LIB_SRC       := lib/cip.c lib/text.c $(LIB_CODEC_SRC)
+FUZZ_LIB_SRC       := lib/cip.c lib/text.c lib/layout.c $(LIB_CODEC_SRC)
 FUZZ_LIB_OBJ       := $(FUZZ_LIB_SRC:%.c=$(FUZZ_DIR)/obj/%.o)
 FUZZ_BIN           := $(FUZZ_TARGETS:%=$(FUZZ_DIR)/fuzz_%)
 FUZZ_REPLAY_BIN    := $(FUZZ_TARGETS:%=$(B)/fuzz-replay/fuzz_%)
