@@ -2,8 +2,9 @@
 /*
  * What spans sections, checked once the whole file is read
  * (config_internal.h): robots against each other (the sides' keys of
- * them, addresses). The sides check theirs in their config_NAME.c (GPIO lines and serial
- * lines against the robots they name, ...). Each table has already
+ * them through their `pair`, then addresses). The sides check theirs in
+ * their config_NAME.c (GPIO lines and serial lines against the robots
+ * they name, ...). Each table has already
  * checked every value; the first error wins, in the sections' rank order.
  */
 #include "core/config_internal.h"
