@@ -50,7 +50,7 @@ static bool same_config(const gw_config_t *a, const gw_config_t *b)
     for (unsigned i = 0; same && i < a->robot_count; i++) {
         const gw_robot_config_t *x = &a->robot[i], *y = &b->robot[i];
         same = strcmp(x->name, y->name) == 0 && gw_robot_config_same_link(x, y) &&
-               x->unit_id == y->unit_id && x->fallback_hold == y->fallback_hold &&
+               x->side.modbus.unit_id == y->side.modbus.unit_id && x->side.modbus.fallback_hold == y->side.modbus.fallback_hold &&
                x->line == y->line;
     }
     for (unsigned i = 0; same && i < a->side.gpio.count; i++) {
@@ -143,7 +143,7 @@ static void check_config(const gw_config_t *c)
         FUZZ_CHECK(terminated(r->name, sizeof r->name) && r->name[0] != '\0');
         FUZZ_CHECK(terminated(r->host, sizeof r->host) && r->host[0] != '\0');
         FUZZ_CHECK(terminated(r->local_addr, sizeof r->local_addr));
-        FUZZ_CHECK(r->unit_id >= 1 && r->unit_id <= 247);
+        FUZZ_CHECK(r->side.modbus.unit_id >= 1 && r->side.modbus.unit_id <= 247);
         FUZZ_CHECK(r->timeout_mult <= 7);
         FUZZ_CHECK((unsigned)r->mode <= GW_MODE_EXPLICIT);
         FUZZ_CHECK(r->line >= 1);
@@ -151,7 +151,7 @@ static void check_config(const gw_config_t *c)
             for (unsigned b = a + 1; b < DR_ASM_COUNT; b++)
                 FUZZ_CHECK(r->instance[a] != r->instance[b]);
         for (unsigned j = 0; j < i; j++) {
-            FUZZ_CHECK(c->robot[j].unit_id != r->unit_id);
+            FUZZ_CHECK(c->robot[j].side.modbus.unit_id != r->side.modbus.unit_id);
             FUZZ_CHECK(strcmp(c->robot[j].name, r->name) != 0);
         }
         FUZZ_CHECK(gw_robot_config_same_link(r, r));

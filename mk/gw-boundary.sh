@@ -61,11 +61,18 @@ fi
 # the side list gateway/sides.h, the only file that names them all. And a
 # side does not reach into another side's folder but for the Modbus
 # register map's own users (regmap.h is Modbus's); the console
-# (gateway/http/) includes no other side's header.
+# (gateway/http/) includes no other side's header. Nor does the core name a
+# side's keys of [robot NAME] or their types (the Modbus side's unit_id,
+# unit_id_alias, map, default_map_writes, fallback, gw_umap_t: its
+# gw_modbus_robot_config_t, in the robot's side.modbus), nor reach into a
+# side's member of a robot or of the configuration (->modbus, .modbus).
 slabel="gateway side boundary (core knows sides only through north.h and sides.h)"
 sfail=0
 sides=$(cd "$top/gateway" && for d in */; do d=${d%/}; [ "$d" = core ] || [ "$d" = examples ] || printf '%s\n' "$d"; done)
 sides_re=$(printf '%s\n' $sides | paste -sd'|' -)
+# the Modbus side's keys of [robot NAME] (as names or as quoted key names)
+# and its per-robot types
+rkeys='\b(unit_id|alias0|alias255|fallback_hold|default_map_writes)\b|"(unit_id|unit_id_alias|map|default_map_writes|fallback)"|\bgw_umap_|\bGW_UMAP_|\bGW_MAX_MAP\b|\bGW_VIEW_|\bgw_view_t\b'
 for f in "$top"/gateway/core/*.[ch]; do
     rel=${f#"$top"/}
     code=$("$cc" -fpreprocessed -dD -E -P -x c "$f" 2>/dev/null) || {
@@ -74,6 +81,8 @@ for f in "$top"/gateway/core/*.[ch]; do
     if [ -n "$hit" ]; then echo "$slabel: $rel includes a side's header:"; echo "$hit"; sfail=1; fi
     hit=$(printf '%s\n' "$code" | grep -nE "gw_north_($sides_re)\b|gw_side_cfg_($sides_re)\b|gw_cfg_($sides_re)\b")
     if [ -n "$hit" ]; then echo "$slabel: $rel names a side:"; echo "$hit"; sfail=1; fi
+    hit=$(printf '%s\n' "$code" | grep -nE "$rkeys|(->|\.)($sides_re)\b|gw_($sides_re)_(side_|robot_)?config_t")
+    if [ -n "$hit" ]; then echo "$slabel: $rel names a side's robot keys or members:"; echo "$hit"; sfail=1; fi
 done
 # Within the list: every side folder, once each, and nothing else.
 listed=$("$cc" -fpreprocessed -dD -E -P -x c "$top/gateway/sides.h" 2>/dev/null |

@@ -39,6 +39,7 @@ const gw_side_cfg_t *const gw_side_cfgs[GW_SIDE_COUNT] = {
 unsigned gw_cfg_all_sections(const gw_cfg_side_t **out)
 {
     unsigned n = 0;
+    gw_cfg_robot_merge();
     out[n++] = &gw_cfg_daemon;
     out[n++] = &gw_cfg_robot;
     for (unsigned j = 0; j < GW_SIDE_COUNT; j++)
@@ -937,6 +938,16 @@ const char *gw_config_brief(const gw_config_t *cfg)
         if (gw_side_cfgs[j]->brief != NULL)
             gw_side_cfgs[j]->brief(cfg, text, sizeof text);
     return text;
+}
+
+const char *gw_config_robot_brief(const gw_robot_config_t *r, char *buf, size_t size)
+{
+    if (size > 0)
+        buf[0] = '\0';
+    for (unsigned j = 0; j < GW_SIDE_COUNT; j++)
+        if (gw_side_cfgs[j]->robot_brief != NULL)
+            gw_side_cfgs[j]->robot_brief(r, buf, size);
+    return buf;
 }
 
 bool gw_config_keeps_log(const gw_config_t *cfg)

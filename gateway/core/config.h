@@ -39,41 +39,17 @@ typedef struct {
     int o2t; /* owner: the O->T dr_asm_t; else -1 */
 } gw_open_t;
 
-/* A user register map (docs/register-map.md "Your own map"): `map` lines
- * of [robot NAME], each a block of consecutive addresses in one table
- * serving one field (or a range of its elements) through a view. The
- * parser and the checks: gateway/modbus/usermap.c; serving: regmap.c. */
-#define GW_MAX_MAP 64u
-/* The tables, in gw_area_t's order (regmap.h). */
-typedef enum { GW_UMAP_CO = 0, GW_UMAP_DI, GW_UMAP_HR, GW_UMAP_IR, GW_UMAP_TABLES } gw_umap_table_t;
-typedef enum {
-    GW_VIEW_BIT = 0, /* coils / discrete inputs: one bit per element */
-    GW_VIEW_REAL,    /* REAL: 2 registers per element, the word order */
-    GW_VIEW_DINT,    /* DINT: 2 registers per element, the word order */
-    GW_VIEW_INT16,   /* any number x scale, rounded half away from zero */
-    GW_VIEW_UINT16,  /* BIT/USINT/ENUM as is; DINT: one half (lo/hi) */
-    GW_VIEW_BITS     /* BIT/BITS elements packed 16 per register */
-} gw_view_t;
+/* The sides' structs (gateway/sides.h): each side's configuration header
+ * gives its member of gw_config_t and its member of a robot's. */
+#include "sides.h"
 
+/* What each side keeps of one robot (its keys of [robot NAME]), one
+ * member per side, laid out by the side list. */
+#define GW_SIDE_ROBOT_MEMBER(name) gw_##name##_robot_config_t name;
 typedef struct {
-    uint8_t table;     /* gw_umap_table_t */
-    uint8_t view;      /* gw_view_t */
-    bool writable;     /* the entry says so (O->T fields in HR/coils only) */
-    bool saturate;     /* INT16: clamping is expected */
-    uint8_t half;      /* UINT16 of a DINT: 0 low half, 1 high half */
-    uint16_t field;    /* index into dr_field_table */
-    uint16_t elem;     /* first element (0-based) */
-    uint16_t count;    /* elements */
-    uint16_t scale;    /* INT16: the factor (1..10000) */
-    uint16_t addr;     /* first address (0-based PDU address) */
-    uint32_t size;     /* addresses taken (addr + size <= 65536) */
-    unsigned line;     /* where it was written, for messages */
-} gw_umap_entry_t;
-
-typedef struct {
-    unsigned count;
-    gw_umap_entry_t entry[GW_MAX_MAP]; /* sorted by table, then address */
-} gw_umap_t;
+    GW_SIDES(GW_SIDE_ROBOT_MEMBER)
+} gw_robot_sides_config_t;
+#undef GW_SIDE_ROBOT_MEMBER
 
 typedef struct {
     char name[GW_NAME_MAX];   /* section name */
@@ -82,8 +58,6 @@ typedef struct {
     uint16_t udp_port;        /* robot's Class 1 port, default 2222 */
     char local_addr[64];      /* local UDP address, "" = any */
     uint16_t local_udp_port;  /* default 2222 */
-    uint8_t unit_id;          /* Modbus unit ID, 1..247, unique */
-    bool alias0, alias255;    /* unit_id_alias: also answers to 0 / 255 */
     gw_robot_mode_t mode;     /* default implicit */
     uint32_t rpi_ms;          /* default 10 (implicit) / poll period (explicit) */
     uint8_t timeout_mult;     /* code 0..7, default 2 */
@@ -109,9 +83,6 @@ typedef struct {
      * all GW_OPEN_NONE. Sizes equal their assemblies' sum (checked). */
     dr_layout_kind_t layout;
     dr_point_t input, output;
-    /* O->T image applied when the single writer's watchdog expires:
-     * "zero" (default) or "hold". */
-    bool fallback_hold;
     /* implicit: O->T only on its own timer ("strict"), or also sent with
      * an arriving T->O packet when due within a quarter RPI ("follow",
      * default): one wake-up per RPI instead of two. */
@@ -121,17 +92,11 @@ typedef struct {
      * host name) and the section name, the same at every start, so that
      * a restarted gateway may take its connections back (issue 19). */
     uint32_t originator_serial;
-    gw_umap_t map;            /* `map` lines: the user's register map */
-    bool default_map_writes;  /* default yes; no: the default map's robot
-                                 data is read-only over Modbus */
     unsigned line;            /* where the section starts, for messages */
+    /* The sides' keys of this robot: each reads its own member, named as
+     * in gateway/sides.h (its config_NAME.h: gw_NAME_robot_config_t). */
+    gw_robot_sides_config_t side;
 } gw_robot_config_t;
-
-
-
-
-/* The sides' structs, one member each, laid out by the side list. */
-#include "sides.h"
 
 #define GW_SIDE_CONFIG_MEMBER(name) gw_##name##_side_config_t name;
 typedef struct {
@@ -171,6 +136,12 @@ typedef struct {
     void (*brief)(const gw_config_t *cfg, char *buf, size_t size);
     /* Whether it shows the log (the console): the ring keeps it. */
     bool (*keeps_log)(const gw_config_t *cfg);
+    /* Its keys of [robot NAME] (config_internal.h), read into its member
+     * of gw_robot_config_t.side; NULL: none. */
+    const struct gw_cfg_robot_keys *robot;
+    /* What the link's "connecting" line says of robot r, appended to
+     * buf: ", unit ID 1". */
+    void (*robot_brief)(const gw_robot_config_t *r, char *buf, size_t size);
 } gw_side_cfg_t;
 
 #define GW_SIDE_CFG_DECL(name) extern const gw_side_cfg_t gw_side_cfg_##name;
@@ -182,6 +153,9 @@ extern const gw_side_cfg_t *const gw_side_cfgs[];
 
 /* "2 robot(s), 3 GPIO line(s)": the robots, then each side's brief. */
 const char *gw_config_brief(const gw_config_t *cfg);
+/* What the sides say of robot r (robot_brief), into buf: "" or
+ * ", unit ID 1". */
+const char *gw_config_robot_brief(const gw_robot_config_t *r, char *buf, size_t size);
 /* Does a side show the log (keeps_log)? */
 bool gw_config_keeps_log(const gw_config_t *cfg);
 

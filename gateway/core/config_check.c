@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * What spans sections, checked once the whole file is read
- * (config_internal.h): robots against each other (unit IDs, addresses).
- * The sides check theirs in their config_NAME.c (GPIO lines and serial
- * lines against the robots they name, ...). Each table has already
+ * (config_internal.h): robots against each other (the sides' keys of
+ * them through their `pair`, then addresses). The sides check theirs in
+ * their config_NAME.c (GPIO lines and serial lines against the robots
+ * they name, ...). Each table has already
  * checked every value; the first error wins, in the sections' rank order.
  */
 #include "core/config_internal.h"
@@ -17,31 +18,18 @@ unsigned gw_cfg_line_or(unsigned key_line, unsigned section_line)
 
 /* ---- robots ------------------------------------------------------------------ */
 
-/* Robot i against the robots before it: its own unit ID and address. */
+/* Robot i against the robots before it: the sides' keys (a Modbus unit
+ * ID, ...: gw_cfg_robot_keys_t.pair), then its address. */
 static bool robot_unique(gw_cfg_ctx_t *c, unsigned i)
 {
     const gw_cfg_side_t *s = &gw_cfg_robot;
     const gw_robot_config_t *r = &c->cfg.robot[i];
     for (unsigned j = 0; j < i; j++) {
         const gw_robot_config_t *o = &c->cfg.robot[j];
-        unsigned unit_line = gw_cfg_line(c, s, i, "unit_id");
-        if (o->unit_id == r->unit_id) {
-            gw_cfg_fail(c, gw_cfg_line_or(unit_line, r->line),
-                        "robot '%s': unit_id %u%s already used by robot '%s' "
-                        "(line %u; each robot needs its own unit_id, allowed: "
-                        "1..247)",
-                        r->name, (unsigned)r->unit_id,
-                        unit_line ? "" : " (the default)", o->name,
-                        gw_cfg_line_or(gw_cfg_line(c, s, j, "unit_id"), o->line));
-            return false;
-        }
-        if ((o->alias0 && r->alias0) || (o->alias255 && r->alias255)) {
-            gw_cfg_fail(c, gw_cfg_line_or(gw_cfg_line(c, s, i, "unit_id_alias"), r->line),
-                        "robot '%s': unit_id_alias %u is already robot '%s''s "
-                        "(line %u; one robot per alias)",
-                        r->name, o->alias0 && r->alias0 ? 0u : 255u, o->name,
-                        gw_cfg_line_or(gw_cfg_line(c, s, j, "unit_id_alias"), o->line));
-            return false;
+        for (unsigned k = 0; k < GW_SIDE_COUNT; k++) {
+            const gw_cfg_robot_keys_t *rk = gw_side_cfgs[k]->robot;
+            if (rk != NULL && rk->pair != NULL && !rk->pair(c, i, j))
+                return false;
         }
         if (strcmp(o->host, r->host) == 0 && o->tcp_port == r->tcp_port) {
             gw_cfg_fail(c, gw_cfg_line_or(gw_cfg_line(c, s, i, "host"), r->line),

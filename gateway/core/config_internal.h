@@ -17,16 +17,18 @@
  *                    [daemon]
  *   config_ini.c     reading the file through libinih (its workarounds)
  *   config_check.c   the robots against each other, once the file is read
- *   config_robot.c   [robot NAME] (core): table, instance.* and open.*
+ *   config_robot.c   [robot NAME] (core): table, instance.* and open.*,
+ *                    and the sides' keys of it merged into the table
  *   NAME/config_NAME.c  each side's sections, keys and whole-file checks:
- *                    modbus/ [modbus] and [modbus_rtu NAME] (and [robot
- *                    NAME]'s unit_id_alias and map lines), gpio/ [gpio
+ *                    modbus/ [modbus] and [modbus_rtu NAME] (and its keys
+ *                    of [robot NAME]: gw_cfg_robot_keys_t), gpio/ [gpio
  *                    NAME], mqtt/ [mqtt], http/ [http]
  *   config_doc.c     the docs' key tables, printed from the tables
  *
  * A new key is one line in its side's table. A new side's sections are
  * its gw_cfg_side_t's, listed in its gw_side_cfg_NAME (config_NAME.c,
- * config.h), which the side list brings here: nothing in core/ changes.
+ * config.h), which the side list brings here, and its keys of [robot
+ * NAME] its gw_cfg_robot_keys_t (.robot): nothing in core/ changes.
  */
 #ifndef DRGATE_GW_CONFIG_INTERNAL_H
 #define DRGATE_GW_CONFIG_INTERNAL_H
@@ -91,6 +93,11 @@ struct gw_cfg_key {
     const char *doc_default;  /* docs: when not the plain default value */
     const char *doc_allowed;  /* docs: when not `allowed` */
     const char *help;         /* docs: what the key does (Markdown) */
+    /* A side's key of [robot NAME] (gw_cfg_robot_keys_t): the core's key
+     * it comes after in "allowed:" lists, did-you-mean and the docs (a
+     * side's keys after one core key keep their table's order; NULL or
+     * a name the core does not have: after the core's plain keys). */
+    const char *after;
 };
 
 /* The value `m` of section struct T: .off and .size of a key. */
@@ -136,8 +143,23 @@ struct gw_cfg_side {
 /* A side's key table. */
 #define GW_CFG_KEYS(table) .keys = (table), .nkeys = GW_CFG_COUNT(table)
 
-/* The core's sections. */
-extern const gw_cfg_side_t gw_cfg_daemon, gw_cfg_robot;
+/* A side's keys of [robot NAME] (gw_side_cfg_t.robot). Their values are
+ * in the side's member of the robot's struct: GW_CFG_AT(gw_robot_config_t,
+ * side.NAME.m); a hook's `sec` is the robot's gw_robot_config_t. */
+typedef struct gw_cfg_robot_keys {
+    const gw_cfg_key_t *keys;
+    unsigned nkeys;
+    /* Robot i against robot j (j < i), once the whole file is read and
+     * robot i's own keys are checked, before the core's address check;
+     * false after the message. */
+    bool (*pair)(gw_cfg_ctx_t *c, unsigned i, unsigned j);
+} gw_cfg_robot_keys_t;
+
+/* The core's sections. [robot NAME]'s key table is the core's keys with
+ * the sides' merged in (gw_cfg_all_sections does it, once). */
+extern const gw_cfg_side_t gw_cfg_daemon;
+extern gw_cfg_side_t gw_cfg_robot;
+void gw_cfg_robot_merge(void);
 
 /* Every section, the core's and the sides', in rank order, into
  * out[GW_CFG_MAX_SECTIONS]; how many. */
@@ -261,11 +283,6 @@ unsigned gw_cfg_line_or(unsigned key_line, unsigned section_line);
 
 /* Robot i's instances and connection plan; false after the message. */
 bool gw_cfg_robot_check(gw_cfg_ctx_t *c, unsigned i);
-
-/* ---- config_modbus.c: [robot NAME]'s Modbus keys ------------------------- */
-
-/* unit_id_alias, and a `map` line (modbus/usermap.c parses and checks). */
-gw_cfg_parse_fn gw_cfg_robot_alias, gw_cfg_robot_map;
 
 /* ---- config_doc.c --------------------------------------------------------- */
 

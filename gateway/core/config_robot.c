@@ -3,6 +3,8 @@
  * [robot NAME] (the core): its keys, the instance.* and open.* families,
  * the defaults of the connection plan, and the checks of one robot's own
  * keys (config_internal.h; robots against each other: config_check.c).
+ * The sides' keys of [robot NAME] (gw_side_cfg_t.robot) are merged into
+ * its table here, each where its `after` says.
  */
 #include "core/config_internal.h"
 
@@ -24,18 +26,11 @@ static const gw_cfg_key_t robot_keys[] = {
     { .name = "udp_port", .type = GW_CFG_UINT, .flags = LINK, R(udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "the robot's Class 1 (implicit I/O) UDP port" },
     { .name = "local_address", .type = GW_CFG_IPV4, .flags = LINK, R(local_addr), .allowed = "an IPv4 address", .doc_default = "any", .help = "local address for the Class 1 UDP socket" },
     { .name = "local_udp_port", .type = GW_CFG_UINT, .flags = LINK, R(local_udp_port), .lo = 1, .hi = 65535, .def = 2222, .help = "local Class 1 UDP port. If another program has it (`cannot open UDP 0.0.0.0:2222 for Class 1 I/O: address already in use`), set `local_address` to another address of this host or `local_udp_port` to a free port (the robot is told where to send in the Forward Open)" },
-    /* 0 is broadcast, 248..255 reserved (Modbus spec 4.1) */
-    { .name = "unit_id", .type = GW_CFG_UINT, R(unit_id), .lo = 1, .hi = 247, .def = 1, .doc_allowed = "1..247, unique across robots", .help = "Modbus unit ID under which this robot's registers are served" },
-    /* the Modbus side's (config_modbus.c) */
-    { .name = "unit_id_alias", .type = GW_CFG_HOOK, .parse = gw_cfg_robot_alias, .allowed = "0, 255, 0,255 or none", .doc_default = "none", .doc_allowed = "`0`, `255`, `0,255`, `none`; one robot per alias", .help = "unit IDs this robot answers to besides `unit_id`: 0 and 255 are what many PLCs and HMIs send by default (a request with another unit ID gets exception 0x0A, logged once per client)" },
-    { .name = "map", .type = GW_CFG_HOOK, .flags = GW_CFG_LIST, .parse = gw_cfg_robot_map, .allowed = "TABLE ADDRESS PATH[a..b] VIEW [writable] [saturate] [scale=N] [lo|hi]", .doc_default = "(none: the default map alone)", .doc_allowed = "`TABLE ADDRESS PATH[a..b] VIEW [options]`, repeatable, at most 64", .help = "a block of this robot's own register map, at addresses the default map leaves free: see [Your own map](register-map.md#your-own-map)" },
-    { .name = "default_map_writes", .type = GW_CFG_BOOL, R(default_map_writes), .def = 1, .help = "`no`: Modbus cannot write the robot's data through the default map (exception 0x02; its control registers HR 0-1 stay writable), so that the `writable` blocks of the robot's own map are all a PLC may write" },
     { .name = "mode", .type = GW_CFG_ENUM, .flags = LINK, R(mode), GW_CFG_NAMES("implicit", "explicit"), .def = GW_MODE_IMPLICIT, .help = "`implicit`: Class 1 connections exchanging data every `rpi_ms`. `explicit`: cyclic Get/Set_Attribute_Single over TCP every `rpi_ms` (for networks that block UDP 2222)" },
     { .name = "rpi_ms", .type = GW_CFG_UINT, .flags = LINK, R(rpi_ms), .lo = 1, .hi = 10000, .def = 10, .help = "implicit: requested packet interval. Explicit: poll period" },
     /* CIP's code: timeout = RPI x (4 << code) */
     { .name = "timeout_multiplier", .type = GW_CFG_UINT, .flags = LINK, R(timeout_mult), .lo = 0, .hi = 7, .def = 2, .help = "implicit: the connection times out after `rpi_ms × (4 << code)`, that is ×4, ×8, ×16 (default), ×32, ×64, ×128, ×256, ×512" },
     { .name = "timeout_ms", .type = GW_CFG_UINT, .flags = LINK, R(timeout_ms), .lo = 10, .hi = 60000, .def = 1000, .help = "explicit request timeout" },
-    { .name = "fallback", .type = GW_CFG_ENUM, R(fallback_hold), GW_CFG_NAMES("zero", "hold"), .help = "O->T image sent when the single writer's watchdog expires: all zeros, or the last values written" },
     { .name = "o2t_timing", .type = GW_CFG_ENUM, .flags = LINK, R(o2t_strict), GW_CFG_NAMES("follow", "strict"), .help = "implicit: when O->T packets go out. `strict`: on the gateway's own timer, every `rpi_ms`. `follow`: an O->T packet due within a quarter of `rpi_ms` is sent as soon as the robot's T->O packet of that connection arrives, so the gateway wakes up once per RPI instead of twice (about a third less CPU); a packet leaves at most a quarter RPI before its time, two packets of a connection are never closer than three quarters of an RPI, and the rate never exceeds one packet per RPI; when the arrivals drift out of that window (the robot's clock runs a little slow or fast, as every real clock does) the O->T schedule moves later to follow them, by at most an eighth of an RPI per period (intervals a little longer, never shorter): no interval is longer than 1.25 RPI (a packet a quarter RPI early, the next on its time)" },
     { .name = "config_instance", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(config_instance), .lo = 1, .hi = 65535, .def = 1, .help = "configuration instance (connection point) in every Forward Open; see [Connection plan](#connection-plan)" },
     { .name = "input_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(input_only_heartbeat), .lo = 1, .hi = 65535, .def = 198, .help = "O->T connection point of input-only connections" },
@@ -64,16 +59,63 @@ typedef struct {
 
 static void robot_defaults(void *sec);
 
-const gw_cfg_side_t gw_cfg_robot = {
+/* The core's keys and the sides' (gw_cfg_robot_merge): the table the
+ * loader, its messages and the docs read. */
+static gw_cfg_key_t robot_all[GW_CFG_MAX_KEYS];
+
+gw_cfg_side_t gw_cfg_robot = {
     .kw = "robot",
     .rank = 30,
     GW_CFG_NAMED(robot, robot_count, gw_robot_config_t),
     .lone_name = "robot",
-    GW_CFG_KEYS(robot_keys),
+    GW_CFG_KEYS(robot_keys), /* until gw_cfg_robot_merge */
     .scratch = sizeof(robot_lines_t),
     .defaults = robot_defaults,
     .check = gw_cfg_check_robots,
 };
+
+/* The sides' keys that come after core key `after` (NULL: those whose
+ * `after` is NULL or names no core key) appended to robot_all[*n]. */
+static void merge_after(const char *after, unsigned *n)
+{
+    for (unsigned j = 0; j < GW_SIDE_COUNT; j++) {
+        const gw_cfg_robot_keys_t *rk = gw_side_cfgs[j]->robot;
+        for (unsigned k = 0; rk != NULL && k < rk->nkeys; k++) {
+            const char *a = rk->keys[k].after;
+            bool known = false;
+            for (unsigned i = 0; a != NULL && i < GW_CFG_COUNT(robot_keys); i++)
+                known |= strcmp(robot_keys[i].name, a) == 0;
+            bool here = after != NULL ? known && strcmp(a, after) == 0 : !known;
+            /* past GW_CFG_MAX_KEYS a key is left out (test_gw_config.c
+             * checks that every side's key is in) */
+            if (here && *n < GW_CFG_MAX_KEYS)
+                robot_all[(*n)++] = rk->keys[k];
+        }
+    }
+}
+
+void gw_cfg_robot_merge(void)
+{
+    static bool merged;
+    if (merged)
+        return;
+    unsigned n = 0;
+    bool rest = false; /* the keys of no core key: before the families */
+    for (unsigned i = 0; i < GW_CFG_COUNT(robot_keys); i++) {
+        if (robot_keys[i].type == GW_CFG_PREFIX && !rest) {
+            merge_after(NULL, &n);
+            rest = true;
+        }
+        if (n < GW_CFG_MAX_KEYS)
+            robot_all[n++] = robot_keys[i];
+        merge_after(robot_keys[i].name, &n);
+    }
+    if (!rest)
+        merge_after(NULL, &n);
+    gw_cfg_robot.keys = robot_all;
+    gw_cfg_robot.nkeys = n;
+    merged = true;
+}
 
 static robot_lines_t *lines_of(gw_cfg_ctx_t *c, unsigned i)
 {
@@ -650,8 +692,8 @@ bool gw_robot_reads(const gw_robot_config_t *r, dr_asm_t a)
 bool gw_robot_config_same_link(const gw_robot_config_t *a,
                                const gw_robot_config_t *b)
 {
-    /* The keys marked LINK; not compared: name (the caller pairs robots by
-     * it), unit_id and fallback (Modbus side only), line. */
+    /* The core's keys marked LINK; not compared: name (the caller pairs
+     * robots by it), line, and the sides' keys (none reconnects). */
     for (unsigned k = 0; k < GW_CFG_COUNT(robot_keys); k++) {
         const gw_cfg_key_t *key = &robot_keys[k];
         if (!(key->flags & GW_CFG_LINK))

@@ -926,11 +926,12 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
                  dr_layout_name(rc->layout), (unsigned)rc->input.instance,
                  (unsigned)rc->input.size, (unsigned)rc->output.instance,
                  (unsigned)rc->output.size);
-    gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s%s, RPI %u ms, unit ID %u, "
+    char sides[96]; /* ", unit ID 1": the sides' word on the robot */
+    gw_log(GW_LOG_INFO, "robot %s: connecting to %s%s%s%s (%s%s, RPI %u ms%s, "
            "originator serial 0x%08lX)",
            rc->name, rc->host, named ? " (" : "", named ? ip : "", named ? ")" : "",
-           rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", lay, rc->rpi_ms, rc->unit_id,
-           (unsigned long)cc.serial);
+           rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit", lay, rc->rpi_ms,
+           gw_config_robot_brief(rc, sides, sizeof sides), (unsigned long)cc.serial);
     dr_client_start(l->client);
     process(l);
     return l;

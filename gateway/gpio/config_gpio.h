@@ -35,4 +35,11 @@ typedef struct {
     gw_gpio_config_t line[GW_MAX_GPIO];
 } gw_gpio_side_config_t;
 
+/* The side's member of a robot's configuration (gw_robot_config_t.side,
+ * gateway/sides.h): it has no keys of [robot NAME] (C has no empty
+ * struct). */
+typedef struct {
+    char none;
+} gw_gpio_robot_config_t;
+
 #endif /* DRGATE_GW_GPIO_CONFIG_H */

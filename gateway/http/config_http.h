@@ -39,4 +39,11 @@ typedef struct {
 /* The side's member of gw_config_t (gateway/sides.h). */
 typedef gw_http_config_t gw_http_side_config_t;
 
+/* The side's member of a robot's configuration (gw_robot_config_t.side,
+ * gateway/sides.h): it has no keys of [robot NAME] (C has no empty
+ * struct). */
+typedef struct {
+    char none;
+} gw_http_robot_config_t;
+
 #endif /* DRGATE_GW_HTTP_CONFIG_H */

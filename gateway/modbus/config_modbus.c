@@ -4,6 +4,9 @@
  * server, with its allowlist, and [modbus_rtu NAME], one serial line on
  * which the gateway is an RTU slave (their struct: config_modbus.h). Its
  * robots are resolved once the whole file is read (rtu_check, below).
+ * And its keys of [robot NAME] (unit_id, unit_id_alias, map,
+ * default_map_writes, fallback), in the robot's side.modbus, merged into
+ * the core's table of [robot NAME] (config_internal.h: gw_cfg_robot_keys_t).
  */
 #include "core/config_internal.h"
 
@@ -110,11 +113,116 @@ static void modbus_write_policy(const gw_config_t *cfg, unsigned robot, gw_write
     p->one_owner = cfg->side.modbus.single_writer;
 }
 
+/* ---- [robot NAME]'s Modbus keys ----------------------------------------------- */
+
+#define RM(m) GW_CFG_AT(gw_robot_config_t, side.modbus.m)
+
+static gw_cfg_parse_fn robot_alias, robot_map;
+
+/* Where each comes among the core's keys of [robot NAME]: `after`. */
+static const gw_cfg_key_t robot_keys[] = {
+    /* 0 is broadcast, 248..255 reserved (Modbus spec 4.1) */
+    { .name = "unit_id", .type = GW_CFG_UINT, RM(unit_id), .lo = 1, .hi = 247, .def = 1, .doc_allowed = "1..247, unique across robots", .help = "Modbus unit ID under which this robot's registers are served", .after = "local_udp_port" },
+    { .name = "unit_id_alias", .type = GW_CFG_HOOK, .parse = robot_alias, .allowed = "0, 255, 0,255 or none", .doc_default = "none", .doc_allowed = "`0`, `255`, `0,255`, `none`; one robot per alias", .help = "unit IDs this robot answers to besides `unit_id`: 0 and 255 are what many PLCs and HMIs send by default (a request with another unit ID gets exception 0x0A, logged once per client)", .after = "local_udp_port" },
+    { .name = "map", .type = GW_CFG_HOOK, .flags = GW_CFG_LIST, .parse = robot_map, .allowed = "TABLE ADDRESS PATH[a..b] VIEW [writable] [saturate] [scale=N] [lo|hi]", .doc_default = "(none: the default map alone)", .doc_allowed = "`TABLE ADDRESS PATH[a..b] VIEW [options]`, repeatable, at most 64", .help = "a block of this robot's own register map, at addresses the default map leaves free: see [Your own map](register-map.md#your-own-map)", .after = "local_udp_port" },
+    { .name = "default_map_writes", .type = GW_CFG_BOOL, RM(default_map_writes), .def = 1, .help = "`no`: Modbus cannot write the robot's data through the default map (exception 0x02; its control registers HR 0-1 stay writable), so that the `writable` blocks of the robot's own map are all a PLC may write", .after = "local_udp_port" },
+    { .name = "fallback", .type = GW_CFG_ENUM, RM(fallback_hold), GW_CFG_NAMES("zero", "hold"), .help = "O->T image sent when the single writer's watchdog expires: all zeros, or the last values written", .after = "timeout_ms" },
+};
+
+/* unit_id_alias: 0, 255, both (comma-separated, blanks allowed), or none. */
+static void robot_alias(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                        const char *name, const char *v)
+{
+    gw_modbus_robot_config_t *r = &((gw_robot_config_t *)sec)->side.modbus;
+    r->alias0 = r->alias255 = false;
+    if (strcmp(v, "none") == 0)
+        return;
+    const char *p = v;
+    unsigned n = 0;
+    for (;;) {
+        while (*p == ' ' || *p == '\t')
+            p++;
+        size_t len = strspn(p, "0123456789");
+        bool zero = len == 1 && p[0] == '0', ff = len == 3 && strncmp(p, "255", 3) == 0;
+        if ((!zero && !ff) || (zero && r->alias0) || (ff && r->alias255) || ++n > 2) {
+            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
+            return;
+        }
+        r->alias0 |= zero;
+        r->alias255 |= ff;
+        p += len;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p == '\0')
+            return;
+        if (*p++ != ',') {
+            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
+            return;
+        }
+    }
+}
+
+/* One `map` line: parsed, then added to the robot's map, which refuses
+ * overlaps (with its other blocks and with the default map). */
+static void robot_map(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
+                      const char *name, const char *v)
+{
+    gw_modbus_robot_config_t *r = &((gw_robot_config_t *)sec)->side.modbus;
+    gw_umap_entry_t e;
+    char err[400];
+    (void)k;
+    if (!gw_umap_parse(v, c->lineno, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
+        gw_cfg_fail(c, c->lineno, "%s: %s", name, err);
+}
+
+/* Robot i against robot j (j < i): its own unit ID and aliases. */
+static bool robot_pair(gw_cfg_ctx_t *c, unsigned i, unsigned j)
+{
+    const gw_cfg_side_t *s = &gw_cfg_robot;
+    const gw_robot_config_t *r = &c->cfg.robot[i], *o = &c->cfg.robot[j];
+    const gw_modbus_robot_config_t *rm = &r->side.modbus, *om = &o->side.modbus;
+    unsigned unit_line = gw_cfg_line(c, s, i, "unit_id");
+    if (om->unit_id == rm->unit_id) {
+        gw_cfg_fail(c, gw_cfg_line_or(unit_line, r->line),
+                    "robot '%s': unit_id %u%s already used by robot '%s' "
+                    "(line %u; each robot needs its own unit_id, allowed: "
+                    "1..247)",
+                    r->name, (unsigned)rm->unit_id,
+                    unit_line ? "" : " (the default)", o->name,
+                    gw_cfg_line_or(gw_cfg_line(c, s, j, "unit_id"), o->line));
+        return false;
+    }
+    if ((om->alias0 && rm->alias0) || (om->alias255 && rm->alias255)) {
+        gw_cfg_fail(c, gw_cfg_line_or(gw_cfg_line(c, s, i, "unit_id_alias"), r->line),
+                    "robot '%s': unit_id_alias %u is already robot '%s''s "
+                    "(line %u; one robot per alias)",
+                    r->name, om->alias0 && rm->alias0 ? 0u : 255u, o->name,
+                    gw_cfg_line_or(gw_cfg_line(c, s, j, "unit_id_alias"), o->line));
+        return false;
+    }
+    return true;
+}
+
+static const gw_cfg_robot_keys_t modbus_robot = {
+    GW_CFG_KEYS(robot_keys),
+    .pair = robot_pair,
+};
+
+/* The link's "connecting" line: ", unit ID 1". */
+static void modbus_robot_brief(const gw_robot_config_t *r, char *buf, size_t size)
+{
+    size_t n = strlen(buf);
+    if (n < size)
+        snprintf(buf + n, size - n, ", unit ID %u", (unsigned)r->side.modbus.unit_id);
+}
+
 /* The side to the configuration (config.h; gateway/sides.h lists it). */
 const gw_side_cfg_t gw_side_cfg_modbus = {
     .name = "modbus",
     .sections = modbus_sections,
     .write_policy = modbus_write_policy,
+    .robot = &modbus_robot,
+    .robot_brief = modbus_robot_brief,
 };
 
 static void rtu_baud(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
@@ -194,54 +302,6 @@ static void rtu_robots(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
                     k->allowed);
 }
 
-/* ---- [robot NAME]'s Modbus keys: unit_id_alias and map ----------------------- */
-
-/* unit_id_alias: 0, 255, both (comma-separated, blanks allowed), or none. */
-void gw_cfg_robot_alias(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
-                        const char *name, const char *v)
-{
-    gw_robot_config_t *r = sec;
-    r->alias0 = r->alias255 = false;
-    if (strcmp(v, "none") == 0)
-        return;
-    const char *p = v;
-    unsigned n = 0;
-    for (;;) {
-        while (*p == ' ' || *p == '\t')
-            p++;
-        size_t len = strspn(p, "0123456789");
-        bool zero = len == 1 && p[0] == '0', ff = len == 3 && strncmp(p, "255", 3) == 0;
-        if ((!zero && !ff) || (zero && r->alias0) || (ff && r->alias255) || ++n > 2) {
-            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
-            return;
-        }
-        r->alias0 |= zero;
-        r->alias255 |= ff;
-        p += len;
-        while (*p == ' ' || *p == '\t')
-            p++;
-        if (*p == '\0')
-            return;
-        if (*p++ != ',') {
-            gw_cfg_fail(c, c->lineno, "%s '%s' invalid (allowed: %s)", name, v, k->allowed);
-            return;
-        }
-    }
-}
-
-/* One `map` line: parsed, then added to the robot's map, which refuses
- * overlaps (with its other blocks and with the default map). */
-void gw_cfg_robot_map(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
-                      const char *name, const char *v)
-{
-    gw_robot_config_t *r = sec;
-    gw_umap_entry_t e;
-    char err[400];
-    (void)k;
-    if (!gw_umap_parse(v, c->lineno, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
-        gw_cfg_fail(c, c->lineno, "%s: %s", name, err);
-}
-
 /* ---- [modbus_rtu NAME] -------------------------------------------------------- */
 
 /* robots = as written, or every robot at its unit ID, into the slaves of
@@ -256,7 +316,7 @@ static bool rtu_slaves(gw_cfg_ctx_t *c, unsigned i)
         u->slave_count = g->robot_count;
         for (unsigned r = 0; r < g->robot_count; r++) {
             u->slave_robot[r] = r;
-            u->slave_addr[r] = g->robot[r].unit_id;
+            u->slave_addr[r] = g->robot[r].side.modbus.unit_id;
         }
         return true;
     }
@@ -273,7 +333,7 @@ static bool rtu_slaves(gw_cfg_ctx_t *c, unsigned i)
         }
         u->slave_robot[s] = r;
         if (!ul->addr_given[s])
-            u->slave_addr[s] = g->robot[r].unit_id;
+            u->slave_addr[s] = g->robot[r].side.modbus.unit_id;
     }
     return true;
 }

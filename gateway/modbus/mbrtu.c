@@ -278,7 +278,7 @@ gw_rtu_t *gw_rtu_new(const gw_rtu_config_t *cfg, const gw_robot_config_t *robots
     t->epfd = epfd;
     t->ev.fd = -1;
     for (unsigned s = 0; s < cfg->slave_count; s++)
-        t->unit_of[cfg->slave_addr[s]] = robots[cfg->slave_robot[s]].unit_id;
+        t->unit_of[cfg->slave_addr[s]] = robots[cfg->slave_robot[s]].side.modbus.unit_id;
     /* start bit, 8 data bits, parity, stop bits */
     unsigned bits = 1u + 8u + (cfg->parity != GW_PARITY_NONE) + cfg->stop_bits;
     t->t35_us = gw_rtu_t35_us(cfg->baud, bits);

@@ -87,8 +87,8 @@ static gw_unit_t *unit_for(void *user, uint8_t unit_id)
     const mb_ctx_t *c = user;
     const gw_config_t *cfg = c->mb->env->cfg;
     for (unsigned i = 0; i < cfg->robot_count; i++)
-        if (cfg->robot[i].unit_id == unit_id || (unit_id == 0 && cfg->robot[i].alias0) ||
-            (unit_id == 255 && cfg->robot[i].alias255)) {
+        if (cfg->robot[i].side.modbus.unit_id == unit_id || (unit_id == 0 && cfg->robot[i].side.modbus.alias0) ||
+            (unit_id == 255 && cfg->robot[i].side.modbus.alias255)) {
             unit_refresh(c->mb, i);
             return &c->mb->unit[i];
         }
@@ -132,8 +132,8 @@ static void unit_policy(mb_t *m, unsigned r)
     const gw_config_t *cfg = m->env->cfg;
     gw_unit_t *u = &m->unit[r];
     u->robot = &m->env->robots[r];
-    u->umap = r < cfg->robot_count ? &cfg->robot[r].map : NULL;
-    u->default_ro = r < cfg->robot_count && !cfg->robot[r].default_map_writes;
+    u->umap = r < cfg->robot_count ? &cfg->robot[r].side.modbus.map : NULL;
+    u->default_ro = r < cfg->robot_count && !cfg->robot[r].side.modbus.default_map_writes;
     u->order = cfg->side.modbus.word_order;
     u->on_loss = cfg->side.modbus.on_link_loss;
     u->unmapped = cfg->side.modbus.unmapped_read;
@@ -215,7 +215,7 @@ static void writer_expired(tcp_t *t)
     for (unsigned r = 0; r < env->cfg->robot_count; r++) {
         gw_unit_t *u = &t->ctx.mb->unit[r];
         u->robot->fault = true; /* the write path refuses writes from now on */
-        if (!env->cfg->robot[r].fallback_hold) {
+        if (!env->cfg->robot[r].side.modbus.fallback_hold) {
             unsigned dirty = 0;
             for (unsigned a = 0; a < DR_ASM_COUNT; a++)
                 if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T) {
@@ -322,7 +322,7 @@ static bool same_line(const gw_rtu_config_t *a, const gw_robot_config_t *ra,
         return false;
     for (unsigned s = 0; s < a->slave_count; s++)
         if (a->slave_addr[s] != b->slave_addr[s] ||
-            ra[a->slave_robot[s]].unit_id != rb[b->slave_robot[s]].unit_id)
+            ra[a->slave_robot[s]].side.modbus.unit_id != rb[b->slave_robot[s]].side.modbus.unit_id)
             return false;
     return true;
 }
@@ -506,7 +506,7 @@ static void mb_on_fault(void *self, unsigned robot, bool latched)
 static void unit_refresh(mb_t *m, unsigned r)
 {
     gw_status_t *st = &m->unit[r].status;
-    uint8_t unit_id = m->env->cfg->robot[r].unit_id;
+    uint8_t unit_id = m->env->cfg->robot[r].side.modbus.unit_id;
     st->clients = (uint16_t)gw_mbs_client_count(m->tcp.mbs);
     st->exceptions = gw_mbs_exceptions(m->tcp.mbs);
     st->writer_present = gw_mbs_writer_present(m->tcp.mbs);

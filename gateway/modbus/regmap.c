@@ -989,15 +989,15 @@ void gw_regmap_print_all(FILE *out, gw_print_fmt_t fmt, const char *filter,
         fputs("[\n", out);
     print_default(out, fmt, filter, &first);
     for (unsigned r = 0; cfg != NULL && r < cfg->robot_count; r++) {
-        const gw_umap_t *m = &cfg->robot[r].map;
+        const gw_umap_t *m = &cfg->robot[r].side.modbus.map;
         if (m->count == 0)
             continue;
         if (fmt == GW_PRINT_MARKDOWN)
             fprintf(out, "\n### Robot %s (unit %u): its own map\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
-                    cfg->robot[r].name, (unsigned)cfg->robot[r].unit_id);
+                    cfg->robot[r].name, (unsigned)cfg->robot[r].side.modbus.unit_id);
         else if (fmt == GW_PRINT_TEXT)
             fprintf(out, "# robot %s (unit %u): its own map\n", cfg->robot[r].name,
-                    (unsigned)cfg->robot[r].unit_id);
+                    (unsigned)cfg->robot[r].side.modbus.unit_id);
         for (unsigned i = 0; i < m->count; i++)
             print_user(out, fmt, filter, &first, cfg->robot[r].name, &m->entry[i]);
     }
@@ -1214,9 +1214,9 @@ static void json_leaf(gw_json_t *j, const gw_config_t *cfg, unsigned r, unsigned
     }
     gw_json_str(j, ", \"modbus\": [");
     bool lfirst = true;
-    bool writable = o2t && rc->default_map_writes && !gpio_driven(cfg, r, ref);
+    bool writable = o2t && rc->side.modbus.default_map_writes && !gpio_driven(cfg, r, ref);
     json_default_locs(j, &lfirst, field_leaf[fi] + elem, f, cfg->side.modbus.word_order, writable);
-    json_user_locs(j, &lfirst, &rc->map, fi, elem, cfg->side.modbus.word_order);
+    json_user_locs(j, &lfirst, &rc->side.modbus.map, fi, elem, cfg->side.modbus.word_order);
     gw_json_str(j, "]}");
 }
 
@@ -1229,9 +1229,9 @@ bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot)
     gw_json_str(j, "{\"robot\": ");
     gw_json_quote(j, rc->name, strlen(rc->name));
     snprintf(t, sizeof t, ", \"unit_id\": %u, \"word_order\": \"%s\", \"default_map_writes\": %s, "
-             "\"layout_version\": %u, \"fields\": [", (unsigned)rc->unit_id,
+             "\"layout_version\": %u, \"fields\": [", (unsigned)rc->side.modbus.unit_id,
              gw_word_order_name(cfg->side.modbus.word_order),
-             rc->default_map_writes ? "true" : "false", (unsigned)GW_MAP_LAYOUT_VERSION);
+             rc->side.modbus.default_map_writes ? "true" : "false", (unsigned)GW_MAP_LAYOUT_VERSION);
     gw_json_str(j, t);
     bool first = true;
     for (unsigned fi = 0; fi < dr_field_count; fi++)

@@ -39,4 +39,11 @@ enum { GW_MQTT_JSON = 0, GW_MQTT_SPARKPLUG };
 /* The side's member of gw_config_t (gateway/sides.h). */
 typedef gw_mqtt_config_t gw_mqtt_side_config_t;
 
+/* The side's member of a robot's configuration (gw_robot_config_t.side,
+ * gateway/sides.h): it has no keys of [robot NAME] (C has no empty
+ * struct). */
+typedef struct {
+    char none;
+} gw_mqtt_robot_config_t;
+
 #endif /* DRGATE_GW_MQTT_CONFIG_H */

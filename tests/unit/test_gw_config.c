@@ -100,14 +100,14 @@ static void test_defaults(void **state)
     assert_int_equal(r->udp_port, 2222);
     assert_int_equal(r->local_udp_port, 2222);
     assert_string_equal(r->local_addr, "");
-    assert_int_equal(r->unit_id, 1);
+    assert_int_equal(r->side.modbus.unit_id, 1);
     assert_int_equal(r->mode, GW_MODE_IMPLICIT);
     assert_int_equal(r->rpi_ms, 10);
     assert_int_equal(r->timeout_mult, 2);
     assert_int_equal(r->timeout_ms, 1000);
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         assert_int_equal(r->instance[a], 101 + a);
-    assert_false(r->fallback_hold);
+    assert_false(r->side.modbus.fallback_hold);
     assert_false(r->o2t_strict);
     assert_int_equal(r->originator_serial, 0); /* derived at start, see link.c */
     assert_int_equal(c.side.gpio.line[0].offset, -1);
@@ -182,14 +182,14 @@ static void test_all_keys(void **state)
     assert_int_equal(r->udp_port, 2223);
     assert_string_equal(r->local_addr, "127.0.0.1");
     assert_int_equal(r->local_udp_port, 2224);
-    assert_int_equal(r->unit_id, 7);
+    assert_int_equal(r->side.modbus.unit_id, 7);
     assert_int_equal(r->mode, GW_MODE_EXPLICIT);
     assert_int_equal(r->rpi_ms, 50);
     assert_int_equal(r->timeout_mult, 5);
     assert_int_equal(r->timeout_ms, 300);
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         assert_int_equal(r->instance[a], 201 + a);
-    assert_true(r->fallback_hold);
+    assert_true(r->side.modbus.fallback_hold);
     assert_true(r->o2t_strict);
     assert_int_equal(r->config_instance, 150);
     assert_int_equal(r->input_only_heartbeat, 151);
@@ -205,8 +205,8 @@ static void test_all_keys(void **state)
     assert_int_equal(r->open[DR_ASM_FLOAT_OUT].o2t, DR_ASM_INT_IN);
     assert_int_equal(r->line, 23);
     assert_string_equal(c.robot[1].name, "arm2");
-    assert_int_equal(c.robot[1].unit_id, 8);
-    assert_false(c.robot[1].fallback_hold);
+    assert_int_equal(c.robot[1].side.modbus.unit_id, 8);
+    assert_false(c.robot[1].side.modbus.fallback_hold);
     assert_false(c.robot[1].o2t_strict);
 
     assert_int_equal(c.side.gpio.count, 2);
@@ -342,7 +342,7 @@ static void test_example_values(void **state)
     assert_true(
         load_file("gateway/examples/two-robots.ini", &c, err, sizeof err));
     assert_int_equal(c.robot_count, 2);
-    assert_int_equal(c.robot[1].unit_id, 2);
+    assert_int_equal(c.robot[1].side.modbus.unit_id, 2);
     assert_true(
         load_file("gateway/examples/gpio-cell.ini", &c, err, sizeof err));
     assert_int_equal(c.side.gpio.count, 4);
@@ -1188,8 +1188,8 @@ static void test_same_link(void **state)
     b = a;
     assert_true(gw_robot_config_same_link(&a, &b));
     /* Modbus-side settings and bookkeeping do not touch the link */
-    b.unit_id = 9;
-    b.fallback_hold = true;
+    b.side.modbus.unit_id = 9;
+    b.side.modbus.fallback_hold = true;
     b.line = 99;
     memcpy(b.name, "other", sizeof "other");
     assert_true(gw_robot_config_same_link(&a, &b));

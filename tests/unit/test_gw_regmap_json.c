@@ -26,7 +26,7 @@ static void umap(gw_robot_config_t *r, const char *line)
 {
     gw_umap_entry_t e;
     char err[300];
-    if (!gw_umap_parse(line, 1, &e, err, sizeof err) || !gw_umap_add(&r->map, &e, err, sizeof err))
+    if (!gw_umap_parse(line, 1, &e, err, sizeof err) || !gw_umap_add(&r->side.modbus.map, &e, err, sizeof err))
         fail_msg("map '%s': %s", line, err);
 }
 
@@ -37,8 +37,8 @@ static int setup(void **state)
     C.robot_count = 2;
     for (unsigned r = 0; r < 2; r++) {
         snprintf(C.robot[r].name, sizeof C.robot[r].name, r ? "arm\"2" : "arm1");
-        C.robot[r].unit_id = (uint8_t)(r + 1);
-        C.robot[r].default_map_writes = true;
+        C.robot[r].side.modbus.unit_id = (uint8_t)(r + 1);
+        C.robot[r].side.modbus.default_map_writes = true;
     }
     C.side.modbus.word_order = GW_WORD_CDAB;
     umap(&C.robot[0], "hr 3000 float_in[0..1] real writable");
@@ -233,7 +233,7 @@ static void test_views(void **state)
 static void test_write_rights(void **state)
 {
     (void)state;
-    C.robot[0].default_map_writes = false;
+    C.robot[0].side.modbus.default_map_writes = false;
     const char *j = robot_json(0);
     has(j, "float_in[0]", "\"address\": 400, \"count\": 2, \"ref\": \"40401\", \"view\": \"real\", "
                           "\"order\": \"cdab\", \"writable\": false}");
@@ -241,7 +241,7 @@ static void test_write_rights(void **state)
                           "\"scale\": 100, \"writable\": false}");
     has(j, "float_in[0]", "\"writable\": true, \"user\": true}");
     /* a bit a GPIO input drives: not writable over Modbus */
-    C.robot[0].default_map_writes = true;
+    C.robot[0].side.modbus.default_map_writes = true;
     C.side.gpio.count = 1;
     C.side.gpio.line[0].dir = GW_GPIO_INPUT;
     C.side.gpio.line[0].robot_index = 0;
