@@ -65,7 +65,9 @@ RECIPE_VERSION=1
 # bookworm-old: "SOURCE-PACKAGE=OLD-VERSION" for the packages it claims.
 STALE="perl=5.36.0-7 glibc=2.36-9+deb12u4"
 PROXY_PORT=3128
-PIP_HOSTS="pypi.org files.pythonhosted.org"
+# The test peers' registries: PyPI (pip) and npm's (Eclipse Tahu's
+# packages, npm ci in make test-deps).
+PIP_HOSTS="pypi.org files.pythonhosted.org registry.npmjs.org"
 PY=$(command -v python3)
 
 say() { echo "fresh-root: $*"; }
@@ -233,7 +235,8 @@ set +e
 chroot "$r" /usr/bin/env -i PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
     HOME=/root TERM="${TERM:-dumb}" http_proxy=$proxy https_proxy=$proxy \
     HTTP_PROXY=$proxy HTTPS_PROXY=$proxy no_proxy=localhost,127.0.0.1,::1 \
-    NO_PROXY=localhost,127.0.0.1,::1 /bin/sh -c \
+    NO_PROXY=localhost,127.0.0.1,::1 NODE_EXTRA_CA_CERTS=/etc/ssl/certs/ca-certificates.crt \
+    /bin/sh -c \
     'update-ca-certificates >/dev/null 2>&1 || echo "fresh-root: update-ca-certificates failed" >&2
      cd /src && exec "$@"' sh "$@"
 st=$?
