@@ -85,7 +85,9 @@ void cli_eds_note(cli_eds_t *eds, unsigned line, const char *fmt, ...)
 
 static char lower(char c)
 {
-    return c >= 'A' && c <= 'Z' ? (char)(c - 'A' + 'a') : c;
+    if (c >= 'A' && c <= 'Z')
+        return (char)(c - 'A' + 'a');
+    return c;
 }
 
 static bool ieq(const char *a, const char *b)

@@ -23,6 +23,7 @@
  */
 #include <poll.h>
 #include <stdbool.h>
+#include <stdio.h>
 #include <string.h>
 #include <strings.h>
 
@@ -38,8 +39,11 @@
 static char *fake_crypt(const char *phrase, const char *setting, struct crypt_data *data)
 {
     (void)data;
-    static char bad[] = "*0";
-    return strcmp(phrase, "good") == 0 ? (char *)(uintptr_t)setting : bad;
+    static char bad[] = "*0", hash[512];
+    if (strcmp(phrase, "good") != 0)
+        return bad;
+    (void)snprintf(hash, sizeof hash, "%s", setting);
+    return hash;
 }
 
 static bool utf8_ok(const unsigned char *s, size_t n)
@@ -72,8 +76,12 @@ static void b64_encode(const char *in, size_t n, char *out)
             v |= (unsigned char)in[i + 2];
         out[o++] = d[v >> 18 & 63];
         out[o++] = d[v >> 12 & 63];
-        out[o++] = i + 1 < n ? d[v >> 6 & 63] : '=';
-        out[o++] = i + 2 < n ? d[v & 63] : '=';
+        out[o++] = '=';
+        out[o++] = '=';
+        if (i + 1 < n)
+            out[o - 2] = d[v >> 6 & 63];
+        if (i + 2 < n)
+            out[o - 1] = d[v & 63];
     }
     out[o] = '\0';
 }
@@ -137,7 +145,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         char both[GW_HTTP_USER_MAX + 256 + 2], again[sizeof both * 2 + 16], u2[sizeof user],
             p2[sizeof pass];
         size_t bl = (size_t)snprintf(both, sizeof both, "%s:%s", user, pass);
-        memcpy(again, "Basic ", 6);
+        (void)snprintf(again, sizeof again, "%s", "Basic ");
         b64_encode(both, bl, again + 6);
         FUZZ_CHECK(gw_http_basic_parse(again, u2, sizeof u2, p2, sizeof p2));
         FUZZ_CHECK(strcmp(u2, user) == 0 && strcmp(p2, pass) == 0);

@@ -106,7 +106,7 @@ class Handler(socketserver.BaseRequestHandler):
         if port not in ("80", "443"):
             return self.refuse(403, "port not allowed", method, f"{host}:{port}")
         try:
-            up = socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT)
+            up = socket.create_connection((resolve(host), int(port)), timeout=CONNECT_TIMEOUT)
         except OSError as e:
             log("FAIL", method, f"{host}:{port}", path, e)
             msg = f"fresh-proxy: {host}:{port}: {e}\n".encode()
@@ -129,6 +129,28 @@ class Handler(socketserver.BaseRequestHandler):
             log("allow", method, f"{host}:{port}", path, n)
         finally:
             up.close()
+
+
+resolved = {}
+resolve_lock = threading.Lock()
+
+
+def resolve(host):
+    """The host's address, looked up once (npm opens a dozen connections
+    at once: as many lookups side by side failed here with EAI_AGAIN),
+    with a few tries a second apart."""
+    with resolve_lock:
+        if host in resolved:
+            return resolved[host]
+        for attempt in range(5):
+            try:
+                addr = socket.getaddrinfo(host, None, socket.AF_INET, socket.SOCK_STREAM)[0][4][0]
+                resolved[host] = addr
+                return addr
+            except socket.gaierror:
+                if attempt == 4:
+                    raise
+                time.sleep(1)
 
 
 class Server(socketserver.ThreadingMixIn, socketserver.UnixStreamServer):

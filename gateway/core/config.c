@@ -474,7 +474,7 @@ static bool alloc_records(gw_cfg_ctx_t *c)
         c->record_off[j] = total;
         total += c->record_size[j] * (s->named ? s->max : 1u);
     }
-    c->record = calloc(1, total);
+    c->record = calloc(1, total > 0 ? total : 1u);
     return c->record != NULL;
 }
 

@@ -85,7 +85,7 @@ static void merge_after(const char *after, unsigned *n)
             bool known = false;
             for (unsigned i = 0; a != NULL && i < GW_CFG_COUNT(robot_keys); i++)
                 known |= strcmp(robot_keys[i].name, a) == 0;
-            bool here = after != NULL ? known && strcmp(a, after) == 0 : !known;
+            bool here = after != NULL ? known && a != NULL && strcmp(a, after) == 0 : !known;
             /* past GW_CFG_MAX_KEYS a key is left out (test_gw_config.c
              * checks that every side's key is in) */
             if (here && *n < GW_CFG_MAX_KEYS)
@@ -321,7 +321,9 @@ static void robot_point(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     char buf[200];
     snprintf(buf, sizeof buf, "%s", v);
     char subject[300];
-    for (char *tok = strtok(buf, ", \t"); tok != NULL; tok = strtok(NULL, ", \t")) {
+    char *save = NULL;
+    for (char *tok = strtok_r(buf, ", \t", &save); tok != NULL;
+         tok = strtok_r(NULL, ", \t", &save)) {
         dr_asm_t a;
         snprintf(subject, sizeof subject, "%s '%s'", name, tok);
         if (!assembly_of(c, name, tok, dir, subject,

@@ -137,7 +137,10 @@ static void check_mode(gw_cfg_ctx_t *c, unsigned line, const char *key, const ch
     struct stat st;
     if (stat(path, &st) != 0)
         return; /* said where the file is read */
-    const struct group *g = getgrnam("drgate");
+    struct group grp, *g = NULL;
+    char buf[1024];
+    if (getgrnam_r("drgate", &grp, buf, sizeof buf, &g) != 0)
+        g = NULL;
     bool own_group = g != NULL && g->gr_gid == st.st_gid;
     if ((st.st_mode & (S_IRWXO | S_IWGRP | S_IXGRP)) != 0 ||
         ((st.st_mode & S_IRGRP) != 0 && !own_group))

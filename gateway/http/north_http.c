@@ -989,7 +989,7 @@ static bool srv_start(srv_t *sv, ht_t *t, char *err, size_t errlen)
         {MHD_OPTION_END, 0, NULL},
     };
     /* room kept for loopback clients (on_accept) */
-    opts[1].value = (intptr_t)(h->max_connections + (sv->loopback_only ? 0u : RESERVED_LOCAL));
+    opts[1].value = (intptr_t)h->max_connections + (intptr_t)(sv->loopback_only ? 0u : RESERVED_LOCAL);
     if (sv->tls) {
         flags |= MHD_USE_TLS;
         opts[5] = (struct MHD_OptionItem){MHD_OPTION_HTTPS_MEM_CERT, 0, t->cert};
@@ -1063,7 +1063,7 @@ static void ht_free(ht_t *t)
             h->suspended = false;
             ml->resume_connection(h->c);
         }
-    for (unsigned i = 0; i < 2; i++)
+    for (unsigned i = 0; i < 2 && ml != NULL; i++)
         if (t->srv[i].d != NULL)
             (void)ml->run(t->srv[i].d);
     if (t->auth_ev.fd >= 0)
