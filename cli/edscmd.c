@@ -69,7 +69,7 @@ static bool read_file(const char *cmd, const char *path, char *buf, size_t cap, 
     size_t n = fread(buf, 1, cap, fp);
     bool ok = !ferror(fp), big = n == cap && fgetc(fp) != EOF;
     if (fp != stdin)
-        fclose(fp);
+        (void)fclose(fp);
     if (!ok)
         cli_error(CLI_EXIT_USAGE, cmd, "%s: cannot read", path);
     else if (big)

@@ -305,13 +305,14 @@ int cli_net_read_asm(cli_net_t *net, dr_asm_t a, uint8_t *img)
         char label[96];
         cli_net_asm_label(net, a, label, sizeof label);
         const dr_point_t *p = point_of(net, a);
-        uint8_t buf[DR_POINT_MAX_SIZE];
+        uint8_t point_img[DR_POINT_MAX_SIZE];
         if (p == NULL)
             return cli_error(CLI_EXIT_USAGE, net->cmd, "%s: get %s", net->where, label);
-        int rc = read_point(net, p, label, buf);
+        int rc = read_point(net, p, label, point_img);
         if (rc != CLI_EXIT_OK)
             return rc;
-        return dr_point_slice(p, buf, p->size, a, img, info->size) == DR_OK
+        uint8_t *out = img;
+        return dr_point_slice(p, point_img, p->size, a, out, info->size) == DR_OK
                    ? CLI_EXIT_OK
                    : cli_error(CLI_EXIT_FAIL, net->cmd, "internal error slicing %s", label);
     }

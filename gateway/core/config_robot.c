@@ -84,7 +84,7 @@ static void merge_after(const char *after, unsigned *n)
             const char *a = rk->keys[k].after;
             bool known = false;
             for (unsigned i = 0; a != NULL && i < GW_CFG_COUNT(robot_keys); i++)
-                known |= strcmp(robot_keys[i].name, a) == 0;
+                known |= robot_keys[i].name != NULL && strcmp(robot_keys[i].name, a) == 0;
             bool here = after != NULL ? known && a != NULL && strcmp(a, after) == 0 : !known;
             /* past GW_CFG_MAX_KEYS a key is left out (test_gw_config.c
              * checks that every side's key is in) */

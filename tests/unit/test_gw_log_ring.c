@@ -85,13 +85,13 @@ static void test_control_characters_escaped(void **state)
     char path[] = "/tmp/test_gw_log_ring.XXXXXX";
     int fd = mkstemp(path);
     assert_true(fd >= 0);
-    fflush(stderr);
+    (void)fflush(stderr);
     int saved = dup(2);
     assert_true(dup2(fd, 2) == 2);
-    setenv("JOURNAL_STREAM", "8:1", 1);
+    (void)setenv("JOURNAL_STREAM", "8:1", 1);
     gw_log(GW_LOG_INFO, "http: login refused for user %s", "x\n<0>forged emergency\r\x1b[2J\x7f");
-    fflush(stderr);
-    unsetenv("JOURNAL_STREAM");
+    (void)fflush(stderr);
+    (void)unsetenv("JOURNAL_STREAM");
     assert_true(dup2(saved, 2) == 2);
     close(saved);
     char out[512] = "";
@@ -100,8 +100,8 @@ static void test_control_characters_escaped(void **state)
     rewind(f);
     size_t n = fread(out, 1, sizeof out - 1, f);
     out[n] = '\0';
-    fclose(f);
-    remove(path);
+    (void)fclose(f);
+    (void)remove(path);
     assert_string_equal(out, "<6>http: login refused for user x\\x0a<0>forged emergency\\x0d"
                              "\\x1b[2J\\x7f\n");
     seen_t s = ring();
