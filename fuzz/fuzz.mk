@@ -48,9 +48,9 @@ FUZZ_LIBS_config     := $(INIH_LIBS)
 # Sparkplug B commands (gateway/mqtt/sparkplug.c) over nanopb: Debian's
 # libprotobuf-nanopb.a, not instrumented (libFuzzer sees our callbacks'
 # coverage, not the protobuf decoder's).
-# The harness has its own gw_log (formats, does not print).
+# The log formats and does not print (fuzz/log_stub.c).
 FUZZ_SRC_sparkplug   := gateway/mqtt/sparkplug.c gateway/mqtt/sparkplug_b.pb.c \
-                        gateway/mqtt/deadband.c gateway/core/robot.c common/ev.c
+                        gateway/mqtt/deadband.c gateway/core/robot.c common/ev.c fuzz/log_stub.c
 FUZZ_LIBS_sparkplug  := $(NANOPB_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 # The console's login (its worker thread, a fake crypt), Host check, and

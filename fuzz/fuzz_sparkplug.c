@@ -17,7 +17,6 @@
  * born before and after (a command never kills it, a STATE offline
  * reconnects).
  */
-#include <stdarg.h>
 #include <string.h>
 
 #include "common/ev.h"
@@ -29,17 +28,6 @@ static gw_config_t C;
 static gw_robot_t R[GW_MAX_ROBOTS];
 static gw_robot_t before;
 static unsigned published, writes, reconnects;
-
-/* The log, formatted (the arguments checked) but not printed. */
-void gw_log(gw_log_level_t level, const char *fmt, ...)
-{
-    char line[512];
-    va_list ap;
-    (void)level;
-    va_start(ap, fmt);
-    (void)vsnprintf(line, sizeof line, fmt, ap);
-    va_end(ap);
-}
 
 static bool count_metric(void *ctx, const spb_metric_t *m)
 {
