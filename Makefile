@@ -213,7 +213,7 @@ GW_TEST_CFLAGS = $(ALL_CPPFLAGS) -Igateway -Itests -Itests/gpio -DGW_TEST_TOP='"
                  $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 
-.PHONY: all lib gateway clean install eds uninstall check check-unit check-cli check-docs \
+.PHONY: all lib gateway clean install eds check-eds uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
         check-dep-split check-demo check-install dissector check-dissector deb check-deb \
@@ -359,7 +359,7 @@ CHECK_TIMES := $(B)/check-times
 # last, when every file of the run has been built.
 # CHECK_BG_STEPS run beside them (mk/check-steps.sh: BG_STEPS).
 CHECK_BG_STEPS :=
-CHECK_STEPS := check-unit check-cli check-docs check-cm4 check-firmware check-be \
+CHECK_STEPS := check-unit check-cli check-docs check-eds check-cm4 check-firmware check-be \
                check-asan check-fuzz check-dep-split check-demo \
                check-install check-dissector check-deb check-arm64
 #
@@ -508,13 +508,22 @@ MAN_SED     := -e 's|docs/\([A-Za-z0-9_-]*\.md\)|$(DOCDIR)/\1|g' \
                -e 's|/usr/local/lib/systemd/system|$(UNITDIR)|g'
 
 # make eds: drsim's EDS (default layout, per_assembly) from the field
-# table, by drcli eds --write; installed with drsim (docs/commissioning.md).
-EDS_FILE    := $(B)/drsim.eds
-eds: $(EDS_FILE)
-$(EDS_FILE): $(CLI_BIN)
-	$(CLI_BIN) eds --write > $@.tmp && mv $@.tmp $@
+# table, by drcli eds --write, into sim/drsim.eds, which is committed (as
+# the dissector is: a cross build cannot run its own drcli) and installed
+# with drsim (docs/commissioning.md); check-eds (in make check) fails when
+# it is stale.
+EDS_FILE    := sim/drsim.eds
+eds: $(CLI_BIN)
+	$(CLI_BIN) eds --write > $(EDS_FILE).tmp && mv $(EDS_FILE).tmp $(EDS_FILE)
 
-install: all $(EDS_FILE)
+check-eds: $(CLI_BIN)
+	@if $(CLI_BIN) eds --write | cmp -s - $(EDS_FILE); then \
+	    echo "eds: $(EDS_FILE) is what drcli eds --write makes"; echo "1 0 check-eds" >> $(RESULTS); \
+	else \
+	    echo "eds: $(EDS_FILE) is stale: make eds"; echo "0 1 check-eds ($(EDS_FILE) stale)" >> $(RESULTS); exit 1; \
+	fi
+
+install: all
 	install -d $(DESTDIR)$(LIBDIR) $(DESTDIR)$(INCLUDEDIR)/drgate \
 	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(MANDIR)/man1 \
 	    $(DESTDIR)$(MANDIR)/man8 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(DATADIR)/examples \
