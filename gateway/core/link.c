@@ -496,6 +496,21 @@ static void on_conn_state(dr_conn_t *conn, dr_conn_state_t st, dr_status_t why, 
     link_set_up(l, false, why);
 }
 
+/* What every connection of the link shares, whatever the layout. */
+static void conn_common(gw_link_t *l, dr_conn_config_t *cc)
+{
+    cc->config_instance = l->cfg.config_instance;
+    cc->rpi_us = l->cfg.rpi_ms * 1000u;
+    cc->timeout_mult = l->cfg.timeout_mult;
+    /* Sending O->T with the T->O packet's wake-up halves the wake-ups; a
+     * quarter RPI early is well inside any adapter's timeout (at least 4
+     * RPIs). */
+    cc->o2t_follow_us = l->cfg.o2t_strict ? 0u : cc->rpi_us / 4u;
+    cc->on_data = on_conn_data;
+    cc->on_state = on_conn_state;
+    cc->user = l;
+}
+
 /* The connection of a combined layout, in slot 0: input point T->O,
  * output point O->T (or the input-only heartbeat when there is none). */
 static bool add_combined(gw_link_t *l)
@@ -511,14 +526,8 @@ static bool add_combined(gw_link_t *l)
         cc.o2t_instance = out->instance;
         cc.o2t_size = out->size;
     }
-    cc.config_instance = l->cfg.config_instance;
+    conn_common(l, &cc);
     cc.heartbeat_instance = l->cfg.input_only_heartbeat;
-    cc.rpi_us = l->cfg.rpi_ms * 1000u;
-    cc.timeout_mult = l->cfg.timeout_mult;
-    cc.o2t_follow_us = l->cfg.o2t_strict ? 0u : cc.rpi_us / 4u;
-    cc.on_data = on_conn_data;
-    cc.on_state = on_conn_state;
-    cc.user = l;
     dr_status_t err;
     l->conn[0] = dr_conn_add(l->client, &cc, &err);
     if (l->conn[0] == NULL)
@@ -540,20 +549,11 @@ static bool add_connections(gw_link_t *l)
         memset(&cc, 0, sizeof cc);
         cc.o2t_asm = o->kind == GW_OPEN_OWNER ? o->o2t : -1;
         cc.t2o_asm = slot_t2o[i];
-        cc.config_instance = l->cfg.config_instance;
+        conn_common(l, &cc);
         /* Listen-only is input-only on the wire; the heartbeat connection
          * point tells the robot which of the two it is. */
         cc.heartbeat_instance = o->kind == GW_OPEN_LISTEN_ONLY ? l->cfg.listen_only_heartbeat
                                                                : l->cfg.input_only_heartbeat;
-        cc.rpi_us = l->cfg.rpi_ms * 1000u;
-        cc.timeout_mult = l->cfg.timeout_mult;
-        /* Sending O->T with the T->O packet's wake-up halves the
-         * wake-ups; a quarter RPI early is well inside any adapter's
-         * timeout (at least 4 RPIs). */
-        cc.o2t_follow_us = l->cfg.o2t_strict ? 0u : cc.rpi_us / 4u;
-        cc.on_data = on_conn_data;
-        cc.on_state = on_conn_state;
-        cc.user = l;
         dr_status_t err;
         l->conn[i] = dr_conn_add(l->client, &cc, &err);
         if (l->conn[i] == NULL)

@@ -28,16 +28,27 @@ static double age(const gw_robot_t *r) { return r->link.age_ms / 1000.0; }
 static double fresh(const gw_robot_t *r) { return r->link.fresh ? 1 : 0; }
 static double rpi(const gw_robot_t *r) { return r->link.rpi_ms / 1000.0; }
 
-/* Per connection (by its T->O assembly): received (lost: false) or lost. */
-static void per_conn(gw_prom_t *m, const gw_robot_t *robots, unsigned count, bool lost)
+/* A per-connection counter of the link, by its T->O assembly. */
+typedef enum { CONN_RX, CONN_LOST, CONN_RESYNCS } conn_counter_t;
+
+static uint64_t conn_counter(const gw_robot_link_t *k, unsigned c, conn_counter_t which)
 {
-    const char *name = lost ? "drgate_link_packets_lost_total"
-                            : "drgate_link_packets_received_total";
-    gw_prom_family(m, name, GW_PROM_COUNTER,
-                   lost ? "T->O packets lost (CIP sequence gaps) per connection, by the "
-                          "assembly it carries"
-                        : "T->O packets (explicit mode: poll replies) received per "
-                          "connection, by the assembly it carries");
+    switch (which) {
+    case CONN_RX:
+        return k->conn_rx[c];
+    case CONN_LOST:
+        return k->conn_lost[c];
+    case CONN_RESYNCS:
+        return k->conn_resyncs[c];
+    }
+    return 0;
+}
+
+/* One family, a sample per connection of every robot. */
+static void per_conn(gw_prom_t *m, const gw_robot_t *robots, unsigned count, const char *name,
+                     const char *help, conn_counter_t which)
+{
+    gw_prom_family(m, name, GW_PROM_COUNTER, help);
     for (unsigned i = 0; i < count; i++) {
         const gw_robot_link_t *k = &robots[i].link;
         for (unsigned c = 0; c < GW_ROBOT_CONNS; c++) {
@@ -45,13 +56,12 @@ static void per_conn(gw_prom_t *m, const gw_robot_t *robots, unsigned count, boo
                 continue;
             gw_prom_label_t l[2] = {{"robot", robots[i].name},
                                     {"assembly", dr_asm_info((dr_asm_t)k->conn_t2o[c])->name}};
-            gw_prom_sample(m, name, l, 2, lost ? k->conn_lost[c] : k->conn_rx[c]);
+            gw_prom_sample(m, name, l, 2, conn_counter(k, c, which));
         }
     }
 }
 
-/* Per connection: T->O packets dropped, by why (issue 29), and the
- * robot's sequence jumps followed. */
+/* Per connection: T->O packets dropped, by why (issue 29). */
 static void per_conn_drops(gw_prom_t *m, const gw_robot_t *robots, unsigned count)
 {
     const char *name = "drgate_link_packets_dropped_total";
@@ -70,20 +80,6 @@ static void per_conn_drops(gw_prom_t *m, const gw_robot_t *robots, unsigned coun
             gw_prom_sample(m, name, l, 3, k->conn_dropped_seq[c]);
             l[2].value = "source_address";
             gw_prom_sample(m, name, l, 3, k->conn_dropped_addr[c]);
-        }
-    }
-    name = "drgate_link_sequence_resyncs_total";
-    gw_prom_family(m, name, GW_PROM_COUNTER,
-                   "Jumps of the robot's T->O sequence followed per connection (after the "
-                   "sequence before had gone silent for half the timeout)");
-    for (unsigned i = 0; i < count; i++) {
-        const gw_robot_link_t *k = &robots[i].link;
-        for (unsigned c = 0; c < GW_ROBOT_CONNS; c++) {
-            if (k->conn_t2o[c] >= DR_ASM_COUNT)
-                continue;
-            gw_prom_label_t l[2] = {{"robot", robots[i].name},
-                                    {"assembly", dr_asm_info((dr_asm_t)k->conn_t2o[c])->name}};
-            gw_prom_sample(m, name, l, 2, k->conn_resyncs[c]);
         }
     }
 }
@@ -107,9 +103,18 @@ void gw_report_robot_metrics(gw_prom_t *m, const gw_robot_t *robots, unsigned co
               "1 when the robot's data is younger than the connection timeout", fresh);
     per_robot(m, robots, count, "drgate_link_rpi_seconds", GW_PROM_GAUGE,
               "Packet interval in use (explicit mode: the poll period)", rpi);
-    per_conn(m, robots, count, false);
-    per_conn(m, robots, count, true);
+    per_conn(m, robots, count, "drgate_link_packets_received_total",
+             "T->O packets (explicit mode: poll replies) received per connection, by the "
+             "assembly it carries",
+             CONN_RX);
+    per_conn(m, robots, count, "drgate_link_packets_lost_total",
+             "T->O packets lost (CIP sequence gaps) per connection, by the assembly it carries",
+             CONN_LOST);
     per_conn_drops(m, robots, count);
+    per_conn(m, robots, count, "drgate_link_sequence_resyncs_total",
+             "Jumps of the robot's T->O sequence followed per connection (after the "
+             "sequence before had gone silent for half the timeout)",
+             CONN_RESYNCS);
 }
 
 /* Upper bounds of the lag buckets, microseconds. */
