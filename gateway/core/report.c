@@ -31,7 +31,7 @@ static double rpi(const gw_robot_t *r) { return r->link.rpi_ms / 1000.0; }
 /* A per-connection counter of the link, by its T->O assembly. */
 typedef enum { CONN_RX, CONN_LOST, CONN_RESYNCS } conn_counter_t;
 
-static uint64_t conn_counter(const gw_robot_link_t *k, unsigned c, conn_counter_t which)
+static uint32_t conn_counter(const gw_robot_link_t *k, unsigned c, conn_counter_t which)
 {
     switch (which) {
     case CONN_RX:
