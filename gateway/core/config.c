@@ -596,7 +596,7 @@ static void unknown_key(gw_cfg_ctx_t *c, const char *name)
             gw_cfg_guess(&g, member);
         }
     }
-    char allowed[400], hint[96];
+    char allowed[768], hint[96];
     gw_cfg_join(names, n, allowed, sizeof allowed);
     gw_cfg_fail(c, c->lineno, "unknown key '%s' in [%s] (%sallowed: %s)", name,
                 c->sec_text, gw_cfg_did_you_mean(&g, "'", "'", hint, sizeof hint),

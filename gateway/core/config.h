@@ -159,6 +159,11 @@ const char *gw_config_robot_brief(const gw_robot_config_t *r, char *buf, size_t 
 /* Does a side show the log (keeps_log)? */
 bool gw_config_keeps_log(const gw_config_t *cfg);
 
+/* Room for gw_config_load's message: the file's path (a build tree or
+ * /etc/drgate, well under 1 KiB) before a message of up to 1 KiB (the
+ * robot's "unknown key" lists 28 keys; CI's deeper checkout once cut it). */
+#define GW_CONFIG_ERR_SIZE 2048
+
 /* Load and validate `path`. On error returns false and writes
  * "FILE:LINE: what is wrong (allowed: ...)" into err[errlen] (errors about
  * the file itself, such as "cannot open", have no LINE); *out is written

@@ -190,7 +190,7 @@ struct gw_cfg_ctx {
 
     unsigned bad_header_line; /* a '[' line libinih will reject */
     unsigned err_line;        /* 0: no error yet; the first one wins */
-    char err[512];
+    char err[1024];   /* the message, without FILE:LINE */
 };
 
 /* ---- config.c: for the sides' hooks and checks -------------------------- */

@@ -328,7 +328,7 @@ static void reload(gw_t *g)
 {
     static gw_config_t next;
     static gw_robot_t robots[GW_MAX_ROBOTS];
-    char err[512];
+    char err[GW_CONFIG_ERR_SIZE];
     g->reload = false;
     if (!gw_config_load(g->cfg.path, &next, err, sizeof err)) {
         gw_log(GW_LOG_ERROR, "reload refused, keeping the running configuration: %s", err);
@@ -438,7 +438,7 @@ static void free_sides(gw_t *g)
  * one cannot start: those started are freed. */
 static bool start_sides(gw_t *g)
 {
-    char err[512];
+    char err[GW_CONFIG_ERR_SIZE];
     g->env = (gw_north_env_t){.epfd = g->loop.epfd,
                               .cfg = &g->cfg,
                               .robots = g->robots,
@@ -650,7 +650,7 @@ int main(int argc, char **argv)
     }
     if (print_map) {
         /* with -c: each robot's own map too */
-        char perr[512];
+        char perr[GW_CONFIG_ERR_SIZE];
         bool with_cfg = config_given;
         if (with_cfg && !gw_config_load(config, &G.cfg, perr, sizeof perr)) {
             fprintf(stderr, "drgatewayd: %s\n", perr);
@@ -661,7 +661,7 @@ int main(int argc, char **argv)
                 gw_north_sides[i]->print_map(stdout, fmt, map_filter, with_cfg ? &G.cfg : NULL);
         return 0;
     }
-    char err[512];
+    char err[GW_CONFIG_ERR_SIZE];
     if (check != NULL) {
         bool ok = gw_config_load(check, &G.cfg, err, sizeof err);
         for (unsigned i = 0; ok && i < GW_NORTH_SIDES; i++)

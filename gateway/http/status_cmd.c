@@ -136,7 +136,7 @@ int gw_http_status_command(const char *config)
 {
     static gw_config_t cfg;
     static char resp[STATUS_MAX];
-    char err[512];
+    char err[GW_CONFIG_ERR_SIZE];
     if (!gw_config_load(config, &cfg, err, sizeof err)) {
         fprintf(stderr, "drgatewayd status: %s\n", err);
         return GW_HTTP_STATUS_UNREACHABLE;
