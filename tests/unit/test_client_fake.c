@@ -1405,6 +1405,26 @@ static void wait_established(dr_client_t *c, dr_conn_t *cn)
     assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
 }
 
+/* A connection of cc on c, started and established (the fake target
+ * answers its Forward Open). */
+static dr_conn_t *open_established(dr_client_t *c, const dr_conn_config_t *cc)
+{
+    dr_conn_t *cn = dr_conn_add(c, cc, NULL);
+    assert_non_null(cn);
+    dr_client_start(c);
+    wait_established(c, cn);
+    return cn;
+}
+
+/* The live producer's packet e, one RPI (10 ms) after the last: both
+ * sequence numbers e, every data byte e's low byte. */
+static void live_packet(dr_client_t *c, uint32_t e)
+{
+    F.now += 10000u;
+    push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
+    dr_client_process(c);
+}
+
 /* T->O sequence handling (issue 10): a producer that keeps its CIP
  * sequence count while its data is unchanged stays alive by its
  * encapsulation sequence number; stale packets never keep it alive; both
@@ -1416,10 +1436,7 @@ static void test_class1_seq_repeat(void **state)
     memset(&log, 0, sizeof log);
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms, timeout 40 ms */
-    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
-    assert_non_null(cn);
-    dr_client_start(c);
-    wait_established(c, cn);
+    dr_conn_t *cn = open_established(c, &cc);
     const dr_conn_stats_t *st = dr_conn_stats(cn);
 
     /* 30 RPIs of unchanged data: one count, the encapsulation number
@@ -1519,17 +1536,11 @@ static void test_class1_seq_forged(void **state)
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log);
     cc.timeout_mult = 2; /* x16: 160 ms; window max(16 / 2, 8) = 8 */
-    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
-    assert_non_null(cn);
-    dr_client_start(c);
-    wait_established(c, cn);
+    dr_conn_t *cn = open_established(c, &cc);
     const dr_conn_stats_t *st = dr_conn_stats(cn);
     uint32_t e;
-    for (e = 1; e <= 5; e++) {
-        F.now += 10000u;
-        push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
-        dr_client_process(c);
-    }
+    for (e = 1; e <= 5; e++)
+        live_packet(c, e);
     assert_int_equal(log.data, 5);
     /* the next packet with bit 30 of its number flipped: dropped */
     F.now += 10000u;
@@ -1538,11 +1549,8 @@ static void test_class1_seq_forged(void **state)
     assert_int_equal(st->rx_dropped_seq, 1);
     assert_int_equal(log.data, 5);
     /* the real ones after it are taken, 25 RPIs, longer than the timeout */
-    for (e = 6; e <= 30; e++) {
-        F.now += 10000u;
-        push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
-        dr_client_process(c);
-    }
+    for (e = 6; e <= 30; e++)
+        live_packet(c, e);
     assert_int_equal(log.data, 30);
     assert_int_equal(st->rx_dropped_seq, 1);
     assert_int_equal(st->timeouts, 0);
@@ -1601,17 +1609,11 @@ static void test_class1_seq_forged_live(void **state)
     dr_client_t *c = new_client();
     dr_conn_config_t cc = conn_config(&log);
     cc.timeout_mult = 2; /* x16: 160 ms; window 8 */
-    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
-    assert_non_null(cn);
-    dr_client_start(c);
-    wait_established(c, cn);
+    dr_conn_t *cn = open_established(c, &cc);
     const dr_conn_stats_t *st = dr_conn_stats(cn);
     uint32_t e;
-    for (e = 1; e <= 5; e++) {
-        F.now += 10000u;
-        push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
-        dr_client_process(c);
-    }
+    for (e = 1; e <= 5; e++)
+        live_packet(c, e);
     /* for 50 RPIs (three timeouts), three forged packets 30000 ahead,
      * agreeing, beside each real one */
     uint32_t forged = 30000;
@@ -1649,17 +1651,11 @@ static void test_class1_forged_source(void **state)
         dr_client_t *c = dr_client_new(&cfg, NULL);
         assert_non_null(c);
         dr_conn_config_t cc = conn_config(&log); /* RPI 10 ms, timeout 40 ms */
-        dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
-        assert_non_null(cn);
-        dr_client_start(c);
-        wait_established(c, cn);
+        dr_conn_t *cn = open_established(c, &cc);
         const dr_conn_stats_t *st = dr_conn_stats(cn);
         uint32_t e;
-        for (e = 1; e <= 3; e++) {
-            F.now += 10000u;
-            push_t2o_seq(F.t2o_cid, e, (uint16_t)e, (uint8_t)e, 96);
-            dr_client_process(c);
-        }
+        for (e = 1; e <= 3; e++)
+            live_packet(c, e);
         /* another host: the next numbers, and numbers far ahead */
         F.push_from = PEER_ADDR + 1u;
         push_t2o_seq(F.t2o_cid, 4, 4, 0xEE, 96);
@@ -1690,6 +1686,32 @@ static void test_class1_forged_source(void **state)
     }
 }
 
+/* An adapter that rounds a 5 ms RPI to its 10 ms tick without saying so
+ * (the reply's APIs are the RPIs): the timeout, 8 x 5 ms, covers the
+ * tick, in virtual time (test_client_sim runs it against drsim with room
+ * for a busy machine). */
+static void test_class1_coarse_tick_unreported(void **state)
+{
+    (void)state;
+    conn_log_t log;
+    memset(&log, 0, sizeof log);
+    dr_client_t *c = new_client();
+    dr_conn_config_t cc = conn_config(&log);
+    cc.rpi_us = 5000;
+    cc.timeout_mult = 1; /* x8: 40 ms */
+    dr_conn_t *cn = open_established(c, &cc);
+    const dr_conn_stats_t *st = dr_conn_stats(cn);
+    assert_int_equal(st->t2o_api_us, 5000);
+    assert_true(st->timeout_us64 == 40000u);
+    for (uint32_t e = 1; e <= 150; e++) /* 1.5 s, a packet every 10 ms */
+        live_packet(c, e);
+    assert_int_equal(st->rx_packets, 150);
+    assert_int_equal(st->timeouts, 0);
+    assert_int_equal(log.data, 150);
+    assert_int_equal(dr_conn_state(cn), DR_CONN_ESTABLISHED);
+    dr_client_free(c);
+}
+
 /* Issue 29, item 8: the timeout of a connection at RPI 9 s with multiplier
  * 7 (x512) is 4608 s, past 2^32 us; computed in 32 bits it was 313 s, and
  * the connection timed out 4295 s early. */
@@ -1702,10 +1724,7 @@ static void test_class1_timeout_64bit(void **state)
     dr_conn_config_t cc = conn_config(&log);
     cc.rpi_us = 9000000u;
     cc.timeout_mult = 7;
-    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
-    assert_non_null(cn);
-    dr_client_start(c);
-    wait_established(c, cn);
+    dr_conn_t *cn = open_established(c, &cc);
     const dr_conn_stats_t *st = dr_conn_stats(cn);
     assert_int_equal(st->t2o_api_us, 9000000u);
     assert_true(st->timeout_us64 == 4608000000ull);
@@ -1767,10 +1786,7 @@ static void test_class1_open_timeout_resets(void **state)
     memset(&log, 0, sizeof log);
     dr_client_t *c = new_client(); /* request timeout 100 ms */
     dr_conn_config_t cc = conn_config(&log); /* T->O timeout 40 ms */
-    dr_conn_t *cn = dr_conn_add(c, &cc, NULL);
-    assert_non_null(cn);
-    dr_client_start(c);
-    wait_established(c, cn);
+    dr_conn_t *cn = open_established(c, &cc);
     push_t2o(F.t2o_cid, 1, 96);
     dr_client_process(c);
     /* the path goes: no T->O, no reply to anything */
@@ -2700,6 +2716,7 @@ int main(void)
         cmocka_unit_test_setup(test_class1_seq_forged, setup),
         cmocka_unit_test_setup(test_class1_seq_forged_live, setup),
         cmocka_unit_test_setup(test_class1_forged_source, setup),
+        cmocka_unit_test_setup(test_class1_coarse_tick_unreported, setup),
         cmocka_unit_test_setup(test_class1_timeout_64bit, setup),
         cmocka_unit_test_setup(test_class1_open_wrong_service, setup),
         cmocka_unit_test_setup(test_class1_open_timeout_resets, setup),
