@@ -3,8 +3,12 @@
 # working, `make install` installs. See README.md.
 
 # 1.0.0: the client's API changed (docs/api-changes.md), so did the soname.
-VERSION      := 1.0.0
-SOVERSION    := 1
+# 2.0.0: structures the caller allocates grew after 1.0.0 (the transport
+# table, dr_conn_config_t, the client's storage) and the field table is no
+# longer exported as data: soname 2, symbols versioned (lib/libdrgate.map),
+# the ABI checked against lib/abi/ (make check-abi, mk/abi.mk).
+VERSION      := 2.0.0
+SOVERSION    := 2
 
 PREFIX       ?= /usr/local
 BINDIR       ?= $(PREFIX)/bin
@@ -82,6 +86,8 @@ LIB_A         := $(B)/libdrgate.a
 LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
 LIB_SO        := $(B)/libdrgate.so.$(VERSION)
 LIB_HDR       := $(wildcard lib/include/drgate/*.h)
+# What libdrgate.so exports, by version node; nothing else.
+LIB_MAP       := lib/libdrgate.map
 # The library's private headers (lib/*.h: the wire toolkit cip_internal.h,
 # the client's and the codec's insides): never installed. drsim, the tests,
 # the fuzzers and the benchmarks, which work on the wire themselves, see
@@ -262,9 +268,10 @@ $(LIB_A): $(LIB_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
-$(LIB_SO): $(LIB_OBJ)
+$(LIB_SO): $(LIB_OBJ) $(LIB_MAP)
 	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,$(LIB_SO_NAME) \
-	    $(filter-out $(PIE_LDFLAGS),$(ALL_LDFLAGS)) -o $@ $^ -lm
+	    -Wl,--version-script=$(LIB_MAP) -Wl,--no-undefined-version \
+	    $(filter-out $(PIE_LDFLAGS),$(ALL_LDFLAGS)) -o $@ $(LIB_OBJ) -lm
 	ln -sf $(notdir $@) $(B)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(B)/libdrgate.so
 
