@@ -223,7 +223,7 @@ GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
         check-dep-split check-demo check-install dissector check-dissector deb check-deb \
-        deb-arm64 check-arm64
+        deb-arm64 check-arm64 check-abi abi-baseline
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -368,7 +368,7 @@ CHECK_TIMES := $(B)/check-times
 CHECK_BG_STEPS :=
 CHECK_STEPS := check-unit check-cli check-docs check-eds check-cm4 check-firmware check-be \
                check-asan check-fuzz check-dep-split check-demo \
-               check-install check-dissector check-deb check-arm64
+               check-install check-abi check-cmake check-dissector check-deb check-arm64
 #
 # The dependencies first, then everything else in new makes (the steps run
 # as `$(MAKE) STEP`): pkg-config's flags are read when a make starts, so a
@@ -594,6 +594,16 @@ check-arm64:
 # (mk/check-install.sh; about 2 s once built).
 check-install: all
 	@MAKE="$(MAKE)" CC="$(CC)" sh mk/check-install.sh "$(abspath $(RESULTS))"
+
+# check-abi (in make check, ~3 s): libdrgate.so against the ABI of its
+# last release, lib/abi/ (abidiff; mk/check-abi.sh says what fails);
+# abi-baseline writes lib/abi/ from this build (at a release, after a
+# soname bump). docs/api-changes.md, "ABI".
+check-abi: $(LIB_SO)
+	@CC="$(CC)" sh mk/check-abi.sh "$(RESULTS)" $(LIB_SO)
+
+abi-baseline: $(LIB_SO)
+	@CC="$(CC)" sh mk/check-abi.sh --write $(LIB_SO)
 
 uninstall:
 	rm -f $(DESTDIR)$(LIBDIR)/libdrgate.* $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc

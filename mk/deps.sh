@@ -57,7 +57,7 @@ TEST_PKGS="libcmocka-dev gpiod \
  tshark socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
  liblwip-dev mosquitto openssl \
  debhelper lintian mmdebstrap zstd gcc-aarch64-linux-gnu libc6-dev-arm64-cross \
- chromium chromium-driver prometheus nanopb nodejs"
+ chromium chromium-driver prometheus nanopb nodejs cmake abigail-tools"
 # Need `dpkg --add-architecture`: the big-endian test runtime (check-be),
 # and the packages' arm64 build dependencies (check-arm64: dpkg-buildpackage
 # -a arm64; pkgconf:arm64 is aarch64-linux-gnu-pkg-config).
