@@ -22,6 +22,8 @@ DOCDIR       ?= $(PREFIX)/share/doc/drgate
 # global Lua plugin folder (tshark -G folders); elsewhere see docs/wireshark.md.
 WIRESHARK_LUADIR ?= $(PREFIX)/lib/$(if $(MULTIARCH),$(MULTIARCH)/)wireshark/plugins
 PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
+# The CMake package (find_package(drgate)): lib/cmake/*.in, installed here.
+CMAKEDIR     ?= $(LIBDIR)/cmake/drgate
 DESTDIR      ?=
 
 CROSS_COMPILE ?=
@@ -223,7 +225,7 @@ GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
         check-dep-split check-demo check-install dissector check-dissector deb check-deb \
-        deb-arm64 check-arm64 check-abi abi-baseline
+        deb-arm64 check-arm64 check-abi abi-baseline check-cmake
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -545,6 +547,16 @@ install: all
 	rm -f $(DESTDIR)$(INCLUDEDIR)/drgate/cip.h
 	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
 	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
+	# The CMake package finds the library and headers from its own place
+	# (relocatable): INCLUDEDIR as a path from LIBDIR.
+	install -d $(DESTDIR)$(CMAKEDIR)
+	install -m 644 lib/cmake/drgateBounds.cmake $(DESTDIR)$(CMAKEDIR)/
+	sed -e "s|@INCLUDEDIR_FROM_LIBDIR@|$$(realpath -m --relative-to=$(LIBDIR) $(INCLUDEDIR))|" \
+	    lib/cmake/drgateConfig.cmake.in > $(DESTDIR)$(CMAKEDIR)/drgateConfig.cmake
+	sed -e "s|@VERSION@|$(VERSION)|g; s|@SOVERSION@|$(SOVERSION)|g; s|@SIZEOF_VOID_P@|$$(echo | \
+	    $(CC) -dM -E - | sed -n 's/^#define __SIZEOF_POINTER__ //p')|g" \
+	    lib/cmake/drgateConfigVersion.cmake.in > $(DESTDIR)$(CMAKEDIR)/drgateConfigVersion.cmake
+	chmod 644 $(DESTDIR)$(CMAKEDIR)/drgateConfig.cmake $(DESTDIR)$(CMAKEDIR)/drgateConfigVersion.cmake
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
 	for m in $(wildcard man/*.[18]); do \
 	    sed $(MAN_SED) $$m > $(DESTDIR)$(MANDIR)/man$${m##*.}/$${m##*/} && \
@@ -595,6 +607,14 @@ check-arm64:
 check-install: all
 	@MAKE="$(MAKE)" CC="$(CC)" sh mk/check-install.sh "$(abspath $(RESULTS))"
 
+# check-cmake (in make check, ~25 s warm): the library as a CMake component
+# (lib/CMakeLists.txt, lib/cmake/): a consumer project with
+# add_subdirectory, with find_package against a staged make install, and
+# examples/firmware-cm4 cross-built for a Cortex-M4 (mk/check-cmake.sh).
+check-cmake: all
+	@MAKE="$(MAKE)" CC="$(CC)" $(FW_CM4) sh mk/check-cmake.sh "$(RESULTS)" $(B) $(VERSION) \
+	    "$(LIB_CODEC_SRC)" "$(LIB_FW_SRC)"
+
 # check-abi (in make check, ~3 s): libdrgate.so against the ABI of its
 # last release, lib/abi/ (abidiff; mk/check-abi.sh says what fails);
 # abi-baseline writes lib/abi/ from this build (at a release, after a
@@ -607,6 +627,8 @@ abi-baseline: $(LIB_SO)
 
 uninstall:
 	rm -f $(DESTDIR)$(LIBDIR)/libdrgate.* $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
+	rm -rf $(DESTDIR)$(CMAKEDIR)
+	-rmdir $(DESTDIR)$(LIBDIR)/cmake 2>/dev/null
 	rm -rf $(DESTDIR)$(INCLUDEDIR)/drgate
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(notdir $(BINS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/man1/,$(notdir $(wildcard man/*.1)))
