@@ -43,7 +43,7 @@ else
     tail -20 "$b/deb-arm64.log"; bad "the arm64 build failed (log: $b/deb-arm64.log)"; check_done
 fi
 debs=  # one --include= each (mmdebstrap splits no list of paths)
-for p in drgate drgate-sim libdrgate1 libdrgate-dev; do
+for p in drgate drgate-sim libdrgate2 libdrgate-dev; do
     f=$(ls "$d/${p}_"*_arm64.deb 2>/dev/null)
     a=$(dpkg-deb -f "$f" Architecture 2>/dev/null)
     [ "$a" = arm64 ] || { bad "$p: no arm64 package ($f: '$a')"; continue; }
