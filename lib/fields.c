@@ -32,9 +32,9 @@ const dr_field_t *dr_field_at(uint16_t i)
  * not be compared or subtracted with it (C99 6.5.6, 6.5.8). */
 uint16_t dr_field_index(const dr_field_t *f)
 {
-    for (uint16_t i = 0; i < DR_FF_END; i++)
+    for (unsigned i = 0; i < DR_FF_END; i++)
         if (f == &dr_field_tab[i])
-            return i;
+            return (uint16_t)i;
     return DR_FIELD_NONE;
 }
 
