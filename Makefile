@@ -610,7 +610,7 @@ check-arm64:
 check-install: all
 	@MAKE="$(MAKE)" CC="$(CC)" sh mk/check-install.sh "$(abspath $(RESULTS))"
 
-# check-cmake (in make check, ~25 s warm): the library as a CMake component
+# check-cmake (in make check, 3 to 12 s warm): the library as a CMake component
 # (lib/CMakeLists.txt, lib/cmake/): a consumer project with
 # add_subdirectory, with find_package against a staged make install, and
 # examples/firmware-cm4 cross-built for a Cortex-M4 (mk/check-cmake.sh).
