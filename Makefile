@@ -3,8 +3,12 @@
 # working, `make install` installs. See README.md.
 
 # 1.0.0: the client's API changed (docs/api-changes.md), so did the soname.
-VERSION      := 1.0.0
-SOVERSION    := 1
+# 2.0.0: structures the caller allocates grew after 1.0.0 (the transport
+# table, dr_conn_config_t, the client's storage) and the field table is no
+# longer exported as data: soname 2, symbols versioned (lib/libdrgate.map),
+# the ABI checked against lib/abi/ (make check-abi, mk/abi.mk).
+VERSION      := 2.0.0
+SOVERSION    := 2
 
 PREFIX       ?= /usr/local
 BINDIR       ?= $(PREFIX)/bin
@@ -18,6 +22,8 @@ DOCDIR       ?= $(PREFIX)/share/doc/drgate
 # global Lua plugin folder (tshark -G folders); elsewhere see docs/wireshark.md.
 WIRESHARK_LUADIR ?= $(PREFIX)/lib/$(if $(MULTIARCH),$(MULTIARCH)/)wireshark/plugins
 PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
+# The CMake package (find_package(drgate)): lib/cmake/*.in, installed here.
+CMAKEDIR     ?= $(LIBDIR)/cmake/drgate
 DESTDIR      ?=
 
 CROSS_COMPILE ?=
@@ -82,6 +88,8 @@ LIB_A         := $(B)/libdrgate.a
 LIB_SO_NAME   := libdrgate.so.$(SOVERSION)
 LIB_SO        := $(B)/libdrgate.so.$(VERSION)
 LIB_HDR       := $(wildcard lib/include/drgate/*.h)
+# What libdrgate.so exports, by version node; nothing else.
+LIB_MAP       := lib/libdrgate.map
 # The library's private headers (lib/*.h: the wire toolkit cip_internal.h,
 # the client's and the codec's insides): never installed. drsim, the tests,
 # the fuzzers and the benchmarks, which work on the wire themselves, see
@@ -119,6 +127,9 @@ SIM_CFLAGS   = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) $(ALL_CFLAGS)
 # with one backend, libgpiod 1 or 2). The tests link the same archives.
 # The pkg-config fallbacks cover builds where pkg-config is off (check-be
 # runs with PKG_CONFIG=true).
+# libmodbus: only the Modbus fuzzers compare against it (fuzz/fuzz.mk); the
+# daemon has its own Modbus code and the specification's limits
+# (gateway/modbus/mbproto.h), so its build needs no libmodbus-dev.
 MODBUS_CFLAGS  := $(or $(call pc,--cflags,libmodbus),-I/usr/include/modbus)
 MODBUS_LIBS    := $(or $(call pc,--libs,libmodbus),-lmodbus)
 INIH_CFLAGS    := $(call pc,--cflags,inih)
@@ -158,7 +169,7 @@ GW_ASSETS_C   := $(B)/gateway/http/assets_gen.c
 GW_ASSETS_OBJ := $(B)/gateway/http/assets_gen.o
 GW_A        := $(B)/gateway/libgw.a
 GW_BIN      := $(B)/drgatewayd
-GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' $(MODBUS_CFLAGS) \
+GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' \
                $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(NANOPB_CFLAGS) $(ALL_CFLAGS)
 # Sparkplug B payloads (gateway/mqtt/sparkplug.c): nanopb's runtime, the
 # static archive of Debian's libnanopb-dev (no .pc file; position
@@ -184,7 +195,7 @@ endif
 # dlopen in libc; -ldl is an empty stub there and keeps older C libraries
 # linking. The console's libmicrohttpd and libcrypt are loaded the same
 # way, only with [http] (gateway/http/mhd_lib.c, docs/http.md).
-GW_LIBS     := $(MODBUS_LIBS) $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(NANOPB_LIBS) -ldl -lm
+GW_LIBS     := $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(NANOPB_LIBS) -ldl -lm
 GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
 
 BINS        := $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
@@ -210,14 +221,14 @@ GW_TEST_BIN   := $(GW_TEST_SRC:%.c=$(B)/%)
 GW_TEST_FAKES := tests/gpio/gpio_fake.c
 GW_TEST_FAKE_OBJ := $(GW_TEST_FAKES:%.c=$(B)/%.o)
 GW_TEST_CFLAGS = $(ALL_CPPFLAGS) -Igateway -Itests -Itests/gpio -DGW_TEST_TOP='"$(CURDIR)"' \
-                 $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
+                 $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
 GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
 
 .PHONY: all lib gateway clean install eds check-eds uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \
         check-summary check-quick check-deps check-gw-config test-deps deps-measure \
         check-dep-split check-demo check-install dissector check-dissector deb check-deb \
-        deb-arm64 check-arm64
+        deb-arm64 check-arm64 check-abi abi-baseline check-cmake
 .DEFAULT_GOAL := all
 
 all: lib $(BINS)
@@ -262,9 +273,10 @@ $(LIB_A): $(LIB_OBJ)
 	rm -f $@
 	$(AR) rcs $@ $^
 
-$(LIB_SO): $(LIB_OBJ)
+$(LIB_SO): $(LIB_OBJ) $(LIB_MAP)
 	$(CC) $(ALL_CFLAGS) -shared -Wl,-soname,$(LIB_SO_NAME) \
-	    $(filter-out $(PIE_LDFLAGS),$(ALL_LDFLAGS)) -o $@ $^ -lm
+	    -Wl,--version-script=$(LIB_MAP) -Wl,--no-undefined-version \
+	    $(filter-out $(PIE_LDFLAGS),$(ALL_LDFLAGS)) -o $@ $(LIB_OBJ) -lm
 	ln -sf $(notdir $@) $(B)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(B)/libdrgate.so
 
@@ -361,7 +373,7 @@ CHECK_TIMES := $(B)/check-times
 CHECK_BG_STEPS :=
 CHECK_STEPS := check-unit check-cli check-docs check-eds check-cm4 check-firmware check-be \
                check-asan check-fuzz check-dep-split check-demo \
-               check-install check-dissector check-deb check-arm64
+               check-install check-abi check-cmake check-dissector check-deb check-arm64
 #
 # The dependencies first, then everything else in new makes (the steps run
 # as `$(MAKE) STEP`): pkg-config's flags are read when a make starts, so a
@@ -538,6 +550,16 @@ install: all
 	rm -f $(DESTDIR)$(INCLUDEDIR)/drgate/cip.h
 	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
 	    lib/drgate.pc.in > $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
+	# The CMake package finds the library and headers from its own place
+	# (relocatable): INCLUDEDIR as a path from LIBDIR.
+	install -d $(DESTDIR)$(CMAKEDIR)
+	install -m 644 lib/cmake/drgateBounds.cmake $(DESTDIR)$(CMAKEDIR)/
+	sed -e "s|@INCLUDEDIR_FROM_LIBDIR@|$$(realpath -m --relative-to=$(LIBDIR) $(INCLUDEDIR))|" \
+	    lib/cmake/drgateConfig.cmake.in > $(DESTDIR)$(CMAKEDIR)/drgateConfig.cmake
+	sed -e "s|@VERSION@|$(VERSION)|g; s|@SOVERSION@|$(SOVERSION)|g; s|@SIZEOF_VOID_P@|$$(echo | \
+	    $(CC) -dM -E - | sed -n 's/^#define __SIZEOF_POINTER__ //p')|g" \
+	    lib/cmake/drgateConfigVersion.cmake.in > $(DESTDIR)$(CMAKEDIR)/drgateConfigVersion.cmake
+	chmod 644 $(DESTDIR)$(CMAKEDIR)/drgateConfig.cmake $(DESTDIR)$(CMAKEDIR)/drgateConfigVersion.cmake
 	install -m 755 $(BINS) $(DESTDIR)$(BINDIR)/
 	for m in $(wildcard man/*.[18]); do \
 	    sed $(MAN_SED) $$m > $(DESTDIR)$(MANDIR)/man$${m##*.}/$${m##*/} && \
@@ -571,7 +593,7 @@ deb:
 deb-arm64:
 	@DEB_HOST_ARCH=arm64 sh mk/deb.sh $(B)
 
-# check-deb (in make check, ~40 s): make deb, lintian (no error, no
+# check-deb (in make check, ~60 s: the package build runs the unit tests): make deb, lintian (no error, no
 # warning), the packages installed, run and purged in a clean bookworm root
 # made with mmdebstrap. check-arm64 (in make check): the packages
 # cross-built for arm64, their programs run under qemu-aarch64 in an arm64
@@ -588,8 +610,28 @@ check-arm64:
 check-install: all
 	@MAKE="$(MAKE)" CC="$(CC)" sh mk/check-install.sh "$(abspath $(RESULTS))"
 
+# check-cmake (in make check, 3 to 12 s warm): the library as a CMake component
+# (lib/CMakeLists.txt, lib/cmake/): a consumer project with
+# add_subdirectory, with find_package against a staged make install, and
+# examples/firmware-cm4 cross-built for a Cortex-M4 (mk/check-cmake.sh).
+check-cmake: all
+	@MAKE="$(MAKE)" CC="$(CC)" $(FW_CM4) sh mk/check-cmake.sh "$(RESULTS)" $(B) $(VERSION) \
+	    "$(LIB_CODEC_SRC)" "$(LIB_FW_SRC)"
+
+# check-abi (in make check, ~3 s): libdrgate.so against the ABI of its
+# last release, lib/abi/ (abidiff; mk/check-abi.sh says what fails);
+# abi-baseline writes lib/abi/ from this build (at a release, after a
+# soname bump). docs/api-changes.md, "ABI".
+check-abi: $(LIB_SO)
+	@CC="$(CC)" sh mk/check-abi.sh "$(RESULTS)" $(LIB_SO)
+
+abi-baseline: $(LIB_SO)
+	@CC="$(CC)" sh mk/check-abi.sh --write $(LIB_SO)
+
 uninstall:
 	rm -f $(DESTDIR)$(LIBDIR)/libdrgate.* $(DESTDIR)$(PKGCONFIGDIR)/drgate.pc
+	rm -rf $(DESTDIR)$(CMAKEDIR)
+	-rmdir $(DESTDIR)$(LIBDIR)/cmake 2>/dev/null
 	rm -rf $(DESTDIR)$(INCLUDEDIR)/drgate
 	rm -f $(addprefix $(DESTDIR)$(BINDIR)/,$(notdir $(BINS)))
 	rm -f $(addprefix $(DESTDIR)$(MANDIR)/man1/,$(notdir $(wildcard man/*.1)))

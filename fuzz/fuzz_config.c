@@ -166,8 +166,7 @@ static void check_config(const gw_config_t *c)
         FUZZ_CHECK(g->offset >= 0 || g->line_name[0] != '\0');
         FUZZ_CHECK(g->robot_index < c->robot_count);
         FUZZ_CHECK(strcmp(g->robot, c->robot[g->robot_index].name) == 0);
-        FUZZ_CHECK(g->field.field >= dr_field_table &&
-                   g->field.field < dr_field_table + dr_field_count);
+        FUZZ_CHECK(dr_field_index(g->field.field) != DR_FIELD_NONE);
         FUZZ_CHECK(is_bit(g->field));
         if (g->dir == GW_GPIO_INPUT)
             FUZZ_CHECK(dr_asm_info((dr_asm_t)g->field.field->assembly)->dir == DR_DIR_O2T);

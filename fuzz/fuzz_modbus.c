@@ -36,12 +36,23 @@
  */
 #include <errno.h>
 #include <fcntl.h>
+#include <modbus.h>
 #include <string.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include "modbus/mbproto.h"
 #include "fuzz.h"
+
+/* The gateway's quantity limits (mbproto.h, from the specification) are
+ * libmodbus's, against which this fuzzer compares the replies. */
+#define SAME_LIMIT(name) typedef char same_##name[GW_MB_##name == MODBUS_##name ? 1 : -1]
+SAME_LIMIT(MAX_READ_BITS);
+SAME_LIMIT(MAX_WRITE_BITS);
+SAME_LIMIT(MAX_READ_REGISTERS);
+SAME_LIMIT(MAX_WRITE_REGISTERS);
+SAME_LIMIT(MAX_WR_READ_REGISTERS);
+SAME_LIMIT(MAX_WR_WRITE_REGISTERS);
 
 #define UNITS 2
 
@@ -370,7 +381,7 @@ static void request(const uint8_t *adu, size_t len)
         uint8_t rd[12] = {0, 1, 0, 0, 0, 6, res.unit_id, 0x03,
                           (uint8_t)(res.raddr >> 8), (uint8_t)res.raddr,
                           (uint8_t)(res.rcount >> 8), (uint8_t)res.rcount};
-        uint16_t rv[MODBUS_MAX_WR_READ_REGISTERS];
+        uint16_t rv[GW_MB_MAX_WR_READ_REGISTERS];
         uint16_t rn = res.rcount;
         memcpy(rv, res.rvalues, sizeof rv);
         const gw_mb_env_t env2 = {unit_for, NULL, may_write, wrote, NULL, "9.8.7", GW_ORIGIN_MODBUS_TCP, NULL, NULL, NULL};

@@ -28,7 +28,7 @@ static void check_map(void)
 {
     for (unsigned i = 0; i < M.count; i++) {
         const gw_umap_entry_t *e = &M.entry[i];
-        const dr_field_t *f = &dr_field_table[e->field];
+        const dr_field_t *f = dr_field_at(e->field);
         uint16_t at;
         FUZZ_CHECK(e->size > 0 && (uint32_t)e->addr + e->size <= 65536u);
         FUZZ_CHECK(e->elem + e->count <= f->count);

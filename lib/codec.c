@@ -2,7 +2,7 @@
 /*
  * Decode, encode and per-field access of the assemblies. Whole-assembly
  * decode and encode are expanded per assembly from the field lists of
- * fields_internal.h; per-field access walks dr_field_table. No offset is
+ * fields_internal.h; per-field access walks the field table. No offset is
  * written down in this file.
  */
 #include <float.h>

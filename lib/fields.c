@@ -16,10 +16,27 @@
      (uint16_t)offsetof(T, M), (uint16_t)MEMBER_SIZE(T, M), NAME, UNIT, HELP},
 #define DR_ASM_ENTRIES(ID, name, T, FIELDS, O2T, SIZE) FIELDS(DR_FIELD_ENTRY, DR_ASM_##ID, T)
 
-const dr_field_t dr_field_table[] = {DR_ASSEMBLIES(DR_ASM_ENTRIES)};
+const dr_field_t dr_field_tab[DR_FF_END] = {DR_ASSEMBLIES(DR_ASM_ENTRIES)};
 
-const uint16_t dr_field_count =
-    (uint16_t)(sizeof dr_field_table / sizeof dr_field_table[0]);
+uint16_t dr_field_count(void)
+{
+    return DR_FF_END;
+}
+
+const dr_field_t *dr_field_at(uint16_t i)
+{
+    return i < DR_FF_END ? &dr_field_tab[i] : NULL;
+}
+
+/* By equality, not by subtraction: a pointer from outside the table may
+ * not be compared or subtracted with it (C99 6.5.6, 6.5.8). */
+uint16_t dr_field_index(const dr_field_t *f)
+{
+    for (unsigned i = 0; i < DR_FF_END; i++)
+        if (f == &dr_field_tab[i])
+            return (uint16_t)i;
+    return DR_FIELD_NONE;
+}
 
 /* Names and titles; sizes and field ranges come from fields_internal.h. */
 static const dr_asm_info_t asm_info[DR_ASM_COUNT] = {

@@ -140,4 +140,12 @@ enum {
     DR_FF_END = DR_FF_FLOAT_IN + DR_NF_FLOAT_IN
 };
 
+/* The field table (fields.c), DR_FF_END rows. Internal: applications see
+ * it through dr_field_count(), dr_field_at() and dr_field_index(), so that
+ * its size is no part of libdrgate.so's ABI (an exported data table is
+ * copied into every program that uses it, with its size at link time). */
+#pragma GCC visibility push(hidden)
+extern const dr_field_t dr_field_tab[DR_FF_END];
+#pragma GCC visibility pop
+
 #endif /* DRGATE_FIELDS_INTERNAL_H */

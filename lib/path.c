@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "drgate/codec.h"
+#include "fields_internal.h"
 
 #define PATH_MAX_LEN 64u
 
@@ -40,7 +41,7 @@ const dr_field_t *dr_asm_fields(dr_asm_t a, uint16_t *count)
         return NULL;
     if (count != NULL)
         *count = info->field_count;
-    return &dr_field_table[info->first_field];
+    return &dr_field_tab[info->first_field];
 }
 
 /* "[digits]" at the very end of s[0..n); at most 3 digits. */
@@ -175,15 +176,15 @@ static uint16_t leaves_of(const dr_field_t *f)
 uint16_t dr_leaf_count(void)
 {
     uint16_t n = 0;
-    for (unsigned i = 0; i < dr_field_count; i++)
-        n = (uint16_t)(n + leaves_of(&dr_field_table[i]));
+    for (unsigned i = 0; i < DR_FF_END; i++)
+        n = (uint16_t)(n + leaves_of(&dr_field_tab[i]));
     return n;
 }
 
 dr_status_t dr_leaf_at(uint16_t i, dr_ref_t *out)
 {
-    for (unsigned k = 0; k < dr_field_count; k++) {
-        const dr_field_t *f = &dr_field_table[k];
+    for (unsigned k = 0; k < DR_FF_END; k++) {
+        const dr_field_t *f = &dr_field_tab[k];
         if (i < leaves_of(f)) {
             out->field = f;
             out->elem = (int16_t)i;
@@ -242,8 +243,8 @@ dr_status_t dr_path_closest(const char *path, char *out, size_t size)
         return DR_EINVAL;
     unsigned best_d = ~0u;
     char best[PATH_MAX_LEN] = "";
-    for (unsigned k = 0; k < dr_field_count; k++) {
-        const dr_field_t *f = &dr_field_table[k];
+    for (unsigned k = 0; k < DR_FF_END; k++) {
+        const dr_field_t *f = &dr_field_tab[k];
         if (f->kind == DR_KIND_BITS) {
             dr_ref_t mask = {f, -1};
             consider(path, mask, &best_d, best);

@@ -48,7 +48,7 @@ files() { (cd "$root" && find . -xdev \( -path ./var/lib/dpkg -o -path ./var/log
 
 # What the packages depend on, by name (libgpiod2 on bookworm, libgpiod3
 # on trixie): their own Depends, less themselves and adduser's alternatives.
-deps=$(for f in "$b"/deb/drgate_*.deb "$b"/deb/drgate-sim_*.deb "$b"/deb/libdrgate1_*.deb; do
+deps=$(for f in "$b"/deb/drgate_*.deb "$b"/deb/drgate-sim_*.deb "$b"/deb/libdrgate2_*.deb; do
            dpkg-deb -f "$f" Depends; done | tr ',' '\n' | sed 's/|.*//; s/(.*//; s/ //g' |
        grep -v '^libdrgate' | grep . | sort -u | tr '\n' ',' | sed 's/,$//')
 if ! mmdebstrap --quiet --variant=apt --include="$deps" \
@@ -56,16 +56,18 @@ if ! mmdebstrap --quiet --variant=apt --include="$deps" \
     bad "mmdebstrap failed: $(tail -3 "$root.log")"
 else
     files > "$root.before"
+    ma=$(dpkg-architecture -qDEB_HOST_MULTIARCH)
     mkdir -p "$root/debs"
-    cp "$b"/deb/drgate_*.deb "$b"/deb/drgate-sim_*.deb "$b"/deb/libdrgate1_*.deb \
+    cp "$b"/deb/drgate_*.deb "$b"/deb/drgate-sim_*.deb "$b"/deb/libdrgate2_*.deb \
        "$b"/deb/libdrgate-dev_*.deb "$root/debs/"
-    if inroot sh -c 'dpkg -i /debs/*.deb' > "$root.log" 2>&1; then ok "dpkg -i drgate drgate-sim libdrgate1 libdrgate-dev"
+    if inroot sh -c 'dpkg -i /debs/*.deb' > "$root.log" 2>&1; then ok "dpkg -i drgate drgate-sim libdrgate2 libdrgate-dev"
     else bad "dpkg -i: $(tail -5 "$root.log")"; fi
     for f in /usr/bin/drgatewayd /usr/bin/drcli /usr/bin/drsim /etc/drgate/drgatewayd.ini \
              /usr/lib/systemd/system/drgatewayd.service /usr/share/doc/drgate/deployment.md \
              /usr/share/man/man8/drgatewayd.8.gz /usr/share/drgate/examples/minimal.ini \
              /usr/share/drgate/drsim.eds \
-             /usr/include/drgate/codec.h; do
+             /usr/include/drgate/codec.h "/usr/lib/$ma/libdrgate.so.2" \
+             "/usr/lib/$ma/cmake/drgate/drgateConfig.cmake"; do
         [ -e "$root$f" ] || missing="${missing:-} $f"
     done
     [ -z "${missing:-}" ] && ok "the packages' files are in place" || bad "not installed:$missing"
@@ -84,7 +86,7 @@ else
         ok "--check-config takes a robot: $out" || bad "--check-config: $out"
     n=$(inroot drcli list 2>/dev/null | grep -c .)
     [ "$n" -gt 10 ] && ok "drcli list runs ($n lines)" || bad "drcli list: $n lines"
-    if inroot dpkg --purge drgate drgate-sim libdrgate-dev libdrgate1 > "$root.log" 2>&1; then
+    if inroot dpkg --purge drgate drgate-sim libdrgate-dev libdrgate2 > "$root.log" 2>&1; then
         ok "dpkg --purge"
     else bad "dpkg --purge: $(tail -5 "$root.log")"; fi
     inroot getent passwd drgate >/dev/null && bad "the user drgate is left after purge" ||

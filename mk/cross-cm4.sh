@@ -27,10 +27,8 @@ out=${CM4_BUILD:-build/$name}
 doc=${CM4_DOC:-docs/codec.md}
 begin="<!-- BEGIN $name footprint (make docs): do not edit -->"
 end="<!-- END $name footprint -->"
-# What the code may call: <string.h> and libgcc's soft-float/long helpers,
-# and what CM4_ALLOW adds. Anything else (socket, timerfd_*, epoll_*,
-# clock_gettime, malloc, dr_transport_posix, ...) fails the check.
-allowed="^(memcpy|memset|memmove|memcmp|strlen|strcmp|strncmp|__aeabi_[a-z0-9_]+${CM4_ALLOW:+|$CM4_ALLOW})\$"
+# What the code may call: mk/cm4-symbols.sh (CM4_ALLOW adds to it).
+. mk/cm4-symbols.sh
 
 write_docs=0
 if [ "${1:-}" = "--write-docs" ]; then write_docs=1; results=; else results=${1:?usage}; fi
@@ -64,10 +62,7 @@ done
 
 # Undefined symbols that none of the objects defines must be allowed ones.
 # shellcheck disable=SC2086
-"${CROSS}nm" -u $objs | awk 'NF == 2 && $1 == "U" { print $2 }' | sort -u >"$out/undef"
-# shellcheck disable=SC2086
-"${CROSS}nm" --defined-only $objs | awk 'NF == 3 { print $3 }' | sort -u >"$out/defined"
-bad=$(comm -23 "$out/undef" "$out/defined" | grep -Ev "$allowed" || true)
+bad=$(cm4_disallowed "$out" $objs)
 if [ -n "$bad" ]; then
     echo "$name: FAIL: the $what references symbols a bare-metal build must not need:" >&2
     echo "$bad" | sed 's/^/    /' >&2

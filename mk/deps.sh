@@ -43,26 +43,28 @@ cd "$(dirname "$0")/.."
 
 # What `make` (all) and `make demo` need. No test tool here: check-dep-split
 # (mk/check-dep-split.sh, in make check) fails if one appears.
-DEMO_PKGS="build-essential pkg-config libjansson-dev libmodbus-dev libgpiod-dev \
+DEMO_PKGS="build-essential pkg-config libjansson-dev libgpiod-dev \
  libinih-dev libsystemd-dev libmosquitto-dev libmicrohttpd-dev libnanopb-dev mbpoll"
 # What make check adds: unit tests, cross and big-endian builds, firmware,
 # sanitizers, static analysis, coverage, captures, peers, the Debian
 # packages (check-deb: debhelper, lintian, mmdebstrap; check-arm64: the
-# arm64 cross compiler), the fresh roots (check-fresh: mmdebstrap, zstd).
+# arm64 cross compiler), the fresh roots (check-fresh: mmdebstrap, zstd),
+# the library as a CMake component and its ABI (check-cmake: cmake;
+# check-abi: abigail-tools), libmodbus for the Modbus fuzzer and benchmark.
 # Names that both bookworm and trixie have (libclang-rt-dev: the runtime
 # of the release's default clang).
-TEST_PKGS="libcmocka-dev gpiod \
+TEST_PKGS="libcmocka-dev libmodbus-dev gpiod \
  clang libclang-rt-dev gcc-arm-none-eabi libnewlib-arm-none-eabi \
  gcc-s390x-linux-gnu libc6-dev-s390x-cross qemu-user \
  tshark socat python3-venv iproute2 valgrind cppcheck clang-tidy gcovr \
  liblwip-dev mosquitto openssl \
  debhelper lintian mmdebstrap zstd gcc-aarch64-linux-gnu libc6-dev-arm64-cross \
- chromium chromium-driver prometheus nanopb nodejs"
+ chromium chromium-driver prometheus nanopb nodejs cmake abigail-tools"
 # Need `dpkg --add-architecture`: the big-endian test runtime (check-be),
 # and the packages' arm64 build dependencies (check-arm64: dpkg-buildpackage
 # -a arm64; pkgconf:arm64 is aarch64-linux-gnu-pkg-config).
 CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x \
- pkgconf:arm64 libjansson-dev:arm64 libmodbus-dev:arm64 libgpiod-dev:arm64 \
+ pkgconf:arm64 libjansson-dev:arm64 libgpiod-dev:arm64 \
  libinih-dev:arm64 libsystemd-dev:arm64 libmosquitto-dev:arm64 \
  libmicrohttpd-dev:arm64 libnanopb-dev:arm64"
 

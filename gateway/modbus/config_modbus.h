@@ -82,7 +82,7 @@ typedef struct {
     bool writable;     /* the entry says so (O->T fields in HR/coils only) */
     bool saturate;     /* INT16: clamping is expected */
     uint8_t half;      /* UINT16 of a DINT: 0 low half, 1 high half */
-    uint16_t field;    /* index into dr_field_table */
+    uint16_t field;    /* dr_field_at(field) */
     uint16_t elem;     /* first element (0-based) */
     uint16_t count;    /* elements */
     uint16_t scale;    /* INT16: the factor (1..10000) */

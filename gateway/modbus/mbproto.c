@@ -36,14 +36,14 @@ typedef struct {
 static bool fc_lookup(uint8_t fc, fc_info_t *fi)
 {
     switch (fc) {
-    case 0x01: *fi = (fc_info_t){GW_COILS, false, MODBUS_MAX_READ_BITS}; return true;
-    case 0x02: *fi = (fc_info_t){GW_DISCRETE, false, MODBUS_MAX_READ_BITS}; return true;
-    case 0x03: *fi = (fc_info_t){GW_HOLDING, false, MODBUS_MAX_READ_REGISTERS}; return true;
-    case 0x04: *fi = (fc_info_t){GW_INPUT, false, MODBUS_MAX_READ_REGISTERS}; return true;
+    case 0x01: *fi = (fc_info_t){GW_COILS, false, GW_MB_MAX_READ_BITS}; return true;
+    case 0x02: *fi = (fc_info_t){GW_DISCRETE, false, GW_MB_MAX_READ_BITS}; return true;
+    case 0x03: *fi = (fc_info_t){GW_HOLDING, false, GW_MB_MAX_READ_REGISTERS}; return true;
+    case 0x04: *fi = (fc_info_t){GW_INPUT, false, GW_MB_MAX_READ_REGISTERS}; return true;
     case 0x05: *fi = (fc_info_t){GW_COILS, true, 1}; return true;
     case 0x06: *fi = (fc_info_t){GW_HOLDING, true, 1}; return true;
-    case 0x0F: *fi = (fc_info_t){GW_COILS, true, MODBUS_MAX_WRITE_BITS}; return true;
-    case 0x10: *fi = (fc_info_t){GW_HOLDING, true, MODBUS_MAX_WRITE_REGISTERS}; return true;
+    case 0x0F: *fi = (fc_info_t){GW_COILS, true, GW_MB_MAX_WRITE_BITS}; return true;
+    case 0x10: *fi = (fc_info_t){GW_HOLDING, true, GW_MB_MAX_WRITE_REGISTERS}; return true;
     default: return false;
     }
 }
@@ -70,7 +70,7 @@ static int write_values(uint8_t fc, const uint8_t *pdu, size_t pdu_len, uint16_t
         return GW_EX_ILLEGAL_VALUE;
     size_t bytes = pdu[5];
     bool bits = fc == 0x0F;
-    if (*n == 0 || *n > (bits ? MODBUS_MAX_WRITE_BITS : MODBUS_MAX_WRITE_REGISTERS) ||
+    if (*n == 0 || *n > (bits ? GW_MB_MAX_WRITE_BITS : GW_MB_MAX_WRITE_REGISTERS) ||
         bytes != (bits ? (*n + 7u) / 8u : 2u * *n) || pdu_len != 6 + bytes)
         return GW_EX_ILLEGAL_VALUE;
     for (uint16_t i = 0; i < *n; i++)
@@ -160,8 +160,8 @@ static int decide_read_write(gw_unit_t *u, const gw_mb_env_t *env, const uint8_t
     r->rcount = be16(pdu + 3);
     r->addr = be16(pdu + 5);
     r->count = be16(pdu + 7);
-    if (r->rcount == 0 || r->rcount > MODBUS_MAX_WR_READ_REGISTERS || r->count == 0 ||
-        r->count > MODBUS_MAX_WR_WRITE_REGISTERS || pdu[9] != 2u * r->count ||
+    if (r->rcount == 0 || r->rcount > GW_MB_MAX_WR_READ_REGISTERS || r->count == 0 ||
+        r->count > GW_MB_MAX_WR_WRITE_REGISTERS || pdu[9] != 2u * r->count ||
         pdu_len != 10u + pdu[9])
         return GW_EX_ILLEGAL_VALUE;
     for (uint16_t i = 0; i < r->count; i++)

@@ -27,12 +27,22 @@
 #ifndef DRGATE_GW_MBPROTO_H
 #define DRGATE_GW_MBPROTO_H
 
-#include <modbus.h> /* MODBUS_MAX_* limits only */
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
 #include "modbus/regmap.h"
+
+/* Quantities per request, MODBUS Application Protocol Specification
+ * V1.1b3, 6.1-6.4, 6.11, 6.12, 6.17 (the values of libmodbus's
+ * GW_MB_MAX_*, which fuzz/fuzz_modbus.c checks; the daemon does not need
+ * libmodbus for them). */
+#define GW_MB_MAX_READ_BITS 2000u          /* FC 01, 02 */
+#define GW_MB_MAX_WRITE_BITS 1968u         /* FC 0F */
+#define GW_MB_MAX_READ_REGISTERS 125u      /* FC 03, 04 */
+#define GW_MB_MAX_WRITE_REGISTERS 123u     /* FC 10 */
+#define GW_MB_MAX_WR_READ_REGISTERS 125u   /* FC 17, its read part */
+#define GW_MB_MAX_WR_WRITE_REGISTERS 121u  /* FC 17, its write part */
 
 #define GW_MBAP_LEN 7u  /* transaction ID, protocol ID, length, unit ID */
 #define GW_ADU_MAX 260u /* MBAP + the largest PDU (253 bytes) */
@@ -84,10 +94,10 @@ typedef struct {
     bool reset;        /* accepted write: it cleared the unit's latched write fault */
     /* Accepted read: the registers or bits (0/1) to answer with; write:
      * the values decoded from the request. */
-    uint16_t values[MODBUS_MAX_READ_BITS];
+    uint16_t values[GW_MB_MAX_READ_BITS];
     /* FC 23: its read part (values: its write part), read after the write. */
     uint16_t raddr, rcount;
-    uint16_t rvalues[MODBUS_MAX_WR_READ_REGISTERS];
+    uint16_t rvalues[GW_MB_MAX_WR_READ_REGISTERS];
     /* The reply PDU: the data, an echo, or function code | 0x80 and the
      * exception code. */
     uint8_t pdu[GW_PDU_MAX];

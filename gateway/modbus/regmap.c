@@ -26,7 +26,7 @@ typedef enum {
 typedef struct {
     uint8_t kind;
     uint8_t part;
-    uint16_t field; /* index into dr_field_table */
+    uint16_t field; /* dr_field_at(field) */
     int16_t elem;
 } slot_t;
 
@@ -63,7 +63,7 @@ static void put(gw_area_t area, uint16_t *addr, slot_kind_t kind, uint8_t part,
 static void build_field(uint16_t fi, gw_area_t ra, gw_area_t ba, uint16_t *r,
                         uint16_t *s, uint16_t *b)
 {
-    const dr_field_t *f = &dr_field_table[fi];
+    const dr_field_t *f = dr_field_at(fi);
     unsigned n = f->count;
     switch ((dr_kind_t)f->kind) {
     case DR_KIND_BIT:
@@ -180,7 +180,7 @@ unsigned gw_regmap_scale(const dr_field_t *f)
 
 static const dr_field_t *slot_field(const slot_t *s)
 {
-    return &dr_field_table[s->field];
+    return dr_field_at(s->field);
 }
 
 static size_t asm_size(const dr_field_t *f)
@@ -405,7 +405,7 @@ static uint16_t user_bits(const gw_unit_t *u, const dr_field_t *f, unsigned firs
 
 static uint16_t user_read(const gw_unit_t *u, const gw_umap_entry_t *e, uint32_t addr)
 {
-    const dr_field_t *f = &dr_field_table[e->field];
+    const dr_field_t *f = dr_field_at(e->field);
     unsigned off = (unsigned)(addr - e->addr);
     switch ((gw_view_t)e->view) {
     case GW_VIEW_BIT:
@@ -564,7 +564,7 @@ static int user_set_bits(decoded_t *d, const dr_field_t *f, unsigned first, unsi
 static int user_write(decoded_t *d, const gw_unit_t *u, const gw_umap_entry_t *e, uint32_t a,
                       uint16_t *i, uint16_t count, const uint16_t *values)
 {
-    const dr_field_t *f = &dr_field_table[e->field];
+    const dr_field_t *f = dr_field_at(e->field);
     unsigned off = (unsigned)(a - e->addr);
     uint16_t v = values[*i];
     int elem = (int)(e->elem + off);
@@ -860,7 +860,7 @@ static void field_at(const gw_unit_t *u, gw_area_t area, uint32_t a, char *buf, 
         elem = e->elem + 16u * off;
     else if (e->view == GW_VIEW_REAL || e->view == GW_VIEW_DINT)
         elem = e->elem + off / 2u;
-    const dr_field_t *f = &dr_field_table[e->field];
+    const dr_field_t *f = dr_field_at(e->field);
     dr_ref_t ref = {f, (int16_t)(f->indexed ? elem : 0)};
     (void)dr_ref_path(ref, buf, size);
 }
@@ -945,7 +945,7 @@ void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
 static void print_user(FILE *out, gw_print_fmt_t fmt, const char *filter, bool *first,
                        const char *robot, const gw_umap_entry_t *e)
 {
-    const dr_field_t *f = &dr_field_table[e->field];
+    const dr_field_t *f = dr_field_at(e->field);
     unsigned per = e->view == GW_VIEW_REAL || e->view == GW_VIEW_DINT ? 2u : 1u;
     unsigned rows = e->view == GW_VIEW_BITS ? e->size : e->count;
     for (unsigned r = 0; r < rows; r++) {
@@ -1047,13 +1047,13 @@ static bool leaf_index_build(void)
 {
     if (leaf_built)
         return true;
-    if (dr_field_count > FIELD_MAX || dr_leaf_count() > LEAF_MAX)
+    if (dr_field_count() > FIELD_MAX || dr_leaf_count() > LEAF_MAX)
         return false;
     gw_regmap_init();
     unsigned n = 0;
-    for (unsigned fi = 0; fi < dr_field_count; fi++) {
+    for (uint16_t fi = 0; fi < dr_field_count(); fi++) {
         field_leaf[fi] = (uint16_t)n;
-        n += leaves_of_field(&dr_field_table[fi]);
+        n += leaves_of_field(dr_field_at(fi));
     }
     leaf_total = (uint16_t)n;
     for (unsigned area = 0; area < GW_AREAS; area++)
@@ -1162,7 +1162,7 @@ static void json_user_locs(gw_json_t *j, bool *first, const gw_umap_t *m, unsign
             json_loc(j, first, e->table, e->addr + k, 1, view, extra, e->writable, true);
             break;
         case GW_VIEW_UINT16:
-            if (dr_field_table[fi].kind == DR_KIND_DINT)
+            if (dr_field_at((uint16_t)fi)->kind == DR_KIND_DINT)
                 snprintf(extra, sizeof extra, ", \"half\": \"%s\"", e->half ? "high" : "low");
             json_loc(j, first, e->table, e->addr + k, 1, view, extra, e->writable, true);
             break;
@@ -1188,7 +1188,7 @@ static bool gpio_driven(const gw_config_t *cfg, unsigned r, dr_ref_t ref)
 static void json_leaf(gw_json_t *j, const gw_config_t *cfg, unsigned r, unsigned fi,
                       unsigned elem, bool first)
 {
-    const dr_field_t *f = &dr_field_table[fi];
+    const dr_field_t *f = dr_field_at((uint16_t)fi);
     const gw_robot_config_t *rc = &cfg->robot[r];
     dr_ref_t ref = {f, (int16_t)elem};
     bool o2t = dr_asm_info((dr_asm_t)f->assembly)->dir == DR_DIR_O2T;
@@ -1234,8 +1234,8 @@ bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot)
              rc->side.modbus.default_map_writes ? "true" : "false", (unsigned)GW_MAP_LAYOUT_VERSION);
     gw_json_str(j, t);
     bool first = true;
-    for (unsigned fi = 0; fi < dr_field_count; fi++)
-        for (unsigned e = 0; e < leaves_of_field(&dr_field_table[fi]); e++) {
+    for (uint16_t fi = 0; fi < dr_field_count(); fi++)
+        for (unsigned e = 0; e < leaves_of_field(dr_field_at(fi)); e++) {
             json_leaf(j, cfg, robot, fi, e, first);
             first = false;
         }

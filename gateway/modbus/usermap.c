@@ -63,8 +63,8 @@ static bool parse_u(const char *s, unsigned long lo, unsigned long hi, unsigned 
 static const dr_field_t *field_named(const char *stem)
 {
     size_t n = strlen(stem);
-    for (uint16_t i = 0; i < dr_field_count; i++) {
-        const dr_field_t *f = &dr_field_table[i];
+    for (uint16_t i = 0; i < dr_field_count(); i++) {
+        const dr_field_t *f = dr_field_at(i);
         dr_ref_t ref = {f, 0};
         char name[128];
         if (f->indexed && dr_ref_path(ref, name, sizeof name) == DR_OK &&
@@ -131,7 +131,7 @@ static bool parse_path(const char *path, gw_umap_entry_t *e, char *err, size_t e
         }
     }
     const dr_field_t *f = first.field;
-    e->field = (uint16_t)(f - dr_field_table);
+    e->field = dr_field_index(f);
     if (first.elem < 0) { /* a whole BITS mask */
         e->elem = 0;
         e->count = f->count;
@@ -157,7 +157,7 @@ static double field_max(const dr_field_t *f)
 static bool check_view(gw_umap_entry_t *e, bool half_given, bool scale_given, char *err,
                        size_t errlen)
 {
-    const dr_field_t *f = &dr_field_table[e->field];
+    const dr_field_t *f = dr_field_at(e->field);
     dr_kind_t k = (dr_kind_t)f->kind;
     bool bits_table = e->table == GW_UMAP_CO || e->table == GW_UMAP_DI;
     const char *vn = view_names[e->view];
@@ -291,7 +291,7 @@ bool gw_umap_parse(const char *value, unsigned line, gw_umap_entry_t *e, char *e
     }
     if (!check_view(e, half, scale, err, errlen))
         return false;
-    const dr_field_t *f = &dr_field_table[e->field];
+    const dr_field_t *f = dr_field_at(e->field);
     if (e->writable && dr_asm_info((dr_asm_t)f->assembly)->dir != DR_DIR_O2T) {
         snprintf(err, errlen, "'%s' is written by the robot (T->O %s): it cannot be "
                  "writable (only O->T fields: io_control, bit_in, int_in, float_in)", tok[2],

@@ -164,7 +164,9 @@ static void test_table_consistency(void **state)
         next = (uint16_t)(next + info->field_count);
         total += info->size;
         for (unsigned k = 0; k < info->field_count; k++) {
-            const dr_field_t *f = &dr_field_table[info->first_field + k];
+            const dr_field_t *f = dr_field_at((uint16_t)(info->first_field + k));
+            assert_non_null(f);
+            assert_int_equal(dr_field_index(f), info->first_field + k);
             assert_int_equal(f->assembly, a);
             unsigned bits, first_bit = 8u * f->offset + f->bit;
             switch (f->kind) {
@@ -188,7 +190,10 @@ static void test_table_consistency(void **state)
             }
         }
     }
-    assert_int_equal(next, dr_field_count);
+    assert_int_equal(next, dr_field_count());
+    assert_null(dr_field_at(next));
+    dr_field_t copy = *dr_field_at(0);
+    assert_int_equal(dr_field_index(&copy), DR_FIELD_NONE);
     assert_int_equal(total, DR_ASM_TOTAL_SIZE);
 }
 

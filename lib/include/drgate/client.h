@@ -138,20 +138,21 @@ uint32_t dr_originator_serial_local(const char *name);
 /* ---- a Class 1 UDP port shared by several clients --------------------- */
 
 /* Storage for dr_client_init / dr_udp_port_init, as upper bounds computed
- * from drgate/config.h (the library checks at build time that its
+ * from drgate/config.h, with DR_STORAGE_RESERVE to spare for later
+ * versions of the library (the library checks at build time that its
  * structures fit; dr_client_size() / dr_udp_port_size() give the exact
  * figure). The unions carry the strictest alignment the structures need
  * (C99 has no max_align_t): declare one of these, statically or on the
  * heap, or align raw storage like them. */
 #define DR_UDP_PORT_STORAGE_SIZE                                              \
     (DR_CLIENT_RX_BATCH * DR_CLIENT_UDP_BUF +                                 \
-     (DR_UDP_PORT_MAX_CLIENTS + 8) * sizeof(void *) + 64)
+     (DR_UDP_PORT_MAX_CLIENTS + 8) * sizeof(void *) + 64 + DR_STORAGE_RESERVE / 4)
 #define DR_CLIENT_STORAGE_SIZE                                                \
     (DR_CLIENT_HOST_MAX + DR_ENCAP_MAX_LEN + DR_CLIENT_TX_BUF +               \
      DR_UDP_PORT_STORAGE_SIZE + DR_CLIENT_MAX_REQS * (64 + 4 * sizeof(void *)) + \
      DR_CLIENT_MAX_CONNS * (2 * DR_CLIENT_IO_MAX + DR_CLIENT_UDP_BUF + 272 +  \
                             8 * sizeof(void *)) +                             \
-     256 + 16 * sizeof(void *))
+     256 + 16 * sizeof(void *) + DR_STORAGE_RESERVE)
 
 typedef union {
     unsigned char bytes[DR_CLIENT_STORAGE_SIZE];

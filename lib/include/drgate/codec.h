@@ -2,7 +2,7 @@
 /*
  * drgate codec: the Doosan robot's ten EtherNet/IP assemblies.
  *
- * One const field table (dr_field_table) describes every field: assembly,
+ * One const field table (dr_field_at) describes every field: assembly,
  * name, byte offset, bit position, wire type, element count, unit and where
  * the value lives in the typed struct. Typed decode/encode, generic access
  * by path, listing and the generated docs all walk that table; no offset is
@@ -60,7 +60,7 @@ typedef struct {
     const char *title;   /* the specification's title */
     dr_dir_t dir;
     uint16_t size;       /* bytes on the wire */
-    uint16_t first_field; /* index into dr_field_table */
+    uint16_t first_field; /* index of its first field (dr_field_at) */
     uint16_t field_count;
     size_t struct_size;  /* sizeof the typed struct */
 } dr_asm_info_t;
@@ -101,8 +101,19 @@ typedef struct {
     const char *help;     /* one line from the specification */
 } dr_field_t;
 
-extern const dr_field_t dr_field_table[];
-extern const uint16_t dr_field_count;
+/* The field table: every field of every assembly, in assembly order
+ * (dr_asm_info()->first_field is an index into it). The table itself is
+ * internal to the library (2.0.0: it was exported as data, dr_field_table,
+ * whose size was then part of the ABI); these three reach it. */
+#define DR_FIELD_NONE UINT16_MAX
+/* Number of fields. */
+uint16_t dr_field_count(void);
+/* Field i, NULL if i >= dr_field_count(). The pointer is valid for the
+ * life of the program and may be compared with the others it returns. */
+const dr_field_t *dr_field_at(uint16_t i);
+/* The index of a field this library returned (dr_field_at, dr_asm_fields,
+ * dr_ref_t.field), DR_FIELD_NONE for any other pointer. */
+uint16_t dr_field_index(const dr_field_t *f);
 
 /* Reference to one leaf (or to a whole BITS mask): what a path names. */
 typedef struct {

@@ -64,4 +64,15 @@
 #define DR_CLIENT_HOST_MAX 256
 #endif
 
+/* Room in the storage sizes beyond what the structures of this version
+ * need (default 1024: DR_CLIENT_STORAGE_SIZE grows by it and
+ * DR_UDP_PORT_STORAGE_SIZE by a quarter of it), so that a later
+ * libdrgate.so of the same soname, whose client has grown, still fits in
+ * the storage a program compiled against this header reserves
+ * (docs/api-changes.md, "ABI"). Firmware, which links the library it is
+ * compiled with, may set 0. */
+#ifndef DR_STORAGE_RESERVE
+#define DR_STORAGE_RESERVE 1024
+#endif
+
 #endif /* DRGATE_CONFIG_H */
