@@ -436,7 +436,10 @@ static void assembly_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
     switch (rq->service) {
     case DR_CIP_SVC_GET_ATTRIBUTES_ALL:
     case DR_CIP_SVC_GET_ATTRIBUTE_SINGLE:
-        assembly_get(ctx, rq, p, a, w);
+        if (ctx->s->cfg.no_get_assembly) /* --no-get-assembly */
+            reply(w, rq->service, GS_SERVICE, NULL, 0);
+        else
+            assembly_get(ctx, rq, p, a, w);
         break;
     case DR_CIP_SVC_SET_ATTRIBUTE_SINGLE:
         assembly_set(ctx, rq, p, a, w);

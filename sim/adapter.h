@@ -52,6 +52,8 @@ typedef struct {
     uint16_t refuse_fo;        /* refuse every Forward Open with 0x01/this; 0 no */
     bool no_large_fo;          /* answer Large Forward Open (0x5B) with 0x08,
                                   like targets that only know 0x54 */
+    bool no_get_assembly;      /* Get on an assembly instance: 0x08 (its
+                                  data only through I/O connections) */
     uint64_t stop_producing_ns; /* stop T->O this long after an open; 0 never */
     unsigned drop_pct;         /* drop this share (0..100) of I/O packets */
     /* What real adapters do, legal or harmless (docs/interop.md,

@@ -13,7 +13,7 @@ import subprocess
 import pytest
 
 from gwlib import (DRCLI, EX_ILLEGAL_ADDRESS, SIM_ADDR, Drsim, Gateway, dint_regs, f32,
-                   real_regs,
+                   free_port, real_regs,
                    regs_dint, regs_real, running, timeout, wait_for)
 
 T2O = ["io_state", "joint_state", "task_state", "bit_out", "int_out", "float_out"]
@@ -171,6 +171,61 @@ def test_probe_prints_a_plan_that_links(layout):
         robot = "".join(x + "\n" for x in section
                         if x and not x.startswith(("host", "tcp_port")))
         g = Gateway("probe-%s" % layout, sim, robot=robot)
+        try:
+            g.start()  # waits for the link
+        finally:
+            g.kill()
+    finally:
+        sim.kill()
+
+
+def probe(sim, *args):
+    return subprocess.run([str(DRCLI), "-H", SIM_ADDR, "--port", str(sim.tcp), "probe"]
+                          + list(args), capture_output=True, text=True,
+                          timeout=timeout(60))
+
+
+@pytest.mark.parametrize("layout", ["per_assembly", "combined", "gpr_only"])
+def test_probe_open_finds_the_sizes_get_does_not_give(layout):
+    """drsim --no-get-assembly answers no Get on its assemblies. The
+    read-only probe finds no layout and says --open would try; with
+    --open, a Forward Open trial per instance whose size is unknown finds
+    the layout, and each connection it opened is closed by Forward Close
+    before the next Forward Open (drsim's log: opens and closes alternate,
+    the same number of each, none left), with no O->T data applied (the
+    trial's O->T is idle). The printed [robot] section links drgatewayd."""
+    sim = Drsim("probe-open-%s" % layout, "--layout", layout, "--no-get-assembly").start()
+    try:
+        out = probe(sim)
+        assert out.returncode == 4, out.stdout + out.stderr
+        assert "layout: none matches" in out.stdout and "probe --open" in out.stdout
+        assert "connection open" not in sim.log() and "forward open" not in sim.log()
+        out = probe(sim, "--open", "--udp-port", str(free_port("0.0.0.0", tcp=False)))
+        assert out.returncode == 0, out.stdout + out.stderr
+        assert "layout: %s\n" % layout in out.stdout, out.stdout
+        assert "forward open trial: " in out.stdout
+        section = out.stdout.split("[robot arm1]\n", 1)[1].splitlines()
+        if layout != "per_assembly":
+            size = {"combined": (476, 212), "gpr_only": (200, 200)}[layout]
+            assert "input_size = %d" % size[0] in section, section
+            assert "output_size = %d" % size[1] in section, section
+        # what the trial opened, drsim saw closed, each before the next open
+        wait_for(lambda: "session ended" in sim.log(), 10, "drcli's session to end")
+        events = [x for x in sim.log().splitlines()
+                  if "connection open" in x or " closed (" in x and "connection 0x" in x]
+        opens = [x for x in events if "connection open" in x]
+        # gpr_only: the sizes asked for (the combined ones) are refused with
+        # 0x0109 naming drsim's, nothing opens; the others open and close
+        assert bool(opens) == (layout != "gpr_only"), sim.log()[-3000:]
+        assert ("0x0109" in sim.log()) == (layout == "gpr_only"), sim.log()[-3000:]
+        assert len(events) == 2 * len(opens), events
+        for i in range(0, len(events), 2):
+            assert "connection open" in events[i], events
+            assert "closed (forward close)" in events[i + 1], events
+            assert " 0 applied" in events[i + 1], events
+        robot = "".join(x + "\n" for x in section
+                        if x and not x.startswith(("host", "tcp_port")))
+        g = Gateway("probe-open-%s" % layout, sim, robot=robot)
         try:
             g.start()  # waits for the link
         finally:
