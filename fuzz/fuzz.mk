@@ -62,7 +62,7 @@ FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
                         $(filter-out $(FUZZ_LIB_SRC),$(LIB_SRC))
 FUZZ_LIBS_cli        := $(JSON_LIBS)
 # drcli's EDS reader alone (no I/O, no jansson).
-FUZZ_SRC_eds         := cli/eds.c
+FUZZ_SRC_eds         := common/eds.c
 # Every harness and every object gets all the packages' flags: they only
 # add include directories.
 FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(JSON_CFLAGS)
