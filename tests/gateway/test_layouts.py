@@ -7,6 +7,7 @@ written through Modbus reach the robot, the assemblies a layout does not
 carry read 0 and refuse writes, and a plan whose sizes are not the
 adapter's is refused with both sizes in the log."""
 import json
+import os
 import struct
 import subprocess
 
@@ -15,6 +16,7 @@ import pytest
 from gwlib import (DRCLI, EX_ILLEGAL_ADDRESS, SIM_ADDR, Drsim, Gateway, dint_regs, f32,
                    free_port, real_regs,
                    regs_dint, regs_real, running, timeout, wait_for)
+from test_metrics import PROMTOOL, get, http_section, samples
 
 T2O = ["io_state", "joint_state", "task_state", "bit_out", "int_out", "float_out"]
 O2T = ["io_control", "bit_in", "int_in", "float_in"]
@@ -232,3 +234,29 @@ def test_probe_open_finds_the_sizes_get_does_not_give(layout):
             g.kill()
     finally:
         sim.kill()
+
+
+@pytest.mark.parametrize("layout,name", [
+    ("combined", "combined T->O (6 assemblies, 476 bytes)"),
+    ("gpr_only", "gpr_only T->O (3 assemblies, 200 bytes)")])
+def test_combined_connection_named_for_what_it_carries(layout, name):
+    """The console's /api/v1 and /metrics name a combined layout's one
+    connection for what it carries; `assembly` stays the first assembly
+    it carries (as before: label compat, docs/http.md), the metrics add
+    `connection`; the text passes promtool."""
+    port, sect = http_section()
+    with running("layout-name-%s" % layout, sim_args=("--layout", layout), robot="layout = %s\n"
+                 % layout, extra=sect) as g:
+        wait_for(lambda: g.listening(port), 10, "the console's port")
+        st = json.loads(get(port, "/api/v1/status")[2])
+        conns = st["robots"][0]["connections"]
+        first = "io_state" if layout == "combined" else "bit_out"
+        assert [(c["assembly"], c["name"]) for c in conns] == [(first, name)], conns
+        text = get(port, "/metrics")[2]
+        got = {k[1] for k in samples(text) if k[0] == "drgate_link_packets_received_total"}
+        assert got == {frozenset({("robot", "r0"), ("assembly", first),
+                                  ("connection", name)})}, got
+        if os.access(PROMTOOL, os.X_OK):
+            r = subprocess.run([PROMTOOL, "check", "metrics"], input=text, text=True,
+                               capture_output=True, timeout=timeout(30))
+            assert r.returncode == 0, r.stdout + r.stderr
