@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * drcli's EDS reader (cli/eds.c) on any text: eds_parse over the
- * input's bytes (not NUL-terminated), with a 1..64-byte error buffer
- * chosen by the first byte.
+ * The EDS reader (common/eds.c), which drcli eds and drgatewayd's `eds`
+ * key use, on any text: eds_parse over the input's bytes (not
+ * NUL-terminated), with a 1..64-byte error buffer chosen by the first
+ * byte; then the plan it gives (common/eds_plan.c).
  *
  * Checks: on failure the message is terminated, one line of printable
  * text, and its line is a line of the input (1..lines + 1); on success
@@ -10,7 +11,10 @@
  * assembly's size is -1 or 0..65535 and its instance not 0, every AssemN
  * and ParamN a connection names is there (or its table was full), a
  * resolved size is -1..65535; every note has a line of the input; the same
- * bytes parse the same way twice (no state kept between calls).
+ * bytes parse the same way twice (no state kept between calls). The plan:
+ * its connections within bounds and each one of the EDS's, its indexes
+ * -1 or within them, a matched layout's kind valid, its rpi_ms 0 or
+ * 1..10000 inside the connection's range, its lines lines of the input.
  */
 #include <string.h>
 
@@ -18,6 +22,29 @@
 #include "fuzz.h"
 
 static eds_t A, B;
+static eds_plan_t P;
+
+static void check_plan(unsigned lines)
+{
+    eds_plan(&A, &P);
+    FUZZ_CHECK(P.nconn <= A.n_conn);
+    const int idx[] = {P.main_i, P.in_only_i, P.listen_i, P.plan_i};
+    for (unsigned k = 0; k < sizeof idx / sizeof idx[0]; k++)
+        FUZZ_CHECK(idx[k] >= -1 && idx[k] < (int)P.nconn);
+    for (unsigned i = 0; i < P.nconn; i++)
+        FUZZ_CHECK(P.conn[i].c >= A.conn && P.conn[i].c < A.conn + A.n_conn);
+    FUZZ_CHECK(!P.matched || (unsigned)P.kind < DR_LAYOUT_COUNT);
+    FUZZ_CHECK(P.plan_line <= lines && P.rpi_line <= lines);
+    FUZZ_CHECK(P.rpi_ms <= 10000);
+    if (P.rpi_ms != 0) {
+        const eds_conn_plan_t *rp = &P.conn[P.plan_i >= 0 ? P.plan_i : 0];
+        FUZZ_CHECK(P.rpi_ms == eds_pick_rpi_ms(rp));
+        FUZZ_CHECK((uint64_t)P.rpi_ms * 1000u >= rp->rpi_min &&
+                   (uint64_t)P.rpi_ms * 1000u <= (uint64_t)rp->rpi_max + 999u);
+    }
+    for (unsigned i = 0; i < A.n_note; i++)
+        FUZZ_CHECK(A.note_line[i] >= 1 && A.note_line[i] <= lines);
+}
 
 static unsigned count_lines(const uint8_t *d, size_t n)
 {
@@ -93,5 +120,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         check_str(A.note[i], sizeof A.note[i]);
         FUZZ_CHECK(A.note_line[i] >= 1 && A.note_line[i] <= lines);
     }
+    check_plan(lines);
     return 0;
 }
