@@ -148,6 +148,17 @@ def test_explicit_size_mismatch_names_both_sizes():
         assert g.status()[1] != 2  # link_state: never up
 
 
+def links_with(section, name, sim):
+    """drgatewayd with the [robot] section a probe printed (its lines after
+    the header; host and port are the test's) brings the link up."""
+    robot = "".join(x + "\n" for x in section if x and not x.startswith(("host", "tcp_port")))
+    g = Gateway(name, sim, robot=robot)
+    try:
+        g.start()  # waits for the link
+    finally:
+        g.kill()
+
+
 @pytest.mark.parametrize("layout", ["per_assembly", "combined", "gpr_only"])
 def test_probe_prints_a_plan_that_links(layout):
     """`drcli probe` against drsim in each layout: read-only (drsim sees no
@@ -170,13 +181,7 @@ def test_probe_prints_a_plan_that_links(layout):
         assert "request 0x0E class 0x04" in log, log[-2000:]  # it did ask
         for svc in ("0x10", "0x54", "0x5B"):  # Set_Attribute_Single, Forward Opens
             assert "request %s " % svc not in log, log[-2000:]
-        robot = "".join(x + "\n" for x in section
-                        if x and not x.startswith(("host", "tcp_port")))
-        g = Gateway("probe-%s" % layout, sim, robot=robot)
-        try:
-            g.start()  # waits for the link
-        finally:
-            g.kill()
+        links_with(section, "probe-%s" % layout, sim)
     finally:
         sim.kill()
 
@@ -225,13 +230,7 @@ def test_probe_open_finds_the_sizes_get_does_not_give(layout):
             assert "connection open" in events[i], events
             assert "closed (forward close)" in events[i + 1], events
             assert " 0 applied" in events[i + 1], events
-        robot = "".join(x + "\n" for x in section
-                        if x and not x.startswith(("host", "tcp_port")))
-        g = Gateway("probe-open-%s" % layout, sim, robot=robot)
-        try:
-            g.start()  # waits for the link
-        finally:
-            g.kill()
+        links_with(section, "probe-open-%s" % layout, sim)
     finally:
         sim.kill()
 

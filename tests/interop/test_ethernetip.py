@@ -60,22 +60,33 @@ class Checks:
             self.assertTrue(-360.0 <= pos <= 360.0, pos)
 
 
+def scan_on_this_host(test, check, *sim_args):
+    """The scanner (its LAYOUT: drsim's --layout, if sim_args give one)
+    against a drsim of its own with sim_args; check(res) on its report;
+    drsim must stop cleanly."""
+    sim = peers.Drsim(*sim_args)
+    layout = list(sim_args[1:2]) if sim_args[:1] == ("--layout",) else []
+    res = {}
+    try:
+        r = peers.run([sys.executable, SCANNER, peers.SIM_ADDR, str(sim.tcp_port),
+                       str(sim.udp_port), "0", str(RPI_MS)] + layout, timeout=60)
+        print(r.stderr[-2000:], end="")
+        res = json.loads(r.stdout.strip().splitlines()[-1]) if r.stdout.strip() else {}
+        check(res)
+    finally:
+        rc = sim.stop()
+        if rc != 0 or not res.get("ok"):
+            print(sim.log_text())
+        sim.cleanup()
+    test.assertEqual(rc, 0, "drsim exit status")
+
+
 class EthernetipOnThisHost(unittest.TestCase, Checks):
     def test_class1_with_announced_ports(self):
-        sim = peers.Drsim()
-        try:
-            r = peers.run([sys.executable, SCANNER, peers.SIM_ADDR, str(sim.tcp_port),
-                           str(sim.udp_port), "0", str(RPI_MS)], timeout=60)
-            print(r.stderr[-2000:], end="")
-            res = json.loads(r.stdout.strip().splitlines()[-1]) if r.stdout.strip() else {}
+        def check(res):
             self.check_report(res)
             self.assertNotEqual(res["scanner_udp_port"], 2222)
-        finally:
-            rc = sim.stop()
-            if rc != 0 or not res.get("ok"):
-                print(sim.log_text())
-            sim.cleanup()
-        self.assertEqual(rc, 0, "drsim exit status")
+        scan_on_this_host(self, check)
 
 
 class EthernetipLayouts(unittest.TestCase):
@@ -87,13 +98,7 @@ class EthernetipLayouts(unittest.TestCase):
     and explicit Gets of the points agree."""
 
     def run_layout(self, layout):
-        sim = peers.Drsim("--layout", layout)
-        res = {}
-        try:
-            r = peers.run([sys.executable, SCANNER, peers.SIM_ADDR, str(sim.tcp_port),
-                           str(sim.udp_port), "0", str(RPI_MS), layout], timeout=60)
-            print(r.stderr[-2000:], end="")
-            res = json.loads(r.stdout.strip().splitlines()[-1]) if r.stdout.strip() else {}
+        def check(res):
             self.assertTrue(res.get("ok"), res.get("error", res))
             self.assertEqual((res["fo_A"], res["fc_A"]), (0, 0))
             size = 476 if layout == "combined" else 200
@@ -111,12 +116,7 @@ class EthernetipLayouts(unittest.TestCase):
                 self.assertNotEqual(r1[36:180], r2[36:180], "joint_state moves")
                 for pos in struct.unpack_from("<6f", r2, 36):
                     self.assertTrue(-360.0 <= pos <= 360.0, pos)
-        finally:
-            rc = sim.stop()
-            if rc != 0 or not res.get("ok"):
-                print(sim.log_text())
-            sim.cleanup()
-        self.assertEqual(rc, 0, "drsim exit status")
+        scan_on_this_host(self, check, "--layout", layout)
 
     def test_combined(self):
         self.run_layout("combined")
