@@ -179,13 +179,17 @@ typedef struct {
     uint32_t input_only_hb, listen_only_hb; /* 0: not named */
     unsigned rpi_ms;    /* the EDS's default (else 10) inside its range;
                            0: no range, or no whole ms fits */
-    unsigned rpi_line;  /* line of the connection giving the RPI */
+    bool has_rpi;       /* the connection giving the RPI has a range: */
+    uint32_t rpi_min_us, rpi_max_us;
+    uint32_t rpi_conn;  /* N of its ConnectionN */
+    unsigned rpi_line;  /* its line */
     unsigned plan_line; /* line of the plan's connection; 0: none */
 } eds_plan_t;
 
 /* The plan of a parsed EDS; what it cannot use goes into eds's notes
  * (Class 3 connections, symbolic paths, configuration data, connections
- * beside the plan's). */
+ * beside the plan's). conn[].c point into *eds (valid while it is); the
+ * other members are copies, for use after it is gone. */
 void eds_plan(eds_t *eds, eds_plan_t *out);
 
 /* The rpi_ms drgatewayd would use for a connection: its default, else

@@ -148,6 +148,10 @@ void eds_plan(eds_t *e, eds_plan_t *p)
     const eds_conn_plan_t *rp = mp != NULL ? mp : p->nconn > 0 ? &p->conn[0] : NULL;
     if (rp != NULL) {
         p->rpi_ms = eds_pick_rpi_ms(rp);
+        p->has_rpi = rp->has_rpi;
+        p->rpi_min_us = rp->rpi_min;
+        p->rpi_max_us = rp->rpi_max;
+        p->rpi_conn = rp->c->number;
         p->rpi_line = rp->c->line;
         if (p->config_instance == 0)
             p->config_instance = rp->c->path_config;

@@ -574,25 +574,23 @@ static void ms_text(uint32_t us, char *buf, size_t size)
 }
 
 /* rpi_ms (the section's or the EDS's) inside the plan connection's RPI
- * range. False after the message. */
+ * range (implicit mode). False after the message. */
 static bool eds_rpi_check(gw_cfg_ctx_t *c, unsigned i, const eds_plan_t *p,
                           const char *file, unsigned key_line)
 {
     const gw_robot_config_t *r = &c->cfg.robot[i];
-    int k = p->plan_i >= 0 ? p->plan_i : p->nconn > 0 ? 0 : -1;
-    if (k < 0 || !p->conn[k].has_rpi || r->mode != GW_MODE_IMPLICIT)
+    if (!p->has_rpi || r->mode != GW_MODE_IMPLICIT)
         return true;
-    const eds_conn_plan_t *cp = &p->conn[k];
     uint64_t us = (uint64_t)r->rpi_ms * 1000u;
-    if (us >= cp->rpi_min && us <= cp->rpi_max)
+    if (us >= p->rpi_min_us && us <= p->rpi_max_us)
         return true;
     char lo[24], hi[24];
-    ms_text(cp->rpi_min, lo, sizeof lo);
-    ms_text(cp->rpi_max, hi, sizeof hi);
+    ms_text(p->rpi_min_us, lo, sizeof lo);
+    ms_text(p->rpi_max_us, hi, sizeof hi);
     gw_cfg_fail(c, line_or(gw_cfg_line(c, &gw_cfg_robot, i, "rpi_ms"), key_line),
                 "robot '%s': rpi_ms %lu is outside the robot's RPI range %s..%s ms "
                 "(eds %s:%u, Connection%lu)", r->name, (unsigned long)r->rpi_ms, lo, hi,
-                file, cp->c->line, (unsigned long)cp->c->number);
+                file, p->rpi_line, (unsigned long)p->rpi_conn);
     return false;
 }
 
