@@ -297,7 +297,7 @@ typedef struct {
     cli_trial_res_t res;
 } probe_trial_t;
 
-#define PROBE_MAX_TRIALS (DR_ASM_COUNT + 2u)
+#define PROBE_MAX_TRIALS (DR_ASM_COUNT + 6u) /* room for repeats */
 
 /* The two instances of a combined layout, the class attributes, the
  * Forward Open trials, and the layout everything matches. */
@@ -453,7 +453,8 @@ static uint16_t known_size(const probe_row_t *r)
                                                                           : 0;
 }
 
-/* Run one trial and take the size it learned into *row. */
+/* Run one trial and take the size it learned into *row; one that got no
+ * answer (closed by its triad since) is tried once more. */
 static int trial_into(cli_net_t *net, probe_layout_t *pl, const cli_trial_req_t *rq,
                       uint32_t rpi_ms, probe_row_t *row)
 {
@@ -462,6 +463,11 @@ static int trial_into(cli_net_t *net, probe_layout_t *pl, const cli_trial_req_t 
     probe_trial_t *t = &pl->trial[pl->ntrial++];
     t->rq = *rq;
     int rc = cli_trial(net, rq, rpi_ms, &t->res);
+    if (rc == CLI_EXIT_OK && !t->res.answered && pl->ntrial < PROBE_MAX_TRIALS) {
+        t = &pl->trial[pl->ntrial++];
+        t->rq = *rq;
+        rc = cli_trial(net, rq, rpi_ms, &t->res);
+    }
     if (rc == CLI_EXIT_OK && t->res.size >= 0) {
         row->size = t->res.size;
         row->error = DR_OK;

@@ -65,11 +65,6 @@ static bool trial_done(const void *arg)
     return ((const trial_state_t *)arg)->done;
 }
 
-static bool session_ready(const void *arg)
-{
-    return dr_client_ready((const dr_client_t *)arg);
-}
-
 int cli_trial(cli_net_t *net, const cli_trial_req_t *rq, uint32_t rpi_ms,
               cli_trial_res_t *res)
 {
@@ -103,12 +98,15 @@ int cli_trial(cli_net_t *net, const cli_trial_req_t *rq, uint32_t rpi_ms,
     (void)run_until(net, trial_done, &t, net->timeout_ms + 1000u);
     res->status = t.done ? t.status : DR_ETIMEDOUT;
     res->opened = t.done && t.status == DR_OK;
-    res->answered = t.done && t.status != DR_ETIMEDOUT && t.status != DR_ENOANSWER;
+    /* only the adapter's own word (success or a CIP status) is an answer;
+     * a timeout or a lost session leaves the open's fate unknown */
+    res->answered = t.done && (t.status == DR_OK || DR_IS_CIP(t.status));
     res->wanted = dr_conn_stats(conn)->size_wanted;
     if (!res->answered)
-        /* the adapter may have opened it: its close by triad goes out
-         * once the session is back */
-        (void)run_until(net, session_ready, net->client, net->timeout_ms + 6000u);
+        /* The adapter may have opened it, and the client reset the
+         * session (client.h): a new one first, in which dr_conn_remove
+         * closes the open by its triad before anything else is asked. */
+        (void)dr_client_connect_sync(net->client);
     dr_conn_remove(conn); /* Forward Close (established), close by triad (unanswered) */
     bool owner = rq->o2t_instance != 0;
     uint16_t asked = owner ? rq->o2t_size : rq->t2o_size;

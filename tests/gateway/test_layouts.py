@@ -192,6 +192,21 @@ def probe(sim, *args):
                           timeout=timeout(60))
 
 
+def opened_then_closed(sim):
+    """drsim's connections, once drcli's session ended: each one opened
+    was closed by Forward Close before the next opened, none applied O->T
+    data, none is left. Returns the "connection open" lines."""
+    wait_for(lambda: "session ended" in sim.log(), 10, "drcli's session to end")
+    events = [x for x in sim.log().splitlines()
+              if "connection open" in x or " closed (" in x and "connection 0x" in x]
+    assert len(events) % 2 == 0, events
+    for i in range(0, len(events), 2):
+        assert "connection open" in events[i], events
+        assert "closed (forward close)" in events[i + 1], events
+        assert " 0 applied" in events[i + 1], events
+    return events[0::2]
+
+
 @pytest.mark.parametrize("layout", ["per_assembly", "combined", "gpr_only"])
 def test_probe_open_finds_the_sizes_get_does_not_give(layout):
     """drsim --no-get-assembly answers no Get on its assemblies. The
@@ -217,20 +232,34 @@ def test_probe_open_finds_the_sizes_get_does_not_give(layout):
             assert "input_size = %d" % size[0] in section, section
             assert "output_size = %d" % size[1] in section, section
         # what the trial opened, drsim saw closed, each before the next open
-        wait_for(lambda: "session ended" in sim.log(), 10, "drcli's session to end")
-        events = [x for x in sim.log().splitlines()
-                  if "connection open" in x or " closed (" in x and "connection 0x" in x]
-        opens = [x for x in events if "connection open" in x]
+        opens = opened_then_closed(sim)
         # gpr_only: the sizes asked for (the combined ones) are refused with
         # 0x0109 naming drsim's, nothing opens; the others open and close
         assert bool(opens) == (layout != "gpr_only"), sim.log()[-3000:]
         assert ("0x0109" in sim.log()) == (layout == "gpr_only"), sim.log()[-3000:]
-        assert len(events) == 2 * len(opens), events
-        for i in range(0, len(events), 2):
-            assert "connection open" in events[i], events
-            assert "closed (forward close)" in events[i + 1], events
-            assert " 0 applied" in events[i + 1], events
         links_with(section, "probe-open-%s" % layout, sim)
+    finally:
+        sim.kill()
+
+
+def test_probe_open_closes_an_open_whose_reply_was_lost():
+    """drsim opens the trial's first connection but its reply is lost
+    (--lose-forward-open-reply 1): the probe's open times out, the session
+    is reset, and in the next session the open is closed by its connection
+    triad before anything else; the trial is made once more, answered this
+    time, and the layout found. drsim's log: two opens, each closed by
+    Forward Close, nothing left."""
+    sim = Drsim("probe-open-lost", "--layout", "combined", "--no-get-assembly",
+                "--lose-forward-open-reply", "1").start()
+    try:
+        out = probe(sim, "--open", "--udp-port", str(free_port("0.0.0.0", tcp=False)))
+        assert out.returncode == 0, out.stdout + out.stderr
+        assert "layout: combined\n" in out.stdout, out.stdout
+        assert "asked 476 bytes: no answer" in out.stdout, out.stdout
+        assert "forward open reply not sent" in sim.log()
+        opens = opened_then_closed(sim)
+        assert len(opens) == 3, opens  # the lost one, its repeat, the output's
+        assert sim.log().count(" registered by ") == 2  # a new session
     finally:
         sim.kill()
 
