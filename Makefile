@@ -280,8 +280,8 @@ $(LIB_SO): $(LIB_OBJ) $(LIB_MAP)
 	ln -sf $(notdir $@) $(B)/$(LIB_SO_NAME)
 	ln -sf $(LIB_SO_NAME) $(B)/libdrgate.so
 
-$(CLI_BIN): $(CLI_OBJ) $(LIB_A)
-	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(CLI_OBJ) $(LIB_A) $(JSON_LIBS) -lm
+$(CLI_BIN): $(CLI_OBJ) $(COMMON_A) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(CLI_OBJ) $(COMMON_A) $(LIB_A) $(JSON_LIBS) -lm
 
 $(SIM_BIN): $(SIM_OBJ) $(COMMON_A) $(LIB_A)
 	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(SIM_OBJ) $(COMMON_A) $(LIB_A) -lm

@@ -10,7 +10,7 @@
 #include <string.h>
 
 #include "cmd.h"
-#include "eds.h"
+#include "common/eds.h"
 #include "error.h"
 #include "opt.h"
 #include "util.h"
@@ -18,8 +18,6 @@
 #include "drgate/layout.h"
 
 #define EDS_FILE_MAX (1u << 20) /* an EDS larger than 1 MiB is refused */
-#define EDS_HB_INPUT_ONLY 198u  /* drgatewayd's defaults (configuration.md) */
-#define EDS_HB_LISTEN_ONLY 199u
 /* drsim's limits and identity (sim/adapter.h), written into its EDS */
 #define EDS_SIM_RPI_MIN_US 1000u
 #define EDS_SIM_RPI_MAX_US 10000000u
@@ -79,40 +77,6 @@ static bool read_file(const char *cmd, const char *path, char *buf, size_t cap, 
     return ok && !big;
 }
 
-static const char *transport_name(uint32_t trigger)
-{
-    if (trigger & CLI_EDS_EXCLUSIVE)
-        return "exclusive owner";
-    if (trigger & CLI_EDS_REDUNDANT)
-        return "redundant owner";
-    if (trigger & CLI_EDS_INPUT_ONLY)
-        return "input only";
-    if (trigger & CLI_EDS_LISTEN_ONLY)
-        return "listen only";
-    return "no type";
-}
-
-/* The RPI range of a connection (microseconds, from a number or a
- * parameter); false when it gives none. */
-static bool rpi_range(const cli_eds_t *e, cli_eds_ref_t r, uint32_t *min, uint32_t *max,
-                      uint32_t *def)
-{
-    *min = 0;
-    *max = 0;
-    *def = 0;
-    if (r.kind == 'n') {
-        *min = *max = *def = r.value;
-        return true;
-    }
-    const cli_eds_param_t *p = r.kind == 'P' ? cli_eds_param(e, r.value) : NULL;
-    if (p == NULL || !p->has_min || !p->has_max)
-        return false;
-    *min = p->min;
-    *max = p->max;
-    *def = p->has_def ? p->def : 0;
-    return true;
-}
-
 static void print_us(uint32_t us)
 {
     if (us % 1000u == 0)
@@ -121,42 +85,11 @@ static void print_us(uint32_t us)
         printf("%lu.%03lu", (unsigned long)(us / 1000u), (unsigned long)(us % 1000u));
 }
 
-typedef struct {
-    const cli_eds_conn_t *c;
-    uint32_t ot_inst, to_inst;
-    int32_t ot_size, to_size;
-    bool has_rpi;
-    uint32_t rpi_min, rpi_max, rpi_def;
-} conn_plan_t;
-
-static void conn_plan(const cli_eds_t *e, const cli_eds_conn_t *c, conn_plan_t *p)
+static void print_conn(const eds_conn_plan_t *p)
 {
-    memset(p, 0, sizeof *p);
-    p->c = c;
-    p->ot_inst = cli_eds_instance(e, c->ot_format, c->path_ot);
-    p->to_inst = cli_eds_instance(e, c->to_format, c->path_to);
-    p->ot_size = cli_eds_size(e, c->ot_size, c->ot_format);
-    p->to_size = cli_eds_size(e, c->to_size, c->to_format);
-    uint32_t a, b, d, a2, b2, d2;
-    bool ot = rpi_range(e, c->ot_rpi, &a, &b, &d), to = rpi_range(e, c->to_rpi, &a2, &b2, &d2);
-    if (ot && to) { /* both directions: what both take */
-        a = a > a2 ? a : a2;
-        b = b < b2 ? b : b2;
-        d = d != 0 ? d : d2;
-    } else if (to) {
-        a = a2, b = b2, d = d2;
-    }
-    p->has_rpi = (ot || to) && a <= b;
-    p->rpi_min = a;
-    p->rpi_max = b;
-    p->rpi_def = d;
-}
-
-static void print_conn(const conn_plan_t *p)
-{
-    const cli_eds_conn_t *c = p->c;
+    const eds_conn_t *c = p->c;
     printf("  Connection%lu \"%s\": %s%s; O->T ", (unsigned long)c->number, c->name,
-           transport_name(c->trigger), c->trigger & CLI_EDS_CYCLIC ? ", cyclic" : "");
+           eds_type_name(c->trigger), c->trigger & EDS_CYCLIC ? ", cyclic" : "");
     if (p->ot_inst != 0)
         printf("instance %lu, ", (unsigned long)p->ot_inst);
     if (p->ot_size >= 0)
@@ -187,33 +120,18 @@ static void print_conn(const conn_plan_t *p)
     printf("\n");
 }
 
-/* rpi_ms for drgatewayd: the EDS's default, else 10, inside the range
- * and 1..10000; 0 if no whole number of ms fits. */
-static unsigned pick_rpi_ms(const conn_plan_t *p)
-{
-    unsigned lo = (p->rpi_min + 999u) / 1000u, hi = p->rpi_max / 1000u;
-    unsigned want = p->rpi_def != 0 ? (p->rpi_def + 999u) / 1000u : 10u;
-    if (lo < 1)
-        lo = 1;
-    if (hi > 10000)
-        hi = 10000;
-    if (lo > hi)
-        return 0;
-    return want < lo ? lo : want > hi ? hi : want;
-}
-
 static int run_read(const char *cmd, const char *path, const char *host)
 {
     static char text[EDS_FILE_MAX];
-    static cli_eds_t eds;
+    static eds_t eds;
     size_t len = 0;
     if (!read_file(cmd, path, text, sizeof text, &len))
         return CLI_EXIT_USAGE;
     char err[160];
     unsigned line = 0;
-    if (!cli_eds_parse(text, len, &eds, &line, err, sizeof err))
+    if (!eds_parse(text, len, &eds, &line, err, sizeof err))
         return cli_error(CLI_EXIT_USAGE, cmd, "%s:%u: %s", path, line, err);
-    const cli_eds_t *e = &eds;
+    const eds_t *e = &eds;
 
     printf("device: vendor %lu \"%s\", product type %lu, product code %lu, revision "
            "%lu.%lu, \"%s\"", (unsigned long)e->vendor, e->vendor_name,
@@ -223,10 +141,10 @@ static int run_read(const char *cmd, const char *path, const char *host)
         printf(" (catalog \"%s\")", e->catalog);
     printf("\n");
     if (!e->ethernetip)
-        cli_eds_note(&eds, 1, "[Device Classification] does not say EtherNetIP");
+        eds_note(&eds, 1, "[Device Classification] does not say EtherNetIP");
     printf("assemblies: %u\n", e->n_assem);
     for (unsigned i = 0; i < e->n_assem; i++) {
-        const cli_eds_assem_t *a = &e->assem[i];
+        const eds_assem_t *a = &e->assem[i];
         printf("  Assem%lu \"%s\": instance %lu, ", (unsigned long)a->number, a->name,
                (unsigned long)a->instance);
         if (a->size >= 0)
@@ -236,79 +154,27 @@ static int run_read(const char *cmd, const char *path, const char *host)
         printf(", %u members\n", a->members);
     }
 
-    /* The Class 1 connections; the first exclusive owner (else the first
-     * input-only) is the plan's for a combined layout. */
-    conn_plan_t plans[CLI_EDS_MAX_CONN];
-    unsigned np = 0;
-    const conn_plan_t *main_c = NULL, *in_only = NULL, *listen = NULL;
-    for (unsigned i = 0; i < e->n_conn; i++) {
-        const cli_eds_conn_t *c = &e->conn[i];
-        if (!(c->trigger & CLI_EDS_CLASS1)) {
-            cli_eds_note(&eds, c->line, "Connection%lu \"%s\": not Class 1 (0x%08lx)",
-                         (unsigned long)c->number, c->name, (unsigned long)c->trigger);
-            continue;
-        }
-        if (!c->path_ok)
-            cli_eds_note(&eds, c->line, "Connection%lu \"%s\": path not in hex bytes: "
-                         "instances from [Assembly] only", (unsigned long)c->number, c->name);
-        conn_plan_t *p = &plans[np++];
-        conn_plan(e, c, p);
-        if ((c->trigger & CLI_EDS_EXCLUSIVE) && main_c == NULL)
-            main_c = p;
-        if ((c->trigger & CLI_EDS_INPUT_ONLY) && in_only == NULL)
-            in_only = p;
-        if ((c->trigger & CLI_EDS_LISTEN_ONLY) && listen == NULL)
-            listen = p;
-    }
-    printf("Class 1 connections: %u\n", np);
-    for (unsigned i = 0; i < np; i++)
-        print_conn(&plans[i]);
-
-    /* The layout: per_assembly from the instances 101..110, combined and
-     * gpr_only from the main connection's sizes. */
-    uint16_t per_asm[DR_ASM_COUNT];
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++) {
-        per_asm[a] = 0;
-        for (unsigned i = 0; i < e->n_assem; i++)
-            if (e->assem[i].instance == DR_ASM_DEFAULT_INSTANCE(a) && e->assem[i].size > 0)
-                per_asm[a] = (uint16_t)e->assem[i].size;
-    }
-    const conn_plan_t *mp = main_c != NULL ? main_c : in_only;
-    uint16_t in_size = 0, out_size = 0;
-    if (mp != NULL) {
-        in_size = mp->to_size > 0 && mp->to_size <= 0xFFFF ? (uint16_t)mp->to_size : 0;
-        out_size = mp->ot_size > 0 && mp->ot_size <= 0xFFFF && mp == main_c
-                       ? (uint16_t)mp->ot_size : 0;
-    }
-    dr_layout_kind_t kind;
-    bool matched = dr_layout_match(per_asm, in_size, out_size, &kind) == DR_OK;
-    if (mp != NULL && kind != DR_LAYOUT_PER_ASSEMBLY) {
+    /* The Class 1 connections and the plan (common/eds_plan.c). */
+    static eds_plan_t plan;
+    eds_plan(&eds, &plan);
+    const eds_plan_t *p = &plan;
+    printf("Class 1 connections: %u\n", p->nconn);
+    for (unsigned i = 0; i < p->nconn; i++)
+        print_conn(&p->conn[i]);
+    if (p->plan_i >= 0 && p->matched && p->kind != DR_LAYOUT_PER_ASSEMBLY) {
         printf("plan: input instance %lu (%u bytes), output instance %lu (%u bytes)",
-               (unsigned long)mp->to_inst, (unsigned)in_size, (unsigned long)mp->ot_inst,
-               (unsigned)out_size);
-        if (mp->c->path_config != 0)
-            printf(", configuration instance %lu", (unsigned long)mp->c->path_config);
+               (unsigned long)p->in_instance, (unsigned)p->in_size,
+               (unsigned long)p->conn[p->plan_i].ot_inst, (unsigned)p->out_size);
+        if (p->conn[p->plan_i].c->path_config != 0)
+            printf(", configuration instance %lu",
+                   (unsigned long)p->conn[p->plan_i].c->path_config);
         printf("\n");
     }
-    if (mp != NULL) {
-        int32_t cfg = cli_eds_size(e, mp->c->cfg_size, mp->c->cfg_format);
-        if (cfg > 0)
-            cli_eds_note(&eds, mp->c->line, "Connection%lu: %ld bytes of configuration data: "
-                         "drgatewayd sends none", (unsigned long)mp->c->number, (long)cfg);
-    }
-    if (matched)
-        printf("layout: %s\n", dr_layout_name(kind));
+    if (p->matched)
+        printf("layout: %s\n", dr_layout_name(p->kind));
     else
         printf("layout: none matches (per_assembly wants the ten assemblies at 101..110 "
                "with their sizes, combined 476 and 212 bytes, gpr_only 200 and 200)\n");
-    if (matched && kind != DR_LAYOUT_PER_ASSEMBLY) {
-        for (unsigned i = 0; i < np; i++)
-            if (&plans[i] != mp && &plans[i] != in_only && &plans[i] != listen)
-                cli_eds_note(&eds, plans[i].c->line, "Connection%lu \"%s\": %s, beside "
-                             "Connection%lu of the plan", (unsigned long)plans[i].c->number,
-                             plans[i].c->name, transport_name(plans[i].c->trigger),
-                             (unsigned long)mp->c->number);
-    }
     if (e->n_note > 0 || e->lost_notes > 0) {
         printf("not used:\n");
         for (unsigned i = 0; i < e->n_note; i++)
@@ -316,27 +182,25 @@ static int run_read(const char *cmd, const char *path, const char *host)
         if (e->lost_notes > 0)
             printf("  and %u more\n", e->lost_notes);
     }
-    if (!matched)
+    if (!p->matched)
         return CLI_EXIT_FAIL;
 
-    if (kind == DR_LAYOUT_PER_ASSEMBLY)
-        cli_print_robot_section(host, DR_ENIP_TCP_PORT, kind, NULL, 0, 0, 0, 0);
+    if (p->kind == DR_LAYOUT_PER_ASSEMBLY)
+        cli_print_robot_section(host, DR_ENIP_TCP_PORT, p->kind, NULL, 0, 0, 0, 0);
     else
-        cli_print_robot_section(host, DR_ENIP_TCP_PORT, kind, NULL, (unsigned)mp->to_inst,
-                                in_size, main_c != NULL ? (unsigned)mp->ot_inst : 0,
-                                out_size);
-    if (kind != DR_LAYOUT_PER_ASSEMBLY && main_c == NULL)
+        cli_print_robot_section(host, DR_ENIP_TCP_PORT, p->kind, NULL,
+                                (unsigned)p->in_instance, p->in_size,
+                                (unsigned)p->out_instance, p->out_size);
+    if (p->kind != DR_LAYOUT_PER_ASSEMBLY && p->main_i < 0)
         printf("output_assemblies = none\n");
-    const conn_plan_t *rp = mp != NULL ? mp : np > 0 ? &plans[0] : NULL;
-    unsigned rpi = rp != NULL && rp->has_rpi ? pick_rpi_ms(rp) : 0;
-    if (rpi != 0)
-        printf("rpi_ms = %u\n", rpi);
-    if (rp != NULL && rp->c->path_config != 0 && rp->c->path_config != 1)
-        printf("config_instance = %lu\n", (unsigned long)rp->c->path_config);
-    if (in_only != NULL && in_only->ot_inst != 0 && in_only->ot_inst != EDS_HB_INPUT_ONLY)
-        printf("input_only_heartbeat = %lu\n", (unsigned long)in_only->ot_inst);
-    if (listen != NULL && listen->ot_inst != 0 && listen->ot_inst != EDS_HB_LISTEN_ONLY)
-        printf("listen_only_heartbeat = %lu\n", (unsigned long)listen->ot_inst);
+    if (p->rpi_ms != 0)
+        printf("rpi_ms = %u\n", p->rpi_ms);
+    if (p->config_instance != 0 && p->config_instance != 1)
+        printf("config_instance = %lu\n", (unsigned long)p->config_instance);
+    if (p->input_only_hb != 0)
+        printf("input_only_heartbeat = %lu\n", (unsigned long)p->input_only_hb);
+    if (p->listen_only_hb != 0)
+        printf("listen_only_heartbeat = %lu\n", (unsigned long)p->listen_only_hb);
     return CLI_EXIT_OK;
 }
 

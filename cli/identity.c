@@ -11,6 +11,7 @@
 #include "error.h"
 #include "net.h"
 #include "opt.h"
+#include "trial.h"
 #include "util.h"
 
 static const char identity_help[] =
@@ -47,14 +48,31 @@ static const char probe_help[] =
     "section for drgatewayd's configuration. Read-only: Get_Attribute_Single\n"
     "and Get_Attributes_All, nothing is written, no connection opened.\n"
     "\n"
+    "With --open, where those sizes match no layout (an adapter that does not\n"
+    "answer Get on its assemblies), a Forward Open trial for each instance\n"
+    "whose size is unknown: input-only (heartbeat 198) for a T->O one, an\n"
+    "exclusive owner with a T->O instance already sized for an O->T one,\n"
+    "idle O->T (no output is applied). The adapter accepts the size asked\n"
+    "for, or refuses it with 0x01/0x0109 and names its own; whatever opened\n"
+    "is closed at once (Forward Close), one that got no answer by its triad.\n"
+    "An owner trial takes the outputs for a moment: not while a PLC or\n"
+    "drgatewayd owns them (it is refused with 0x0106 then).\n"
+    "\n"
     "options:\n"
     CLI_NET_HELP
+    "  -o, --open          the Forward Open trial (above)\n"
+    "      --udp-port N    with --open: the local UDP port for T->O (2222)\n"
+    "      --rpi MS        with --open: the trial's RPI (default 100)\n"
     "  -h, --help          this text\n"
     "\n"
     "With --json: {\"assemblies\": [...], \"points\": [...], \"identity\": {...},\n"
-    "\"layout\": NAME or null, \"ok\": BOOL}; --raw does not apply.\n"
+    "\"trials\": [...], \"layout\": NAME or null, \"ok\": BOOL}; --raw does not\n"
+    "apply.\n"
     "Exit status: 0 the sizes match a layout, 4 they match none (the table\n"
     "says what differs), 2 usage, 3 network.\n";
+
+/* Options of probe's own (--open, --udp-port, --rpi). */
+#define PROBE_NOPTS 3
 
 /* ---- identity ------------------------------------------------------------ */
 
@@ -127,16 +145,19 @@ static json_t *identity_json(const dr_identity_t *id, bool listed)
     return o;
 }
 
-/* Parse the options of identity and probe; returns an exit code, or -1
- * after printing the help. */
+/* Parse the options of identity and probe (the network options, then
+ * extra[nextra], a command's own); returns an exit code, or -1 after
+ * printing the help. */
 static int parse_common(const cli_cmd_t *self, int argc, char **argv,
                         const cli_net_opts_t *lead, cli_net_opts_t *o,
-                        dr_client_config_t *cfg)
+                        dr_client_config_t *cfg, const cli_opt_t *extra, size_t nextra)
 {
     bool help = false;
     *o = *lead;
-    cli_opt_t opts[CLI_NET_NOPTS];
+    cli_opt_t opts[CLI_NET_NOPTS + PROBE_NOPTS];
     size_t nopts = cli_net_optv(o, opts);
+    for (size_t i = 0; i < nextra && i < PROBE_NOPTS; i++)
+        opts[nopts++] = extra[i];
     int npos = cli_parse_opts(self->name, argc, argv, opts, nopts, &help);
     if (npos < 0)
         return CLI_EXIT_USAGE;
@@ -152,22 +173,15 @@ static int parse_common(const cli_cmd_t *self, int argc, char **argv,
     return rc != CLI_EXIT_OK ? rc : cli_net_config(self->name, o, cfg);
 }
 
-/* Parse, then connect: CLI_EXIT_OK with *net connected, -1 after printing
- * the help, or the exit code of what failed. */
-static int open_common(const cli_cmd_t *self, const char *cmd, int argc, char **argv,
-                       const cli_net_opts_t *lead, cli_net_opts_t *o, cli_net_t *net)
-{
-    dr_client_config_t cfg;
-    int rc = parse_common(self, argc, argv, lead, o, &cfg);
-    return rc != CLI_EXIT_OK ? rc : cli_net_connect(cmd, &cfg, net);
-}
-
 static int run_identity(const char *cmd, int argc, char **argv,
                         const cli_net_opts_t *lead)
 {
     cli_net_opts_t o;
     cli_net_t net;
-    int rc = open_common(&cli_cmd_identity, cmd, argc, argv, lead, &o, &net);
+    dr_client_config_t cfg;
+    int rc = parse_common(&cli_cmd_identity, argc, argv, lead, &o, &cfg, NULL, 0);
+    if (rc == CLI_EXIT_OK)
+        rc = cli_net_connect(cmd, &cfg, &net);
     if (rc != CLI_EXIT_OK)
         return rc < 0 ? CLI_EXIT_OK : rc;
 
@@ -205,8 +219,15 @@ typedef struct {
     uint16_t instance;
     int size;            /* -1: unknown */
     bool from_data;      /* size is the data's length: no attribute 4 */
+    bool from_open;      /* size from a Forward Open trial (--open) */
     dr_status_t error;   /* DR_OK, or why the instance is unusable */
 } probe_row_t;
+
+/* Where a row's size came from, for the table and --json. */
+static const char *size_from(const probe_row_t *r)
+{
+    return r->from_open ? "forward open" : r->from_data ? "data" : "attribute 4";
+}
 
 /* Statuses that mean "this attribute or service is not there". */
 static bool not_supported(dr_status_t st)
@@ -259,22 +280,36 @@ static bool row_ok(dr_asm_t a, const probe_row_t *row)
 
 static void row_result(dr_asm_t a, const probe_row_t *row, char *out, size_t size)
 {
+    const char *from = row->from_open ? " (size from a Forward Open)"
+                       : row->from_data ? " (size from data)" : "";
     if (row->error != DR_OK)
         snprintf(out, size, "missing: %s", dr_strerror(row->error));
     else if (!row_ok(a, row))
-        snprintf(out, size, "size differs%s", row->from_data ? " (size from data)" : "");
+        snprintf(out, size, "size differs%s", from);
     else
-        snprintf(out, size, "ok%s", row->from_data ? " (size from data, no attribute 4)" : "");
+        snprintf(out, size, "ok%s", row->from_open || !row->from_data
+                                        ? from : " (size from data, no attribute 4)");
 }
 
-/* The two instances of a combined layout, the class attributes, and
- * the layout everything matches. */
+/* One Forward Open trial (--open) and what it gave. */
+typedef struct {
+    cli_trial_req_t rq;
+    cli_trial_res_t res;
+} probe_trial_t;
+
+#define PROBE_MAX_TRIALS (DR_ASM_COUNT + 6u) /* room for repeats */
+
+/* The two instances of a combined layout, the class attributes, the
+ * Forward Open trials, and the layout everything matches. */
 typedef struct {
     probe_row_t in, out;
     bool asked;         /* the combined instances were probed */
     int count, max;     /* class attributes 3 and 2; -1: not answered */
     bool matched;
     dr_layout_kind_t kind;
+    bool open;          /* --open given */
+    probe_trial_t trial[PROBE_MAX_TRIALS];
+    unsigned ntrial;
 } probe_layout_t;
 
 static void print_point(const char *what, const probe_row_t *r)
@@ -284,7 +319,8 @@ static void print_point(const char *what, const probe_row_t *r)
                dr_strerror(r->error));
     else
         printf("%s instance %u: %d bytes%s\n", what, (unsigned)r->instance, r->size,
-               r->from_data ? " (size from data)" : "");
+               r->from_open ? " (size from a Forward Open)"
+               : r->from_data ? " (size from data)" : "");
 }
 
 /* A [robot] section for drgatewayd with what the probe found. */
@@ -330,9 +366,17 @@ static void print_layout(const cli_net_t *net, const probe_layout_t *pl)
         printf("assembly object: %d instances, the highest %d\n", pl->count, pl->max);
     else
         printf("assembly object: no class attributes\n");
+    for (unsigned i = 0; i < pl->ntrial; i++) {
+        char text[320];
+        cli_trial_text(&pl->trial[i].rq, &pl->trial[i].res, text, sizeof text);
+        printf("forward open trial: %s\n", text);
+    }
     if (!pl->matched) {
         printf("layout: none matches (per_assembly wants the ten sizes above, combined "
                "476 and 212 bytes, gpr_only 200 and 200)\n");
+        if (!pl->open)
+            printf("sizes the adapter would not tell: drcli probe --open tries a Forward "
+                   "Open for each (see drcli probe --help)\n");
         return;
     }
     printf("layout: %s\n", dr_layout_name(pl->kind));
@@ -347,6 +391,17 @@ static int class_attr(cli_net_t *net, uint8_t attr)
     dr_status_t st = dr_client_get_attr_sync(net->client, DR_CIP_CLASS_ASSEMBLY, 0, attr, tmp,
                                              sizeof tmp, &got);
     return st == DR_OK && got == 2 ? (int)dr_get_le16(tmp) : -1;
+}
+
+/* Which layout the sizes found match. */
+static void probe_match(const probe_row_t *rows, probe_layout_t *pl)
+{
+    uint16_t sizes[DR_ASM_COUNT];
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        sizes[a] = rows[a].error == DR_OK && rows[a].size > 0 ? (uint16_t)rows[a].size : 0;
+    uint16_t si = pl->in.error == DR_OK && pl->in.size > 0 ? (uint16_t)pl->in.size : 0;
+    uint16_t so = pl->out.error == DR_OK && pl->out.size > 0 ? (uint16_t)pl->out.size : 0;
+    pl->matched = dr_layout_match(sizes, si, so, &pl->kind) == DR_OK;
 }
 
 /* The combined layout's instances and the class attributes; then which
@@ -376,21 +431,131 @@ static int probe_points(cli_net_t *net, const probe_row_t *rows, probe_layout_t 
         pl->count = class_attr(net, 3);
         pl->max = class_attr(net, 2);
     }
-    uint16_t sizes[DR_ASM_COUNT];
-    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
-        sizes[a] = rows[a].error == DR_OK && rows[a].size > 0 ? (uint16_t)rows[a].size : 0;
-    uint16_t si = pl->in.error == DR_OK && pl->in.size > 0 ? (uint16_t)pl->in.size : 0;
-    uint16_t so = pl->out.error == DR_OK && pl->out.size > 0 ? (uint16_t)pl->out.size : 0;
-    pl->matched = dr_layout_match(sizes, si, so, &pl->kind) == DR_OK;
+    probe_match(rows, pl);
     return CLI_EXIT_OK;
+}
+
+/* ---- the Forward Open trial (--open) ----------------------------------- */
+
+static unsigned count_good(const probe_row_t *rows)
+{
+    unsigned good = 0;
+    for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+        good += row_ok((dr_asm_t)a, &rows[a]);
+    return good;
+}
+
+
+/* A row's size, if known and within what a connection may carry. */
+static uint16_t known_size(const probe_row_t *r)
+{
+    return r->error == DR_OK && r->size > 0 && r->size <= DR_CLIENT_IO_MAX ? (uint16_t)r->size
+                                                                          : 0;
+}
+
+/* Run one trial and take the size it learned into *row; one that got no
+ * answer (closed by its triad since) is tried once more. */
+static int trial_into(cli_net_t *net, probe_layout_t *pl, const cli_trial_req_t *rq,
+                      uint32_t rpi_ms, probe_row_t *row)
+{
+    if (pl->ntrial >= PROBE_MAX_TRIALS)
+        return CLI_EXIT_OK;
+    probe_trial_t *t = &pl->trial[pl->ntrial++];
+    t->rq = *rq;
+    int rc = cli_trial(net, rq, rpi_ms, &t->res);
+    if (rc == CLI_EXIT_OK && !t->res.answered && pl->ntrial < PROBE_MAX_TRIALS) {
+        t = &pl->trial[pl->ntrial++];
+        t->rq = *rq;
+        rc = cli_trial(net, rq, rpi_ms, &t->res);
+    }
+    if (rc == CLI_EXIT_OK && t->res.size >= 0) {
+        row->size = t->res.size;
+        row->error = DR_OK;
+        row->from_open = true;
+        row->from_data = false;
+    }
+    return rc;
+}
+
+/* A trial for every instance whose size Get did not give: the T->O ones
+ * first (input-only), then the O->T ones as owners beside a T->O
+ * instance now sized. */
+static int probe_trials(cli_net_t *net, probe_row_t *rows, probe_layout_t *pl,
+                        uint32_t rpi_ms)
+{
+    int rc = CLI_EXIT_OK;
+    int partner = -1;
+    for (unsigned a = 0; rc == CLI_EXIT_OK && a < DR_ASM_COUNT; a++) {
+        const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
+        if (info->dir != DR_DIR_T2O)
+            continue;
+        if (rows[a].error != DR_OK) {
+            cli_trial_req_t rq = {rows[a].instance, info->size, 0, 0, (dr_asm_t)a, -1};
+            rc = trial_into(net, pl, &rq, rpi_ms, &rows[a]);
+        }
+        if (partner < 0 && known_size(&rows[a]) != 0)
+            partner = (int)a;
+    }
+    for (unsigned a = 0; rc == CLI_EXIT_OK && partner >= 0 && a < DR_ASM_COUNT; a++) {
+        const dr_asm_info_t *info = dr_asm_info((dr_asm_t)a);
+        if (info->dir != DR_DIR_O2T || rows[a].error == DR_OK)
+            continue;
+        cli_trial_req_t rq = {rows[partner].instance, known_size(&rows[partner]),
+                              rows[a].instance, info->size, (dr_asm_t)partner, (int)a};
+        rc = trial_into(net, pl, &rq, rpi_ms, &rows[a]);
+    }
+    if (!pl->asked || count_good(rows) == DR_ASM_COUNT)
+        return rc; /* the ten found: no point to ask for */
+    /* the points: sizes asked for are those of the layout given with
+     * --layout, else the combined one's */
+    dr_layout_t def;
+    dr_layout_default(&def, net->layout.kind == DR_LAYOUT_GPR_ONLY ? DR_LAYOUT_GPR_ONLY
+                                                                   : DR_LAYOUT_COMBINED);
+    if (rc == CLI_EXIT_OK && pl->in.error != DR_OK) {
+        cli_trial_req_t rq = {pl->in.instance, def.input.size, 0, 0,
+                              (dr_asm_t)def.input.asm_id[0], -1};
+        rc = trial_into(net, pl, &rq, rpi_ms, &pl->in);
+    }
+    if (rc == CLI_EXIT_OK && pl->out.error != DR_OK && known_size(&pl->in) != 0) {
+        cli_trial_req_t rq = {pl->in.instance, known_size(&pl->in), pl->out.instance,
+                              def.output.size, (dr_asm_t)def.input.asm_id[0],
+                              def.output.asm_id[0]};
+        rc = trial_into(net, pl, &rq, rpi_ms, &pl->out);
+    }
+    return rc;
 }
 
 static json_t *point_json(const char *name, const probe_row_t *r)
 {
-    return json_pack("{s:s, s:i, s:o, s:s?}", "name", name, "instance", (int)r->instance,
-                     "size", r->error == DR_OK && r->size >= 0 ? json_integer(r->size)
-                                                                : json_null(),
+    bool sized = r->error == DR_OK && r->size >= 0;
+    return json_pack("{s:s, s:i, s:o, s:s?, s:s?}", "name", name, "instance",
+                     (int)r->instance, "size", sized ? json_integer(r->size) : json_null(),
+                     "size_from", sized ? size_from(r) : NULL,
                      "error", r->error != DR_OK ? dr_strerror(r->error) : NULL);
+}
+
+static json_t *trials_json(const probe_layout_t *pl)
+{
+    json_t *arr = json_array();
+    for (unsigned i = 0; arr != NULL && i < pl->ntrial; i++) {
+        const probe_trial_t *t = &pl->trial[i];
+        bool owner = t->rq.o2t_instance != 0;
+        json_t *o = json_pack(
+            "{s:s, s:i, s:i?, s:i, s:b, s:b, s:o, s:o, s:s?}",
+            "type", owner ? "exclusive_owner" : "input_only",
+            "t2o_instance", (int)t->rq.t2o_instance,
+            "o2t_instance", owner ? json_integer(t->rq.o2t_instance) : json_null(),
+            "asked", (int)(owner ? t->rq.o2t_size : t->rq.t2o_size),
+            "opened", t->res.opened, "answered", t->res.answered,
+            "size", t->res.size >= 0 ? json_integer(t->res.size) : json_null(),
+            "wanted", t->res.wanted != 0 ? json_integer(t->res.wanted) : json_null(),
+            "error", t->res.status != DR_OK ? dr_strerror(t->res.status) : NULL);
+        if (json_array_append_new(arr, o) != 0) {
+            json_decref(arr);
+            arr = NULL;
+        }
+    }
+    return arr;
 }
 
 static json_t *probe_json(const probe_row_t *rows, const dr_identity_t *id,
@@ -408,8 +573,7 @@ static json_t *probe_json(const probe_row_t *rows, const dr_identity_t *id,
                               "instance", (int)r->instance,
                               "size", r->size >= 0 ? json_integer(r->size) : json_null(),
                               "spec_size", (int)info->size,
-                              "size_from", r->size < 0 ? NULL
-                                           : r->from_data ? "data" : "attribute 4",
+                              "size_from", r->size < 0 ? NULL : size_from(r),
                               "result", result,
                               "error", r->error != DR_OK ? dr_strerror(r->error) : NULL);
         if (json_array_append_new(arr, o) != 0) {
@@ -421,8 +585,8 @@ static json_t *probe_json(const probe_row_t *rows, const dr_identity_t *id,
     json_t *points = pl->asked ? json_pack("[o?, o?]", point_json("input", &pl->in),
                                            point_json("output", &pl->out))
                                : json_array();
-    return json_pack("{s:o?, s:o?, s:o?, s:s?, s:b}", "assemblies", arr, "points", points,
-                     "identity", ident, "layout",
+    return json_pack("{s:o?, s:o?, s:o?, s:o?, s:s?, s:b}", "assemblies", arr, "points",
+                     points, "identity", ident, "trials", trials_json(pl), "layout",
                      pl->matched ? dr_layout_name(pl->kind) : NULL, "ok", pl->matched);
 }
 
@@ -448,21 +612,58 @@ static int probe_identity(cli_net_t *net, dr_identity_t *id, bool *have,
     return CLI_EXIT_OK;
 }
 
+/* probe's own options: --open and what the trial needs. */
+typedef struct {
+    bool open;
+    const char *udp_port, *rpi;
+    uint32_t rpi_ms;
+} probe_opts_t;
+
+static int probe_parse(const char *cmd, int argc, char **argv, const cli_net_opts_t *lead,
+                       cli_net_opts_t *o, probe_opts_t *po, dr_client_config_t *cfg)
+{
+    memset(po, 0, sizeof *po);
+    const cli_opt_t extra[PROBE_NOPTS] = {
+        {"open", 'o', &po->open, NULL, NULL},
+        {"udp-port", 0, NULL, &po->udp_port, NULL},
+        {"rpi", 0, NULL, &po->rpi, NULL},
+    };
+    int rc = parse_common(&cli_cmd_probe, argc, argv, lead, o, cfg, extra, PROBE_NOPTS);
+    if (rc != CLI_EXIT_OK)
+        return rc;
+    unsigned long n = 100;
+    if ((po->udp_port != NULL || po->rpi != NULL) && !po->open)
+        return cli_error(CLI_EXIT_USAGE, cmd, "--udp-port and --rpi go with --open");
+    if (po->udp_port != NULL && !cli_parse_ulong(po->udp_port, 1, 65535, &n))
+        return cli_error(CLI_EXIT_USAGE, cmd,
+                         "--udp-port '%s': expected a port number in 1..65535", po->udp_port);
+    if (po->udp_port != NULL)
+        cfg->local_udp_port = (uint16_t)n;
+    n = 100;
+    if (po->rpi != NULL && !cli_parse_ulong(po->rpi, 1, 10000, &n))
+        return cli_error(CLI_EXIT_USAGE, cmd, "--rpi '%s': expected milliseconds in 1..10000",
+                         po->rpi);
+    po->rpi_ms = (uint32_t)n;
+    return CLI_EXIT_OK;
+}
+
 static int run_probe(const char *cmd, int argc, char **argv,
                      const cli_net_opts_t *lead)
 {
     cli_net_opts_t o;
     cli_net_t net;
-    int rc = open_common(&cli_cmd_probe, cmd, argc, argv, lead, &o, &net);
+    probe_opts_t po;
+    dr_client_config_t cfg;
+    int rc = probe_parse(cmd, argc, argv, lead, &o, &po, &cfg);
+    if (rc == CLI_EXIT_OK)
+        rc = cli_net_connect(cmd, &cfg, &net);
     if (rc != CLI_EXIT_OK)
         return rc < 0 ? CLI_EXIT_OK : rc;
 
     probe_row_t rows[DR_ASM_COUNT];
-    unsigned good = 0;
-    for (unsigned a = 0; rc == CLI_EXIT_OK && a < DR_ASM_COUNT; a++) {
+    for (unsigned a = 0; rc == CLI_EXIT_OK && a < DR_ASM_COUNT; a++)
         rc = probe_asm(&net, (dr_asm_t)a, &rows[a]);
-        good += rc == CLI_EXIT_OK && row_ok((dr_asm_t)a, &rows[a]);
-    }
+    unsigned good = rc == CLI_EXIT_OK ? count_good(rows) : 0;
     dr_identity_t id;
     bool have_id = false;
     char ident[160];
@@ -473,11 +674,18 @@ static int run_probe(const char *cmd, int argc, char **argv,
     probe_layout_t pl;
     memset(&pl, 0, sizeof pl);
     pl.count = pl.max = -1;
+    pl.open = po.open;
     if (rc == CLI_EXIT_OK && good == DR_ASM_COUNT) {
         pl.matched = true;
         pl.kind = DR_LAYOUT_PER_ASSEMBLY;
     } else if (rc == CLI_EXIT_OK) {
         rc = probe_points(&net, rows, &pl);
+    }
+    /* Get was not enough: the Forward Open trial, when asked for */
+    if (rc == CLI_EXIT_OK && !pl.matched && po.open) {
+        rc = probe_trials(&net, rows, &pl, po.rpi_ms);
+        good = count_good(rows);
+        probe_match(rows, &pl);
     }
     if (rc == CLI_EXIT_OK && o.json)
         rc = cli_json_print(cmd, probe_json(rows, &id, have_id, &pl));
@@ -485,7 +693,7 @@ static int run_probe(const char *cmd, int argc, char **argv,
         print_probe(rows, ident, good);
         print_layout(&net, &pl);
     }
-    cli_net_close(&net);
+    cli_net_close(&net); /* waits for the answers of the trials' Forward Closes */
     if (rc == CLI_EXIT_OK && !pl.matched)
         rc = CLI_EXIT_CIP;
     return rc;

@@ -161,9 +161,9 @@ int cli_net_config(const char *cmd, const cli_net_opts_t *o,
         if (!parse_instance(cmd, o->instance.v[i], cfg))
             return CLI_EXIT_USAGE;
     cfg->route = o->route;
-    /* drcli sends no Forward Open (explicit messaging only), where the
-     * originator serial would count; it still passes a stable one, as
-     * drgatewayd does, rather than the library's clock fallback. */
+    /* drcli sends a Forward Open only in probe --open's trial, where the
+     * originator serial counts; a stable one, as drgatewayd has, rather
+     * than the library's clock fallback. */
     cfg->serial = dr_originator_serial_local(cfg->host);
     return CLI_EXIT_OK;
 }

@@ -42,7 +42,7 @@ FUZZ_LIBS_rtu        := $(MODBUS_LIBS)
 # config_robot.c's `map` lines: the user's map parser and the default map;
 # [http] auth_file: the password file parser
 FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c)) $(FUZZ_REGMAP_SRC) \
-                        gateway/http/passwd.c
+                        gateway/http/passwd.c common/eds.c common/eds_plan.c
 FUZZ_SRC_usermap     := $(FUZZ_REGMAP_SRC)
 FUZZ_LIBS_config     := $(INIH_LIBS)
 # Sparkplug B commands (gateway/mqtt/sparkplug.c) over nanopb: Debian's
@@ -58,11 +58,11 @@ FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 FUZZ_SRC_http        := gateway/http/auth.c gateway/http/request.c gateway/http/passwd.c \
                         gateway/core/log.c gateway/core/json.c common/ev.c
 # All of drcli but its main() (cli/drcli.c, on top of the rest).
-FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) \
+FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) common/eds.c common/eds_plan.c \
                         $(filter-out $(FUZZ_LIB_SRC),$(LIB_SRC))
 FUZZ_LIBS_cli        := $(JSON_LIBS)
-# drcli's EDS reader alone (no I/O, no jansson).
-FUZZ_SRC_eds         := cli/eds.c
+# The EDS reader and the plan it gives alone (no I/O, no jansson).
+FUZZ_SRC_eds         := common/eds.c common/eds_plan.c
 # Every harness and every object gets all the packages' flags: they only
 # add include directories.
 FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(JSON_CFLAGS)

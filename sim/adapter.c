@@ -50,7 +50,9 @@ enum {
     ES_INCORRECT_DATA = 0x0003,
     ES_INVALID_SESSION = 0x0064,
     ES_INVALID_LENGTH = 0x0065,
-    ES_PROTOCOL_VERSION = 0x0069
+    ES_PROTOCOL_VERSION = 0x0069,
+    /* not on the wire: send_rr_data's "send nothing" */
+    ES_LOST_REPLY = 0x10000
 };
 
 #define IDENTITY_STATE_OPERATIONAL 3u
@@ -436,7 +438,10 @@ static void assembly_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
     switch (rq->service) {
     case DR_CIP_SVC_GET_ATTRIBUTES_ALL:
     case DR_CIP_SVC_GET_ATTRIBUTE_SINGLE:
-        assembly_get(ctx, rq, p, a, w);
+        if (ctx->s->cfg.no_get_assembly) /* --no-get-assembly */
+            reply(w, rq->service, GS_SERVICE, NULL, 0);
+        else
+            assembly_get(ctx, rq, p, a, w);
         break;
     case DR_CIP_SVC_SET_ATTRIBUTE_SINGLE:
         assembly_set(ctx, rq, p, a, w);
@@ -971,6 +976,14 @@ static uint32_t send_rr_data(drsim_t *s, const drsim_peer_t *peer, uint64_t now,
     bool o2t_sa = false;
     size_t n = drsim_cip(s, peer, now, data->data, data->length,
                          sa_item ? &t2o_sa : NULL, rsp, sizeof rsp, &o2t_sa);
+    if (o2t_sa && s->lost_fo_replies < s->cfg.lose_fo_replies) {
+        /* --lose-forward-open-reply: opened, but the originator never
+         * hears of it (field-facts.md, "Late Forward Open replies") */
+        s->lost_fo_replies++;
+        drsim_log(1, "forward open reply not sent (--lose-forward-open-reply, %u of %u)",
+                  s->lost_fo_replies, s->cfg.lose_fo_replies);
+        return ES_LOST_REPLY;
+    }
     dr_rr_begin(w, 0);
     dr_cpf_begin(w, o2t_sa ? 3 : 2);
     size_t m = dr_cpf_item_begin(w, DR_CPF_NULL);
@@ -1049,6 +1062,8 @@ drsim_action_t drsim_encap(drsim_t *s, drsim_peer_t *peer, uint64_t now_ns,
         break;
     case DR_ENCAP_SEND_RR_DATA:
         status = send_rr_data(s, peer, now_ns, &h, body, &w);
+        if (status == ES_LOST_REPLY)
+            return DRSIM_SILENT;
         if (status != 0)
             w.len = 0;
         break;

@@ -52,6 +52,11 @@ typedef struct {
     uint16_t refuse_fo;        /* refuse every Forward Open with 0x01/this; 0 no */
     bool no_large_fo;          /* answer Large Forward Open (0x5B) with 0x08,
                                   like targets that only know 0x54 */
+    bool no_get_assembly;      /* Get on an assembly instance: 0x08 (its
+                                  data only through I/O connections) */
+    unsigned lose_fo_replies;  /* the first N successful Forward Opens
+                                  open their connection, but their reply
+                                  is not sent (lost on the way back) */
     uint64_t stop_producing_ns; /* stop T->O this long after an open; 0 never */
     unsigned drop_pct;         /* drop this share (0..100) of I/O packets */
     /* What real adapters do, legal or harmless (docs/interop.md,
@@ -161,6 +166,7 @@ typedef struct {
     uint64_t rng;              /* drop decisions */
     uint32_t next_session;
     uint32_t next_cid;
+    unsigned lost_fo_replies;  /* replies --lose-forward-open-reply kept */
     uint64_t start_ns;         /* epoch of the production grid */
     uint64_t next_model_ns;
 } drsim_t;

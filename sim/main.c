@@ -139,6 +139,15 @@ static void usage(FILE *f)
 "      --no-large-forward-open\n"
 "                            answer Large Forward Open (0x5B) with 0x08,\n"
 "                            like a target that only knows 0x54\n"
+"      --lose-forward-open-reply N\n"
+"                            open the connection of the first N successful\n"
+"                            Forward Opens but send no reply, as when the\n"
+"                            reply is lost on the way back\n"
+"      --no-get-assembly     answer Get_Attribute_Single and Get_Attributes_All\n"
+"                            on an assembly instance with 0x08 (service not\n"
+"                            supported), as an adapter whose assemblies are\n"
+"                            reached only through I/O connections: drcli\n"
+"                            probe then needs --open to find their sizes\n"
 "\n"
 "Other:\n"
 "  -v, --verbose             log events to stderr; twice: every request\n"
@@ -242,7 +251,7 @@ static int check_instances(const drsim_config_t *cfg)
 
 enum {
     OPT_NO_ECHO = 256, OPT_SEED, OPT_DROP, OPT_DELAY, OPT_STOP_PRODUCING,
-    OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO,
+    OPT_REFUSE_FO, OPT_DROP_SESSION, OPT_MAX_CONNS, OPT_NO_LARGE_FO, OPT_NO_GET_ASM, OPT_LOSE_FO_REPLY,
     OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
     OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM,
     OPT_OWNER_HOLD,
@@ -266,6 +275,8 @@ static const struct option long_options[] = {
     {"stop-producing-after", required_argument, NULL, OPT_STOP_PRODUCING},
     {"refuse-forward-open", required_argument, NULL, OPT_REFUSE_FO},
     {"no-large-forward-open", no_argument, NULL, OPT_NO_LARGE_FO},
+    {"no-get-assembly", no_argument, NULL, OPT_NO_GET_ASM},
+    {"lose-forward-open-reply", required_argument, NULL, OPT_LOSE_FO_REPLY},
     {"drop-session-after", required_argument, NULL, OPT_DROP_SESSION},
     {"still", no_argument, NULL, OPT_STILL},
     {"seq-on-change", no_argument, NULL, OPT_SEQ_ON_CHANGE},
@@ -357,6 +368,14 @@ static int parse_options(int argc, char **argv, options_t *o)
             break;
         case OPT_NO_LARGE_FO:
             o->cfg.no_large_fo = true;
+            break;
+        case OPT_NO_GET_ASM:
+            o->cfg.no_get_assembly = true;
+            break;
+        case OPT_LOSE_FO_REPLY:
+            if (parse_uint(optarg, 1, 1000000, &n) != 0)
+                return bad("--lose-forward-open-reply", optarg);
+            o->cfg.lose_fo_replies = (unsigned)n;
             break;
         case OPT_CONFIG_INSTANCE:
             if (parse_uint(optarg, 1, 0xFFFF, &n) != 0)

@@ -83,6 +83,10 @@ typedef struct {
      * all GW_OPEN_NONE. Sizes equal their assemblies' sum (checked). */
     dr_layout_kind_t layout;
     dr_point_t input, output;
+    /* The robot's EDS, as written (`eds`; "": none): the checks take its
+     * plan (layout, points, configuration instance, heartbeats, rpi_ms)
+     * for every one of those keys the section does not set. */
+    char eds[256];
     /* implicit: O->T only on its own timer ("strict"), or also sent with
      * an arriving T->O packet when due within a quarter RPI ("follow",
      * default): one wake-up per RPI instead of two. */

@@ -37,6 +37,7 @@
 #include <stddef.h>
 #include <stdio.h>
 
+#include "common/eds.h"
 #include "core/config.h"
 
 #include "core/log.h" /* GW_PRINTF */
@@ -283,6 +284,15 @@ unsigned gw_cfg_line_or(unsigned key_line, unsigned section_line);
 
 /* Robot i's instances and connection plan; false after the message. */
 bool gw_cfg_robot_check(gw_cfg_ctx_t *c, unsigned i);
+
+/* ---- config_eds.c: the `eds` key of [robot NAME] ------------------------- */
+
+/* Read the EDS at `path` (relative: to the configuration file's folder;
+ * the name used in file[file_size]) into *plan (common/eds.h). False
+ * after the message: at config line `line`, with the EDS's FILE:LINE
+ * for a malformed one. */
+bool gw_cfg_eds_load(gw_cfg_ctx_t *c, unsigned line, const char *name, const char *path,
+                     eds_plan_t *plan, char *file, size_t file_size);
 
 /* ---- config_doc.c --------------------------------------------------------- */
 

@@ -37,6 +37,7 @@ static const gw_cfg_key_t robot_keys[] = {
     { .name = "listen_only_heartbeat", .type = GW_CFG_UINT, .flags = LINK | RK_PLAN, R(listen_only_heartbeat), .lo = 1, .hi = 65535, .def = 199, .help = "O->T connection point of listen-only connections" },
     /* often written in hex, as tools show it; 0 (the default): derived at start (link.c) */
     { .name = "originator_serial", .type = GW_CFG_HOOK, .flags = LINK, R(originator_serial), .parse = robot_serial, .allowed = "1..4294967295, or 0x1..0xFFFFFFFF", .doc_default = "derived from the machine and the robot's name, see [below](#originator_serial)", .help = "the originator serial number of every Forward Open: the robot gives the owner connections of a gateway that stopped uncleanly back only to the same serial" },
+    { .name = "eds", .type = GW_CFG_TEXT, .flags = LINK, R(eds), .allowed = "an EDS file (absolute, or relative to this file's folder)", .doc_default = "(none)", .doc_allowed = "an EDS file", .help = "the robot's EDS (Electronic Data Sheet): its plan, as `drcli eds FILE` prints it, sets `layout`, `input_instance`, `input_size`, `output_instance`, `output_size` (or `output_assemblies = none` for an input-only plan), `config_instance`, `input_only_heartbeat`, `listen_only_heartbeat` and `rpi_ms`; a key set in the section wins over the EDS, and `rpi_ms` must lie in the EDS's RPI range. Read at start, `--check-config` and reload; an error in it is told as the EDS's FILE:LINE at this key's line. See [EDS files](#eds-files)" },
     { .name = "layout", .type = GW_CFG_ENUM, .flags = LINK, R(layout), GW_CFG_NAMES("per_assembly", "combined", "gpr_only"), .def = DR_LAYOUT_PER_ASSEMBLY, .help = "how the robot offers the assemblies: `per_assembly`, one instance each (`instance.*`, `open.*`); `combined`, one T->O instance carrying the six T->O assemblies back to back (476 bytes) and one O->T instance carrying the four O->T ones (212 bytes), one connection between them; `gpr_only`, the same with the register assemblies only (200 bytes each way). See [Layouts](#layouts)" },
     { .name = "input_instance", .type = GW_CFG_UINT, .flags = LINK, R(input.instance), .lo = 1, .hi = 65535, .def = DR_LAYOUT_INPUT_INSTANCE, .help = "`combined`, `gpr_only`: the T->O (input) assembly instance" },
     { .name = "input_assemblies", .type = GW_CFG_HOOK, .flags = LINK, R(input), .parse = robot_point, .allowed = "T->O assembly names in wire order, separated by commas or blanks", .doc_default = "the layout's: all six T->O assemblies (`combined`), `bit_out, int_out, float_out` (`gpr_only`)", .doc_allowed = "T->O assembly names in wire order", .help = "`combined`, `gpr_only`: what the input instance carries, back to back, in that order" },
@@ -548,6 +549,111 @@ static void point_sum_text(const dr_point_t *p, char *buf, size_t size)
         snprintf(buf + n, size - n, " = %u", (unsigned)dr_point_sum(p));
 }
 
+/* ---- the robot's EDS (`eds`) ---------------------------------------------- */
+
+/* Key `key` of robot i is not set in its section. */
+static bool unset(gw_cfg_ctx_t *c, unsigned i, const char *key)
+{
+    return gw_cfg_line(c, &gw_cfg_robot, i, key) == 0;
+}
+
+/* An instance from the EDS where the configuration takes 1..65535. */
+static bool eds_instance_ok(uint32_t v)
+{
+    return v >= 1 && v <= 65535;
+}
+
+/* "5 ms" or "0.5 ms" for a microsecond count, into buf. */
+static void ms_text(uint32_t us, char *buf, size_t size)
+{
+    if (us % 1000u == 0)
+        snprintf(buf, size, "%lu", (unsigned long)(us / 1000u));
+    else
+        snprintf(buf, size, "%lu.%03lu", (unsigned long)(us / 1000u),
+                 (unsigned long)(us % 1000u));
+}
+
+/* rpi_ms (the section's or the EDS's) inside the plan connection's RPI
+ * range (implicit mode). False after the message. */
+static bool eds_rpi_check(gw_cfg_ctx_t *c, unsigned i, const eds_plan_t *p,
+                          const char *file, unsigned key_line)
+{
+    const gw_robot_config_t *r = &c->cfg.robot[i];
+    if (!p->has_rpi || r->mode != GW_MODE_IMPLICIT)
+        return true;
+    uint64_t us = (uint64_t)r->rpi_ms * 1000u;
+    if (us >= p->rpi_min_us && us <= p->rpi_max_us)
+        return true;
+    char lo[24], hi[24];
+    ms_text(p->rpi_min_us, lo, sizeof lo);
+    ms_text(p->rpi_max_us, hi, sizeof hi);
+    gw_cfg_fail(c, line_or(gw_cfg_line(c, &gw_cfg_robot, i, "rpi_ms"), key_line),
+                "robot '%s': rpi_ms %lu is outside the robot's RPI range %s..%s ms "
+                "(eds %s:%u, Connection%lu)", r->name, (unsigned long)r->rpi_ms, lo, hi,
+                file, p->rpi_line, (unsigned long)p->rpi_conn);
+    return false;
+}
+
+/* The points of a combined or gpr_only plan, where the section sets none. */
+static void eds_points(gw_cfg_ctx_t *c, unsigned i, const eds_plan_t *p)
+{
+    gw_robot_config_t *r = &c->cfg.robot[i];
+    if (unset(c, i, "input_instance") && eds_instance_ok(p->in_instance))
+        r->input.instance = (uint16_t)p->in_instance;
+    if (unset(c, i, "input_size"))
+        r->input.size = p->in_size;
+    if (p->out_instance == 0) { /* input-only: another device owns the outputs */
+        if (unset(c, i, "output_assemblies") && unset(c, i, "output_instance") &&
+            unset(c, i, "output_size")) {
+            lines_of(c, i)->output_none = true;
+            r->output.count = 0;
+        }
+        return;
+    }
+    if (unset(c, i, "output_instance") && eds_instance_ok(p->out_instance))
+        r->output.instance = (uint16_t)p->out_instance;
+    if (unset(c, i, "output_size"))
+        r->output.size = p->out_size;
+}
+
+/* Robot i's EDS, if it names one: its plan for every key the section
+ * does not set. False after the message. */
+static bool apply_eds(gw_cfg_ctx_t *c, unsigned i)
+{
+    gw_robot_config_t *r = &c->cfg.robot[i];
+    if (r->eds[0] == '\0')
+        return true;
+    unsigned kl = line_or(gw_cfg_line(c, &gw_cfg_robot, i, "eds"), r->line);
+    eds_plan_t plan;
+    char file[600];
+    if (!gw_cfg_eds_load(c, kl, r->name, r->eds, &plan, file, sizeof file))
+        return false;
+    if (unset(c, i, "layout")) {
+        if (!plan.matched) {
+            gw_cfg_fail(c, kl,
+                        "robot '%s': eds %s:%u: its sizes match no layout (input %u, "
+                        "output %u bytes; per_assembly wants the ten assemblies at "
+                        "101..110, combined 476 and 212 bytes, gpr_only 200 and 200): "
+                        "set layout and its keys here (drcli eds %s says more)",
+                        r->name, file, plan.plan_line != 0 ? plan.plan_line : 1u,
+                        (unsigned)plan.in_size, (unsigned)plan.out_size, file);
+            return false;
+        }
+        r->layout = plan.kind;
+    }
+    if (plan.matched && plan.kind == r->layout && r->layout != DR_LAYOUT_PER_ASSEMBLY)
+        eds_points(c, i, &plan);
+    if (unset(c, i, "config_instance") && eds_instance_ok(plan.config_instance))
+        r->config_instance = (uint16_t)plan.config_instance;
+    if (unset(c, i, "input_only_heartbeat") && eds_instance_ok(plan.input_only_hb))
+        r->input_only_heartbeat = (uint16_t)plan.input_only_hb;
+    if (unset(c, i, "listen_only_heartbeat") && eds_instance_ok(plan.listen_only_hb))
+        r->listen_only_heartbeat = (uint16_t)plan.listen_only_hb;
+    if (unset(c, i, "rpi_ms") && plan.rpi_ms != 0)
+        r->rpi_ms = plan.rpi_ms;
+    return eds_rpi_check(c, i, &plan, file, kl);
+}
+
 /* The layout keys apply to their layout only; a combined layout's points
  * get their default assemblies and sizes here, and a size that does not
  * add up is refused where it is written. False after the message. */
@@ -664,7 +770,7 @@ static bool check_layout(gw_cfg_ctx_t *c, unsigned i)
 
 bool gw_cfg_robot_check(gw_cfg_ctx_t *c, unsigned i)
 {
-    if (!check_layout(c, i))
+    if (!apply_eds(c, i) || !check_layout(c, i))
         return false;
     if (c->cfg.robot[i].layout != DR_LAYOUT_PER_ASSEMBLY)
         return true;

@@ -872,6 +872,11 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
         data->link.conn_dropped_seq[i] = data->link.conn_dropped_addr[i] = 0;
         data->link.conn_resyncs[i] = 0;
     }
+    data->link.conn_name[0] = '\0';
+    if (rc->layout != DR_LAYOUT_PER_ASSEMBLY)
+        snprintf(data->link.conn_name, sizeof data->link.conn_name,
+                 "%s T->O (%u assemblies, %u bytes)", dr_layout_name(rc->layout),
+                 (unsigned)rc->input.count, (unsigned)rc->input.size);
     data->o2t_unsent = 0;
     for (unsigned a = 0; a < DR_ASM_COUNT; a++)
         if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_O2T && !(l->o2t_planned & (1u << a)))

@@ -44,6 +44,21 @@ static uint32_t conn_counter(const gw_robot_link_t *k, unsigned c, conn_counter_
     return 0;
 }
 
+/* A connection's labels after `robot`: its assembly (a combined layout's:
+ * the first its input carries, as before) and, for a combined layout's
+ * connection only, `connection` with its name (docs/http.md). Returns
+ * how many of l[] it filled. */
+static size_t conn_labels(const gw_robot_t *rb, unsigned c, gw_prom_label_t *l)
+{
+    const gw_robot_link_t *k = &rb->link;
+    l[0] = (gw_prom_label_t){"robot", rb->name};
+    l[1] = (gw_prom_label_t){"assembly", dr_asm_info((dr_asm_t)k->conn_t2o[c])->name};
+    if (k->conn_name[0] == '\0')
+        return 2;
+    l[2] = (gw_prom_label_t){"connection", k->conn_name};
+    return 3;
+}
+
 /* One family, a sample per connection of every robot. */
 static void per_conn(gw_prom_t *m, const gw_robot_t *robots, unsigned count, const char *name,
                      const char *help, conn_counter_t which)
@@ -54,9 +69,9 @@ static void per_conn(gw_prom_t *m, const gw_robot_t *robots, unsigned count, con
         for (unsigned c = 0; c < GW_ROBOT_CONNS; c++) {
             if (k->conn_t2o[c] >= DR_ASM_COUNT)
                 continue;
-            gw_prom_label_t l[2] = {{"robot", robots[i].name},
-                                    {"assembly", dr_asm_info((dr_asm_t)k->conn_t2o[c])->name}};
-            gw_prom_sample(m, name, l, 2, conn_counter(k, c, which));
+            gw_prom_label_t l[3];
+            size_t n = conn_labels(&robots[i], c, l);
+            gw_prom_sample(m, name, l, n, conn_counter(k, c, which));
         }
     }
 }
@@ -74,12 +89,12 @@ static void per_conn_drops(gw_prom_t *m, const gw_robot_t *robots, unsigned coun
         for (unsigned c = 0; c < GW_ROBOT_CONNS; c++) {
             if (k->conn_t2o[c] >= DR_ASM_COUNT)
                 continue;
-            const char *an = dr_asm_info((dr_asm_t)k->conn_t2o[c])->name;
-            gw_prom_label_t l[3] = {{"robot", robots[i].name}, {"assembly", an},
-                                    {"reason", "sequence"}};
-            gw_prom_sample(m, name, l, 3, k->conn_dropped_seq[c]);
-            l[2].value = "source_address";
-            gw_prom_sample(m, name, l, 3, k->conn_dropped_addr[c]);
+            gw_prom_label_t l[4];
+            size_t n = conn_labels(&robots[i], c, l);
+            l[n] = (gw_prom_label_t){"reason", "sequence"};
+            gw_prom_sample(m, name, l, n + 1, k->conn_dropped_seq[c]);
+            l[n].value = "source_address";
+            gw_prom_sample(m, name, l, n + 1, k->conn_dropped_addr[c]);
         }
     }
 }

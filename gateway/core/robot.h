@@ -52,6 +52,11 @@ typedef struct {
      * packets received and lost since the link started (counters for the
      * console's /metrics; rx_packets and lost_packets are their sums). */
     uint16_t conn_t2o[GW_ROBOT_CONNS];
+    /* A combined or gpr_only layout's one connection (slot 0) is named for
+     * what it carries, "combined T->O (6 assemblies, 476 bytes)" (the
+     * console, /api/v1 and the metrics' `connection` label); "": the
+     * per_assembly plan, whose connections the assembly names. */
+    char conn_name[48];
     uint32_t conn_rx[GW_ROBOT_CONNS], conn_lost[GW_ROBOT_CONNS];
     /* T->O packets a connection dropped since the link started: stale,
      * duplicate or too far ahead (dropped_seq), from an address not the

@@ -47,8 +47,8 @@ static void connections(gw_json_t *j, const gw_robot_config_t *rc, const gw_robo
     bool first = true;
     int a;
     for (unsigned i = 0; i < GW_ROBOT_CONNS && (a = gw_link_slot_asm(i)) >= 0; i++) {
-        /* a combined layout has one connection (slot 0), named by the
-         * first assembly its input carries */
+        /* a combined layout has one connection (slot 0): "assembly" is
+         * the first its input carries (as before), "name" what it is */
         if (rc->layout != DR_LAYOUT_PER_ASSEMBLY ? i > 0 || rb->link.conn_t2o[0] >= DR_ASM_COUNT
                                                  : rc->mode == GW_MODE_IMPLICIT &&
                                                        rc->open[a].kind == GW_OPEN_NONE)
@@ -58,6 +58,10 @@ static void connections(gw_json_t *j, const gw_robot_config_t *rc, const gw_robo
         gw_json_str(j, first ? "{\"assembly\":" : ",{\"assembly\":");
         first = false;
         qstr(j, dr_asm_info((dr_asm_t)a)->name);
+        /* what it carries: the assembly, or a combined layout's name */
+        gw_json_str(j, ",\"name\":");
+        qstr(j, rb->link.conn_name[0] != '\0' ? rb->link.conn_name
+                                              : dr_asm_info((dr_asm_t)a)->name);
         gw_json_str(j, ",\"state\":");
         qstr(j, rc->mode == GW_MODE_IMPLICIT
                     ? dr_conn_state_name((dr_conn_state_t)rb->link.conn_state[i])

@@ -7,14 +7,16 @@ written through Modbus reach the robot, the assemblies a layout does not
 carry read 0 and refuse writes, and a plan whose sizes are not the
 adapter's is refused with both sizes in the log."""
 import json
+import os
 import struct
 import subprocess
 
 import pytest
 
 from gwlib import (DRCLI, EX_ILLEGAL_ADDRESS, SIM_ADDR, Drsim, Gateway, dint_regs, f32,
-                   real_regs,
+                   free_port, real_regs,
                    regs_dint, regs_real, running, timeout, wait_for)
+from test_metrics import PROMTOOL, get, http_section, samples
 
 T2O = ["io_state", "joint_state", "task_state", "bit_out", "int_out", "float_out"]
 O2T = ["io_control", "bit_in", "int_in", "float_in"]
@@ -146,6 +148,17 @@ def test_explicit_size_mismatch_names_both_sizes():
         assert g.status()[1] != 2  # link_state: never up
 
 
+def links_with(section, name, sim):
+    """drgatewayd with the [robot] section a probe printed (its lines after
+    the header; host and port are the test's) brings the link up."""
+    robot = "".join(x + "\n" for x in section if x and not x.startswith(("host", "tcp_port")))
+    g = Gateway(name, sim, robot=robot)
+    try:
+        g.start()  # waits for the link
+    finally:
+        g.kill()
+
+
 @pytest.mark.parametrize("layout", ["per_assembly", "combined", "gpr_only"])
 def test_probe_prints_a_plan_that_links(layout):
     """`drcli probe` against drsim in each layout: read-only (drsim sees no
@@ -168,12 +181,110 @@ def test_probe_prints_a_plan_that_links(layout):
         assert "request 0x0E class 0x04" in log, log[-2000:]  # it did ask
         for svc in ("0x10", "0x54", "0x5B"):  # Set_Attribute_Single, Forward Opens
             assert "request %s " % svc not in log, log[-2000:]
-        robot = "".join(x + "\n" for x in section
-                        if x and not x.startswith(("host", "tcp_port")))
-        g = Gateway("probe-%s" % layout, sim, robot=robot)
-        try:
-            g.start()  # waits for the link
-        finally:
-            g.kill()
+        links_with(section, "probe-%s" % layout, sim)
     finally:
         sim.kill()
+
+
+def probe(sim, *args):
+    return subprocess.run([str(DRCLI), "-H", SIM_ADDR, "--port", str(sim.tcp), "probe"]
+                          + list(args), capture_output=True, text=True,
+                          timeout=timeout(60))
+
+
+def opened_then_closed(sim):
+    """drsim's connections, once drcli's session ended: each one opened
+    was closed by Forward Close before the next opened, none applied O->T
+    data, none is left. Returns the "connection open" lines."""
+    wait_for(lambda: "session ended" in sim.log(), 10, "drcli's session to end")
+    events = [x for x in sim.log().splitlines()
+              if "connection open" in x or " closed (" in x and "connection 0x" in x]
+    assert len(events) % 2 == 0, events
+    for i in range(0, len(events), 2):
+        assert "connection open" in events[i], events
+        assert "closed (forward close)" in events[i + 1], events
+        assert " 0 applied" in events[i + 1], events
+    return events[0::2]
+
+
+@pytest.mark.parametrize("layout", ["per_assembly", "combined", "gpr_only"])
+def test_probe_open_finds_the_sizes_get_does_not_give(layout):
+    """drsim --no-get-assembly answers no Get on its assemblies. The
+    read-only probe finds no layout and says --open would try; with
+    --open, a Forward Open trial per instance whose size is unknown finds
+    the layout, and each connection it opened is closed by Forward Close
+    before the next Forward Open (drsim's log: opens and closes alternate,
+    the same number of each, none left), with no O->T data applied (the
+    trial's O->T is idle). The printed [robot] section links drgatewayd."""
+    sim = Drsim("probe-open-%s" % layout, "--layout", layout, "--no-get-assembly").start()
+    try:
+        out = probe(sim)
+        assert out.returncode == 4, out.stdout + out.stderr
+        assert "layout: none matches" in out.stdout and "probe --open" in out.stdout
+        assert "connection open" not in sim.log() and "forward open" not in sim.log()
+        out = probe(sim, "--open", "--udp-port", str(free_port("0.0.0.0", tcp=False)))
+        assert out.returncode == 0, out.stdout + out.stderr
+        assert "layout: %s\n" % layout in out.stdout, out.stdout
+        assert "forward open trial: " in out.stdout
+        section = out.stdout.split("[robot arm1]\n", 1)[1].splitlines()
+        if layout != "per_assembly":
+            size = {"combined": (476, 212), "gpr_only": (200, 200)}[layout]
+            assert "input_size = %d" % size[0] in section, section
+            assert "output_size = %d" % size[1] in section, section
+        # what the trial opened, drsim saw closed, each before the next open
+        opens = opened_then_closed(sim)
+        # gpr_only: the sizes asked for (the combined ones) are refused with
+        # 0x0109 naming drsim's, nothing opens; the others open and close
+        assert bool(opens) == (layout != "gpr_only"), sim.log()[-3000:]
+        assert ("0x0109" in sim.log()) == (layout == "gpr_only"), sim.log()[-3000:]
+        links_with(section, "probe-open-%s" % layout, sim)
+    finally:
+        sim.kill()
+
+
+def test_probe_open_closes_an_open_whose_reply_was_lost():
+    """drsim opens the trial's first connection but its reply is lost
+    (--lose-forward-open-reply 1): the probe's open times out, the session
+    is reset, and in the next session the open is closed by its connection
+    triad before anything else; the trial is made once more, answered this
+    time, and the layout found. drsim's log: two opens, each closed by
+    Forward Close, nothing left."""
+    sim = Drsim("probe-open-lost", "--layout", "combined", "--no-get-assembly",
+                "--lose-forward-open-reply", "1").start()
+    try:
+        out = probe(sim, "--open", "--udp-port", str(free_port("0.0.0.0", tcp=False)))
+        assert out.returncode == 0, out.stdout + out.stderr
+        assert "layout: combined\n" in out.stdout, out.stdout
+        assert "asked 476 bytes: no answer" in out.stdout, out.stdout
+        assert "forward open reply not sent" in sim.log()
+        opens = opened_then_closed(sim)
+        assert len(opens) == 3, opens  # the lost one, its repeat, the output's
+        assert sim.log().count(" registered by ") == 2  # a new session
+    finally:
+        sim.kill()
+
+
+@pytest.mark.parametrize("layout,name", [
+    ("combined", "combined T->O (6 assemblies, 476 bytes)"),
+    ("gpr_only", "gpr_only T->O (3 assemblies, 200 bytes)")])
+def test_combined_connection_named_for_what_it_carries(layout, name):
+    """The console's /api/v1 and /metrics name a combined layout's one
+    connection for what it carries; `assembly` stays the first assembly
+    it carries (as before: label compat, docs/http.md), the metrics add
+    `connection`; the text passes promtool."""
+    port, sect = http_section()
+    with running("layout-name-%s" % layout, sim_args=("--layout", layout), robot="layout = %s\n"
+                 % layout, extra=sect) as g:
+        wait_for(lambda: g.listening(port), 10, "the console's port")
+        st = json.loads(get(port, "/api/v1/status")[2])
+        conns = st["robots"][0]["connections"]
+        first = "io_state" if layout == "combined" else "bit_out"
+        assert [(c["assembly"], c["name"]) for c in conns] == [(first, name)], conns
+        text = get(port, "/metrics")[2]
+        got = {k[1] for k in samples(text) if k[0] == "drgate_link_packets_received_total"}
+        assert got == {frozenset({("robot", "r0"), ("assembly", first),
+                                  ("connection", name)})}, got
+        if os.access(PROMTOOL, os.X_OK):
+            r = subprocess.run([PROMTOOL, "check", "metrics"], input=text, text=True,
+                               capture_output=True, timeout=timeout(30))
+            assert r.returncode == 0, r.stdout + r.stderr

@@ -4,13 +4,20 @@ run against drsim by test_ethernetip.py, either on this host (free ports,
 announced through the Forward Open's 0x8001 item) or inside a network
 namespace (the standard ports 44818 / 2222). Prints one JSON object.
 
-usage: ethernetip_scanner.py HOST TCP_PORT UDP_PORT SCANNER_UDP_PORT RPI_MS
+usage: ethernetip_scanner.py HOST TCP_PORT UDP_PORT SCANNER_UDP_PORT RPI_MS [LAYOUT]
        SCANNER_UDP_PORT 0: any free port, announced in the 0x8001 item.
+       LAYOUT: per_assembly (default), combined or gpr_only (drsim --layout).
 
 Three connections, each with its own session, as python-ethernetip does it:
   A  O->T io_control (107, 12 bytes)  T->O io_state (101, 36 bytes)
   B  O->T bit_in (108, 8 bytes)       T->O bit_out (104, 8 bytes)
   C  O->T heartbeat 198 (no data)     T->O joint_state (102, 144 bytes)
+With LAYOUT combined or gpr_only, one connection between drsim's two
+points (issue 31):
+  A  O->T 150 (212 bytes: io_control, bit_in, int_in, float_in; gpr_only
+     200: bit_in, int_in, float_in)  T->O 100 (476 bytes: io_state,
+     joint_state, task_state, bit_out, int_out, float_out; gpr_only 200:
+     bit_out, int_out, float_out)
 Everything has a deadline; a failure is reported in the JSON, not hung on.
 """
 import json
@@ -50,8 +57,44 @@ def connect(enip, host, timeout=10.0):
             time.sleep(0.1)
 
 
+def run_point(res, conns, ins, outs, closed, plan, layout, ctl, bits):
+    """The one connection of a combined or gpr_only layout: O->T with
+    io_control (combined) and bit_in in their places of the output image,
+    T->O read back at their places of the input image, twice 0.3 s apart,
+    and both images read explicitly."""
+    c = conns["A"]
+    combined = layout == "combined"
+    out_img = (ctl + bits if combined else bits).ljust(plan["A"][3], b"\0")
+    set_bytes(outs["A"], out_img)
+    res["out_sent"] = out_img.hex()
+    res["bit_in_sent"] = bits.hex()
+    c.produce()
+    bit_out = 36 + 144 + 96 if combined else 0  # bit_out's place in the input
+    deadline = time.monotonic() + 8.0
+    while time.monotonic() < deadline:
+        img = to_bytes(ins["A"])
+        if img[bit_out:bit_out + 8] == bits and (not combined or img[2:4] == b"\x01\x80"):
+            break
+        time.sleep(0.05)
+    r1 = to_bytes(ins["A"])
+    time.sleep(0.3)
+    r2 = to_bytes(ins["A"])
+    res["in_rx"] = [r1.hex(), r2.hex()]
+    res["bit_out_offset"] = bit_out
+    for key, inst in (("out_get", 150), ("in_get", 100)):
+        r = c.getAttrSingle(4, inst, 3)
+        res[key] = None if r is None else [r[0], bytes(r[1]).hex()]
+    c.stopProduce()
+    time.sleep(0.05)
+    res["fc_A"] = c.sendFwdCloseReq(plan["A"][0], plan["A"][2], 1)
+    closed.add("A")
+    res["ok"] = True
+    return res
+
+
 def main():
     host, tcp_port, udp_port, scan_port, rpi = sys.argv[1], *map(int, sys.argv[2:6])
+    layout = sys.argv[6] if len(sys.argv) > 6 else "per_assembly"
     # python-ethernetip connects to ENIP_TCP_PORT and sends O->T to
     # ENIP_UDP_PORT, module constants; it ignores the 0x8000 item of the
     # Forward Open reply. Point them at drsim's ports (a no-op in the
@@ -71,6 +114,8 @@ def main():
         "B": (104, 8, 108, 8),
         "C": (102, 144, 198, 0),
     }
+    if layout != "per_assembly":
+        plan = {"A": (100, 476, 150, 212) if layout == "combined" else (100, 200, 150, 200)}
     conns, ins, outs, closed = {}, {}, {}, set()
     try:
         for key, (t2o, t2o_size, o2t, o2t_size) in plan.items():
@@ -99,6 +144,8 @@ def main():
             res["cid_" + key] = [c.otconnid, c.toconnid]
         ctl = struct.pack("<I2f", 0x8001 | 0x04 << 16, 0.0, 0.0)  # cb_do 1, 16; tool_do 3
         bits = bytes([0x5A, 0x01, 0x80, 0xFF, 0x00, 0x3C, 0xC3, 0x81])
+        if layout != "per_assembly":
+            return run_point(res, conns, ins, outs, closed, plan, layout, ctl, bits)
         set_bytes(outs["A"], ctl)
         set_bytes(outs["B"], bits)
         res["io_control_sent"] = ctl.hex()

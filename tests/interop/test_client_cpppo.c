@@ -22,10 +22,14 @@
 #include <cmocka.h>
 
 #include "drgate/client.h"
+#include "drgate/layout.h"
 
 /* The wrong-sized tag with_cpppo.py adds: 35 bytes where io_state has 36. */
 #define SHORT_INSTANCE 111
 #define UNKNOWN_INSTANCE 150
+/* The combined layout's points with_cpppo.py adds (476 and 212 bytes). */
+#define COMBINED_INPUT 120
+#define COMBINED_OUTPUT 121
 
 static const char *host;
 static uint16_t port;
@@ -147,6 +151,44 @@ static void test_wrong_size_refused(void **state)
     dr_client_free(c);
 }
 
+/* A combined layout's points (issue 31), as drgatewayd's explicit mode
+ * and drcli --layout combined use them: each point written whole, its
+ * assemblies put in their places (dr_point_put), reads back with every
+ * assembly at its offset (dr_point_slice); the sizes are the layout's,
+ * 476 and 212 bytes, which cpppo's tags have. */
+static void test_combined_points(void **state)
+{
+    dr_client_t *c = *state;
+    dr_layout_t l;
+    dr_layout_default(&l, DR_LAYOUT_COMBINED);
+    l.input.instance = COMBINED_INPUT;
+    l.output.instance = COMBINED_OUTPUT;
+    const dr_point_t *pts[2] = {&l.output, &l.input};
+    for (unsigned k = 0; k < 2; k++) {
+        const dr_point_t *p = pts[k];
+        uint8_t img[DR_POINT_MAX_SIZE], back[DR_POINT_MAX_SIZE];
+        uint8_t part[DR_ASM_MAX_SIZE], got[DR_ASM_MAX_SIZE];
+        memset(img, 0, sizeof img);
+        for (unsigned i = 0; i < p->count; i++) {
+            int a = p->asm_id[i];
+            pattern(part, size_of(a), a, 5);
+            assert_int_equal(dr_point_put(p, img, p->size, (dr_asm_t)a, part, size_of(a)), DR_OK);
+        }
+        assert_int_equal(dr_client_set_attr_sync(c, DR_CIP_CLASS_ASSEMBLY, p->instance, 3, img,
+                                                 p->size), DR_OK);
+        size_t len = 0;
+        assert_int_equal(dr_client_get_attr_sync(c, DR_CIP_CLASS_ASSEMBLY, p->instance, 3, back,
+                                                 sizeof back, &len), DR_OK);
+        assert_int_equal(len, p->size);
+        for (unsigned i = 0; i < p->count; i++) {
+            int a = p->asm_id[i];
+            pattern(part, size_of(a), a, 5);
+            assert_int_equal(dr_point_slice(p, back, len, (dr_asm_t)a, got, size_of(a)), DR_OK);
+            assert_memory_equal(part, got, size_of(a));
+        }
+    }
+}
+
 static void test_identity(void **state)
 {
     dr_client_t *c = *state;
@@ -198,6 +240,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_second_session_sees_writes, setup, teardown),
         cmocka_unit_test(test_unconnected_send),
         cmocka_unit_test(test_wrong_size_refused),
+        cmocka_unit_test_setup_teardown(test_combined_points, setup, teardown),
         cmocka_unit_test_setup_teardown(test_identity, setup, teardown),
         cmocka_unit_test_setup_teardown(test_peer_hangs_up_then_reconnect, setup, teardown),
     };

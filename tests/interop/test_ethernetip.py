@@ -60,22 +60,69 @@ class Checks:
             self.assertTrue(-360.0 <= pos <= 360.0, pos)
 
 
+def scan_on_this_host(test, check, *sim_args):
+    """The scanner (its LAYOUT: drsim's --layout, if sim_args give one)
+    against a drsim of its own with sim_args; check(res) on its report;
+    drsim must stop cleanly."""
+    sim = peers.Drsim(*sim_args)
+    layout = list(sim_args[1:2]) if sim_args[:1] == ("--layout",) else []
+    res = {}
+    try:
+        r = peers.run([sys.executable, SCANNER, peers.SIM_ADDR, str(sim.tcp_port),
+                       str(sim.udp_port), "0", str(RPI_MS)] + layout, timeout=60)
+        print(r.stderr[-2000:], end="")
+        res = json.loads(r.stdout.strip().splitlines()[-1]) if r.stdout.strip() else {}
+        check(res)
+    finally:
+        rc = sim.stop()
+        if rc != 0 or not res.get("ok"):
+            print(sim.log_text())
+        sim.cleanup()
+    test.assertEqual(rc, 0, "drsim exit status")
+
+
 class EthernetipOnThisHost(unittest.TestCase, Checks):
     def test_class1_with_announced_ports(self):
-        sim = peers.Drsim()
-        try:
-            r = peers.run([sys.executable, SCANNER, peers.SIM_ADDR, str(sim.tcp_port),
-                           str(sim.udp_port), "0", str(RPI_MS)], timeout=60)
-            print(r.stderr[-2000:], end="")
-            res = json.loads(r.stdout.strip().splitlines()[-1]) if r.stdout.strip() else {}
+        def check(res):
             self.check_report(res)
             self.assertNotEqual(res["scanner_udp_port"], 2222)
-        finally:
-            rc = sim.stop()
-            if rc != 0 or not res.get("ok"):
-                print(sim.log_text())
-            sim.cleanup()
-        self.assertEqual(rc, 0, "drsim exit status")
+        scan_on_this_host(self, check)
+
+
+class EthernetipLayouts(unittest.TestCase):
+    """drsim --layout combined and gpr_only (issue 31): python-ethernetip
+    opens the one connection between the two points with its own Forward
+    Open (T->O 476 + 2, O->T 212 + 6 bytes; gpr_only 200 each way), its
+    O->T lands in io_control and bit_in at their places, T->O brings
+    io_state and the bit_out echo at theirs and moving joint positions,
+    and explicit Gets of the points agree."""
+
+    def run_layout(self, layout):
+        def check(res):
+            self.assertTrue(res.get("ok"), res.get("error", res))
+            self.assertEqual((res["fo_A"], res["fc_A"]), (0, 0))
+            size = 476 if layout == "combined" else 200
+            r1, r2 = (bytes.fromhex(h) for h in res["in_rx"])
+            self.assertEqual(len(r2), size)
+            bo = res["bit_out_offset"]
+            self.assertEqual(r2[bo:bo + 8].hex(), res["bit_in_sent"], "bit_in -> bit_out")
+            self.assertEqual(res["out_get"], [0, res["out_sent"]], "O->T point as sent")
+            in_get = bytes.fromhex(res["in_get"][1])
+            self.assertEqual((res["in_get"][0], len(in_get)), (0, size))
+            self.assertEqual(in_get[bo:bo + 8].hex(), res["bit_in_sent"])
+            if layout == "combined":
+                self.assertEqual(r2[2:4], b"\x01\x80", "io_state.cb_do over T->O")
+                self.assertEqual(tuple(r2[28:31]), (2, 12, 3), "controller version")
+                self.assertNotEqual(r1[36:180], r2[36:180], "joint_state moves")
+                for pos in struct.unpack_from("<6f", r2, 36):
+                    self.assertTrue(-360.0 <= pos <= 360.0, pos)
+        scan_on_this_host(self, check, "--layout", layout)
+
+    def test_combined(self):
+        self.run_layout("combined")
+
+    def test_gpr_only(self):
+        self.run_layout("gpr_only")
 
 
 def ip(*args, check=True):

@@ -190,5 +190,62 @@ class Pycomm3VsDrsim(unittest.TestCase):
         self.assertEqual(len(self.get("io_state")), 36)
 
 
+class Pycomm3VsDrsimLayouts(unittest.TestCase):
+    """drsim --layout combined and gpr_only (issue 31) as pycomm3 sees them:
+    the input point 100 and the output point 150 with their sizes (data and
+    attribute 4), the per-assembly instances gone (0x05), the output point
+    written and read back, and the bit_in echo in its place in the input."""
+
+    LAYOUTS = {"combined": (476, 212, 36 + 144 + 96, 12),  # sizes, bit_out's
+               "gpr_only": (200, 200, 0, 0)}               # and bit_in's place
+
+    def run_layout(self, layout):
+        size_in, size_out, bit_out, bit_in = self.LAYOUTS[layout]
+        sim = peers.Drsim("--layout", layout)
+        drv = CIPDriver("%s:%d" % (peers.SIM_ADDR, sim.tcp_port))
+        drv.socket_timeout = 5.0
+        drv.open()
+        try:
+            def msg(service, inst, attr, data=b""):
+                return drv.generic_message(service=service, class_code=4, instance=inst,
+                                           attribute=attr, request_data=data,
+                                           connected=False, route_path=False,
+                                           name="%s %d/%d" % (service, inst, attr))
+            for inst, size in ((100, size_in), (150, size_out)):
+                r = msg(GET, inst, 3)
+                self.assertIsNone(r.error, r.error)
+                self.assertEqual(len(r.value), size)
+                r = msg(GET, inst, 4)
+                self.assertIsNone(r.error, r.error)
+                self.assertEqual(peers.le_u16(r.value, 0), size)
+            r = msg(GET, 101, 3)
+            self.assertTrue(r.error and r.error.startswith(SERVICE_STATUS[0x05]), r.error)
+            bits = bytes([0xA5, 0x0F, 0, 0x80, 1, 2, 3, 4])
+            out = bytearray(size_out)
+            out[bit_in:bit_in + 8] = bits
+            r = msg(SET, 150, 3, bytes(out))
+            self.assertIsNone(r.error, r.error)
+            r = msg(GET, 150, 3)
+            self.assertEqual(bytes(r.value), bytes(out))
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline:
+                img = bytes(msg(GET, 100, 3).value)
+                if img[bit_out:bit_out + 8] == bits:
+                    break
+                time.sleep(0.05)
+            self.assertEqual(img[bit_out:bit_out + 8], bits, "bit_in -> bit_out")
+        finally:
+            drv.close()
+            rc = sim.stop()
+            sim.cleanup()
+        self.assertEqual(rc, 0)
+
+    def test_combined(self):
+        self.run_layout("combined")
+
+    def test_gpr_only(self):
+        self.run_layout("gpr_only")
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -3,7 +3,9 @@
 cpppo.server.enip), which serves one tag per robot assembly at the
 assembly's CIP path (class 4, instance, attribute 3), e.g.
 io_state@0x04/101/3=USINT[36], plus `short` at instance 111 with 35 bytes
-(one fewer than io_state) for the wrong-size test.
+(one fewer than io_state) for the wrong-size test, and the two points of a
+combined layout (issue 31): `input` at instance 120 (476 bytes) and
+`output` at 121 (212 bytes).
 
 usage: with_cpppo.py RESULTS LABEL -- COMMAND...
 
@@ -26,6 +28,7 @@ def main():
     tags = ["%s@0x04/%d/3=USINT[%d]" % (name, inst, size)
             for name, inst, _, size in peers.ASSEMBLIES]
     tags.append("short@0x04/111/3=USINT[35]")
+    tags += ["input@0x04/120/3=USINT[476]", "output@0x04/121/3=USINT[212]"]
     server = None
     err = None
     for _ in range(3):

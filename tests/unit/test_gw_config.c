@@ -401,7 +401,7 @@ typedef struct {
     "rpi_ms, "                                                                 \
     "timeout_multiplier, timeout_ms, fallback, o2t_timing, config_instance, "  \
     "input_only_heartbeat, listen_only_heartbeat, originator_serial, "        \
-    "layout, input_instance, input_assemblies, input_size, output_instance, " \
+    "eds, layout, input_instance, input_assemblies, input_size, output_instance, " \
     "output_assemblies, output_size, "                                         \
     "instance.<assembly>, open.<T->O assembly>"
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"

@@ -232,11 +232,13 @@
       setText(c.last_write, lastWrite(r.last_write));
       var line = el("div", { class: "conns", "data-robot": r.name }, el("strong", null, r.name));
       (r.connections || []).forEach(function (k) {
-        var extra = Object.keys(k).filter(function (x) { return x !== "assembly" && x !== "state"; })
+        var extra = Object.keys(k).filter(function (x) {
+          return x !== "assembly" && x !== "name" && x !== "state";
+        })
           .map(function (x) { return x.replace(/_packets$/, "") + " " + k[x]; }).join(", ");
         var st = String(k.state);
         line.appendChild(el("span", { class: "conn", "data-assembly": k.assembly },
-          k.assembly + " ", el("span", { class: "badge " + connClass(st) }, st),
+          (k.name || k.assembly) + " ", el("span", { class: "badge " + connClass(st) }, st),
           extra ? " " + extra : ""));
       });
       conns.appendChild(line);

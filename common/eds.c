@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * The EDS reader (eds.h): one pass over the text, a field at a time.
- * Only the first KEEP fields of an entry are kept (CLI_EDS_FIELD bytes
+ * Only the first KEEP fields of an entry are kept (EDS_FIELD bytes
  * each, longer ones cut); the members of an assembly, which may be many,
  * are added up as they come.
  */
-#include "eds.h"
+#include "common/eds.h"
 
 #include <stdarg.h>
 #include <stdio.h>
@@ -26,7 +26,7 @@ typedef struct {
     const char *t;
     size_t len, pos;
     unsigned line;
-    cli_eds_t *out;
+    eds_t *out;
     char *err;
     size_t errsize;
     unsigned err_line;
@@ -68,9 +68,9 @@ static bool fail(ps_t *ps, unsigned line, const char *fmt, ...)
     return false;
 }
 
-void cli_eds_note(cli_eds_t *eds, unsigned line, const char *fmt, ...)
+void eds_note(eds_t *eds, unsigned line, const char *fmt, ...)
 {
-    if (eds->n_note >= CLI_EDS_MAX_NOTES) {
+    if (eds->n_note >= EDS_MAX_NOTES) {
         eds->lost_notes++;
         return;
     }
@@ -291,7 +291,7 @@ static bool need_num(ps_t *ps, unsigned i, uint32_t max, uint32_t *v)
     return true;
 }
 
-static bool ref(ps_t *ps, unsigned i, cli_eds_ref_t *r)
+static bool ref(ps_t *ps, unsigned i, eds_ref_t *r)
 {
     const char *s = field(ps, i);
     r->kind = 0;
@@ -362,7 +362,7 @@ static bool epath(const char *s, uint32_t *inst, uint32_t pts[2], unsigned *npts
 
 static bool end_device(ps_t *ps)
 {
-    cli_eds_t *e = ps->out;
+    eds_t *e = ps->out;
     const char *k = ps->key;
     if (ieq(k, "VendCode")) {
         ps->device_seen |= D_VEND;
@@ -395,20 +395,20 @@ static bool end_device(ps_t *ps)
 
 static bool end_param(ps_t *ps)
 {
-    cli_eds_t *e = ps->out;
+    eds_t *e = ps->out;
     uint32_t n;
     if (!keyed(ps->key, "Param", &n))
         return true;
-    if (cli_eds_param(e, n) != NULL)
+    if (eds_param(e, n) != NULL)
         return fail(ps, ps->key_line, "%s twice", ps->key);
-    if (e->n_param >= CLI_EDS_MAX_PARAM) {
+    if (e->n_param >= EDS_MAX_PARAM) {
         if (!ps->params_full)
-            cli_eds_note(e, ps->key_line, "%s and later parameters not read (%u kept)",
-                         ps->key, (unsigned)CLI_EDS_MAX_PARAM);
+            eds_note(e, ps->key_line, "%s and later parameters not read (%u kept)",
+                         ps->key, (unsigned)EDS_MAX_PARAM);
         ps->params_full = true;
         return true;
     }
-    cli_eds_param_t *p = &e->param[e->n_param++];
+    eds_param_t *p = &e->param[e->n_param++];
     memset(p, 0, sizeof *p);
     p->number = n;
     p->line = ps->key_line;
@@ -421,23 +421,23 @@ static bool end_param(ps_t *ps)
 
 static bool end_assem(ps_t *ps)
 {
-    cli_eds_t *e = ps->out;
+    eds_t *e = ps->out;
     uint32_t n, pts[2], npts, size;
     if (!keyed(ps->key, "Assem", &n))
         return true;
-    if (cli_eds_assem(e, n) != NULL)
+    if (eds_assem(e, n) != NULL)
         return fail(ps, ps->key_line, "%s twice", ps->key);
     if (ps->nf < 3)
         return fail(ps, ps->key_line, "%s: %u fields, at least 3 expected (name, path, size)",
                     ps->key, ps->nf);
-    if (e->n_assem >= CLI_EDS_MAX_ASSEM) {
+    if (e->n_assem >= EDS_MAX_ASSEM) {
         if (!ps->assem_full)
-            cli_eds_note(e, ps->key_line, "%s and later assemblies not read (%u kept)",
-                         ps->key, (unsigned)CLI_EDS_MAX_ASSEM);
+            eds_note(e, ps->key_line, "%s and later assemblies not read (%u kept)",
+                         ps->key, (unsigned)EDS_MAX_ASSEM);
         ps->assem_full = true;
         return true;
     }
-    cli_eds_assem_t *a = &e->assem[e->n_assem];
+    eds_assem_t *a = &e->assem[e->n_assem];
     memset(a, 0, sizeof *a);
     a->number = n;
     a->line = ps->key_line;
@@ -448,7 +448,7 @@ static bool end_assem(ps_t *ps)
     if (*path != '\0') {
         uint32_t inst;
         if (!epath(path, &inst, pts, &npts) || inst == 0)
-            cli_eds_note(e, ps->key_line, "%s: path \"%s\" has no instance this reader "
+            eds_note(e, ps->key_line, "%s: path \"%s\" has no instance this reader "
                          "knows; instance %lu assumed", ps->key, path, (unsigned long)n);
         else
             a->instance = inst;
@@ -504,7 +504,7 @@ static bool member(ps_t *ps, unsigned i, const char *s)
 
 static bool end_conn(ps_t *ps)
 {
-    cli_eds_t *e = ps->out;
+    eds_t *e = ps->out;
     uint32_t n;
     if (!keyed(ps->key, "Connection", &n))
         return true;
@@ -513,14 +513,14 @@ static bool end_conn(ps_t *ps)
             return fail(ps, ps->key_line, "%s twice", ps->key);
     if (ps->nf < 15)
         return fail(ps, ps->key_line, "%s: %u fields, 15 expected", ps->key, ps->nf);
-    if (e->n_conn >= CLI_EDS_MAX_CONN) {
+    if (e->n_conn >= EDS_MAX_CONN) {
         if (!ps->conn_full)
-            cli_eds_note(e, ps->key_line, "%s and later connections not read (%u kept)",
-                         ps->key, (unsigned)CLI_EDS_MAX_CONN);
+            eds_note(e, ps->key_line, "%s and later connections not read (%u kept)",
+                         ps->key, (unsigned)EDS_MAX_CONN);
         ps->conn_full = true;
         return true;
     }
-    cli_eds_conn_t *c = &e->conn[e->n_conn];
+    eds_conn_t *c = &e->conn[e->n_conn];
     memset(c, 0, sizeof *c);
     c->number = n;
     c->line = ps->key_line;
@@ -674,7 +674,7 @@ static bool entry(ps_t *ps)
     }
 }
 
-bool cli_eds_parse(const char *text, size_t len, cli_eds_t *out, unsigned *line,
+bool eds_parse(const char *text, size_t len, eds_t *out, unsigned *line,
                    char *err, size_t errsize)
 {
     ps_t ps;
@@ -708,14 +708,14 @@ bool cli_eds_parse(const char *text, size_t len, cli_eds_t *out, unsigned *line,
                                        : !(ps.device_seen & D_MIN)  ? "MinRev"
                                                                     : "ProdName");
     for (unsigned i = 0; ok && i < out->n_conn; i++) {
-        const cli_eds_conn_t *c = &out->conn[i];
-        const cli_eds_ref_t *r[] = {&c->ot_rpi, &c->ot_size, &c->ot_format, &c->to_rpi,
+        const eds_conn_t *c = &out->conn[i];
+        const eds_ref_t *r[] = {&c->ot_rpi, &c->ot_size, &c->ot_format, &c->to_rpi,
                                     &c->to_size, &c->to_format, &c->cfg_size, &c->cfg_format};
         for (unsigned k = 0; ok && k < sizeof r / sizeof r[0]; k++) {
-            if (r[k]->kind == 'A' && cli_eds_assem(out, r[k]->value) == NULL && !ps.assem_full)
+            if (r[k]->kind == 'A' && eds_assem(out, r[k]->value) == NULL && !ps.assem_full)
                 ok = fail(&ps, c->line, "Connection%lu: Assem%lu is not in [Assembly]",
                           (unsigned long)c->number, (unsigned long)r[k]->value);
-            if (r[k]->kind == 'P' && cli_eds_param(out, r[k]->value) == NULL &&
+            if (r[k]->kind == 'P' && eds_param(out, r[k]->value) == NULL &&
                 !ps.params_full)
                 ok = fail(&ps, c->line, "Connection%lu: Param%lu is not in [Params]",
                           (unsigned long)c->number, (unsigned long)r[k]->value);
@@ -726,41 +726,41 @@ bool cli_eds_parse(const char *text, size_t len, cli_eds_t *out, unsigned *line,
     return ok && !ps.failed;
 }
 
-const cli_eds_assem_t *cli_eds_assem(const cli_eds_t *eds, uint32_t n)
+const eds_assem_t *eds_assem(const eds_t *eds, uint32_t n)
 {
-    for (unsigned i = 0; i < eds->n_assem && i < CLI_EDS_MAX_ASSEM; i++)
+    for (unsigned i = 0; i < eds->n_assem && i < EDS_MAX_ASSEM; i++)
         if (eds->assem[i].number == n)
             return &eds->assem[i];
     return NULL;
 }
 
-const cli_eds_param_t *cli_eds_param(const cli_eds_t *eds, uint32_t n)
+const eds_param_t *eds_param(const eds_t *eds, uint32_t n)
 {
-    for (unsigned i = 0; i < eds->n_param && i < CLI_EDS_MAX_PARAM; i++)
+    for (unsigned i = 0; i < eds->n_param && i < EDS_MAX_PARAM; i++)
         if (eds->param[i].number == n)
             return &eds->param[i];
     return NULL;
 }
 
-int32_t cli_eds_size(const cli_eds_t *eds, cli_eds_ref_t size, cli_eds_ref_t format)
+int32_t eds_size(const eds_t *eds, eds_ref_t size, eds_ref_t format)
 {
     if (size.kind == 'n')
         return size.value <= 0xFFFFu ? (int32_t)size.value : -1;
     if (size.kind == 'P') {
-        const cli_eds_param_t *p = cli_eds_param(eds, size.value);
+        const eds_param_t *p = eds_param(eds, size.value);
         return p != NULL && p->has_def && p->def <= 0xFFFFu ? (int32_t)p->def : -1;
     }
     if (format.kind == 'A') {
-        const cli_eds_assem_t *a = cli_eds_assem(eds, format.value);
+        const eds_assem_t *a = eds_assem(eds, format.value);
         return a != NULL ? a->size : -1;
     }
     return -1;
 }
 
-uint32_t cli_eds_instance(const cli_eds_t *eds, cli_eds_ref_t format, uint32_t from_path)
+uint32_t eds_instance(const eds_t *eds, eds_ref_t format, uint32_t from_path)
 {
     if (format.kind == 'A') {
-        const cli_eds_assem_t *a = cli_eds_assem(eds, format.value);
+        const eds_assem_t *a = eds_assem(eds, format.value);
         if (a != NULL)
             return a->instance;
     }
