@@ -648,6 +648,16 @@ void spb_disconnected(spb_t *s)
     all_dead(s);
 }
 
+void spb_server_changed(spb_t *s)
+{
+    s->host_ts = 0;
+}
+
+bool spb_ready(const spb_t *s)
+{
+    return s->connected && s->host_online;
+}
+
 /* Born devices whose name the configuration no longer has: a DDEATH
  * each before the next births (a host would keep them alive otherwise). */
 static void note_gone(spb_t *s)
@@ -1115,21 +1125,26 @@ static void on_state(spb_t *s, const char *p, size_t len)
         }
         s->host_ts = t;
     }
-    if (online == s->host_online)
-        return;
-    gw_log(GW_LOG_INFO, "mqtt: sparkplug: primary host %s is %s", s->host_id,
-           online ? "online" : "offline");
+    if (online != s->host_online)
+        gw_log(GW_LOG_INFO, "mqtt: sparkplug: primary host %s is %s", s->host_id,
+               online ? "online" : "offline");
+    bool was = s->host_online;
     s->host_online = online;
-    if (online)
-        s->nbirth_due = true;
-    else if (s->born) {
+    if (online) {
+        s->nbirth_due = s->nbirth_due || !was;
+        return;
+    }
+    /* Offline, also as the retained STATE found at the connect: this
+     * server is left (for the next one, if there are several). */
+    bool born = s->born;
+    if (born) {
         /* QoS 0: the same client connects again at once, and libmosquitto
          * would send an unacknowledged QoS 1 NDEATH again on the new
          * connection, after its births: a host would take it as the new
          * session's death. The host this is for is offline anyway. */
         goodbye(s, 0);
-        s->io.reconnect(s->io.user);
     }
+    s->io.host_offline(s->io.user, born);
 }
 
 bool spb_message(spb_t *s, const char *top, const void *payload, size_t len)

@@ -74,8 +74,11 @@ typedef struct {
      * `why` when refused. */
     bool (*write)(void *user, unsigned robot, const gw_write_item_t *items, unsigned n,
                   gw_write_result_t *res, char *why, size_t whylen);
-    /* Drop the connection (it reconnects with the next bdSeq). */
-    void (*reconnect)(void *user);
+    /* The primary host said offline (a valid STATE, not an older one):
+     * leave this server (Sparkplug 3.0: for the next one; with one
+     * server, the same one again if the node was born, `born`). The
+     * node's NDEATH is out already when it was born. */
+    void (*host_offline)(void *user, bool born);
 } spb_io_t;
 
 /* From [mqtt]; `host` is the machine's name (edge_node_id's default).
@@ -101,6 +104,12 @@ void spb_carry(spb_t *next, const spb_t *old);
  * any, is online) or gone. */
 void spb_connected(spb_t *s);
 void spb_disconnected(spb_t *s);
+/* The next connection is to another server: the primary host's STATE
+ * timestamps there are that server's (the newest one seen here is not
+ * compared with them). */
+void spb_server_changed(spb_t *s);
+/* Connected and the primary host (if any) online: births go out. */
+bool spb_ready(const spb_t *s);
 
 /* A message from the broker: true if it was Sparkplug's (handled). */
 bool spb_message(spb_t *s, const char *topic, const void *payload, size_t len);
