@@ -60,6 +60,7 @@
 #define MQ_BACKOFF_MAX_US 30000000u  /* ... doubling up to 30 s */
 #define MQ_CONNECT_TIMEOUT_US 10000000u /* no CONNACK within 10 s (lookup included): retry */
 #define MQ_LOOKUP_POLL_US 20000u     /* a host name's lookup is looked at this often */
+#define MQ_LEAVE_US 2000000u         /* NDEATH's PUBACK awaited this long before leaving */
 #define MQ_MAX_INFLIGHT 16u          /* QoS 1/2 messages awaiting the broker */
 #define MQ_JSON_MAX 65536u           /* the largest payload (meta) is ~30 kB */
 #define MQ_SET_MAX 64u               /* a write's value text */
@@ -94,6 +95,7 @@ typedef struct {
     char addr[64];      /* its address for this attempt (numeric) */
     gw_mqtt_lookup_t *lookup; /* its name being looked up (connecting, not yet connected) */
     uint64_t host_wait_us; /* Sparkplug: the primary host online by then, or the next server */
+    uint64_t leave_us;  /* Sparkplug: leaving this server once NDEATH is acknowledged, or then */
     bool connected;     /* CONNACK accepted */
     bool connecting;    /* a connection is being made */
     uint64_t retry_us;  /* next connection attempt (when neither of the above) */
@@ -723,6 +725,7 @@ static void on_publish(struct mosquitto *mosq, void *obj, int mid)
 }
 
 static void on_ready(void *obj, uint32_t events);
+static bool leave_due(mq_t *t, uint64_t now);
 
 /* The socket into the loop as libmosquitto now has it; a connection that
  * went away schedules the next attempt. */
@@ -756,9 +759,11 @@ static void drop_connection(mq_t *t, uint64_t now)
     ev_unwatch(t->env->epfd, &t->ev);
     gw_mqtt_lookup_end(t->lookup);
     t->lookup = NULL;
-    (void)ml->disconnect(t->mosq); /* closes the socket */
+    /* Not connected first: libmosquitto calls on_disconnect from here,
+     * which must not take this for a lost connection. */
     t->connected = t->connecting = false;
-    t->host_wait_us = 0;
+    (void)ml->disconnect(t->mosq); /* closes the socket */
+    t->host_wait_us = t->leave_us = 0;
     t->retry_us = 0;
     sync_watch(t, now);
 }
@@ -865,7 +870,8 @@ static void on_ready(void *obj, uint32_t events)
         if (rc != MOSQ_ERR_SUCCESS && attempt)
             note_failure(t, rc);
     }
-    sync_watch(t, now);
+    if (!leave_due(t, now))
+        sync_watch(t, now);
 }
 
 /* ---- Sparkplug B (sparkplug.h): what it asks of the connection --------------------- */
@@ -902,14 +908,29 @@ static bool spb_io_write(void *user, unsigned robot, const gw_write_item_t *item
 /* Sparkplug 3.0: a node whose primary host is offline on its server
  * moves to the next one (tck-id-operational-behavior-primary-application-
  * state-with-multiple-servers-walk); with one server it connects again
- * if it was born (a new bdSeq), else it stays and waits for online. */
+ * if it was born (a new bdSeq), else it stays and waits for online. A
+ * born node's NDEATH (QoS 1) is acknowledged first (leave_due): unacked,
+ * libmosquitto would send it again on the next connection, after the
+ * CONNECT, where a host would see an old session's death. */
 static void spb_io_host_offline(void *user, bool born)
 {
     mq_t *t = user;
     if (t->cfg.server_count < 2 && !born)
         return;
     next_server(t, "primary host offline");
-    drop_connection(t, ev_now_us());
+    t->leave_us = ev_now_us() + MQ_LEAVE_US;
+    if (!born)
+        t->leave_us = 1; /* nothing to wait for */
+}
+
+/* The NDEATH before leaving a server acknowledged (or waited for long
+ * enough): the connection is dropped, the next one made. */
+static bool leave_due(mq_t *t, uint64_t now)
+{
+    if (t->leave_us == 0 || !t->connected || (t->inflight > 0 && now < t->leave_us))
+        return false;
+    drop_connection(t, now);
+    return true;
 }
 
 static bool spb_attach(mq_t *t, const char *host, char *err, size_t errlen)
@@ -1356,6 +1377,8 @@ static void mq_tick(void *self, uint64_t now)
         return; /* the lookup failed: the next attempt is scheduled */
     (void)ml->loop_misc(t->mosq); /* keepalive: PINGREQ, or a dead broker */
     if (t->spb != NULL) {
+        if (leave_due(t, now))
+            return;
         if (t->connected && spb_ready(t->spb)) {
             t->backoff_us = MQ_BACKOFF_MIN_US; /* a good server */
             t->host_wait_us = 0;
@@ -1396,6 +1419,8 @@ static uint64_t mq_deadline(const void *self)
     }
     if (!t->connected)
         return t->connect_deadline_us;
+    if (t->leave_us != 0)
+        return t->leave_us; /* or the PUBACK's readiness */
     if (t->host_wait_us != 0 && !room(t))
         return t->host_wait_us;
     if (!room(t))

@@ -1137,13 +1137,9 @@ static void on_state(spb_t *s, const char *p, size_t len)
     /* Offline, also as the retained STATE found at the connect: this
      * server is left (for the next one, if there are several). */
     bool born = s->born;
-    if (born) {
-        /* QoS 0: the same client connects again at once, and libmosquitto
-         * would send an unacknowledged QoS 1 NDEATH again on the new
-         * connection, after its births: a host would take it as the new
-         * session's death. The host this is for is offline anyway. */
-        goodbye(s, 0);
-    }
+    if (born)
+        goodbye(s, 1); /* QoS 1 as every NDEATH: the connection waits for its PUBACK */
+    s->born = false;   /* nothing more on this connection */
     s->io.host_offline(s->io.user, born);
 }
 

@@ -66,7 +66,7 @@ class Plant:
     """A paho client subscribed to <PREFIX>/#: every message kept as
     (topic, payload text, retained)."""
 
-    def __init__(self, broker, tls_ca=None):
+    def __init__(self, broker, tls_ca=None, addr=GW_ADDR):
         self.msgs = []
         self.times = []  # time.monotonic() of each message's arrival
         self.walls = []  # time.time() of the same
@@ -78,7 +78,7 @@ class Plant:
         self.c.on_message = self._on_message
         self.c.on_connect = lambda c, u, f, rc: c.subscribe(PREFIX + "/#", qos=1)
         self.c.on_subscribe = lambda c, u, mid, qos: self.subscribed.set()
-        self.c.connect(GW_ADDR, broker.port, 30)
+        self.c.connect(addr, broker.port, 30)
         self.c.loop_start()
         # what the gateway publishes from now on (its snapshot) is seen
         assert self.subscribed.wait(timeout(10)), "no SUBACK from the broker"
