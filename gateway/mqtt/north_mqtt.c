@@ -907,20 +907,22 @@ static bool spb_io_write(void *user, unsigned robot, const gw_write_item_t *item
 
 /* Sparkplug 3.0: a node whose primary host is offline on its server
  * moves to the next one (tck-id-operational-behavior-primary-application-
- * state-with-multiple-servers-walk); with one server it connects again
- * if it was born (a new bdSeq), else it stays and waits for online. A
- * born node's NDEATH (QoS 1) is acknowledged first (leave_due): unacked,
- * libmosquitto would send it again on the next connection, after the
- * CONNECT, where a host would see an old session's death. */
-static void spb_io_host_offline(void *user, bool born)
+ * state-with-multiple-servers-walk), as it does for NCMD Node Control/Next
+ * Server; with one server it connects again if it was born (a new
+ * bdSeq), else it stays and waits for online. A born node's NDEATH (QoS
+ * 1) is acknowledged first (leave_due): unacked, libmosquitto would send
+ * it again on the next connection, after the CONNECT, where a host would
+ * see an old session's death. */
+static bool spb_io_leave(void *user, bool born, const char *why)
 {
     mq_t *t = user;
     if (t->cfg.server_count < 2 && !born)
-        return;
-    next_server(t, "primary host offline");
+        return false;
+    next_server(t, why);
     t->leave_us = ev_now_us() + MQ_LEAVE_US;
     if (!born)
         t->leave_us = 1; /* nothing to wait for */
+    return true;
 }
 
 /* The NDEATH before leaving a server acknowledged (or waited for long
@@ -936,7 +938,7 @@ static bool leave_due(mq_t *t, uint64_t now)
 static bool spb_attach(mq_t *t, const char *host, char *err, size_t errlen)
 {
     const spb_io_t io = {t, spb_io_publish, spb_io_subscribe, spb_io_room, spb_io_write,
-                         spb_io_host_offline};
+                         spb_io_leave};
     t->spb = spb_new(&t->cfg, t->env, &io, host, err, errlen);
     return t->spb != NULL;
 }

@@ -41,6 +41,9 @@
 #define SPB_DT_STRING 12u
 
 #define SPB_REBIRTH "Node Control/Rebirth"
+/* NCMD: leave this server for the next of `servers` (as Cirrus Link's
+ * MQTT Engine offers it: its Node Control/Next Server tag) */
+#define SPB_NEXT_SERVER "Node Control/Next Server"
 
 /* Metric names (the `metric_names` key): folders for Ignition, whose tag
  * names take no '.' or '[]' (joint_state/position/1), or the canonical
@@ -74,11 +77,12 @@ typedef struct {
      * `why` when refused. */
     bool (*write)(void *user, unsigned robot, const gw_write_item_t *items, unsigned n,
                   gw_write_result_t *res, char *why, size_t whylen);
-    /* The primary host said offline (a valid STATE, not an older one):
-     * leave this server (Sparkplug 3.0: for the next one; with one
-     * server, the same one again if the node was born, `born`). The
-     * node's NDEATH is out already when it was born. */
-    void (*host_offline)(void *user, bool born);
+    /* Leave this server (`why`): the primary host said offline (a valid
+     * STATE, not an older one), or NCMD Node Control/Next Server. For the
+     * next of `servers`; with one server, the same one again if the node
+     * was born (`born`), else stay (false: not left). The node's NDEATH
+     * is queued already when it was born. */
+    bool (*leave)(void *user, bool born, const char *why);
 } spb_io_t;
 
 /* From [mqtt]; `host` is the machine's name (edge_node_id's default).

@@ -222,6 +222,32 @@ def test_primary_host_never_online_node_walks(brokers):
         h2.close()
 
 
+def test_next_server_command(brokers):
+    """NBIRTH offers Node Control/Next Server (Boolean false, no alias, as
+    MQTT Engine shows it as a tag); NCMD Next Server = true: NDEATH on the
+    first server, births on the second with the next bdSeq."""
+    b1, b2 = brokers
+    h1 = Tahu(b1, "failover_ncmd_1", b1.addr)
+    h2 = Tahu(b2, "failover_ncmd_2", b2.addr)
+    try:
+        with running("failover_ncmd", extra=spb_section(brokers)) as g:
+            bd = births(h1)
+            ns = metric(h1.all("NBIRTH")[-1]["payload"], "Node Control/Next Server")
+            assert ns["type"] == "Boolean" and ns["value"] is False and ns.get("alias") is None
+            h1.send(NS + "NCMD/" + EDGE, {"timestamp": int(time.time() * 1000), "metrics": [
+                {"name": "Node Control/Next Server", "type": "Boolean", "value": True}]})
+            bd2 = births(h2)
+            assert bd2 == (bd + 1) % 256, (bd, bd2)
+            wait_for(lambda: [m for m in h1.all("NDEATH")
+                              if metric(m["payload"], "bdSeq")["value"] == bd], 10, "NDEATH")
+            g.log_wait("next server asked: next server %s:%d" % (b2.addr, b2.port))
+            link_stayed_up(g)
+        conformant(h1, h2)
+    finally:
+        h1.close()
+        h2.close()
+
+
 def test_json_payload_fails_over(brokers):
     """JSON: the first broker dies, the plant on the second gets status
     online, the robot's meta and its data."""
