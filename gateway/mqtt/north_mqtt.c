@@ -1,7 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * MQTT as a northbound side (north.h): the robots' fields published to a
- * broker, plant writes taken from it ([mqtt], docs/mqtt.md).
+ * broker, plant writes taken from it ([mqtt], docs/mqtt.md). With several
+ * `servers`, connected to one at a time: the next one after a lost
+ * connection, a failed attempt or (Sparkplug) the primary host's offline
+ * there (docs/mqtt.md "Several brokers"); host names are looked up by
+ * resolve.c without blocking.
  *
  * libmosquitto runs without its thread: its socket sits in the daemon's
  * epoll set (readable: mosquitto_loop_read, writable while it has

@@ -26,6 +26,7 @@ thread), the gateway goes on to the next server.
 Needs root (network namespaces, a mount namespace for the resolver test);
 skipped with the banner of tests/skip.sh otherwise (a failure under CI).
 """
+import contextlib
 import json
 import os
 import shutil
@@ -36,8 +37,8 @@ import time
 import pytest
 
 import gwlib
-from gwlib import LOGDIR, read_text, running, skip, spawn, timeout, wait_for
-from mqttlib import MOSQUITTO, Plant, mqtt_section
+from gwlib import LOGDIR, read_text, running, skip, spawn, wait_for
+from mqttlib import Broker, Plant
 from test_sparkplug_tck import EDGE, GROUP, NS, Tahu, metric
 import spb_tck
 
@@ -47,33 +48,6 @@ PORT = 1883
 def ip(*args, check=True):
     return subprocess.run(["ip"] + list(args), capture_output=True, text=True,
                           timeout=20, check=check)
-
-
-class NsBroker:
-    """mosquitto in namespace `ns` on ADDR:1883 (no persistence)."""
-
-    def __init__(self, name, ns, addr):
-        self.ns, self.addr, self.port = ns, addr, PORT
-        self.conf = LOGDIR / ("%s.mosquitto.conf" % name)
-        self.log_path = LOGDIR / ("%s.mosquitto.log" % name)
-        self.proc = None
-
-    def start(self):
-        self.conf.write_text("per_listener_settings false\nallow_anonymous true\n"
-                             "persistence false\nuser root\nlistener %d %s\n"
-                             % (self.port, self.addr))
-        mark = len(read_text(self.log_path))
-        self.proc = spawn(["ip", "netns", "exec", self.ns, MOSQUITTO, "-c", self.conf, "-v"],
-                          self.log_path)
-        wait_for(lambda: self.proc.poll() is not None or
-                 " running" in read_text(self.log_path)[mark:], 10, "mosquitto to start")
-        assert self.proc.poll() is None, read_text(self.log_path)[-2000:]
-        return self
-
-    def stop(self):
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.terminate()
-            self.proc.wait(timeout(10))
 
 
 @pytest.fixture
@@ -102,7 +76,8 @@ def brokers(request):
             ip("-n", ns, "addr", "add", net + ".2/24", "dev", "veth0")
             ip("-n", ns, "link", "set", "veth0", "up")
             ip("-n", ns, "link", "set", "lo", "up")
-            out.append(NsBroker("%s-b%d" % (request.node.name, k + 1), ns, net + ".2"))
+            out.append(Broker("%s-b%d" % (request.node.name, k + 1), addr=net + ".2", port=PORT,
+                              netns=ns))
     except subprocess.CalledProcessError as e:
         for ns in made:
             ip("netns", "del", ns, check=False)
@@ -127,9 +102,9 @@ def servers(*bs):
     return " ".join("%s:%d" % (b.addr, b.port) for b in bs)
 
 
-def spb_section(bs, extra=""):
+def spb_section(servers_text, extra=""):
     return ("\n[mqtt]\nservers = %s\nkeepalive_s = 5\npayload = sparkplug\ngroup_id = %s\n"
-            "edge_node_id = %s\n%s\n" % (servers(*bs), GROUP, EDGE, extra))
+            "edge_node_id = %s\n%s\n" % (servers_text, GROUP, EDGE, extra))
 
 
 def births(host, n=1):
@@ -153,99 +128,90 @@ def state(host, online, ts):
               qos=1, retain=True)
 
 
+@contextlib.contextmanager
+def two_hosts(name, brokers):
+    """Tahu's host.js on each broker; at the end every session they
+    recorded passes spb_tck.check."""
+    hs = [Tahu(b, "%s_%d" % (name, k + 1), b.addr) for k, b in enumerate(brokers)]
+    try:
+        yield hs
+        conformant(*hs)
+    finally:
+        for h in hs:
+            h.close()
+
+
+def walked(h1, h2, bd):
+    """Births on the second server with the next bdSeq after bd; the
+    first server's NDEATH with bd (the node was born there)."""
+    bd2 = births(h2)
+    assert bd2 == (bd + 1) % 256, (bd, bd2)
+    wait_for(lambda: [m for m in h1.all("NDEATH")
+                      if metric(m["payload"], "bdSeq")["value"] == bd], 10, "NDEATH")
+
+
 def test_broker_killed_node_on_the_next(brokers):
     """The first broker dies: the node is seen on the second with its
     births, bdSeq one more than on the first (the next CONNECT)."""
     b1, b2 = brokers
-    h1 = Tahu(b1, "failover_kill_1", b1.addr)
-    h2 = Tahu(b2, "failover_kill_2", b2.addr)
-    try:
-        with running("failover_kill", extra=spb_section(brokers)) as g:
-            bd = births(h1)
-            assert not h2.all("NBIRTH")
-            b1.stop()
-            bd2 = births(h2)
-            assert bd2 == (bd + 1) % 256, (bd, bd2)
-            g.log_wait("next server %s:%d" % (b2.addr, b2.port))
-            wait_for(lambda: len(h2.all("DDATA", "r0")) >= 3, 20, "DDATA on the second")
-            link_stayed_up(g)
-        conformant(h1, h2)
-    finally:
-        h1.close()
-        h2.close()
+    with two_hosts("failover_kill", brokers) as (h1, h2), \
+            running("failover_kill", extra=spb_section(servers(*brokers))) as g:
+        bd = births(h1)
+        assert not h2.all("NBIRTH")
+        b1.stop()
+        bd2 = births(h2)
+        assert bd2 == (bd + 1) % 256, (bd, bd2)
+        g.log_wait("next server %s:%d" % (b2.addr, b2.port))
+        wait_for(lambda: len(h2.all("DDATA", "r0")) >= 3, 20, "DDATA on the second")
+        link_stayed_up(g)
 
 
 def test_primary_host_offline_node_walks(brokers):
     """The primary host's STATE says offline (newer than its online) on the
     server the node is born on: NDEATH there, births on the next one with
     the next bdSeq."""
-    b1, b2 = brokers
-    h1 = Tahu(b1, "failover_state_1", b1.addr)
-    h2 = Tahu(b2, "failover_state_2", b2.addr)
-    try:
+    b2 = brokers[1]
+    with two_hosts("failover_state", brokers) as (h1, h2):
         now = int(time.time() * 1000)
         state(h1, True, now)
         state(h2, True, now)
         with running("failover_state",
-                     extra=spb_section(brokers, "primary_host_id = scada")) as g:
+                     extra=spb_section(servers(*brokers), "primary_host_id = scada")) as g:
             bd = births(h1)
             state(h1, False, now + 1)
-            bd2 = births(h2)
-            assert bd2 == (bd + 1) % 256, (bd, bd2)
-            deaths = [m for m in h1.all("NDEATH")
-                      if metric(m["payload"], "bdSeq")["value"] == bd]
-            assert deaths, "no NDEATH on the first server"
+            walked(h1, h2, bd)
             g.log_wait("primary host offline: next server %s:%d" % (b2.addr, b2.port))
             link_stayed_up(g)
-        conformant(h1, h2)
-    finally:
-        h1.close()
-        h2.close()
 
 
 def test_primary_host_never_online_node_walks(brokers):
     """No STATE online on the first server within primary_host_wait_s: the
     node leaves it unborn and is born on the second."""
-    b1, b2 = brokers
-    h1 = Tahu(b1, "failover_wait_1", b1.addr)
-    h2 = Tahu(b2, "failover_wait_2", b2.addr)
-    try:
+    b1 = brokers[0]
+    with two_hosts("failover_wait", brokers) as (h1, h2):
         state(h2, True, int(time.time() * 1000))
         with running("failover_wait", extra=spb_section(
-                brokers, "primary_host_id = scada\nprimary_host_wait_s = 2")) as g:
+                servers(*brokers), "primary_host_id = scada\nprimary_host_wait_s = 2")) as g:
             births(h2)
             g.log_wait("primary host scada not online on %s:%d within 2 s" % (b1.addr, b1.port))
             assert not h1.all("NBIRTH") and not h1.all("DBIRTH")
-        conformant(h1, h2)
-    finally:
-        h1.close()
-        h2.close()
 
 
 def test_next_server_command(brokers):
     """NBIRTH offers Node Control/Next Server (Boolean false, no alias, as
     MQTT Engine shows it as a tag); NCMD Next Server = true: NDEATH on the
     first server, births on the second with the next bdSeq."""
-    b1, b2 = brokers
-    h1 = Tahu(b1, "failover_ncmd_1", b1.addr)
-    h2 = Tahu(b2, "failover_ncmd_2", b2.addr)
-    try:
-        with running("failover_ncmd", extra=spb_section(brokers)) as g:
-            bd = births(h1)
-            ns = metric(h1.all("NBIRTH")[-1]["payload"], "Node Control/Next Server")
-            assert ns["type"] == "Boolean" and ns["value"] is False and ns.get("alias") is None
-            h1.send(NS + "NCMD/" + EDGE, {"timestamp": int(time.time() * 1000), "metrics": [
-                {"name": "Node Control/Next Server", "type": "Boolean", "value": True}]})
-            bd2 = births(h2)
-            assert bd2 == (bd + 1) % 256, (bd, bd2)
-            wait_for(lambda: [m for m in h1.all("NDEATH")
-                              if metric(m["payload"], "bdSeq")["value"] == bd], 10, "NDEATH")
-            g.log_wait("next server asked: next server %s:%d" % (b2.addr, b2.port))
-            link_stayed_up(g)
-        conformant(h1, h2)
-    finally:
-        h1.close()
-        h2.close()
+    b2 = brokers[1]
+    with two_hosts("failover_ncmd", brokers) as (h1, h2), \
+            running("failover_ncmd", extra=spb_section(servers(*brokers))) as g:
+        bd = births(h1)
+        ns = metric(h1.all("NBIRTH")[-1]["payload"], "Node Control/Next Server")
+        assert ns["type"] == "Boolean" and ns["value"] is False and ns.get("alias") is None
+        h1.send(NS + "NCMD/" + EDGE, {"timestamp": int(time.time() * 1000), "metrics": [
+            {"name": "Node Control/Next Server", "type": "Boolean", "value": True}]})
+        walked(h1, h2, bd)
+        g.log_wait("next server asked: next server %s:%d" % (b2.addr, b2.port))
+        link_stayed_up(g)
 
 
 def test_json_payload_fails_over(brokers):
@@ -275,20 +241,23 @@ def dns_sink(brokers):
     """A DNS server that never answers (a UDP socket on port 53 in the
     first broker's namespace), and a gateway wrapper that sees only it in
     /etc/resolv.conf (a mount namespace of its own)."""
+    if shutil.which("unshare") is None:
+        skip("test_mqtt_failover.py", "no unshare(1)")
     b1 = brokers[0]
-    sink = spawn(["ip", "netns", "exec", b1.ns, "python3", "-c",
+    sink_log = LOGDIR / "failover_dns.sink.log"
+    if sink_log.exists():
+        sink_log.unlink()
+    sink = spawn(["ip", "netns", "exec", b1.netns, "python3", "-c",
                   "import socket, time\ns = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)\n"
                   "s.bind(('%s', 53))\nprint('bound', flush=True)\ntime.sleep(3600)\n"
-                  % b1.addr], LOGDIR / "failover_dns.sink.log")
-    wait_for(lambda: "bound" in read_text(LOGDIR / "failover_dns.sink.log"), 10, "DNS sink")
+                  % b1.addr], sink_log)
+    wait_for(lambda: "bound" in read_text(sink_log), 10, "DNS sink")
     resolv = LOGDIR / "failover_dns.resolv.conf"
     resolv.write_text("nameserver %s\noptions timeout:5 attempts:3\n" % b1.addr)
     wrapper = LOGDIR / "failover_dns.drgatewayd.sh"
     wrapper.write_text("#!/bin/sh\nexec unshare --mount sh -c 'mount --bind %s /etc/resolv.conf "
                        "&& exec \"$0\" \"$@\"' %s \"$@\"\n" % (resolv, gwlib.DRGATEWAYD))
     wrapper.chmod(wrapper.stat().st_mode | stat.S_IXUSR)
-    if shutil.which("unshare") is None:
-        skip("test_mqtt_failover.py", "no unshare(1)")
     real = gwlib.DRGATEWAYD
     gwlib.DRGATEWAYD = wrapper
     try:
@@ -306,8 +275,7 @@ def test_dns_lookup_does_not_stop_the_loop(brokers, dns_sink):
     getaddrinfo ran in the loop: every robot link timed out."""
     b2 = brokers[1]
     with running("failover_dns", extra=spb_section(
-            [], "servers = broker.drgate-test.invalid:1883 %s:%d" % (b2.addr, b2.port))
-            .replace("servers = \n", "")) as g:
+            "broker.drgate-test.invalid:1883 " + servers(b2))) as g:
         h2 = Tahu(b2, "failover_dns_2", b2.addr)
         try:
             # Modbus answers while the lookup hangs (the loop turns) ...
