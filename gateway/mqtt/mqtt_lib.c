@@ -41,9 +41,7 @@
     X(want_write) \
     X(loop_read) \
     X(loop_write) \
-    X(loop_misc) \
-    X(tls_insecure_set) \
-    X(ssl_get)
+    X(loop_misc)
 
 /* Every member's type is that of the header's function: the assignments
  * are only type-checked (sizeof does not evaluate them, so nothing here
@@ -54,8 +52,6 @@ static gw_mqttlib_t mql_probe;
 
 static gw_mqttlib_t mql;
 static bool mql_loaded;
-/* OpenSSL's SSL_set1_host, from libmosquitto's dependencies (NULL: none) */
-static int (*mql_set1_host)(void *ssl, const char *host);
 
 /* name and place of each member, for dlsym */
 #define MQL_FN(m) {"mosquitto_" #m, offsetof(gw_mqttlib_t, m)},
@@ -116,16 +112,5 @@ const gw_mqttlib_t *gw_mqttlib_load(char *err, size_t errlen)
     }
     mql = t;
     mql_loaded = true;
-    /* dlsym on the handle searches libmosquitto's own dependencies:
-     * the libssl it was built with. */
-    (void)dlerror();
-    void *set1 = dlsym(h, "SSL_set1_host");
-    if (set1 != NULL)
-        memcpy(&mql_set1_host, &set1, sizeof set1);
     return &mql;
-}
-
-bool gw_mqttlib_ssl_set1_host(void *ssl, const char *host)
-{
-    return mql_set1_host != NULL && mql_set1_host(ssl, host) == 1;
 }

@@ -55,8 +55,6 @@ typedef struct {
     int (*loop_read)(struct mosquitto *mosq, int max_packets);
     int (*loop_write)(struct mosquitto *mosq, int max_packets);
     int (*loop_misc)(struct mosquitto *mosq);
-    int (*tls_insecure_set)(struct mosquitto *mosq, bool value);
-    void *(*ssl_get)(struct mosquitto *mosq);
 } gw_mqttlib_t;
 
 /* The table, the library loaded on the first call (later calls return the
@@ -64,11 +62,5 @@ typedef struct {
  * cannot load ...: what, where, and what to do") if the library or one of
  * its functions is missing. */
 const gw_mqttlib_t *gw_mqttlib_load(char *err, size_t errlen);
-
-/* OpenSSL's SSL_set1_host on a connection's SSL (ssl_get): the broker's
- * certificate must name `host`, checked by OpenSSL's verification. From
- * the libssl that libmosquitto links; false if that has none (a
- * libmosquitto without TLS) or the call fails. */
-bool gw_mqttlib_ssl_set1_host(void *ssl, const char *host);
 
 #endif

@@ -774,39 +774,23 @@ static void drop_connection(mq_t *t, uint64_t now)
 
 static void spb_set_will(mq_t *t);
 
-/* TLS to a broker named by a host name, connected by the address looked
- * up: the certificate must name the host, which libmosquitto would check
- * against the address it was given. OpenSSL checks the name instead
- * (libmosquitto's own name check is off for such a connection, its chain
- * check stays); false if that cannot be set up, and the attempt is given
- * up before the handshake has read the broker's certificate. */
-static bool tls_name_check(mq_t *t)
-{
-    void *ssl = ml->ssl_get(t->mosq);
-    if (ssl != NULL && gw_mqttlib_ssl_set1_host(ssl, server(t)->host))
-        return true;
-    snprintf(t->fail_why, sizeof t->fail_why,
-             "TLS: cannot have the certificate checked against %s", server(t)->host);
-    return false;
-}
-
 /* The attempt's CONNECT to t->addr (non-blocking: connect() returns at
- * once, the TCP and TLS handshakes go on in the loop). */
+ * once, the TCP and TLS handshakes go on in the loop). With TLS, a server
+ * given by a host name is given to libmosquitto by that name: it checks
+ * the broker's certificate against the name it connects to, so it looks
+ * the name up again itself (getaddrinfo, in the loop), just after the
+ * lookup here has answered; a DNS server that does not answer has been
+ * found by then (docs/mqtt.md "Broker loss"). */
 static void connect_addr(mq_t *t, uint64_t now)
 {
-    struct in_addr a;
-    bool named = inet_pton(AF_INET, server(t)->host, &a) != 1;
+    bool tls = t->cfg.ca_file[0] != '\0';
     if (t->spb != NULL)
         spb_set_will(t);
-    bool tls = t->cfg.ca_file[0] != '\0';
-    if (tls)
-        (void)ml->tls_insecure_set(t->mosq, named);
     errno = 0;
-    int rc = ml->connect_async(t->mosq, t->addr, server(t)->port, (int)t->cfg.keepalive_s);
+    int rc = ml->connect_async(t->mosq, tls ? server(t)->host : t->addr, server(t)->port,
+                               (int)t->cfg.keepalive_s);
     if (rc != MOSQ_ERR_SUCCESS)
         note_failure(t, rc);
-    else if (named && tls && !tls_name_check(t))
-        (void)ml->disconnect(t->mosq);
     sync_watch(t, now); /* a failure is logged there, and the next server taken */
 }
 

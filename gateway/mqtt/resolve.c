@@ -86,12 +86,16 @@ int gw_mqtt_lookup_poll(gw_mqtt_lookup_t *l, char *addr, size_t addrlen, char *e
     int found = -1;
     if (e != 0)
         snprintf(err, errlen, "cannot resolve the host name (%s)", gai_strerror(e));
-    for (const struct addrinfo *a = l->cb.ar_result; e == 0 && a != NULL && found < 0;
-         a = a->ai_next)
-        if ((a->ai_family == AF_INET || a->ai_family == AF_INET6) &&
-            getnameinfo(a->ai_addr, a->ai_addrlen, addr, (socklen_t)addrlen, NULL, 0,
-                        NI_NUMERICHOST) == 0)
-            found = 1;
+    /* An IPv4 address first (the robots and `host` are IPv4; a name such
+     * as localhost often lists ::1 first, where an IPv4 broker is not),
+     * else an IPv6 one. */
+    static const int families[] = {AF_INET, AF_INET6};
+    for (unsigned f = 0; f < 2 && e == 0 && found < 0; f++)
+        for (const struct addrinfo *a = l->cb.ar_result; a != NULL && found < 0; a = a->ai_next)
+            if (a->ai_family == families[f] &&
+                getnameinfo(a->ai_addr, a->ai_addrlen, addr, (socklen_t)addrlen, NULL, 0,
+                            NI_NUMERICHOST) == 0)
+                found = 1;
     if (e == 0 && found < 0)
         snprintf(err, errlen, "cannot resolve the host name (no IPv4 or IPv6 address)");
     release(l);
