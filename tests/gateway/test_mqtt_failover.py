@@ -43,6 +43,7 @@ from test_sparkplug_tck import EDGE, GROUP, NS, Tahu, metric
 import spb_tck
 
 PORT = 1883
+_made = 0  # namespace sets made by this process
 
 
 def ip(*args, check=True):
@@ -60,7 +61,11 @@ def brokers(request):
     LOGDIR.mkdir(parents=True, exist_ok=True)
     # one subnet pair per pytest worker: the workers run side by side
     w = gwlib._worker_index() or 0
-    tag = "drgf%d" % os.getpid()
+    # a name per test: `ip netns del` frees a namespace's veth pair
+    # later, in the kernel's own time (the next test's names are new)
+    global _made
+    _made += 1
+    tag = "drgf%d%c" % (os.getpid() % 100000, "abcdefghij"[_made % 10])
     made, routes, out = [], [], []
     try:
         for k in range(2):
@@ -79,12 +84,13 @@ def brokers(request):
             out.append(Broker("%s-b%d" % (request.node.name, k + 1), addr=net + ".2", port=PORT,
                               netns=ns))
     except subprocess.CalledProcessError as e:
-        for ns in made:
+        for k, ns in enumerate(made):
+            ip("link", "del", "%sv%d" % (tag, k), check=False)
             ip("netns", "del", ns, check=False)
         for r in routes:
             ip("route", "del", "blackhole", r, "metric", "4000", check=False)
-        skip("test_mqtt_failover.py", "cannot make network namespaces here: %s"
-             % e.stderr.strip())
+        skip("test_mqtt_failover.py", "cannot make network namespaces here: %s: %s"
+             % (" ".join(e.cmd), e.stderr.strip()))
     try:
         for b in out:
             b.start()
@@ -92,8 +98,9 @@ def brokers(request):
     finally:
         for b in out:
             b.stop()
-        for ns in made:
-            ip("netns", "del", ns, check=False)  # its veth pair goes with it
+        for k, ns in enumerate(made):
+            ip("link", "del", "%sv%d" % (tag, k), check=False)  # the pair, now
+            ip("netns", "del", ns, check=False)
         for r in routes:
             ip("route", "del", "blackhole", r, "metric", "4000", check=False)
 
