@@ -137,6 +137,25 @@ def spb_section(broker, extra=""):
                         extra)
 
 
+def per_value(label, got):
+    """(data messages, values in them, their bytes: topic and payload) of
+    the robot's data stream: JSON's <robot>/data (not the snapshot),
+    Sparkplug's DDATA (metrics decoded with pysparkplug's protobuf)."""
+    import json
+    msgs = vals = size = 0
+    for _, top, p in got:
+        if label == "JSON" and top.endswith("/data"):
+            vals += len(json.loads(p)["values"])
+        elif label != "JSON" and "/DDATA/" in top:
+            from pysparkplug._protobuf import Payload
+            vals += len(Payload.FromString(p).metrics)
+        else:
+            continue
+        msgs += 1
+        size += len(top) + len(p)
+    return msgs, vals, size
+
+
 def goal(name, value, limit, fmt="%.2f"):
     ok = value <= limit
     print("goal %s: %s <= %s: %s" % (name, fmt % value, fmt % limit, "met" if ok else "MISSED"))
@@ -155,7 +174,7 @@ def main():
     from mqttlib import Broker, mqtt_section
 
     payloads = (("JSON", mqtt_section), ("Sparkplug B", spb_section))
-    lat, rate, cpu = {}, {}, {}
+    lat, rate, cpu, split = {}, {}, {}, {}
     broker = Broker("bench_mqtt").start()
     try:
         for label, section in payloads:
@@ -181,6 +200,8 @@ def main():
                     cpu[label] = (cpu_s(g.proc.pid) - c0) / dt * 100.0
                     got = sub.since(n0)
                     rate[label] = (sum(len(t) + len(p) for _, t, p in got) / dt, len(got) / dt)
+                    if section:
+                        split[label] = per_value(label, got) + (dt,)
                 finally:
                     sub.close()
     finally:
@@ -201,6 +222,19 @@ def main():
     for label in cpu:
         b, n = rate.get(label, (0, 0))
         print("| %s | %.0f | %.1f | %.2f |" % (label, b, n, cpu[label]))
+    print()
+    # Where the bytes go (docs/performance.md "MQTT"): per value of the
+    # data stream, and the rest (JSON's retained snapshot once a second).
+    # A Sparkplug 3.0 DDATA metric of a REAL is at least 16 bytes: 2 of
+    # framing, 2 of alias (< 128), 7 of timestamp (a MUST), 5 of float.
+    print("| payload | data messages/s | values per message | bytes per value | "
+          "data bytes/s | other bytes/s |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for label, _ in payloads:
+        msgs, vals, size, secs = split[label]
+        print("| %s | %.1f | %.1f | %.1f | %.0f | %.0f |"
+              % (label, msgs / secs, vals / max(msgs, 1), size / max(vals, 1), size / secs,
+                 rate[label][0] - size / secs))
     print()
     ok = True
     for label, _ in payloads:

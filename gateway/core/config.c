@@ -236,7 +236,7 @@ static bool valid_ipv4(const char *v)
 /* An IPv4 address, or a DNS name (letters, digits, '-', dot-separated
  * labels). All digits and dots but not an address is a typo ("10.0.0.256"),
  * not a name to look up. */
-static bool valid_host(const char *h)
+bool gw_cfg_valid_host(const char *h)
 {
     if (valid_ipv4(h))
         return true;
@@ -269,7 +269,7 @@ static bool text_valid(const gw_cfg_key_t *k, const char *v)
     if (k->type == GW_CFG_IPV4)
         return valid_ipv4(v);
     if (k->type == GW_CFG_HOST)
-        return valid_host(v);
+        return gw_cfg_valid_host(v);
     return k->valid == NULL || k->valid(v);
 }
 

@@ -208,6 +208,8 @@ bool gw_cfg_is_space(char ch);
 bool gw_cfg_valid_name(const char *s);
 /* No blank and no control character. */
 bool gw_cfg_no_blank(const char *s);
+/* An IPv4 address or a DNS name (a HOST key's check). */
+bool gw_cfg_valid_host(const char *h);
 
 /* Did-you-mean: feed candidates; `best` is the closest one close enough
  * to `typed` (a third of its length, at least 2 edits), "" if none. */

@@ -17,14 +17,17 @@ static bool valid_spb_id(const char *s);
 #define SPB_ID_ALLOWED "printable ASCII without '+', '#', '/' or blanks"
 #define SPB_ID_DOC "printable ASCII without `+`, `#`, `/` or blanks"
 static gw_cfg_parse_fn mqtt_deadband;
+static gw_cfg_parse_fn mqtt_servers;
+#define SERVERS_ALLOWED "HOST[:PORT] ..., at most 4 (HOST an IPv4 address or a host name)"
 
 static const gw_cfg_key_t mqtt_keys[] = {
-    { .name = "host", .type = GW_CFG_HOST, .flags = GW_CFG_REQUIRED, Q(host), .allowed = "the broker's IPv4 address or host name", .help = "the broker. A name is resolved at each connection attempt, the one blocking step, so prefer an address" },
-    { .name = "port", .type = GW_CFG_UINT, Q(port), .lo = 1, .hi = 65535, .def = 1883, .help = "the broker's port (TLS brokers usually listen on 8883)" },
+    { .name = "servers", .type = GW_CFG_HOOK, .parse = mqtt_servers, .allowed = SERVERS_ALLOWED, .doc_default = "(none: `host`)", .doc_allowed = "`HOST[:PORT]` separated by blanks or commas, at most 4; `HOST` an IPv4 address or a host name, `PORT` `port`'s if not given", .help = "the brokers, tried in this order: the gateway is connected to one at a time and moves to the next when the connection is lost or cannot be made, or (Sparkplug, `primary_host_id`) when the primary host is offline there. Names are looked up at each attempt without stopping the daemon (with TLS, libmosquitto looks the name up again at the connect, docs/mqtt.md)" },
+    { .name = "host", .type = GW_CFG_HOST, Q(host), .allowed = "the broker's IPv4 address or host name", .doc_default = "(none: `servers`)", .help = "one broker: the same as `servers = HOST:PORT`. `host` or `servers` is required, not both" },
+    { .name = "port", .type = GW_CFG_UINT, Q(port), .lo = 1, .hi = 65535, .def = 1883, .help = "`host`'s port, and that of a server in `servers` without one (TLS brokers usually listen on 8883)" },
     { .name = "client_id", .type = GW_CFG_TEXT, Q(client_id), .valid = valid_client_id, .allowed = "letters, digits, '_', '-', '.'", .doc_default = "`drgatewayd-<hostname>`", .doc_allowed = "letters, digits, `_`, `-`, `.` (at most 63)", .help = "MQTT client identifier; unique per broker" },
     { .name = "username", .type = GW_CFG_TEXT, Q(username), .allowed = "a user name", .help = "login name" },
     { .name = "password_file", .type = GW_CFG_TEXT, Q(password_file), .allowed = "a file whose first line is the password", .help = "file whose first line is the password; needs `username`. Read at start and reload; an unreadable file refuses the start or the reload" },
-    { .name = "ca_file", .type = GW_CFG_TEXT, Q(ca_file), .allowed = "a PEM file of CA certificates (enables TLS)", .doc_default = "(none: plain TCP)", .help = "PEM CA certificates: turns TLS on. The broker's certificate must chain to them and name `host`" },
+    { .name = "ca_file", .type = GW_CFG_TEXT, Q(ca_file), .allowed = "a PEM file of CA certificates (enables TLS)", .doc_default = "(none: plain TCP)", .help = "PEM CA certificates: turns TLS on. Each broker's certificate must chain to them and name the host as `servers` (or `host`) gives it: its name, or its address" },
     { .name = "cert_file", .type = GW_CFG_TEXT, Q(cert_file), .allowed = "a PEM client certificate", .help = "client certificate (PEM), with `key_file`; needs `ca_file`" },
     { .name = "key_file", .type = GW_CFG_TEXT, Q(key_file), .allowed = "a PEM private key", .help = "the client certificate's key (PEM), with `cert_file`" },
     { .name = "keepalive_s", .type = GW_CFG_UINT, Q(keepalive_s), .lo = 5, .hi = 3600, .def = 30, .help = "MQTT keepalive; a broker that stops answering is found after about 1.5 times this" },
@@ -37,7 +40,8 @@ static const gw_cfg_key_t mqtt_keys[] = {
     { .name = "payload", .type = GW_CFG_ENUM, Q(payload), GW_CFG_NAMES("json", "sparkplug"), .def = GW_MQTT_JSON, .help = "`json`: the topics under `topic_prefix` above. `sparkplug`: Sparkplug B 3.0 (`spBv1.0/<group_id>/...`, protobuf), the gateway an edge node and each robot a device; `topic_prefix` and `retain` do not apply" },
     { .name = "group_id", .type = GW_CFG_TEXT, Q(group_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_allowed = SPB_ID_DOC, .help = "Sparkplug group ID; required with `payload = sparkplug`" },
     { .name = "edge_node_id", .type = GW_CFG_TEXT, Q(edge_node_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_default = "the host name", .doc_allowed = SPB_ID_DOC, .help = "Sparkplug edge node ID, unique in the group" },
-    { .name = "primary_host_id", .type = GW_CFG_TEXT, Q(primary_host_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_default = "(none: births at once)", .doc_allowed = SPB_ID_DOC, .help = "Sparkplug primary host application: births wait until its `spBv1.0/STATE/<id>` says online; when it goes offline the gateway disconnects (NDEATH) and waits again" },
+    { .name = "primary_host_id", .type = GW_CFG_TEXT, Q(primary_host_id), .valid = valid_spb_id, .allowed = SPB_ID_ALLOWED, .doc_default = "(none: births at once)", .doc_allowed = SPB_ID_DOC, .help = "Sparkplug primary host application: births wait until its `spBv1.0/STATE/<id>` says online; when it goes offline the gateway disconnects (NDEATH) and connects to the next server (the same one if there is one) and waits again" },
+    { .name = "primary_host_wait_s", .type = GW_CFG_UINT, Q(host_wait_s), .lo = 1, .hi = 3600, .def = 10, .help = "Sparkplug with `primary_host_id` and more than one server: a server on which the primary host's STATE does not say online this long after the connection is left for the next one" },
     { .name = "metric_names", .type = GW_CFG_ENUM, Q(metric_names), GW_CFG_NAMES("folders", "canonical"), .def = 0, .help = "Sparkplug metric names: `folders` (`joint_state/position/1`: a folder hierarchy, as Ignition takes tag names, which may not have `.` or `[]`) or `canonical` (`joint_state.position[1]`, as the JSON payload); the canonical path is each metric's `path` property either way" },
     { .name = "bdseq_file", .type = GW_CFG_TEXT, Q(bdseq_file), .allowed = "a file the daemon may write", .doc_default = "`$STATE_DIRECTORY/sparkplug-<group_id>-<edge_node_id>.bdseq` (systemd's `StateDirectory`), else the same name in `/var/lib/drgate`", .help = "Sparkplug: where the next bdSeq is kept, so that it keeps growing over restarts of the daemon (written at each CONNECT the broker answers); a file that cannot be written is logged and bdSeq starts at 0 at each start" },
 };
@@ -123,11 +127,97 @@ static void mqtt_deadband(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec,
     ((gw_mqtt_config_t *)sec)->deadband = x;
 }
 
+/* servers = HOST[:PORT] ...: kept with port 0 where none is given
+ * (mqtt_check gives them `port`, which may come later in the section). */
+static void mqtt_servers(gw_cfg_ctx_t *c, const gw_cfg_key_t *k, void *sec, const char *name,
+                         const char *v)
+{
+    gw_mqtt_config_t *q = sec;
+    char buf[GW_MQTT_SERVERS_MAX * 72u];
+    (void)k;
+    if (strlen(v) >= sizeof buf) {
+        gw_cfg_fail(c, c->lineno, "%s too long (allowed: %s)", name, SERVERS_ALLOWED);
+        return;
+    }
+    memcpy(buf, v, strlen(v) + 1);
+    q->server_count = 0;
+    for (char *save = NULL, *w = strtok_r(buf, " \t,", &save); w != NULL;
+         w = strtok_r(NULL, " \t,", &save)) {
+        if (q->server_count == GW_MQTT_SERVERS_MAX) {
+            gw_cfg_fail(c, c->lineno, "%s: more than %u servers (allowed: %s)", name,
+                        GW_MQTT_SERVERS_MAX, SERVERS_ALLOWED);
+            return;
+        }
+        gw_mqtt_server_t *sv = &q->server[q->server_count];
+        char *colon = strchr(w, ':');
+        unsigned long port = 0;
+        if (colon != NULL) {
+            char *end = NULL;
+            *colon = '\0';
+            port = strtoul(colon + 1, &end, 10);
+            if (colon[1] < '0' || colon[1] > '9' || *end != '\0' || port < 1 || port > 65535) {
+                gw_cfg_fail(c, c->lineno, "%s: port '%s' of %s invalid (allowed: 1..65535)",
+                            name, colon + 1, w);
+                return;
+            }
+        }
+        if (!gw_cfg_valid_host(w) || strlen(w) >= sizeof sv->host) {
+            gw_cfg_fail(c, c->lineno, "%s: '%s' is not a host (allowed: %s)", name, w,
+                        SERVERS_ALLOWED);
+            return;
+        }
+        memcpy(sv->host, w, strlen(w) + 1);
+        sv->port = (uint16_t)port;
+        q->server_count++;
+    }
+    if (q->server_count == 0)
+        gw_cfg_fail(c, c->lineno, "%s has no server (allowed: %s)", name, SERVERS_ALLOWED);
+}
+
+/* `host` or `servers` (not both) into server[]: the list the side uses. */
+static void mqtt_server_list(gw_cfg_ctx_t *c, const gw_cfg_side_t *s)
+{
+    gw_mqtt_config_t *q = &c->cfg.side.mqtt;
+    unsigned at_servers = gw_cfg_line(c, s, 0, "servers");
+    if (at_servers != 0 && gw_cfg_line(c, s, 0, "host") != 0) {
+        gw_cfg_fail(c, at_servers,
+                    "[mqtt] servers and host: one or the other (allowed: servers = HOST[:PORT] "
+                    "... for one or more brokers, or host (and port) for one; line %u has host)",
+                    gw_cfg_line(c, s, 0, "host"));
+        return;
+    }
+    if (at_servers == 0 && q->host[0] == '\0') {
+        gw_cfg_fail(c, gw_cfg_section_line(c, s, 0),
+                    "[mqtt] has no servers (allowed: servers = HOST[:PORT] ..., or host = "
+                    "the broker's IPv4 address or host name)");
+        return;
+    }
+    if (at_servers == 0) {
+        memcpy(q->server[0].host, q->host, sizeof q->host);
+        q->server[0].port = 0;
+        q->server_count = 1;
+    }
+    for (unsigned i = 0; i < q->server_count; i++) {
+        if (q->server[i].port == 0)
+            q->server[i].port = q->port;
+        for (unsigned j = 0; j < i; j++)
+            if (strcmp(q->server[i].host, q->server[j].host) == 0 &&
+                q->server[i].port == q->server[j].port) {
+                gw_cfg_fail(c, at_servers, "[mqtt] servers: %s:%u named twice",
+                            q->server[i].host, (unsigned)q->server[i].port);
+                return;
+            }
+    }
+}
+
 static void mqtt_check(gw_cfg_ctx_t *c)
 {
     const gw_mqtt_config_t *q = &c->cfg.side.mqtt;
     const gw_cfg_side_t *s = &gw_cfg_mqtt;
     if (!q->enabled || !gw_cfg_require(c, s, 0))
+        return;
+    mqtt_server_list(c, s);
+    if (c->err_line != 0)
         return;
     if ((q->cert_file[0] != '\0') != (q->key_file[0] != '\0'))
         gw_cfg_fail(c,

@@ -7,11 +7,25 @@
 
 #include "core/config_types.h"
 
+/* The most brokers `servers` may name. */
+#define GW_MQTT_SERVERS_MAX 4u
+
+/* One broker: an IPv4 address or a host name, and its port. */
+typedef struct {
+    char host[64];
+    uint16_t port;
+} gw_mqtt_server_t;
+
 /* [mqtt]: present = enabled (docs/mqtt.md). Strings "" = not set. */
 typedef struct {
     bool enabled;             /* the section is present */
-    char host[64];
-    uint16_t port;            /* default 1883 */
+    char host[64];            /* one broker (or `servers`) */
+    uint16_t port;            /* default 1883: host's, and that of a server without one */
+    /* The brokers in the order they are tried: `servers`, or `host` and
+     * `port` (mqtt_check fills it in either way; the side reads only this). */
+    gw_mqtt_server_t server[GW_MQTT_SERVERS_MAX];
+    unsigned server_count;
+    unsigned host_wait_s;     /* primary_host_wait_s: STATE online within this, or next server */
     char client_id[64];       /* default "drgatewayd-<hostname>" */
     char username[64];
     char password_file[256];  /* first line is the password */

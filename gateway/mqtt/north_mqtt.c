@@ -1,7 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * MQTT as a northbound side (north.h): the robots' fields published to a
- * broker, plant writes taken from it ([mqtt], docs/mqtt.md).
+ * broker, plant writes taken from it ([mqtt], docs/mqtt.md). With several
+ * `servers`, connected to one at a time: the next one after a lost
+ * connection, a failed attempt or (Sparkplug) the primary host's offline
+ * there (docs/mqtt.md "Several brokers"); host names are looked up by
+ * resolve.c without blocking.
  *
  * libmosquitto runs without its thread: its socket sits in the daemon's
  * epoll set (readable: mosquitto_loop_read, writable while it has
@@ -31,13 +35,13 @@
  * that a reload changes, is retired: its state says "down: removed from
  * the configuration", its retained meta and snapshot are cleared.
  */
+#include <arpa/inet.h>
 #include <errno.h>
 #include <math.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <netdb.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
 #include <time.h>
@@ -51,13 +55,16 @@
 #include "core/log.h"
 #include "mqtt/deadband.h"
 #include "mqtt/mqtt_lib.h"
+#include "mqtt/resolve.h"
 #include "mqtt/sparkplug.h"
 #include "core/north.h"
 #include "core/report.h"
 
 #define MQ_BACKOFF_MIN_US 500000u    /* first reconnect after 0.5 s ... */
 #define MQ_BACKOFF_MAX_US 30000000u  /* ... doubling up to 30 s */
-#define MQ_CONNECT_TIMEOUT_US 10000000u /* no CONNACK within 10 s: retry */
+#define MQ_CONNECT_TIMEOUT_US 10000000u /* no CONNACK within 10 s (lookup included): retry */
+#define MQ_LOOKUP_POLL_US 20000u     /* a host name's lookup is looked at this often */
+#define MQ_LEAVE_US 2000000u         /* NDEATH's PUBACK awaited this long before leaving */
 #define MQ_MAX_INFLIGHT 16u          /* QoS 1/2 messages awaiting the broker */
 #define MQ_JSON_MAX 65536u           /* the largest payload (meta) is ~30 kB */
 #define MQ_SET_MAX 64u               /* a write's value text */
@@ -88,6 +95,11 @@ typedef struct {
     ev_t ev;
     char prefix[160], client_id[80];
     char password[256];
+    unsigned server;    /* cfg.server[server]: the broker connected, or being tried */
+    char addr[64];      /* its address for this attempt (numeric) */
+    gw_mqtt_lookup_t *lookup; /* its name being looked up (connecting, not yet connected) */
+    uint64_t host_wait_us; /* Sparkplug: the primary host online by then, or the next server */
+    uint64_t leave_us;  /* Sparkplug: leaving this server once NDEATH is acknowledged, or then */
     bool connected;     /* CONNACK accepted */
     bool connecting;    /* a connection is being made */
     uint64_t retry_us;  /* next connection attempt (when neither of the above) */
@@ -140,6 +152,12 @@ static unsigned lib_users; /* mosquitto_lib_init/cleanup around the sides */
 static const gw_mqttlib_t *ml;
 
 /* ---- topics and publishing ------------------------------------------------------ */
+
+/* The broker connected, or being tried. */
+static const gw_mqtt_server_t *server(const mq_t *t)
+{
+    return &t->cfg.server[t->server];
+}
 
 static void topic(const mq_t *t, char *out, size_t size, int robot, const char *leaf)
 {
@@ -602,27 +620,49 @@ static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto
 
 /* ---- connection ------------------------------------------------------------------ */
 
+/* The next broker of `servers` for the next attempt (`why` it leaves this
+ * one); with one broker, the same one. */
+static void next_server(mq_t *t, const char *why)
+{
+    if (t->cfg.server_count < 2)
+        return;
+    const gw_mqtt_server_t *from = server(t);
+    t->server = (t->server + 1u) % t->cfg.server_count;
+    gw_log(GW_LOG_INFO, "mqtt: %s:%u: %s: next server %s:%u", from->host, from->port, why,
+           server(t)->host, server(t)->port);
+    if (t->spb != NULL)
+        spb_server_changed(t->spb);
+}
+
 static void on_connect(struct mosquitto *mosq, void *obj, int rc)
 {
     mq_t *t = obj;
     (void)mosq;
     t->connecting = false;
     if (rc != 0) {
-        gw_log(GW_LOG_WARNING, "mqtt: broker %s:%u refused the connection: %s", t->cfg.host,
-               t->cfg.port, ml->connack_string(rc));
+        gw_log(GW_LOG_WARNING, "mqtt: broker %s:%u refused the connection: %s", server(t)->host,
+               server(t)->port, ml->connack_string(rc));
         if (t->spb != NULL)
             spb_connect_answered(t->spb, false); /* its bdSeq is used */
+        next_server(t, "refused");
         return; /* libmosquitto closes; tick() retries */
     }
-    gw_log(GW_LOG_INFO, "mqtt: connected to %s:%u", t->cfg.host, t->cfg.port);
+    gw_log(GW_LOG_INFO, "mqtt: connected to %s:%u", server(t)->host, server(t)->port);
     t->connected = true;
     t->con.connects++;
-    t->backoff_us = MQ_BACKOFF_MIN_US;
     t->inflight = 0;
     if (t->spb != NULL) {
+        /* With a primary host, a server is good once the host is online
+         * there (mq_tick): the backoff is reset then, and a server where
+         * it stays offline is left after primary_host_wait_s. */
+        if (t->cfg.primary_host_id[0] == '\0')
+            t->backoff_us = MQ_BACKOFF_MIN_US;
+        else if (t->cfg.server_count > 1)
+            t->host_wait_us = ev_now_us() + (uint64_t)t->cfg.host_wait_s * 1000000u;
         spb_connected(t->spb);
         return;
     }
+    t->backoff_us = MQ_BACKOFF_MIN_US;
     t->status_due = true;
     for (unsigned r = 0; r < t->env->cfg->robot_count; r++) {
         t->state_due[r] = t->meta_due[r] = t->full_due[r] = true;
@@ -642,12 +682,15 @@ static void on_disconnect(struct mosquitto *mosq, void *obj, int rc)
     mq_t *t = obj;
     (void)mosq;
     if (t->connected && t->closing != NULL)
-        gw_log(GW_LOG_INFO, "mqtt: disconnected from %s:%u (%s)", t->cfg.host, t->cfg.port,
-               t->closing);
-    else if (t->connected)
-        gw_log(GW_LOG_WARNING, "mqtt: connection to %s:%u lost (%s)", t->cfg.host, t->cfg.port,
-               rc == 0 ? "closed" : ml->strerror(rc));
+        gw_log(GW_LOG_INFO, "mqtt: disconnected from %s:%u (%s)", server(t)->host,
+               server(t)->port, t->closing);
+    else if (t->connected) {
+        gw_log(GW_LOG_WARNING, "mqtt: connection to %s:%u lost (%s)", server(t)->host,
+               server(t)->port, rc == 0 ? "closed" : ml->strerror(rc));
+        next_server(t, "connection lost");
+    }
     t->connected = false;
+    t->host_wait_us = 0;
     if (t->spb != NULL)
         spb_disconnected(t->spb);
 }
@@ -658,18 +701,7 @@ static void note_failure(mq_t *t, int rc)
 {
     if (t->fail_why[0] != '\0' || rc == MOSQ_ERR_SUCCESS)
         return;
-    if (rc == MOSQ_ERR_EAI) {
-        /* libmosquitto does not keep getaddrinfo's reason: asked again
-         * (a failure only, and the backoff spaces them). */
-        struct addrinfo hints, *res = NULL;
-        memset(&hints, 0, sizeof hints);
-        hints.ai_socktype = SOCK_STREAM;
-        int e = getaddrinfo(t->cfg.host, NULL, &hints, &res);
-        if (res != NULL)
-            freeaddrinfo(res);
-        snprintf(t->fail_why, sizeof t->fail_why, "cannot resolve the host name (%s)",
-                 e != 0 ? gai_strerror(e) : "lookup failed");
-    } else if (rc == MOSQ_ERR_ERRNO && errno != 0)
+    if (rc == MOSQ_ERR_ERRNO && errno != 0)
         snprintf(t->fail_why, sizeof t->fail_why, "%s", strerror(errno));
     else if (rc == MOSQ_ERR_TLS)
         snprintf(t->fail_why, sizeof t->fail_why,
@@ -697,6 +729,7 @@ static void on_publish(struct mosquitto *mosq, void *obj, int mid)
 }
 
 static void on_ready(void *obj, uint32_t events);
+static bool leave_due(mq_t *t, uint64_t now);
 
 /* The socket into the loop as libmosquitto now has it; a connection that
  * went away schedules the next attempt. */
@@ -706,9 +739,11 @@ static void sync_watch(mq_t *t, uint64_t now)
     if (fd < 0) {
         ev_unwatch(t->env->epfd, &t->ev);
         if (t->connected || t->connecting) {
-            if (t->connecting)
-                gw_log(GW_LOG_WARNING, "mqtt: cannot connect to %s:%u: %s", t->cfg.host,
-                       t->cfg.port, t->fail_why[0] ? t->fail_why : "connection closed");
+            if (t->connecting) {
+                gw_log(GW_LOG_WARNING, "mqtt: cannot connect to %s:%u: %s", server(t)->host,
+                       server(t)->port, t->fail_why[0] ? t->fail_why : "connection closed");
+                next_server(t, "cannot connect");
+            }
             t->connected = t->connecting = false;
         }
         if (t->retry_us == 0) {
@@ -726,33 +761,76 @@ static void sync_watch(mq_t *t, uint64_t now)
 static void drop_connection(mq_t *t, uint64_t now)
 {
     ev_unwatch(t->env->epfd, &t->ev);
-    (void)ml->disconnect(t->mosq); /* closes the socket */
+    gw_mqtt_lookup_end(t->lookup);
+    t->lookup = NULL;
+    /* Not connected first: libmosquitto calls on_disconnect from here,
+     * which must not take this for a lost connection. */
     t->connected = t->connecting = false;
+    (void)ml->disconnect(t->mosq); /* closes the socket */
+    t->host_wait_us = t->leave_us = 0;
     t->retry_us = 0;
     sync_watch(t, now);
 }
 
 static void spb_set_will(mq_t *t);
 
-static void try_connect(mq_t *t, uint64_t now)
+/* The attempt's CONNECT to t->addr (non-blocking: connect() returns at
+ * once, the TCP and TLS handshakes go on in the loop). With TLS, a server
+ * given by a host name is given to libmosquitto by that name: it checks
+ * the broker's certificate against the name it connects to, so it looks
+ * the name up again itself (getaddrinfo, in the loop), just after the
+ * lookup here has answered; a DNS server that does not answer has been
+ * found by then (docs/mqtt.md "Broker loss"). */
+static void connect_addr(mq_t *t, uint64_t now)
 {
-    t->retry_us = 0;
-    t->fail_why[0] = '\0';
-    ev_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
+    bool tls = t->cfg.ca_file[0] != '\0';
     if (t->spb != NULL)
         spb_set_will(t);
-    /* Non-blocking connect; the host name (if not an address) is resolved
-     * here, the one blocking step (docs/mqtt.md). */
     errno = 0;
-    int rc = ml->connect_async(t->mosq, t->cfg.host, t->cfg.port, (int)t->cfg.keepalive_s);
-    if (rc != MOSQ_ERR_SUCCESS) {
+    int rc = ml->connect_async(t->mosq, tls ? server(t)->host : t->addr, server(t)->port,
+                               (int)t->cfg.keepalive_s);
+    if (rc != MOSQ_ERR_SUCCESS)
         note_failure(t, rc);
-        t->connecting = true; /* logged by sync_watch */
-    } else {
-        t->connecting = true;
-        t->connect_deadline_us = now + MQ_CONNECT_TIMEOUT_US;
+    sync_watch(t, now); /* a failure is logged there, and the next server taken */
+}
+
+/* A connection attempt to the current server: an address is connected at
+ * once, a host name looked up first (mq_tick takes the answer). */
+static void try_connect(mq_t *t, uint64_t now)
+{
+    struct in_addr a;
+    t->retry_us = 0;
+    t->fail_why[0] = '\0';
+    t->host_wait_us = 0;
+    ev_unwatch(t->env->epfd, &t->ev); /* the socket is replaced */
+    t->connecting = true;
+    t->connect_deadline_us = now + MQ_CONNECT_TIMEOUT_US;
+    if (inet_pton(AF_INET, server(t)->host, &a) == 1) {
+        snprintf(t->addr, sizeof t->addr, "%s", server(t)->host);
+        connect_addr(t, now);
+        return;
     }
-    sync_watch(t, now);
+    t->lookup = gw_mqtt_lookup_start(server(t)->host, t->fail_why, sizeof t->fail_why);
+    if (t->lookup == NULL)
+        sync_watch(t, now); /* logged, the next server */
+}
+
+/* A lookup under way: its answer connects, its failure is logged (the
+ * next server then); true while it runs. */
+static bool lookup_tick(mq_t *t, uint64_t now)
+{
+    if (t->lookup == NULL)
+        return false;
+    int r = gw_mqtt_lookup_poll(t->lookup, t->addr, sizeof t->addr, t->fail_why,
+                                sizeof t->fail_why);
+    if (r == 0)
+        return true;
+    t->lookup = NULL;
+    if (r > 0)
+        connect_addr(t, now);
+    else
+        sync_watch(t, now);
+    return false;
 }
 
 static void on_ready(void *obj, uint32_t events)
@@ -780,7 +858,8 @@ static void on_ready(void *obj, uint32_t events)
         if (rc != MOSQ_ERR_SUCCESS && attempt)
             note_failure(t, rc);
     }
-    sync_watch(t, now);
+    if (!leave_due(t, now))
+        sync_watch(t, now);
 }
 
 /* ---- Sparkplug B (sparkplug.h): what it asks of the connection --------------------- */
@@ -814,15 +893,40 @@ static bool spb_io_write(void *user, unsigned robot, const gw_write_item_t *item
     return write_items(t, robot, "Sparkplug DCMD", items, n, res, &kind, why, whylen);
 }
 
-static void spb_io_reconnect(void *user)
+/* Sparkplug 3.0: a node whose primary host is offline on its server
+ * moves to the next one (tck-id-operational-behavior-primary-application-
+ * state-with-multiple-servers-walk), as it does for NCMD Node Control/Next
+ * Server; with one server it connects again if it was born (a new
+ * bdSeq), else it stays and waits for online. A born node's NDEATH (QoS
+ * 1) is acknowledged first (leave_due): unacked, libmosquitto would send
+ * it again on the next connection, after the CONNECT, where a host would
+ * see an old session's death. */
+static bool spb_io_leave(void *user, bool born, const char *why)
 {
-    drop_connection(user, ev_now_us());
+    mq_t *t = user;
+    if (t->cfg.server_count < 2 && !born)
+        return false;
+    next_server(t, why);
+    t->leave_us = ev_now_us() + MQ_LEAVE_US;
+    if (!born)
+        t->leave_us = 1; /* nothing to wait for */
+    return true;
+}
+
+/* The NDEATH before leaving a server acknowledged (or waited for long
+ * enough): the connection is dropped, the next one made. */
+static bool leave_due(mq_t *t, uint64_t now)
+{
+    if (t->leave_us == 0 || !t->connected || (t->inflight > 0 && now < t->leave_us))
+        return false;
+    drop_connection(t, now);
+    return true;
 }
 
 static bool spb_attach(mq_t *t, const char *host, char *err, size_t errlen)
 {
     const spb_io_t io = {t, spb_io_publish, spb_io_subscribe, spb_io_room, spb_io_write,
-                         spb_io_reconnect};
+                         spb_io_leave};
     t->spb = spb_new(&t->cfg, t->env, &io, host, err, errlen);
     return t->spb != NULL;
 }
@@ -1038,8 +1142,8 @@ static void retire_for(mq_t *t, mq_t *next)
     if (!t->cfg.enabled || t->spb != NULL)
         return; /* Sparkplug's NDEATH (the goodbye) ends its devices */
     bool all = !next->cfg.enabled || next->spb != NULL || strcmp(t->prefix, next->prefix) != 0;
-    bool hand = next->cfg.enabled && next->spb == NULL && t->cfg.port == next->cfg.port &&
-                strcmp(t->cfg.host, next->cfg.host) == 0;
+    bool hand = next->cfg.enabled && next->spb == NULL && server(t)->port == server(next)->port &&
+                strcmp(server(t)->host, server(next)->host) == 0;
     char base[MQ_BASE_MAX];
     for (unsigned r = 0; r < t->pub_count; r++)
         if (all || !has_robot(t->env->cfg, t->pub_name[r])) {
@@ -1089,6 +1193,7 @@ static void mq_free(mq_t *t)
         return;
     if (t->env != NULL)
         ev_unwatch(t->env->epfd, &t->ev);
+    gw_mqtt_lookup_end(t->lookup);
     for (unsigned k = 0; k < MQ_REF_KINDS; k++)
         gw_log_limit_end(&t->refused[k]); /* what they hold back, counted */
     if (t->mosq != NULL)
@@ -1115,9 +1220,20 @@ static void *mq_create(const gw_north_env_t *env, char *err, size_t errlen)
 }
 
 /* Everything but where the section is in the file. */
+static bool same_servers(const gw_mqtt_config_t *a, const gw_mqtt_config_t *b)
+{
+    if (a->server_count != b->server_count)
+        return false;
+    for (unsigned i = 0; i < a->server_count; i++)
+        if (strcmp(a->server[i].host, b->server[i].host) != 0 ||
+            a->server[i].port != b->server[i].port)
+            return false;
+    return true;
+}
+
 static bool same_config(const gw_mqtt_config_t *a, const gw_mqtt_config_t *b)
 {
-    return a->enabled == b->enabled && strcmp(a->host, b->host) == 0 && a->port == b->port &&
+    return a->enabled == b->enabled && same_servers(a, b) && a->host_wait_s == b->host_wait_s &&
            strcmp(a->client_id, b->client_id) == 0 && strcmp(a->username, b->username) == 0 &&
            strcmp(a->password_file, b->password_file) == 0 &&
            strcmp(a->ca_file, b->ca_file) == 0 && strcmp(a->cert_file, b->cert_file) == 0 &&
@@ -1239,12 +1355,31 @@ static void mq_tick(void *self, uint64_t now)
         return;
     }
     if (t->connecting && !t->connected && now >= t->connect_deadline_us) {
-        gw_log(GW_LOG_WARNING, "mqtt: no answer from %s:%u", t->cfg.host, t->cfg.port);
+        gw_log(GW_LOG_WARNING, "mqtt: no answer from %s:%u%s", server(t)->host, server(t)->port,
+               t->lookup != NULL ? " (its name's lookup is still running)" : "");
+        next_server(t, "no answer");
         drop_connection(t, now);
         return;
     }
+    if (lookup_tick(t, now))
+        return;
+    if (!t->connected && !t->connecting)
+        return; /* the lookup failed: the next attempt is scheduled */
     (void)ml->loop_misc(t->mosq); /* keepalive: PINGREQ, or a dead broker */
     if (t->spb != NULL) {
+        if (leave_due(t, now))
+            return;
+        if (t->connected && spb_ready(t->spb)) {
+            t->backoff_us = MQ_BACKOFF_MIN_US; /* a good server */
+            t->host_wait_us = 0;
+        } else if (t->host_wait_us != 0 && now >= t->host_wait_us) {
+            gw_log(GW_LOG_WARNING, "mqtt: sparkplug: primary host %s not online on %s:%u "
+                   "within %u s", t->cfg.primary_host_id, server(t)->host, server(t)->port,
+                   t->cfg.host_wait_s);
+            next_server(t, "primary host not online");
+            drop_connection(t, now);
+            return;
+        }
         spb_tick(t->spb, now);
         sync_watch(t, now);
         return;
@@ -1268,12 +1403,22 @@ static uint64_t mq_deadline(const void *self)
         return UINT64_MAX;
     if (!t->connected && !t->connecting)
         return t->retry_us != 0 ? t->retry_us : UINT64_MAX;
+    if (!t->connected && t->lookup != NULL) {
+        uint64_t poll_us = ev_now_us() + MQ_LOOKUP_POLL_US;
+        return poll_us < t->connect_deadline_us ? poll_us : t->connect_deadline_us;
+    }
     if (!t->connected)
         return t->connect_deadline_us;
+    if (t->leave_us != 0)
+        return t->leave_us; /* or the PUBACK's readiness */
+    if (t->host_wait_us != 0 && !room(t))
+        return t->host_wait_us;
     if (!room(t))
         return UINT64_MAX; /* EPOLLOUT, or the broker's acknowledgements, first */
-    if (t->spb != NULL)
-        return spb_deadline(t->spb, ev_now_us());
+    if (t->spb != NULL) {
+        uint64_t d = spb_deadline(t->spb, ev_now_us());
+        return t->host_wait_us != 0 && t->host_wait_us < d ? t->host_wait_us : d;
+    }
     /* Wake for a robot whose data arrived, when its interval allows it;
      * other robots' O->T images are looked at with the 10 Hz tick. */
     uint64_t d = UINT64_MAX, now = ev_now_us();
@@ -1355,7 +1500,7 @@ static void mq_report(const void *self, gw_json_t *j)
     char num[192];
     if (t == NULL || !t->cfg.enabled)
         return;
-    snprintf(num, sizeof num, "%s:%u", t->cfg.host, t->cfg.port);
+    snprintf(num, sizeof num, "%s:%u", server(t)->host, server(t)->port);
     gw_json_str(j, "\"mqtt\":{\"broker\":");
     gw_json_quote(j, num, strlen(num));
     gw_json_str(j, ",\"client_id\":");
@@ -1399,7 +1544,7 @@ static void mq_summary(const void *self, gw_side_summary_t *s)
         return;
     snprintf(s->label, sizeof s->label, "MQTT");
     snprintf(s->line, sizeof s->line, "%s %s:%u", t->connected ? "connected to" : "not connected to",
-             t->cfg.host, (unsigned)t->cfg.port);
+             server(t)->host, (unsigned)server(t)->port);
     snprintf(s->brief, sizeof s->brief, "%s", t->connected ? "MQTT connected" : "MQTT not connected");
 }
 

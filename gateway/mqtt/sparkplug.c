@@ -4,13 +4,14 @@
  * "Sparkplug B").
  *
  * Topics (G = group_id, E = edge_node_id, D = a robot's name):
- *   spBv1.0/G/NBIRTH/E     bdSeq, Node Control/Rebirth; seq 0
+ *   spBv1.0/G/NBIRTH/E     bdSeq, Node Control/Rebirth and /Next Server; seq 0
  *   spBv1.0/G/NDEATH/E     bdSeq: the connection's Will, or before a
  *                          deliberate disconnect
  *   spBv1.0/G/DBIRTH/E/D   every field: name, alias, datatype, engUnit, value
  *   spBv1.0/G/DDATA/E/D    the fields that changed, by alias
  *   spBv1.0/G/DDEATH/E/D   the robot's link went down
- *   spBv1.0/G/NCMD/E       Node Control/Rebirth = true: births again
+ *   spBv1.0/G/NCMD/E       Node Control/Rebirth = true: births again;
+ *                          Node Control/Next Server = true: the next server
  *   spBv1.0/G/DCMD/E/D     plant writes (writes = yes)
  *   spBv1.0/STATE/H        the primary host's state (primary_host_id = H)
  *
@@ -62,6 +63,7 @@ struct spb {
     char bd_file[400];
     uint8_t seq;      /* of the last message published */
     bool connected;
+    bool leaving;     /* this connection is being left (io.leave): nothing more on it */
     bool host_online; /* the primary host's STATE (true without one) */
     uint64_t host_ts; /* the newest STATE's timestamp (ms): an older one is stale */
     bool nbirth_due;  /* NBIRTH (and then every DBIRTH) to publish */
@@ -331,14 +333,19 @@ static bool enc_node(pb_ostream_t *st, const pb_field_iter_t *field, enc_t *e)
         return false;
     if (e->kind == ENC_NDEATH)
         return true;
-    *m = (Payload_Metric)Payload_Metric_init_zero;
-    mf.name = SPB_REBIRTH;
-    m->has_datatype = m->has_timestamp = true;
-    m->timestamp = e->ts;
-    m->datatype = SPB_DT_BOOLEAN;
-    m->which_value = Payload_Metric_boolean_value_tag;
-    m->value.boolean_value = false;
-    return put_metric(st, field, m);
+    static const char *const controls[] = {SPB_REBIRTH, SPB_NEXT_SERVER};
+    for (unsigned i = 0; i < sizeof controls / sizeof controls[0]; i++) {
+        *m = (Payload_Metric)Payload_Metric_init_zero;
+        mf.name = controls[i];
+        m->has_datatype = m->has_timestamp = true;
+        m->timestamp = e->ts;
+        m->datatype = SPB_DT_BOOLEAN;
+        m->which_value = Payload_Metric_boolean_value_tag;
+        m->value.boolean_value = false;
+        if (!put_metric(st, field, m))
+            return false;
+    }
+    return true;
 }
 
 static bool echo_has(const spb_t *s, unsigned r, unsigned leaf)
@@ -627,6 +634,7 @@ static void all_dead(spb_t *s)
 void spb_connected(spb_t *s)
 {
     s->connected = true;
+    s->leaving = false;
     spb_connect_answered(s, true);
     s->host_online = s->host_id[0] == '\0';
     s->nbirth_due = true;
@@ -645,7 +653,18 @@ void spb_connected(spb_t *s)
 void spb_disconnected(spb_t *s)
 {
     s->connected = false;
+    s->leaving = false;
     all_dead(s);
+}
+
+void spb_server_changed(spb_t *s)
+{
+    s->host_ts = 0;
+}
+
+bool spb_ready(const spb_t *s)
+{
+    return s->connected && s->host_online && !s->leaving;
 }
 
 /* Born devices whose name the configuration no longer has: a DDEATH
@@ -696,6 +715,18 @@ static void goodbye(spb_t *s, int qos)
 void spb_goodbye(spb_t *s)
 {
     goodbye(s, 1);
+}
+
+/* Leave this server (the connection's io.leave says where to): a born
+ * node's NDEATH first, QoS 1 as every NDEATH (the connection waits for
+ * its PUBACK before it goes), then nothing more on this connection. */
+static void leave(spb_t *s, const char *why)
+{
+    bool born = s->born;
+    if (born)
+        goodbye(s, 1);
+    s->born = false;
+    s->leaving = s->io.leave(s->io.user, born, why);
 }
 
 void spb_on_data(spb_t *s, unsigned robot, dr_asm_t a)
@@ -797,7 +828,7 @@ static void tick_robot(spb_t *s, unsigned r, uint64_t now)
 
 void spb_tick(spb_t *s, uint64_t now)
 {
-    if (!s->connected || !s->host_online)
+    if (!s->connected || !s->host_online || s->leaving)
         return;
     while (s->born && s->gone_count > 0) {
         enc_t e = {.kind = ENC_NONE, .device = s->gone[s->gone_count - 1]};
@@ -816,7 +847,7 @@ void spb_tick(spb_t *s, uint64_t now)
 
 uint64_t spb_deadline(const spb_t *s, uint64_t now)
 {
-    if (!s->connected || !s->host_online)
+    if (!s->connected || !s->host_online || s->leaving)
         return UINT64_MAX;
     if (s->nbirth_due || s->gone_count > 0)
         return now;
@@ -921,6 +952,7 @@ typedef struct {
      * and why (nothing of the command is written then). */
     unsigned metrics, n;
     bool refused;
+    bool left;  /* NCMD: Next Server done (once per command) */
     char what[96], why[160];
 } cmd_t;
 
@@ -1054,11 +1086,15 @@ static bool on_cmd_metric(void *ctx, const spb_metric_t *sm)
         dcmd_metric(c, sm);
         return true;
     }
-    /* by name: the birth gives it no alias */
-    bool rebirth = sm->has_name && strcmp(sm->name, SPB_REBIRTH) == 0;
-    if (rebirth && m->which_value == Payload_Metric_boolean_value_tag && m->value.boolean_value) {
+    /* by name: the birth gives them no alias */
+    bool set = m->which_value == Payload_Metric_boolean_value_tag && m->value.boolean_value;
+    if (set && sm->has_name && strcmp(sm->name, SPB_REBIRTH) == 0) {
         gw_log(GW_LOG_INFO, "mqtt: sparkplug: rebirth asked (NCMD)");
         s->nbirth_due = true;
+    } else if (set && sm->has_name && strcmp(sm->name, SPB_NEXT_SERVER) == 0 && !c->left) {
+        gw_log(GW_LOG_INFO, "mqtt: sparkplug: next server asked (NCMD)");
+        c->left = true; /* once per command */
+        leave(s, "next server asked");
     }
     return true;
 }
@@ -1115,21 +1151,18 @@ static void on_state(spb_t *s, const char *p, size_t len)
         }
         s->host_ts = t;
     }
-    if (online == s->host_online)
-        return;
-    gw_log(GW_LOG_INFO, "mqtt: sparkplug: primary host %s is %s", s->host_id,
-           online ? "online" : "offline");
+    if (online != s->host_online)
+        gw_log(GW_LOG_INFO, "mqtt: sparkplug: primary host %s is %s", s->host_id,
+               online ? "online" : "offline");
+    bool was = s->host_online;
     s->host_online = online;
-    if (online)
-        s->nbirth_due = true;
-    else if (s->born) {
-        /* QoS 0: the same client connects again at once, and libmosquitto
-         * would send an unacknowledged QoS 1 NDEATH again on the new
-         * connection, after its births: a host would take it as the new
-         * session's death. The host this is for is offline anyway. */
-        goodbye(s, 0);
-        s->io.reconnect(s->io.user);
+    if (online) {
+        s->nbirth_due = s->nbirth_due || !was;
+        return;
     }
+    /* Offline, also as the retained STATE found at the connect: this
+     * server is left (for the next one, if there are several). */
+    leave(s, "primary host offline");
 }
 
 bool spb_message(spb_t *s, const char *top, const void *payload, size_t len)

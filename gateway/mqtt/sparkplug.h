@@ -41,6 +41,9 @@
 #define SPB_DT_STRING 12u
 
 #define SPB_REBIRTH "Node Control/Rebirth"
+/* NCMD: leave this server for the next of `servers` (as Cirrus Link's
+ * MQTT Engine offers it: its Node Control/Next Server tag) */
+#define SPB_NEXT_SERVER "Node Control/Next Server"
 
 /* Metric names (the `metric_names` key): folders for Ignition, whose tag
  * names take no '.' or '[]' (joint_state/position/1), or the canonical
@@ -74,8 +77,12 @@ typedef struct {
      * `why` when refused. */
     bool (*write)(void *user, unsigned robot, const gw_write_item_t *items, unsigned n,
                   gw_write_result_t *res, char *why, size_t whylen);
-    /* Drop the connection (it reconnects with the next bdSeq). */
-    void (*reconnect)(void *user);
+    /* Leave this server (`why`): the primary host said offline (a valid
+     * STATE, not an older one), or NCMD Node Control/Next Server. For the
+     * next of `servers`; with one server, the same one again if the node
+     * was born (`born`), else stay (false: not left). The node's NDEATH
+     * is queued already when it was born. */
+    bool (*leave)(void *user, bool born, const char *why);
 } spb_io_t;
 
 /* From [mqtt]; `host` is the machine's name (edge_node_id's default).
@@ -101,6 +108,12 @@ void spb_carry(spb_t *next, const spb_t *old);
  * any, is online) or gone. */
 void spb_connected(spb_t *s);
 void spb_disconnected(spb_t *s);
+/* The next connection is to another server: the primary host's STATE
+ * timestamps there are that server's (the newest one seen here is not
+ * compared with them). */
+void spb_server_changed(spb_t *s);
+/* Connected and the primary host (if any) online: births go out. */
+bool spb_ready(const spb_t *s);
 
 /* A message from the broker: true if it was Sparkplug's (handled). */
 bool spb_message(spb_t *s, const char *topic, const void *payload, size_t len);

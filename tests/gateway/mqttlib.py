@@ -19,28 +19,30 @@ PREFIX = "drgate/test"
 
 class Broker:
     """mosquitto -c <generated conf> on 127.0.0.1:<free port>, no
-    persistence (a restart forgets retained messages)."""
+    persistence (a restart forgets retained messages); or on addr:port in
+    network namespace netns (test_mqtt_failover.py)."""
 
-    def __init__(self, name, tls=None):
+    def __init__(self, name, tls=None, addr=GW_ADDR, port=None, netns=None):
         self.name = name
         self.tls = tls  # dict of cafile/certfile/keyfile, or None
-        self.port = None
+        self.addr, self.port, self.netns = addr, port, netns
         self.proc = None
         self.conf = LOGDIR / ("%s.mosquitto.conf" % name)
         self.log_path = LOGDIR / ("%s.mosquitto.log" % name)
 
     def start(self, same_port=False):
-        if not same_port or self.port is None:
+        if self.netns is None and (not same_port or self.port is None):
             self.port = free_port(GW_ADDR, udp=False)
         text = ("per_listener_settings false\nallow_anonymous true\n"
-                "persistence false\nuser root\nlistener %d %s\n" % (self.port, GW_ADDR))
+                "persistence false\nuser root\nlistener %d %s\n" % (self.port, self.addr))
         if self.tls:
             text += "cafile %s\ncertfile %s\nkeyfile %s\n" % (
                 self.tls["ca"], self.tls["cert"], self.tls["key"])
         LOGDIR.mkdir(parents=True, exist_ok=True)
         self.conf.write_text(text)
         mark = len(read_text(self.log_path))
-        self.proc = spawn([MOSQUITTO, "-c", str(self.conf), "-v"], self.log_path)
+        ns = ["ip", "netns", "exec", self.netns] if self.netns else []
+        self.proc = spawn(ns + [MOSQUITTO, "-c", str(self.conf), "-v"], self.log_path)
         wait_for(lambda: self.proc.poll() is not None or
                  " running" in read_text(self.log_path)[mark:], 10, "mosquitto to start")
         assert self.proc.poll() is None, read_text(self.log_path)[-2000:]
@@ -66,7 +68,7 @@ class Plant:
     """A paho client subscribed to <PREFIX>/#: every message kept as
     (topic, payload text, retained)."""
 
-    def __init__(self, broker, tls_ca=None):
+    def __init__(self, broker, tls_ca=None, addr=GW_ADDR):
         self.msgs = []
         self.times = []  # time.monotonic() of each message's arrival
         self.walls = []  # time.time() of the same
@@ -78,7 +80,7 @@ class Plant:
         self.c.on_message = self._on_message
         self.c.on_connect = lambda c, u, f, rc: c.subscribe(PREFIX + "/#", qos=1)
         self.c.on_subscribe = lambda c, u, mid, qos: self.subscribed.set()
-        self.c.connect(GW_ADDR, broker.port, 30)
+        self.c.connect(addr, broker.port, 30)
         self.c.loop_start()
         # what the gateway publishes from now on (its snapshot) is seen
         assert self.subscribed.wait(timeout(10)), "no SUBACK from the broker"

@@ -240,6 +240,32 @@ def test_tls_failure_says_why(request, tls_files, tmp_path):
             assert "connected to" not in g.log()
 
 
+def test_tls_by_host_name(request, tls_files, tmp_path):
+    """A server given by a host name is connected by the address looked up
+    (resolve.c), its certificate checked against the name (OpenSSL, as
+    libmosquitto did when it resolved the name itself): `localhost` with a
+    certificate for DNS:localhost connects; with one for IP:127.0.0.1
+    only, it is a TLS failure, never connected."""
+    d = tmp_path
+    openssl("req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes",
+            "-keyout", "named.key", "-out", "named.csr", "-subj", "/CN=localhost", cwd=d)
+    (d / "named.cnf").write_text("subjectAltName=DNS:localhost\n")
+    openssl("x509", "-req", "-in", "named.csr", "-CA", tls_files["ca"], "-CAkey",
+            tls_files["ca"].parent / "ca.key", "-CAcreateserial", "-out", "named.crt", "-days",
+            "2", "-extfile", "named.cnf", cwd=d)
+    named = {"ca": tls_files["ca"], "cert": d / "named.crt", "key": d / "named.key"}
+    for files, ok in ((named, True), (tls_files, False)):
+        with broker_running(request.node.name, tls=files) as b:
+            extra = mqtt_section(b, "ca_file = %s" % files["ca"]).replace(
+                "host = %s" % GW_ADDR, "host = localhost")
+            with running("mqtt_tls_name", extra=extra) as g:
+                if ok:
+                    g.log_wait("mqtt: connected to localhost:%d" % b.port, 20)
+                else:
+                    g.log_wait("mqtt: cannot connect to localhost:%d: TLS failure" % b.port, 20)
+                    assert "connected to" not in g.log()
+
+
 def test_reload(broker):
     """SIGHUP: an unchanged [mqtt] keeps its connection and publishes afresh;
     a changed one reconnects (offline, then online); one whose

@@ -49,11 +49,12 @@ class Tahu:
     published, decoded by Tahu's sparkplug-payload; publishes with Tahu's
     encoder."""
 
-    def __init__(self, broker, name="tahu"):
+    def __init__(self, broker, name="tahu", addr=None):
         self.msgs, self.acks = [], []
         self.lock = threading.Lock()
         log = open(LOGDIR / ("%s.tahu.log" % name), "ab")
-        self.p = subprocess.Popen([NODE, str(TAHU / "host.js"), str(broker.port), GROUP],
+        self.p = subprocess.Popen([NODE, str(TAHU / "host.js"), str(broker.port), GROUP] +
+                                  ([addr] if addr else []),
                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log,
                                   cwd=str(TAHU))
         log.close()

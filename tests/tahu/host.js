@@ -6,7 +6,7 @@
 // with retain-as-published, so that each message shows the QoS and the
 // retain flag the gateway (or the broker's Will) published it with.
 //
-//   node host.js PORT GROUP
+//   node host.js PORT GROUP [HOST]      (HOST: the broker's address, 127.0.0.1)
 //   stdout: one JSON line per message: {"topic", "qos", "retain", "len",
 //           "at" (ms, arrival), "payload" (Tahu's decoding) | "text" |
 //           "error"}; first {"ready": true} once subscribed
@@ -22,8 +22,8 @@ const sparkplug = require('sparkplug-payload').get('spBv1.0');
 const RawPayload = require('sparkplug-payload/lib/sparkplugPayloadProto').org.eclipse.tahu.protobuf.Payload;
 const birthTypes = {};  // "group/edge[/device]" -> {alias: datatype name}
 
-const [port, group] = process.argv.slice(2);
-const c = mqtt.connect({host: '127.0.0.1', port: Number(port), protocolVersion: 5,
+const [port, group, host] = process.argv.slice(2);
+const c = mqtt.connect({host: host || '127.0.0.1', port: Number(port), protocolVersion: 5,
                         clientId: 'tahu-host-' + process.pid, reconnectPeriod: 200});
 
 function plain(v) {

@@ -959,7 +959,22 @@ static const err_case_t err_cases[] = {
       "4: unknown key 'foo' in [modbus] (allowed: " MODBUS_KEYS ")" },
     /* [mqtt] */
     { ROBOT "[mqtt]\nport = 1883\n",
-      "3: [mqtt] has no host (allowed: the broker's IPv4 address or host name)" },
+      "3: [mqtt] has no servers (allowed: servers = HOST[:PORT] ..., or host = the broker's "
+      "IPv4 address or host name)" },
+    { ROBOT "[mqtt]\nhost = b\nservers = a:1883 b\n",
+      "5: [mqtt] servers and host: one or the other (allowed: servers = HOST[:PORT] ... for "
+      "one or more brokers, or host (and port) for one; line 4 has host)" },
+    { ROBOT "[mqtt]\nservers = a:1883 b:0\n",
+      "4: servers: port '0' of b invalid (allowed: 1..65535)" },
+    { ROBOT "[mqtt]\nservers = a:1883x\n",
+      "4: servers: port '1883x' of a invalid (allowed: 1..65535)" },
+    { ROBOT "[mqtt]\nservers = a b 10.0.0.256\n",
+      "4: servers: '10.0.0.256' is not a host (allowed: HOST[:PORT] ..., at most 4 (HOST an "
+      "IPv4 address or a host name))" },
+    { ROBOT "[mqtt]\nservers = a b c d e\n",
+      "4: servers: more than 4 servers (allowed: HOST[:PORT] ..., at most 4 (HOST an IPv4 "
+      "address or a host name))" },
+    { ROBOT "[mqtt]\nservers = a:1883 a\n", "4: [mqtt] servers: a:1883 named twice" },
     { ROBOT "[mqtt]\nhost = b\n[mqtt]\n",
       "5: section [mqtt] repeated (first at line 3)" },
     { ROBOT "[mqtt broker]\n", "3: section [mqtt broker] takes no name (allowed: [mqtt])" },
@@ -968,9 +983,10 @@ static const err_case_t err_cases[] = {
     { ROBOT "[mqtt]\nhost = b\nqos = 3\n", "5: qos 3 out of range (allowed: 0..2)" },
     { ROBOT "[mqtt]\nhost = b\ntopic_prefx = x\n",
       "5: unknown key 'topic_prefx' in [mqtt] (did you mean 'topic_prefix'? allowed: "
-      "host, port, client_id, username, password_file, ca_file, cert_file, key_file, "
+      "servers, host, port, client_id, username, password_file, ca_file, cert_file, key_file, "
       "keepalive_s, qos, topic_prefix, retain, publish_interval_ms, deadband, writes, "
-      "payload, group_id, edge_node_id, primary_host_id, metric_names, bdseq_file)" },
+      "payload, group_id, edge_node_id, primary_host_id, primary_host_wait_s, metric_names, "
+      "bdseq_file)" },
     { ROBOT "[mqtt]\nhost = b\ntopic_prefix = plant/#\n",
       "5: topic_prefix 'plant/#' invalid (allowed: topic levels separated by '/', no "
       "wildcards, blanks or empty levels, e.g. drgate/cell1)" },
@@ -1016,6 +1032,22 @@ static void test_mqtt(void **state)
     assert_true(q->deadband == 0.0);
     assert_false(q->writes);
     assert_string_equal(q->topic_prefix, "");
+    assert_int_equal(q->server_count, 1); /* host and port: the one server */
+    assert_string_equal(q->server[0].host, "broker.local");
+    assert_int_equal(q->server[0].port, 1883);
+    assert_int_equal(q->host_wait_s, 10);
+    /* servers: in order, `port` for those without one (given after them) */
+    if (!load_text(ROBOT "[mqtt]\nservers = b1:8883, 10.0.0.2 b3:1\nport = 2883\n"
+                         "primary_host_wait_s = 3\n", &c, err, sizeof err))
+        fail_msg("%s", err);
+    assert_int_equal(q->server_count, 3);
+    assert_string_equal(q->server[0].host, "b1");
+    assert_int_equal(q->server[0].port, 8883);
+    assert_string_equal(q->server[1].host, "10.0.0.2");
+    assert_int_equal(q->server[1].port, 2883);
+    assert_string_equal(q->server[2].host, "b3");
+    assert_int_equal(q->server[2].port, 1);
+    assert_int_equal(q->host_wait_s, 3);
     if (!load_text(ROBOT "[mqtt]\nhost = 10.0.0.9\nport = 8883\nclient_id = cell-1.gw\n"
                          "username = gw\npassword_file = /etc/drgate/mqtt.pw\n"
                          "ca_file = ca.pem\ncert_file = c.pem\nkey_file = k.pem\n"
