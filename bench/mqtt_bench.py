@@ -15,7 +15,9 @@ the plant.
 - Traffic: the bytes a subscriber to everything receives (topic and
   payload) per second per robot, drsim moving at RPI 10 ms, [mqtt]
   defaults (publish_interval_ms = 100, deadband 0), JSON vs Sparkplug B.
-  Goal: Sparkplug at most a quarter of JSON's.
+  Goals (restated in issue 32, docs/performance.md "MQTT": a quarter was
+  below the 16 bytes a Sparkplug 3.0 metric needs): a DDATA value at most
+  17 bytes on the wire, and Sparkplug at most 0.35 of JSON's bytes/s.
 - CPU: the daemon's CPU time over the same wall time with either payload
   and without [mqtt].
 
@@ -240,7 +242,9 @@ def main():
     for label, _ in payloads:
         mq, mb = lat[label]
         ok &= goal("p99 %s subscriber / Modbus poll" % label, pct(mq, 99) / pct(mb, 99), 1.3)
-    ok &= goal("bytes/s Sparkplug B / JSON", rate["Sparkplug B"][0] / rate["JSON"][0], 0.25)
+    _, vals, size, _ = split["Sparkplug B"]
+    ok &= goal("bytes per Sparkplug DDATA value", size / max(vals, 1), 17.0, "%.1f")
+    ok &= goal("bytes/s Sparkplug B / JSON", rate["Sparkplug B"][0] / rate["JSON"][0], 0.35)
     return 0 if ok else 1
 
 
