@@ -168,6 +168,17 @@ static bool map(void *user, gw_json_t *j, unsigned robot)
     return false;
 }
 
+/* /api/v1/SIDE/PATH: the running side of that name, if it has an api. */
+static bool side_api(void *user, const char *side, const char *path, gw_json_t *j)
+{
+    const gw_t *g = user;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (strcmp(gw_north_sides[i]->name, side) == 0)
+            return g->side[i] != NULL && gw_north_sides[i]->api != NULL &&
+                   gw_north_sides[i]->api(g->side[i], path, j);
+    return false;
+}
+
 static void metrics(void *user, gw_prom_t *m)
 {
     const gw_t *g = user;
@@ -450,7 +461,8 @@ static bool start_sides(gw_t *g)
                               .report = report,
                               .metrics = metrics,
                               .summaries = summaries,
-                              .map = map};
+                              .map = map,
+                              .side_api = side_api};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
         if (g->side[i] == NULL) {

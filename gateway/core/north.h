@@ -85,6 +85,10 @@ typedef struct {
     /* /api/v1/robots/NAME/map: robot's map of fields, by the first side
      * with a `map_json` op; false: none (or j is full). NULL: none. */
     bool (*map)(void *user, gw_json_t *j, unsigned robot);
+    /* GET /api/v1/SIDE/PATH: the running side named `side` answers PATH
+     * with its `api` op; false: no such side or path (404), or j full.
+     * NULL: none. */
+    bool (*side_api)(void *user, const char *side, const char *path, gw_json_t *j);
 } gw_north_env_t;
 
 typedef enum {
@@ -130,6 +134,9 @@ typedef struct {
     /* The status summary (NULL: nothing to show): fill s, which comes
      * zeroed; a side with nothing configured leaves the label empty. */
     void (*summary)(const void *self, gw_side_summary_t *s);
+    /* GET /api/v1/NAME/PATH (env->side_api): the side's own JSON answer
+     * for PATH ("requests"); false: not one of its paths. NULL: none. */
+    bool (*api)(const void *self, const char *path, gw_json_t *j);
 
     /* --check-config: what the loader cannot check (TLS files load);
      * false with "FILE:LINE: ..." in err. (What the daemon asks of a

@@ -540,6 +540,25 @@ static int robot_of(const ht_t *t, const char *p, const char **rest)
     return gw_http_api_find(&a, name);
 }
 
+/* What a 404 under /api/ lists: every route. */
+#define NOT_FOUND_API                                                                            \
+    "not found (allowed: /api/v1/status, /api/v1/robots, /api/v1/robots/NAME, "               \
+    "/api/v1/robots/NAME/values, /api/v1/robots/NAME/map, /api/v1/events?robot=NAME, "        \
+    "/api/v1/log, /api/v1/modbus/requests)"
+
+/* "SIDE/PATH": the side's own answer (north.h: env->side_api). */
+static bool side_api(const ht_t *t, const char *p, gw_json_t *j)
+{
+    const char *slash = strchr(p, '/');
+    char side[32];
+    size_t n = slash != NULL ? (size_t)(slash - p) : 0;
+    if (t->env->side_api == NULL || n == 0 || n >= sizeof side)
+        return false;
+    memcpy(side, p, n);
+    side[n] = '\0';
+    return t->env->side_api(t->env->user, side, slash + 1, j);
+}
+
 static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *method,
                                  const char *url)
 {
@@ -573,11 +592,10 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
                  (!gw_http_api_map(&j, t->env, (unsigned)r) && !j.full))
             return send_error(c, 404, method, url, "not found");
         /* a map that does not fit is send_json's 500 "response too large" */
-    } else {
-        return send_error(c, 404, method, url,
-                          "not found (allowed: /api/v1/status, /api/v1/robots, "
-                          "/api/v1/robots/NAME, /api/v1/robots/NAME/values, "
-                          "/api/v1/events?robot=NAME, /api/v1/log)");
+    } else if (!side_api(t, p, &j)) {
+        if (j.full)
+            return send_error(c, 500, method, url, "response too large");
+        return send_error(c, 404, method, url, NOT_FOUND_API);
     }
     if (!j.full && (j.len == 0 || j.buf[j.len - 1] != '\n'))
         gw_json_str(&j, "\n");

@@ -290,10 +290,67 @@
     setText($("log-count"), shown + " of " + events.length + " events, the newest first");
   }
 
+  // ---- Modbus requests (the Modbus side's request log) ------------------------
+
+  var reqData = null;
+
+  function exText(code, name) {
+    return hex(code, 2) + (name ? " " + name : "");
+  }
+
+  function renderRequests() {
+    var d = reqData;
+    if (!d) return;
+    $("requests-card").hidden = false;
+    var q = $("req-filter").value.trim().toLowerCase(), exOnly = $("req-ex").checked;
+    var all = [];
+    (d.clients || []).forEach(function (c) {
+      (c.log || []).forEach(function (e) { all.push({ c: c, e: e }); });
+    });
+    all.sort(function (a, b) { return a.e.age_ms - b.e.age_ms; }); // the newest first
+    var body = $("requests").tBodies[0], frag = document.createDocumentFragment(), shown = 0;
+    all.forEach(function (x) {
+      var e = x.e, c = x.c;
+      var result = e.ex ? "exception " + exText(e.ex, e.exception) : "ok";
+      var fn = "FC " + e.fc + (e.function ? " " + e.function : "");
+      var who = c.client + (c.transport === "rtu" ? " (RTU)" : c.connected ? "" : " (gone)");
+      var key = (who + " " + fn + " " + e.addr + " unit " + e.unit + " " + result).toLowerCase();
+      if ((exOnly && !e.ex) || (q && key.indexOf(q) < 0)) return;
+      frag.appendChild(el("tr", { class: e.ex ? "error" : null, "data-client": c.client, "data-fc": e.fc,
+        "data-addr": e.addr, "data-ex": e.ex },
+        el("td", null, ms(e.age_ms) + " ago"), el("td", { class: "mono" }, who),
+        el("td", { class: "num" }, e.unit), el("td", null, fn), el("td", { class: "num" }, e.addr),
+        el("td", { class: "num" }, e.count), el("td", { class: e.ex ? "reason" : null }, result)));
+      shown++;
+    });
+    body.textContent = "";
+    body.appendChild(frag);
+    setText($("req-count"), shown + " of " + all.length + " requests of " + (d.clients || []).length +
+      " client" + ((d.clients || []).length === 1 ? "" : "s") + " (the last " + d.log_size + " of each), the newest first");
+    var ex = d.exceptions || {}, box = $("req-exceptions");
+    box.textContent = "";
+    if ((ex.by_code || []).length) {
+      box.appendChild(el("h3", null, "Exceptions by code"));
+      box.appendChild(el("p", { class: "mono", id: "req-by-code" }, (ex.by_code || []).map(function (b) {
+        return exText(b.code, b.name) + ": " + b.count;
+      }).join(", ")));
+      box.appendChild(el("h3", null, "Exceptions by address" + (ex.other ? " (" + ex.other + " more elsewhere)" : "")));
+      box.appendChild(sideTable("by_address", (ex.by_address || []).map(function (p) {
+        return { transport: p.transport, unit: p.unit, "function": "FC " + p.fc + (p["function"] ? " " + p["function"] : ""),
+          address: p.addr, exception: exText(p.code, p.name), count: p.count, last: ms(p.last_age_ms) + " ago" };
+      })));
+    }
+  }
+
   function overview() {
-    var lastLog = 0, lastEvents = [];
+    var lastLog = 0, lastEvents = [], lastReq = 0, reqOn = true;
     function tick() {
       var now = Date.now(), jobs = [getJSON("/api/v1/status").then(renderStatus)];
+      if (reqOn && now - lastReq >= 1000) {
+        lastReq = now;
+        jobs.push(getJSON("/api/v1/modbus/requests").then(function (d) { reqData = d; renderRequests(); },
+          function (e) { if (e.status === 404) reqOn = false; else throw e; }));
+      }
       if (now - lastLog >= 2000) {
         lastLog = now;
         jobs.push(getJSON("/api/v1/log").then(function (ev) { lastEvents = ev || []; renderLog(lastEvents); }));
@@ -302,6 +359,8 @@
         .then(function () { setTimeout(tick, document.hidden ? 5000 : 500); });
     }
     $("log-warn").addEventListener("change", function () { renderLog(lastEvents); });
+    $("req-filter").addEventListener("input", renderRequests);
+    $("req-ex").addEventListener("change", renderRequests);
     tick();
   }
 

@@ -1,0 +1,118 @@
+# SPDX-License-Identifier: MIT
+"""The console's second round (issue 33) through its API, against a running
+gateway (two robots: r0 on drsim, `down` pointing at a port nobody listens
+on): the Modbus request log (/api/v1/modbus/requests), ...
+
+Each test here failed on the code before the change it checks (the commit
+that added it says how)."""
+import json
+
+import pytest
+
+from gwlib import GW_ADDR, Drsim, Gateway, free_port, wait_for
+from test_http import down_robot, get, get_json
+
+BAD_HR = 5000  # a holding register nothing is mapped to: FC 16 there gets 0x02
+
+
+@pytest.fixture(scope="module")
+def gw():
+    sim = Drsim("console_api", "--still").start()
+    port = free_port(GW_ADDR, udp=False)
+    g = Gateway("console_api", sim, extra=down_robot() + "\n[http]\nport = %d\n" % port)
+    g.sim, g.http = sim, port
+    try:
+        g.start()
+        wait_for(lambda: g.listening(port), 10, "the console to listen")
+        yield g
+    finally:
+        g.kill()
+        sim.kill()
+
+
+def my_client(log, c):
+    """The entry of pymodbus client c (by its local address)."""
+    addr = "%s:%d" % c.socket.getsockname()[:2]
+    for e in log["clients"]:
+        if e["client"] == addr:
+            return e
+    raise AssertionError("no client %s in %s" % (addr, [e["client"] for e in log["clients"]]))
+
+
+def test_request_log_shows_a_refused_fc16(gw):
+    c = gw.pymodbus()
+    try:
+        r = c.write_registers(BAD_HR, [1, 2], slave=1)
+        assert r.isError() and r.exception_code == 2
+        assert not c.read_holding_registers(100, count=3, slave=1).isError()
+        log = get_json(gw.http, "/api/v1/modbus/requests")
+        me = my_client(log, c)
+        assert me["transport"] == "tcp" and me["connected"] is True
+        assert me["requests"] == 2 and me["exceptions"] == 1
+        w, rd = me["log"][-2:]
+        assert (w["fc"], w["function"], w["addr"], w["count"], w["unit"]) == \
+            (16, "Write Multiple Registers", BAD_HR, 2, 1)
+        assert (w["ex"], w["exception"]) == (2, "Illegal Data Address")
+        assert (rd["fc"], rd["addr"], rd["count"], rd["ex"], rd["exception"]) == \
+            (3, 100, 3, 0, None)
+        assert w["age_ms"] >= rd["age_ms"] >= 0
+        ex = log["exceptions"]
+        assert {"code": 2, "name": "Illegal Data Address"}.items() <= \
+            next(b for b in ex["by_code"] if b["code"] == 2).items()
+        place = [p for p in ex["by_address"] if p["addr"] == BAD_HR and p["fc"] == 16]
+        assert len(place) == 1 and place[0]["code"] == 2 and place[0]["count"] >= 1
+        assert place[0]["transport"] == "tcp" and place[0]["unit"] == 1
+    finally:
+        c.close()
+
+
+def test_request_log_unit_and_rights_refusals_name_their_address(gw):
+    """A request refused before its data is looked at (no robot with the
+    unit ID) still shows the address and count it asked for."""
+    c = gw.pymodbus()
+    try:
+        r = c.read_input_registers(201, count=2, slave=77)
+        assert r.isError() and r.exception_code == 0x0A
+        e = my_client(get_json(gw.http, "/api/v1/modbus/requests"), c)["log"][-1]
+        assert (e["unit"], e["fc"], e["addr"], e["count"], e["ex"]) == (77, 4, 201, 2, 0x0A)
+        assert e["exception"] == "Gateway Path Unavailable"
+    finally:
+        c.close()
+
+
+def test_request_log_is_bounded_and_kept_across_a_reconnect(gw):
+    c = gw.pymodbus()
+    addr = c.socket.getsockname()[0]
+    try:
+        for i in range(40):
+            assert not c.read_holding_registers(100 + i % 3, count=1, slave=1).isError()
+        log = get_json(gw.http, "/api/v1/modbus/requests")
+        me = my_client(log, c)
+        n = log["log_size"]
+        assert n == 32 and len(me["log"]) == n  # the newest 32 of 40
+        assert [e["addr"] for e in me["log"]] == [100 + i % 3 for i in range(40 - n, 40)]
+        me_addr = me["client"]
+    finally:
+        c.close()
+    wait_for(lambda: not [e for e in get_json(gw.http, "/api/v1/modbus/requests")["clients"]
+                          if e["client"] == me_addr and e["connected"]], 10,
+             "the gateway to see the client gone")
+    # the same address connects again: its past is still there
+    c = gw.pymodbus()
+    try:
+        assert c.socket.getsockname()[0] == addr
+        assert not c.read_coils(100, count=1, slave=1).isError()
+        me = my_client(get_json(gw.http, "/api/v1/modbus/requests"), c)
+        assert me["requests"] == 1 and len(me["log"]) == 32
+        assert me["log"][-1]["fc"] == 1 and me["log"][-2]["fc"] == 3
+    finally:
+        c.close()
+
+
+def test_not_found_lists_every_route(gw):
+    for path in ("/api/v1/nothing", "/api/v1/modbus/nothing", "/api/v1/nobody/requests"):
+        st, hdr, body = get(gw.http, path)
+        assert st == 404, path
+        err = json.loads(body)["error"]
+        for route in ("/api/v1/robots/NAME/map", "/api/v1/modbus/requests"):
+            assert route in err, (path, err)
