@@ -137,18 +137,23 @@ static void notify_status(gw_t *g)
 
 /* "modbus": {...}, ...: each running side's member, commas between (the
  * caller writes the braces around them). */
-static void report(void *user, gw_json_t *j)
+/* One member per running side that says something (op, or robot_op for
+ * robot `robot`), commas between. */
+static void each_side(const gw_t *g, gw_json_t *j, bool per_robot, unsigned robot)
 {
-    const gw_t *g = user;
     bool first = true;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
-        if (g->side[i] == NULL || gw_north_sides[i]->report == NULL)
+        const gw_north_ops_t *op = gw_north_sides[i];
+        if (g->side[i] == NULL || (per_robot ? op->robot_report == NULL : op->report == NULL))
             continue;
         size_t at = j->len;
         if (!first)
             gw_json_str(j, ",");
         size_t mark = j->len;
-        gw_north_sides[i]->report(g->side[i], j);
+        if (per_robot)
+            op->robot_report(g->side[i], robot, j);
+        else
+            op->report(g->side[i], j);
         if (j->len == mark && !j->full) { /* nothing to say: no comma either */
             j->len = at;
             j->buf[at] = '\0';
@@ -156,6 +161,16 @@ static void report(void *user, gw_json_t *j)
             first = false;
         }
     }
+}
+
+static void report(void *user, gw_json_t *j)
+{
+    each_side(user, j, false, 0);
+}
+
+static void robot_sides(void *user, unsigned robot, gw_json_t *j)
+{
+    each_side(user, j, true, robot);
 }
 
 /* /api/v1/robots/NAME/map: from the first side that has a map. */
@@ -462,7 +477,8 @@ static bool start_sides(gw_t *g)
                               .metrics = metrics,
                               .summaries = summaries,
                               .map = map,
-                              .side_api = side_api};
+                              .side_api = side_api,
+                              .robot_sides = robot_sides};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
         if (g->side[i] == NULL) {

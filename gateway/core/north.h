@@ -89,6 +89,9 @@ typedef struct {
      * with its `api` op; false: no such side or path (404), or j full.
      * NULL: none. */
     bool (*side_api)(void *user, const char *side, const char *path, gw_json_t *j);
+    /* A robot's "sides" members in the console's ROBOT: each running
+     * side's robot_report, commas between, no braces. NULL: none. */
+    void (*robot_sides)(void *user, unsigned robot, gw_json_t *j);
 } gw_north_env_t;
 
 typedef enum {
@@ -137,6 +140,10 @@ typedef struct {
     /* GET /api/v1/NAME/PATH (env->side_api): the side's own JSON answer
      * for PATH ("requests"); false: not one of its paths. NULL: none. */
     bool (*api)(const void *self, const char *path, gw_json_t *j);
+    /* What the side says of robot `robot` in the console's ROBOT
+     * (env->robot_sides): `"name": {...}` (Modbus: its unit ID and
+     * aliases), nothing when it has nothing to say. NULL: none. */
+    void (*robot_report)(const void *self, unsigned robot, gw_json_t *j);
 
     /* --check-config: what the loader cannot check (TLS files load);
      * false with "FILE:LINE: ..." in err. (What the daemon asks of a

@@ -109,6 +109,7 @@ typedef struct sse {
     char robot[GW_NAME_MAX];
     uint32_t serial;     /* the robot's: a new one starts over */
     uint16_t link_state; /* as last sent */
+    bool fresh, ever_up; /* as last sent */
     uint32_t ip;         /* the client's */
     int fd;              /* its socket (a stalled one is shut down) */
     uint64_t started_us, progress_us; /* opened; last took bytes */
@@ -364,11 +365,16 @@ static bool sse_fill(sse_t *s, uint64_t now)
         memset(s->last, GW_HTTP_API_UNSENT, dr_leaf_count() * sizeof *s->last);
         s->serial = rb->serial;
     }
-    if (!s->started || rb->link.link_state != s->link_state) {
+    /* the robot again when its link, or the freshness of its values,
+     * changed: the page marks stale values as stale */
+    if (!s->started || rb->link.link_state != s->link_state || rb->link.fresh != s->fresh ||
+        rb->link.ever_up != s->ever_up) {
         gw_json_init(&j, text, sizeof text);
         gw_http_api_robot(&j, &a, (unsigned)r);
         sse_append(s, "status", &j);
         s->link_state = rb->link.link_state;
+        s->fresh = rb->link.fresh;
+        s->ever_up = rb->link.ever_up;
     }
     s->started = true;
     gw_json_init(&j, text, sizeof text);

@@ -753,6 +753,20 @@ static void requests_json(const mb_t *m, gw_json_t *j)
     gw_json_str(j, "}");
 }
 
+/* "modbus": {"unit_id", "unit_id_aliases"} of robot r: what a PLC names
+ * it by. */
+static void mb_robot_report(const void *self, unsigned r, gw_json_t *j)
+{
+    const mb_t *m = self;
+    const gw_config_t *cfg = m->env->cfg;
+    if (r >= cfg->robot_count)
+        return;
+    const gw_modbus_robot_config_t *rc = &cfg->robot[r].side.modbus;
+    json_fmt(j, "\"modbus\":{\"unit_id\":%u,\"unit_id_aliases\":[%s%s%s]}",
+             (unsigned)rc->unit_id, rc->alias0 ? "0" : "", rc->alias0 && rc->alias255 ? "," : "",
+             rc->alias255 ? "255" : "");
+}
+
 static bool mb_api(const void *self, const char *path, gw_json_t *j)
 {
     const mb_t *m = self;
@@ -823,6 +837,7 @@ const gw_north_ops_t gw_north_modbus = {
     .metrics = mb_metrics,
     .summary = mb_summary,
     .api = mb_api,
+    .robot_report = mb_robot_report,
     .map_json = mb_map_json,
     .print_map = gw_regmap_print_all,
     .print_errors = gw_regmap_print_errors,

@@ -1,17 +1,23 @@
 # SPDX-License-Identifier: MIT
 """The console's second round (issue 33) through its API, against a running
 gateway (two robots: r0 on drsim, `down` pointing at a port nobody listens
-on): the Modbus request log (/api/v1/modbus/requests), ...
+on): the Modbus request log (/api/v1/modbus/requests), every robot's
+identity (address, unit ID, layout, originator serial) and truth (a robot
+never linked is not shown with the gateway's zeros as its state; a robot
+lost is marked stale), ...
 
 Each test here failed on the code before the change it checks (the commit
 that added it says how)."""
 import json
+import re
 
 import pytest
 
+import gwlib
 from gwlib import GW_ADDR, Drsim, Gateway, free_port, wait_for
 from test_http import down_robot, get, get_json
 
+STATE_NAMES = {0: "INITIALIZING", 1: "STANDBY", 2: "OPERATING"}  # drsim's (dr_robot_state_name)
 BAD_HR = 5000  # a holding register nothing is mapped to: FC 16 there gets 0x02
 
 
@@ -116,3 +122,55 @@ def test_not_found_lists_every_route(gw):
         err = json.loads(body)["error"]
         for route in ("/api/v1/robots/NAME/map", "/api/v1/modbus/requests"):
             assert route in err, (path, err)
+
+
+def test_robot_identity(gw):
+    """Who each robot is: the address the gateway reaches it at, the unit
+    ID a PLC names it by, the layout, and the originator serial its
+    Forward Opens carry (the one the log says)."""
+    r0 = get_json(gw.http, "/api/v1/robots/r0")
+    assert (r0["host"], r0["tcp_port"], r0["udp_port"]) == (gwlib.SIM_ADDR, gw.sim.tcp, gw.sim.udp)
+    assert r0["sides"]["modbus"] == {"unit_id": 1, "unit_id_aliases": []}
+    assert (r0["mode"], r0["layout"]) == ("implicit", "per_assembly")
+    m = re.search(r"robot r0: connecting to .*originator serial (0x[0-9A-F]{8})", gw.log())
+    assert m and r0["originator_serial"] == m.group(1), (r0["originator_serial"], m)
+    down = get_json(gw.http, "/api/v1/robots/down")
+    assert down["sides"]["modbus"]["unit_id"] == 9
+    assert down["host"] == gwlib.SIM_ADDR and down["tcp_port"] > 0
+    assert [r["name"] for r in get_json(gw.http, "/api/v1/robots")] == ["r0", "down"]
+    assert get_json(gw.http, "/api/v1/robots")[0]["host"] == r0["host"]
+
+
+def test_never_linked_robot_is_not_shown_as_the_robots_data(gw):
+    down = get_json(gw.http, "/api/v1/robots/down")
+    assert down["link"] in ("down", "connecting")
+    assert down["state"] == "never linked" and down["ever_linked"] is False
+    assert down["age_ms"] is None  # not the daemon's uptime
+    assert down["robot_state"] is None and down["servo_on"] is None
+    assert down["values_stale"] is True
+    r0 = get_json(gw.http, "/api/v1/robots/r0")
+    assert r0["state"] == "up" and r0["ever_linked"] is True and r0["values_stale"] is False
+    assert isinstance(r0["age_ms"], int) and r0["age_ms"] < 5000
+    values = get_json(gw.http, "/api/v1/robots/r0/values")
+    assert r0["robot_state"]["value"] == values["io_state.robot_state"]
+    assert r0["robot_state"]["name"] == STATE_NAMES[values["io_state.robot_state"]]
+    assert r0["servo_on"] is values["io_state.servo_on"]
+
+
+def test_a_lost_robot_is_marked_stale_not_never_linked(tmp_path):
+    sim = Drsim("console_api_lost", "--still").start()
+    port = free_port(GW_ADDR, udp=False)
+    g = Gateway("console_api_lost", sim, extra="\n[http]\nport = %d\n" % port)
+    try:
+        g.start()
+        wait_for(lambda: g.listening(port), 10, "the console to listen")
+        assert get_json(port, "/api/v1/robots/r0")["values_stale"] is False
+        sim.kill()
+        wait_for(lambda: get_json(port, "/api/v1/robots/r0")["link"] != "up", 20, "the link down")
+        r0 = get_json(port, "/api/v1/robots/r0")
+        assert r0["state"] != "never linked" and r0["ever_linked"] is True
+        assert r0["values_stale"] is True and r0["fresh"] is False
+        assert r0["robot_state"]["name"] in STATE_NAMES.values()  # the last sent, marked stale
+    finally:
+        g.kill()
+        sim.kill()

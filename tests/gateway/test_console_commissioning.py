@@ -7,6 +7,9 @@ browser takes seconds to start on a loaded machine), phase by phase:
 
 - the overview's Modbus request log shows a refused FC 16 with its
   exception, and its filter finds it by client, function and exception;
+- every robot's address and unit ID on the overview and its page, a robot
+  that never linked shown as such (no robot state from the gateway's
+  zeros, no data age from the daemon's uptime, its values marked);
 
 SKIPPED with the banner of tests/skip.sh where chromium, its driver or
 selenium is missing (test_console_browser.browser()).
@@ -17,7 +20,7 @@ import pytest
 
 import gwlib
 from gwlib import wait_for
-from test_console_browser import ConsoleGateway, NoRobot, browser, js
+from test_console_browser import ConsoleGateway, NoRobot, api, browser, js
 
 NAME = "console_commissioning"
 
@@ -87,8 +90,51 @@ def request_log_shows_a_refused_fc16(console):
         c.close()
 
 
+def overview_cells(d, name):
+    return js(d, "var r = document.querySelector('#robots tr[data-robot=\"' + arguments[0] + '\"]');"
+                 "if (!r) return null; var o = {};"
+                 "r.querySelectorAll('[data-field]').forEach(function (c) {"
+                 " o[c.getAttribute('data-field')] = c.textContent; });"
+                 "o.stale = Array.from(r.querySelectorAll('.stale')).map(function (c) {"
+                 " return c.getAttribute('data-field'); }); return o;", name)
+
+
+def identity_and_never_linked(console):
+    g, d = console, console.driver
+    d.get(g.url + "/")
+    wait_for(lambda: (overview_cells(d, "arm2") or {}).get("unit"), 20, "the overview's robots")
+    arm1, arm2 = overview_cells(d, "arm1"), overview_cells(d, "arm2")
+    assert arm1["address"] == "%s:%d" % (gwlib.SIM_ADDR, g.sim.tcp), arm1
+    assert arm1["unit"] == "1" and arm2["unit"] == "2", (arm1, arm2)
+    assert arm2["address"] == "%s:%d" % (gwlib.SIM_ADDR, g.sims[1].tcp), arm2
+    # arm2 never linked: said so, its state not the gateway's zeros, no age
+    assert arm2["link"] == "never linked", arm2
+    assert arm2["robot_state"].startswith("-") and "INITIALIZING" not in arm2["robot_state"], arm2
+    assert arm2["age"] == "never", arm2
+    assert arm1["link"] == "up" and arm1["robot_state"] in ("OPERATING (2)", "STANDBY (1)",
+                                                            "INITIALIZING (0)"), arm1
+    assert arm1["stale"] == [], arm1
+    # its page says the values are not the robot's
+    d.get(g.url + "/robot/arm2")
+    wait_for(lambda: js(d, "return !document.getElementById('stale-note').hidden;"), 20,
+             "the never-linked note")
+    note = js(d, "return document.getElementById('stale-note').textContent;")
+    assert "Never linked" in note, note
+    assert js(d, "return document.getElementById('fields').classList.contains('stale');")
+    assert js(d, "return document.getElementById('link').textContent;") == "never linked"
+    assert js(d, "return document.getElementById('address').textContent;") == \
+        "%s:%d" % (gwlib.SIM_ADDR, g.sims[1].tcp)
+    d.get(g.url + "/robot/arm1")
+    wait_for(lambda: js(d, "return document.getElementById('serial').textContent;") != "-", 20,
+             "arm1's identity")
+    assert js(d, "return document.getElementById('stale-note').hidden;")
+    r = api(g, "/api/v1/robots/arm1")
+    assert js(d, "return document.getElementById('serial').textContent;") == r["originator_serial"]
+    assert js(d, "return document.getElementById('unit-id').textContent;") == "1"
+
+
 def test_console_commissioning(console):
-    for phase in (request_log_shows_a_refused_fc16,):
+    for phase in (request_log_shows_a_refused_fc16, identity_and_never_linked):
         t0 = time.monotonic()
         phase(console)
         print("%s: %.1f s" % (phase.__name__, time.monotonic() - t0))

@@ -104,8 +104,47 @@
 
   function badge(node, state) {
     state = state || "unknown";
-    if (node.className !== "badge " + state) node.className = "badge " + state;
+    var cls = "badge " + state.replace(/ /g, "-");
+    if (node.className !== cls) node.className = cls;
     setText(node, state);
+  }
+
+  // "10.0.0.5:44818"
+  function address(r) {
+    return r.host ? r.host + ":" + r.tcp_port : "-";
+  }
+
+  // "1 (also 0, 255)": the unit ID a PLC names the robot by
+  function unitText(r) {
+    var m = r.sides && r.sides.modbus;
+    if (!m) return "-";
+    var al = m.unit_id_aliases || [];
+    return m.unit_id + (al.length ? " (also " + al.join(", ") + ")" : "");
+  }
+
+  // The robot's state and servo, and whether they are the robot's now:
+  // "never linked" (zeros, not the robot's), "stale" (older than the
+  // connection timeout).
+  function staleWord(r) {
+    return !r.ever_linked ? "never linked" : r.values_stale ? "stale" : "";
+  }
+
+  function robotState(r) {
+    if (!r.robot_state) return "-";
+    return r.robot_state.name + " (" + r.robot_state.value + ")";
+  }
+
+  function servo(r) {
+    return r.servo_on === null || r.servo_on === undefined ? "-" : r.servo_on ? "on" : "off";
+  }
+
+  function setStale(node, text, stale) {
+    setText(node, text + (stale ? " (" + stale + ")" : ""));
+    node.classList.toggle("stale", !!stale);
+  }
+
+  function age(r) {
+    return r.age_ms === null ? "never" : ms(r.age_ms);
   }
 
   // ---- a side's report, whatever its members ---------------------------------
@@ -191,10 +230,12 @@
     cells.badge = el("span", { class: "badge" });
     cell("link").appendChild(cells.badge);
     cell("reason", "reason");
+    cell("address", "mono");
+    cell("unit", "num");
+    cell("robot_state", "mono");
+    cell("servo");
     cell("rpi", "num");
     cell("age", "num");
-    cell("fresh");
-    cell("heartbeat", "num");
     cell("rx", "num");
     cell("lost", "num");
     cell("last_error", "mono");
@@ -219,13 +260,16 @@
       var row = robotRow(r.name), c = row.cells;
       seen[r.name] = true;
       if (body.rows[i] !== row.tr) body.insertBefore(row.tr, body.rows[i] || null);
-      badge(c.badge, r.link);
+      badge(c.badge, r.state || r.link);
       c.link.setAttribute("data-state", r.link || "");
+      c.link.setAttribute("data-ever", r.ever_linked ? "yes" : "no");
       setText(c.reason, r.link === "up" ? "" : (r.reason || ""));
+      setText(c.address, address(r));
+      setText(c.unit, unitText(r));
+      setStale(c.robot_state, robotState(r), staleWord(r));
+      setStale(c.servo, servo(r), r.ever_linked && r.values_stale ? "stale" : "");
       setText(c.rpi, typeof r.rpi_ms === "number" ? r.rpi_ms + " ms" : "-");
-      setText(c.age, ms(r.age_ms));
-      setText(c.fresh, r.fresh ? "yes" : "no");
-      setText(c.heartbeat, r.heartbeat);
+      setStale(c.age, age(r), r.ever_linked && !r.fresh ? "stale" : "");
       setText(c.rx, r.rx_packets);
       setText(c.lost, r.lost_packets);
       setText(c.last_error, lastError(r.last_error));
@@ -407,7 +451,7 @@
     var name = decodeURIComponent(location.pathname.replace(/\/+$/, "").split("/").pop() || "");
     var base = "/api/v1/robots/" + encodeURIComponent(name);
     var rows = {}, fields = {}, values = {}, allRows = [], groups = [];
-    var updates = 0, firstUpdate = 0, trend = [], drawQueued = false;
+    var updates = 0, firstUpdate = 0, trend = [], drawQueued = false, lastStatus = null;
     document.title = name + " - drgatewayd console";
     setText($("robot-name"), name);
     $("api-values").href = base + "/values";
@@ -484,8 +528,10 @@
           row.v.classList.add("chg");
         }
       });
-      if (values["io_state.robot_state"] !== undefined)
-        setText($("robot-state"), fieldValue(fields["io_state.robot_state"], values["io_state.robot_state"]));
+      if (values["io_state.robot_state"] !== undefined && lastStatus && lastStatus.ever_linked && !lastStatus.values_stale)
+        setStale($("robot-state"), fieldValue(fields["io_state.robot_state"], values["io_state.robot_state"]), "");
+      if (values["io_state.servo_on"] !== undefined && lastStatus && lastStatus.ever_linked && !lastStatus.values_stale)
+        setStale($("servo"), values["io_state.servo_on"] ? "on" : "off", "");
       updates++;
       if (!firstUpdate) firstUpdate = now;
       var secs = (now - firstUpdate) / 1000;
@@ -555,10 +601,22 @@
     }, 500);
 
     function status(r) {
-      badge($("link"), r.link);
+      lastStatus = r;
+      badge($("link"), r.state || r.link);
+      setText($("address"), address(r));
+      setText($("unit-id"), unitText(r));
+      setText($("plan"), r.mode + ", " + String(r.layout).replace(/_/g, " "));
+      setText($("serial"), r.originator_serial || "-");
+      setStale($("robot-state"), robotState(r), staleWord(r));
+      setStale($("servo"), servo(r), r.ever_linked && r.values_stale ? "stale" : "");
+      var note = $("stale-note"), word = staleWord(r);
+      note.hidden = !word;
+      $("fields").classList.toggle("stale", !!word);
+      setText(note, !r.ever_linked ? "Never linked: the values below are zeros the gateway started with, not the robot's." :
+        r.values_stale ? "Stale: the values below are the last the robot sent, " + age(r) + " ago; its link is " + r.link + "." : "");
       setText($("reason"), r.link === "up" ? "" : (r.reason || ""));
       setText($("rpi"), typeof r.rpi_ms === "number" ? r.rpi_ms + " ms" : "-");
-      setText($("age"), ms(r.age_ms));
+      setStale($("age"), age(r), r.ever_linked && !r.fresh ? "stale" : "");
       setText($("last-write"), lastWrite(r.last_write));
       setText($("last-error"), lastError(r.last_error));
       setText($("packets"), (r.rx_packets === undefined ? "-" : r.rx_packets) + " / " + (r.lost_packets === undefined ? "-" : r.lost_packets));
