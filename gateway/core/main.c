@@ -194,6 +194,15 @@ static bool side_api(void *user, const char *side, const char *path, gw_json_t *
     return false;
 }
 
+static bool map_csv(void *user, gw_json_t *j, unsigned robot)
+{
+    const gw_t *g = user;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (gw_north_sides[i]->map_csv != NULL)
+            return gw_north_sides[i]->map_csv(&g->cfg, robot, j);
+    return false;
+}
+
 static void metrics(void *user, gw_prom_t *m)
 {
     const gw_t *g = user;
@@ -477,6 +486,7 @@ static bool start_sides(gw_t *g)
                               .metrics = metrics,
                               .summaries = summaries,
                               .map = map,
+                              .map_csv = map_csv,
                               .side_api = side_api,
                               .robot_sides = robot_sides};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {

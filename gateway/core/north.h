@@ -49,7 +49,7 @@ typedef struct {
 } gw_side_summary_t;
 
 /* --print-map and --print-errors. */
-typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
+typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON, GW_PRINT_CSV } gw_print_fmt_t;
 
 /* The bound of a map_json answer (the console's response buffer). */
 #define GW_NORTH_MAP_MAX (768u * 1024u)
@@ -85,6 +85,9 @@ typedef struct {
     /* /api/v1/robots/NAME/map: robot's map of fields, by the first side
      * with a `map_json` op; false: none (or j is full). NULL: none. */
     bool (*map)(void *user, gw_json_t *j, unsigned robot);
+    /* /api/v1/robots/NAME/map.csv: the same rows as a table, by the first
+     * side with a `map_csv` op. NULL: none. */
+    bool (*map_csv)(void *user, gw_json_t *j, unsigned robot);
     /* GET /api/v1/SIDE/PATH: the running side named `side` answers PATH
      * with its `api` op; false: no such side or path (404), or j full.
      * NULL: none. */
@@ -154,6 +157,9 @@ typedef struct {
     /* /api/v1/robots/NAME/map (env->map): robot's fields with this side's
      * addresses, at most GW_NORTH_MAP_MAX bytes; false: not served. */
     bool (*map_json)(const gw_config_t *cfg, unsigned robot, gw_json_t *j);
+    /* /api/v1/robots/NAME/map.csv (env->map_csv): `--print-map --json`'s
+     * rows of the robot as CSV, at most GW_NORTH_MAP_MAX bytes. */
+    bool (*map_csv)(const gw_config_t *cfg, unsigned robot, gw_json_t *j);
     /* --print-map [FILTER] (cfg NULL without -c) and --print-errors. */
     void (*print_map)(FILE *out, gw_print_fmt_t fmt, const char *filter, const gw_config_t *cfg);
     void (*print_errors)(FILE *out, gw_print_fmt_t fmt);

@@ -546,10 +546,38 @@ static int robot_of(const ht_t *t, const char *p, const char **rest)
     return gw_http_api_find(&a, name);
 }
 
+/* /api/v1/robots/NAME/map.csv: the robot's map as a table to download
+ * (a PLC tag import), named NAME-map.csv. */
+static enum MHD_Result send_map_csv(const ht_t *t, struct MHD_Connection *c, const char *method,
+                                    const char *url, unsigned robot)
+{
+    gw_json_t j;
+    gw_json_init(&j, resp, sizeof resp);
+    if (t->env->map_csv == NULL || !t->env->map_csv(t->env->user, &j, robot))
+        return send_error(c, j.full ? 500 : 404, method, url,
+                          j.full ? "response too large" : "not found");
+    struct MHD_Response *r = ml->create_response_from_buffer(j.len, j.buf, MHD_RESPMEM_MUST_COPY);
+    if (r == NULL)
+        return MHD_NO;
+    char disp[GW_NAME_MAX + 48];
+    snprintf(disp, sizeof disp, "attachment; filename=\"%s-map.csv\"", t->env->robots[robot].name);
+    for (char *p = disp + 22; *p != '\0'; p++) /* a name of the configuration's: only safe bytes */
+        if (!((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9') ||
+              *p == '-' || *p == '_' || *p == '.' || (*p == '"' && p[1] == '\0')))
+            *p = '_';
+    (void)ml->add_response_header(r, "Content-Type", "text/csv; charset=utf-8");
+    (void)ml->add_response_header(r, "Content-Disposition", disp);
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    enum MHD_Result ok = queue(c, 200, r, false);
+    ml->destroy_response(r);
+    return ok;
+}
+
 /* What a 404 under /api/ lists: every route. */
 #define NOT_FOUND_API                                                                            \
     "not found (allowed: /api/v1/status, /api/v1/robots, /api/v1/robots/NAME, "               \
-    "/api/v1/robots/NAME/values, /api/v1/robots/NAME/map, /api/v1/events?robot=NAME, "        \
+    "/api/v1/robots/NAME/values, /api/v1/robots/NAME/map, /api/v1/robots/NAME/map.csv, "      \
+    "/api/v1/events?robot=NAME, "                                                                \
     "/api/v1/log, /api/v1/modbus/requests)"
 
 /* "SIDE/PATH": the side's own answer (north.h: env->side_api). */
@@ -590,6 +618,8 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
         int r = robot_of(t, p + 7, &rest);
         if (r < 0)
             return send_error(c, 404, method, url, "no such robot");
+        if (strcmp(rest, "/map.csv") == 0)
+            return send_map_csv(t, c, method, url, (unsigned)r);
         if (rest[0] == '\0')
             gw_http_api_robot(&j, &a, (unsigned)r);
         else if (strcmp(rest, "/values") == 0)

@@ -767,9 +767,21 @@ static void mb_robot_report(const void *self, unsigned r, gw_json_t *j)
              rc->alias255 ? "255" : "");
 }
 
+/* "registers/NAME": robot NAME's registers as a PLC reads them now. */
+static bool registers_json(const mb_t *m, const char *name, gw_json_t *j)
+{
+    const gw_config_t *cfg = m->env->cfg;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        if (strcmp(cfg->robot[r].name, name) == 0) /* (its status block: refreshed ten times a second) */
+            return gw_regmap_raw_json(j, &m->unit[r], cfg, r);
+    return false;
+}
+
 static bool mb_api(const void *self, const char *path, gw_json_t *j)
 {
     const mb_t *m = self;
+    if (strncmp(path, "registers/", 10) == 0)
+        return registers_json(m, path + 10, j);
     if (strcmp(path, "requests") != 0)
         return false;
     requests_json(m, j);
@@ -819,6 +831,11 @@ static bool mb_map_json(const gw_config_t *cfg, unsigned robot, gw_json_t *j)
     return gw_regmap_json(j, cfg, robot);
 }
 
+static bool mb_map_csv(const gw_config_t *cfg, unsigned robot, gw_json_t *j)
+{
+    return gw_regmap_csv(j, cfg, robot);
+}
+
 const gw_north_ops_t gw_north_modbus = {
     .name = "modbus",
     .create = mb_create,
@@ -839,6 +856,7 @@ const gw_north_ops_t gw_north_modbus = {
     .api = mb_api,
     .robot_report = mb_robot_report,
     .map_json = mb_map_json,
+    .map_csv = mb_map_csv,
     .print_map = gw_regmap_print_all,
     .print_errors = gw_regmap_print_errors,
 };

@@ -8,24 +8,33 @@ lost is marked stale), ...
 
 Each test here failed on the code before the change it checks (the commit
 that added it says how)."""
+import csv
+import io
 import json
 import re
+import subprocess
 
 import pytest
 
 import gwlib
-from gwlib import GW_ADDR, Drsim, Gateway, free_port, wait_for
+from gwlib import DRGATEWAYD, GW_ADDR, Drsim, Gateway, free_port, wait_for
 from test_http import down_robot, get, get_json
 
 STATE_NAMES = {0: "INITIALIZING", 1: "STANDBY", 2: "OPERATING"}  # drsim's (dr_robot_state_name)
-BAD_HR = 5000  # a holding register nothing is mapped to: FC 16 there gets 0x02
+BAD_HR = 5000
+# r0's own map: HR 2000-2007 four DINTs (HR 2005, 42006: int_in[2]'s second
+# register), HR 2010 a REAL, coils 2048.. bits
+USER_MAP = ("map = hr 2000 int_in[0..3] dint writable\n"
+            "map = hr 2010 float_in[1] real writable\n"
+            "map = co 2048 bit_in[0..3] writable\n")  # a holding register nothing is mapped to: FC 16 there gets 0x02
 
 
 @pytest.fixture(scope="module")
 def gw():
     sim = Drsim("console_api", "--still").start()
     port = free_port(GW_ADDR, udp=False)
-    g = Gateway("console_api", sim, extra=down_robot() + "\n[http]\nport = %d\n" % port)
+    g = Gateway("console_api", sim, robot=USER_MAP,
+                extra=down_robot() + "\n[http]\nport = %d\n" % port)
     g.sim, g.http = sim, port
     try:
         g.start()
@@ -174,3 +183,61 @@ def test_a_lost_robot_is_marked_stale_not_never_linked(tmp_path):
     finally:
         g.kill()
         sim.kill()
+
+
+PREFIX = {"CO": 0, "DI": 1, "IR": 3, "HR": 4}
+
+
+def test_map_csv_equals_print_map_json(gw):
+    """The map as a table a PLC tag import takes: its rows, parsed with
+    Python's csv module, are `drgatewayd --print-map --json`'s for the
+    robot (the default map, then its own)."""
+    st, hdr, body = get(gw.http, "/api/v1/robots/r0/map.csv")
+    assert st == 200, body[:200]
+    assert hdr["Content-Type"] == "text/csv; charset=utf-8"
+    assert hdr["Content-Disposition"] == 'attachment; filename="r0-map.csv"'
+    reader = csv.DictReader(io.StringIO(body.decode("utf-8"), newline=""))
+    assert reader.fieldnames == ["area", "address", "count", "reference", "name", "type", "unit",
+                                 "robot", "writable"]
+    got = []
+    for row in reader:
+        assert row["reference"] == "%d%04d" % (PREFIX[row["area"]], int(row["address"]) + 1), row
+        r = {"area": row["area"], "address": int(row["address"]), "count": int(row["count"]),
+             "name": row["name"], "type": row["type"], "unit": row["unit"]}
+        if row["robot"]:
+            r["robot"] = row["robot"]
+            r["writable"] = {"true": True, "false": False}[row["writable"]]
+        got.append(r)
+    out = subprocess.run([str(DRGATEWAYD), "-c", str(gw.conf), "--print-map", "--json"],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    want = [r for r in json.loads(out.stdout) if r.get("robot", "r0") == "r0"]
+    assert any("robot" in r for r in want)  # its own map is in it
+    assert any("," in r["name"] for r in want)  # and names that need quoting
+    assert got == want
+    # a robot without a map of its own: the default map alone
+    st, hdr, body = get(gw.http, "/api/v1/robots/down/map.csv")
+    rows = list(csv.DictReader(io.StringIO(body.decode("utf-8"), newline="")))
+    assert st == 200 and len(rows) == len([r for r in want if "robot" not in r])
+    assert get(gw.http, "/api/v1/robots/nobody/map.csv")[0] == 404
+
+
+def test_raw_registers_are_what_a_plc_reads(gw):
+    c = gw.pymodbus()
+    try:
+        assert not c.write_registers(2000, [0, 1234], slave=1).isError()
+        raw = get_json(gw.http, "/api/v1/modbus/registers/r0")
+        assert raw["robot"] == "r0"
+        hr = {r["address"]: r for r in raw["tables"]["HR"]}
+        assert hr[2000]["words"] == [0, 1234] and hr[2000]["user"] is True
+        assert hr[2000]["name"] == "int_in[0]" and hr[2000]["ref"] == "42001"
+        ir = raw["tables"]["IR"]
+        assert [r["address"] for r in ir] == sorted(r["address"] for r in ir)
+        st = {r["address"]: r for r in ir}
+        assert st[1]["name"].startswith("status.link_state") and st[1]["words"] == [2]
+        plc = c.read_input_registers(200, count=2, slave=1).registers
+        assert st[200]["words"] == plc, (st[200], plc)  # drsim --still: the same words
+        assert list(raw["tables"]) == ["CO", "DI", "HR", "IR"]
+    finally:
+        c.close()
+    assert get(gw.http, "/api/v1/modbus/registers/nobody")[0] == 404

@@ -10,6 +10,10 @@ browser takes seconds to start on a loaded machine), phase by phase:
 - every robot's address and unit ID on the overview and its page, a robot
   that never linked shown as such (no robot state from the gateway's
   zeros, no data age from the daemon's uptime, its values marked);
+- the robot page's filter finds every register of a field (both halves of
+  a pair, both numberings, the scaled view), a unit, an enum name and the
+  user map's rows; the user map as blocks; the CSV's download; the raw
+  registers;
 
 SKIPPED with the banner of tests/skip.sh where chromium, its driver or
 selenium is missing (test_console_browser.browser()).
@@ -23,12 +27,19 @@ from gwlib import wait_for
 from test_console_browser import ConsoleGateway, NoRobot, api, browser, js
 
 NAME = "console_commissioning"
+JOINT = "joint_state.position[1]"
+# the robots' own map: int_in[2] is HR 2004-2005 (42005-42006)
+USER_MAP = ("map = hr 2000 int_in[0..3] dint writable\n"
+            "map = hr 2010 float_in[1] real writable\n"
+            "map = co 2048 bit_in[0..3] writable\n")
+USER_MAPPED = ["int_in[%d]" % i for i in range(4)] + ["float_in[1]"] + \
+    ["bit_in[%d]" % i for i in range(4)]
 
 
 @pytest.fixture
 def console():
     sim = gwlib.Drsim(NAME).start()
-    g = ConsoleGateway(NAME, [sim, NoRobot()])
+    g = ConsoleGateway(NAME, [sim, NoRobot()], robot=USER_MAP)
     g.sim = sim
     g.http_port = gwlib.free_port(gwlib.GW_ADDR, udp=False)
     d = None
@@ -133,8 +144,62 @@ def identity_and_never_linked(console):
     assert js(d, "return document.getElementById('unit-id').textContent;") == "1"
 
 
+def visible_paths(d):
+    return js(d, "return Array.from(document.querySelectorAll('#fields tr[data-path]'))"
+                 ".filter(function (r) { return !r.hidden; })"
+                 ".map(function (r) { return r.getAttribute('data-path'); });")
+
+
+def find_any_register(console):
+    g, d = console, console.driver
+    d.get(g.url + "/robot/arm1")
+    wait_for(lambda: len(visible_paths(d)) > 300, 20, "the robot page's rows")
+    total = len(visible_paths(d))
+
+    def query(q, expect=None, check=None):
+        set_input(d, "filter", q)
+        wait_for(lambda: len(visible_paths(d)) < total, 10, "the filter %r to act" % q)
+        rows = visible_paths(d)
+        if expect is not None:
+            assert rows == expect, (q, rows)
+        if check is not None:
+            assert check(rows), (q, rows)
+        return rows
+
+    # both registers of a pair, both numberings, every view
+    query("HR 2005", ["int_in[2]"])
+    query("hr2004", ["int_in[2]"])
+    query("42006", ["int_in[2]"])
+    query("IR 201", [JOINT])
+    query("30202", [JOINT])
+    query("IR 1200", [JOINT])  # its scaled INT16 view
+    query("degree", check=lambda rows: JOINT in rows)
+    units = js(d, "return Array.from(document.querySelectorAll('#fields tr[data-path]'))"
+                  ".filter(function (r) { return !r.hidden; }).map(function (r) {"
+                  " return r.querySelector('td.unit').textContent; });")
+    assert units and all(u.startswith("degree") for u in units), units  # degree, degree/s
+    query("OPERATING", ["io_state.robot_state"])
+    query("map", check=lambda rows: sorted(rows) == sorted(USER_MAPPED))
+    set_input(d, "filter", "")
+    wait_for(lambda: len(visible_paths(d)) == total, 10, "every row back")
+    # the user map as blocks
+    blocks = js(d, "return Array.from(document.querySelectorAll('#user-map tbody tr'))"
+                   ".map(function (r) { return r.textContent; });")
+    assert any("HR" in b and "2000-2007" in b and "int_in[0..3]" in b for b in blocks), blocks
+    # the download button points at the CSV
+    href = js(d, "return document.getElementById('map-csv').getAttribute('href');")
+    assert href == "/api/v1/robots/arm1/map.csv"
+    # the raw registers, when opened
+    js(d, "document.querySelector('#raw summary').click();")
+    wait_for(lambda: js(d, "return document.querySelectorAll('#raw-tables tr[data-reg]').length;") > 300,
+             20, "the raw registers")
+    words = js(d, "var r = document.querySelector('#raw-tables tr[data-reg=\"IR 1\"]');"
+                  "return r ? r.textContent : null;")
+    assert words is not None and "2 (0x0002)" in words, words
+
+
 def test_console_commissioning(console):
-    for phase in (request_log_shows_a_refused_fc16, identity_and_never_linked):
+    for phase in (request_log_shows_a_refused_fc16, identity_and_never_linked, find_any_register):
         t0 = time.monotonic()
         phase(console)
         print("%s: %.1f s" % (phase.__name__, time.monotonic() - t0))

@@ -442,6 +442,34 @@
     return String(v);
   }
 
+  var REF_PREFIX = { CO: 0, DI: 1, IR: 3, HR: 4 };
+
+  function pad(n, w) {
+    var s = String(n);
+    while (s.length < w) s = "0" + s;
+    return s;
+  }
+
+  // Every way a register of l can be asked for: "hr 2005", "42006",
+  // "402006" (the 6-digit reference), per address it takes.
+  function locTokens(l) {
+    var out = [];
+    for (var a = l.address; a < l.address + (l.count || 1); a++) {
+      var p = REF_PREFIX[l.table];
+      out.push(l.table.toLowerCase() + " " + a, String(p) + pad(a + 1, 4), String(p) + pad(a + 1, 5));
+    }
+    return out;
+  }
+
+  // A query that names one register ("HR 2005", "42006") matches that
+  // register only; any other text, any part of the row.
+  var EXACT = /^((hr|ir|co|di) ?\d+|\d{5,6})$/;
+  function matches(key, q) {
+    if (!q) return true;
+    if (EXACT.test(q)) return key.indexOf("|" + q.replace(/^(hr|ir|co|di)(\d)/, "$1 $2") + "|") >= 0;
+    return key.indexOf(q) >= 0;
+  }
+
   function group(path) {
     var m = /^[a-z0-9_]+/.exec(path);
     return m ? m[0] : path;
@@ -456,6 +484,8 @@
     setText($("robot-name"), name);
     $("api-values").href = base + "/values";
     $("api-map").href = base + "/map";
+    $("map-csv").href = base + "/map.csv";
+    $("map-csv").setAttribute("download", name + "-map.csv");
 
     function fail(msg) {
       var body = $("fields").tBodies[0];
@@ -486,7 +516,13 @@
         var tr = el("tr", { "data-path": f.path, title: f.help || null },
           el("td", { class: "path" }, f.path), v, el("td", { class: "unit" }, f.unit || ""),
           el("td", { class: "type" }, f.type), el("td", { class: "dir" }, f.dir), mb);
-        var row = { tr: tr, v: v, key: (f.path + " " + mbText.join(" ")).toLowerCase(), group: g };
+        var toks = [f.path, f.unit || "", f.type, f.dir].concat(mbText, f.enum || []);
+        (f.modbus || []).forEach(function (l) {
+          toks = toks.concat(locTokens(l));
+          if (l.user) toks.push("map", "user map");
+          if (l.writable) toks.push("rw", "writable");
+        });
+        var row = { tr: tr, v: v, key: ("|" + toks.join("|") + "|").toLowerCase(), group: g };
         rows[f.path] = row;
         fields[f.path] = f;
         allRows.push(row);
@@ -496,12 +532,52 @@
       body.textContent = "";
       body.appendChild(frag);
       filter();
+      userMap(map.fields || []);
+    }
+
+    // The robot's own map as blocks: consecutive elements of one field
+    // in one view at consecutive addresses are one block.
+    function userMap(fl) {
+      var locs = [];
+      fl.forEach(function (f) {
+        (f.modbus || []).forEach(function (l) { if (l.user) locs.push({ l: l, path: f.path }); });
+      });
+      $("user-map-card").hidden = !locs.length;
+      if (!locs.length) return;
+      locs.sort(function (a, b) {
+        return (a.l.table < b.l.table ? -1 : a.l.table > b.l.table ? 1 : 0) || a.l.address - b.l.address;
+      });
+      var blocks = [];
+      locs.forEach(function (x) {
+        var m = /^(.*)\[(\d+)\]$/.exec(x.path), base = m ? m[1] : x.path, idx = m ? Number(m[2]) : -1;
+        var b = blocks[blocks.length - 1], end = b ? b.address + b.count : -1;
+        if (b && b.table === x.l.table && b.view === x.l.view && b.base === base && idx === b.last + 1 &&
+            (x.l.address === end || (x.l.view === "bits" && x.l.address <= end))) {
+          b.last = idx;
+          b.count = Math.max(b.count, x.l.address + x.l.count - b.address);
+          return;
+        }
+        blocks.push({ table: x.l.table, address: x.l.address, count: x.l.count, view: x.l.view, base: base,
+          first: idx, last: idx, path: x.path, writable: x.l.writable, l: x.l });
+      });
+      var body = $("user-map").tBodies[0];
+      body.textContent = "";
+      blocks.forEach(function (b) {
+        var p = REF_PREFIX[b.table], lastA = b.address + b.count - 1;
+        var fieldsText = b.first < 0 ? b.path : b.base + "[" + b.first + (b.last > b.first ? ".." + b.last : "") + "]";
+        var v = locText(b.l).split(" ").slice(3).join(" ") || b.view;
+        body.appendChild(el("tr", { "data-block": b.table + " " + b.address },
+          el("td", null, b.table), el("td", { class: "num" }, b.address + (lastA > b.address ? "-" + lastA : "")),
+          el("td", { class: "num" }, p + pad(b.address + 1, 4) + (lastA > b.address ? "-" + p + pad(lastA + 1, 4) : "")),
+          el("td", { class: "mono" }, fieldsText), el("td", null, v), el("td", null, b.writable ? "rw" : "")));
+      });
+      setText($("user-map-count"), blocks.length + " block" + (blocks.length === 1 ? "" : "s"));
     }
 
     function filter() {
-      var q = $("filter").value.trim().toLowerCase(), shown = 0;
+      var q = $("filter").value.trim().toLowerCase().replace(/\s+/g, " "), shown = 0;
       allRows.forEach(function (r) {
-        var hide = q !== "" && r.key.indexOf(q) < 0;
+        var hide = !matches(r.key, q);
         if (r.tr.hidden !== hide) r.tr.hidden = hide;
         if (!hide) shown++;
       });
@@ -648,6 +724,33 @@
     }
 
     $("filter").addEventListener("input", filter);
+
+    // The raw registers, asked every two seconds while the box is open.
+    function raw() {
+      if (!$("raw").open) return;
+      getJSON("/api/v1/modbus/registers/" + encodeURIComponent(name)).then(function (d) {
+        var box = $("raw-tables"), frag = document.createDocumentFragment();
+        Object.keys(d.tables || {}).forEach(function (t) {
+          var body = el("tbody");
+          d.tables[t].forEach(function (r) {
+            var words = r.words ? r.words.map(function (w) { return w + " (" + hex(w, 4) + ")"; }).join(" ") :
+              "exception " + hex(r.ex, 2);
+            body.appendChild(el("tr", { "data-reg": t + " " + r.address },
+              el("td", { class: "num" }, r.address + (r.count > 1 ? "-" + (r.address + r.count - 1) : "")),
+              el("td", { class: "num" }, r.ref), el("td", { class: "mono" }, words),
+              el("td", { class: "mono" }, r.name, r.user ? el("span", { class: "tag user" }, "map") : null)));
+          });
+          frag.appendChild(el("h3", null, t));
+          frag.appendChild(el("div", { class: "wide" }, el("table", { class: "grid", "data-table": t },
+            el("thead", null, el("tr", null, el("th", { class: "num" }, "address"), el("th", { class: "num" }, "reference"),
+              el("th", null, "words"), el("th", null, "field"))), body)));
+        });
+        box.textContent = "";
+        box.appendChild(frag);
+      }, function (e) { setText($("raw-tables"), String(e.message || e)); })
+        .then(function () { setTimeout(raw, 2000); });
+    }
+    $("raw").addEventListener("toggle", raw);
     Promise.all([getJSON(base + "/map"), getJSON(base)]).then(function (res) {
       build(res[0]);
       status(res[1]);
