@@ -214,7 +214,7 @@ static void metrics(void *user, gw_prom_t *m)
     gw_prom_one(m, "drgate_config_generation", GW_PROM_GAUGE,
                 "Configuration generation: +1 at every reload that was applied", g->generation);
     gw_prom_one(m, "drgate_log_events_total", GW_PROM_COUNTER,
-                "Lines the daemon logged (at its log level)", (double)gw_log_ring_total());
+                "Lines the daemon logged (at its log level)", (double)(gw_log_ring_total() + gw_log_writes_total()));
     gw_lag_metrics(m, &g->lag);
     gw_report_robot_metrics(m, g->robots, g->cfg.robot_count);
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)

@@ -578,7 +578,8 @@ static enum MHD_Result send_map_csv(const ht_t *t, struct MHD_Connection *c, con
     "not found (allowed: /api/v1/status, /api/v1/robots, /api/v1/robots/NAME, "               \
     "/api/v1/robots/NAME/values, /api/v1/robots/NAME/map, /api/v1/robots/NAME/map.csv, "      \
     "/api/v1/events?robot=NAME, "                                                                \
-    "/api/v1/log, /api/v1/modbus/requests)"
+    "/api/v1/log, /api/v1/writes, /api/v1/config, /api/v1/modbus/requests, "                \
+    "/api/v1/modbus/registers/NAME)"
 
 /* "SIDE/PATH": the side's own answer (north.h: env->side_api). */
 static bool side_api(const ht_t *t, const char *p, gw_json_t *j)
@@ -608,10 +609,14 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
         gw_http_api_status(&j, &a);
     } else if (strcmp(p, "robots") == 0) {
         gw_http_api_robots(&j, &a);
+    } else if (strcmp(p, "config") == 0) {
+        if (!gw_config_effective(t->env->cfg, resp, sizeof resp))
+            return send_error(c, 500, method, url, "response too large");
+        return send_buf(c, 200, "text/plain; charset=utf-8", resp, strlen(resp), true);
     } else if (strcmp(p, "events") == 0) {
         return start_events(t, c, method, url);
-    } else if (strcmp(p, "log") == 0) {
-        if (!gw_http_report_log(t->env, &j))
+    } else if (strcmp(p, "log") == 0 || strcmp(p, "writes") == 0) {
+        if (!(p[0] == 'l' ? gw_http_report_log : gw_http_report_writes)(t->env, &j))
             return send_error(c, 501, method, url, "not built into this gateway");
     } else if (strncmp(p, "robots/", 7) == 0) {
         const char *rest;
@@ -645,6 +650,8 @@ static enum MHD_Result route(ht_t *t, struct MHD_Connection *c, const char *meth
         return route_api(t, c, method, url);
     if (strcmp(url, "/") == 0 || strcmp(url, "/index.html") == 0)
         return send_asset(c, "index.html", method, url);
+    if (strcmp(url, "/config") == 0)
+        return send_asset(c, "config.html", method, url);
     if (strncmp(url, "/robot/", 7) == 0) {
         const char *rest;
         if (robot_of(t, url + 7, &rest) < 0 || rest[0] != '\0')

@@ -13,6 +13,7 @@ import io
 import json
 import re
 import subprocess
+import time
 
 import pytest
 
@@ -33,7 +34,7 @@ USER_MAP = ("map = hr 2000 int_in[0..3] dint writable\n"
 def gw():
     sim = Drsim("console_api", "--still").start()
     port = free_port(GW_ADDR, udp=False)
-    g = Gateway("console_api", sim, robot=USER_MAP,
+    g = Gateway("console_api", sim, robot=USER_MAP, modbus="max_clients = 40\n",
                 extra=down_robot() + "\n[http]\nport = %d\n" % port)
     g.sim, g.http = sim, port
     try:
@@ -241,3 +242,55 @@ def test_raw_registers_are_what_a_plc_reads(gw):
     finally:
         c.close()
     assert get(gw.http, "/api/v1/modbus/registers/nobody")[0] == 404
+
+
+def test_writes_do_not_push_the_events_out(gw):
+    """PLCs that write every second keep the write log busy (one line per
+    client and second): 240 write lines, more than a ring holds, leave the
+    start-up and link events in /api/v1/log; the writes have their own
+    ring, /api/v1/writes."""
+    clients = [gw.pymodbus() for _ in range(30)]
+    try:
+        for rnd in range(8):
+            t0 = time.monotonic()
+            for i, c in enumerate(clients):
+                assert not c.write_registers(2000, [rnd, i], slave=1).isError()
+            # the write log's window per client is a second: each round is a line of each
+            time.sleep(max(0.0, 1.1 - (time.monotonic() - t0)))
+    finally:
+        for c in clients:
+            c.close()
+    writes = get_json(gw.http, "/api/v1/writes")
+    assert len(writes) == 200
+    assert all("write by modbus" in w["text"] for w in writes), writes[:3]
+    assert "int_in[0]" in writes[-1]["text"]
+    events = [e["text"] for e in get_json(gw.http, "/api/v1/log")]
+    assert not [e for e in events if "write by" in e]
+    assert any("http: console on" in e for e in events), events[:5]
+    assert any("robot r0 (%s): link up" % gwlib.SIM_ADDR in e for e in events), events[:5]
+
+
+def test_effective_configuration_with_secrets_hidden(tmp_path):
+    secret = tmp_path / "mqtt.pass"
+    secret.write_text("s3cret-Pa55\n")
+    port = free_port(GW_ADDR, udp=False)
+    broker = free_port(GW_ADDR, udp=False)  # nobody listens: MQTT retries, the console serves
+    g = Gateway("console_api_config", [], extra=down_robot() + (
+        "\n[http]\nport = %d\n\n[mqtt]\nhost = %s\nport = %d\nusername = plant\n"
+        "password_file = %s\n" % (port, GW_ADDR, broker, secret)))
+    try:
+        g.start(wait_link=False)
+        wait_for(lambda: g.listening(port), 10, "the console to listen")
+        st, hdr, body = get(port, "/api/v1/config")
+        assert st == 200 and hdr["Content-Type"] == "text/plain; charset=utf-8"
+        text = body.decode()
+        assert "s3cret" not in text and str(secret) not in text
+        assert "password_file = (set, hidden)" in text
+        assert "username = plant" in text and "port = %d" % broker in text
+        assert "[http] ; line" in text and "max_request_bytes = 16384" in text  # a default
+        assert "[modbus]" in text and "\n[robot down] ; line" in text and "unit_id = 9" in text
+        assert "; [gpio" not in text or "not in the file" in text
+        st, hdr, body = get(port, "/config")
+        assert st == 200 and b"/api/v1/config" in body
+    finally:
+        g.kill()

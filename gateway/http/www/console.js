@@ -314,13 +314,16 @@
     if (st.log_dropped) setText($("foot-note"), st.log_dropped + " log events dropped");
   }
 
-  var logSig = "";
-  function renderLog(events) {
-    var warnOnly = $("log-warn").checked;
+  var logSig = {};
+  // The events' log (tbl "log", with the warnings box) or the writes'
+  // ("writes"), the newest first; redrawn only when it changed.
+  function renderLog(events, tbl) {
+    tbl = tbl || "log";
+    var warnOnly = tbl === "log" && $("log-warn").checked;
     var sig = events.length + "|" + (events.length ? events[events.length - 1].time + events[events.length - 1].text : "") + "|" + warnOnly;
-    if (sig === logSig) return;
-    logSig = sig;
-    var body = $("log").tBodies[0], frag = document.createDocumentFragment(), shown = 0;
+    if (sig === logSig[tbl]) return;
+    logSig[tbl] = sig;
+    var body = $(tbl).tBodies[0], frag = document.createDocumentFragment(), shown = 0;
     for (var i = events.length - 1; i >= 0; i--) { // the newest first
       var e = events[i], lvl = String(e.level || "");
       if (warnOnly && !/warn|err|crit/.test(lvl)) continue;
@@ -331,7 +334,11 @@
     }
     body.textContent = "";
     body.appendChild(frag);
-    setText($("log-count"), shown + " of " + events.length + " events, the newest first");
+    setText($(tbl + "-count"), shown + " of " + events.length + (tbl === "log" ? " events" : " writes") + ", the newest first");
+  }
+
+  function renderWrites(events) {
+    renderLog(events, "writes");
   }
 
   // ---- Modbus requests (the Modbus side's request log) ------------------------
@@ -387,13 +394,16 @@
   }
 
   function overview() {
-    var lastLog = 0, lastEvents = [], lastReq = 0, reqOn = true;
+    var lastLog = 0, lastEvents = [], lastWrites = [], lastReq = 0, reqOn = true;
     function tick() {
       var now = Date.now(), jobs = [getJSON("/api/v1/status").then(renderStatus)];
       if (reqOn && now - lastReq >= 1000) {
         lastReq = now;
         jobs.push(getJSON("/api/v1/modbus/requests").then(function (d) { reqData = d; renderRequests(); },
           function (e) { if (e.status === 404) reqOn = false; else throw e; }));
+      }
+      if (now - lastLog >= 2000) {
+        jobs.push(getJSON("/api/v1/writes").then(function (ev) { lastWrites = ev || []; renderWrites(lastWrites); }));
       }
       if (now - lastLog >= 2000) {
         lastLog = now;
@@ -763,9 +773,20 @@
     });
   }
 
+  // ---- configuration page --------------------------------------------------------
+
+  function configPage() {
+    fetch("/api/v1/config", { cache: "no-store" }).then(function (r) {
+      if (!r.ok) throw new Error("/api/v1/config: HTTP " + r.status);
+      return r.text();
+    }).then(function (t) { setText($("config"), t); live("live"); },
+      function (e) { live("stale", String(e.message || e)); });
+  }
+
   document.addEventListener("DOMContentLoaded", function () {
     var page = document.body.getAttribute("data-page");
     if (page === "overview") overview();
     else if (page === "robot") robotPage();
+    else if (page === "config") configPage();
   });
 })();
