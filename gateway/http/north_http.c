@@ -101,22 +101,35 @@ typedef struct {
     unsigned conns; /* connections open */
 } srv_t;
 
-/* One live-values stream. */
+/* One robot of a live stream: what was last sent of it. */
+typedef struct {
+    char name[GW_NAME_MAX];
+    uint32_t serial;     /* the robot's: a new one starts over */
+    uint16_t link_state; /* as last sent */
+    bool fresh, ever_up; /* as last sent */
+    bool started;        /* its status and every value sent once */
+    uint64_t *last;      /* per leaf: the value last sent (api.h) */
+} sse_robot_t;
+
+/* One live stream: one page's (or, through the pages' shared worker, one
+ * browser's) robots and the overview, multiplexed. */
 typedef struct sse {
     struct sse *next;
     ht_t *t;
     struct MHD_Connection *c;
-    char robot[GW_NAME_MAX];
-    uint32_t serial;     /* the robot's: a new one starts over */
-    uint16_t link_state; /* as last sent */
-    bool fresh, ever_up; /* as last sent */
+    unsigned nrobots;
+    sse_robot_t *robot;  /* [nrobots] */
+    bool multi;          /* robots=: each event names its robot */
+    bool overview;       /* overview=1: the status too, when it changed */
+    uint64_t overview_hash, overview_next_us;
+    unsigned turn;       /* the robot whose values go first (fairness) */
     uint32_t ip;         /* the client's */
     int fd;              /* its socket (a stalled one is shut down) */
     uint64_t started_us, progress_us; /* opened; last took bytes */
-    bool suspended, closing, started;
+    uint64_t peek_us; /* its socket last looked at for a close (sse_limits) */
+    bool suspended, closing;
     uint64_t next_us, quiet_since_us;
     size_t len, off; /* buf[off..len): not yet taken by MHD */
-    uint64_t *last;  /* per leaf: the value last sent (api.h) */
     char buf[SSE_BUF];
 } sse_t;
 
@@ -306,13 +319,51 @@ static enum MHD_Result send_error(struct MHD_Connection *c, unsigned status, con
     return send_buf(c, status, "text/plain; charset=utf-8", line, strlen(line), true);
 }
 
+/* An asset's entity tag: its bytes' FNV-1a (built in: the same until the
+ * daemon is another), made once per asset. */
+#define ETAGS 16
+static void asset_etag(const gw_http_asset_t *a, char *out, size_t size)
+{
+    static const gw_http_asset_t *seen[ETAGS];
+    static uint64_t tag[ETAGS];
+    unsigned i = 0;
+    while (i < ETAGS && seen[i] != NULL && seen[i] != a)
+        i++;
+    uint64_t h = i < ETAGS && seen[i] == a ? tag[i] : 14695981039346656037u;
+    if (i == ETAGS || seen[i] != a) {
+        for (size_t k = 0; k < a->size; k++)
+            h = (h ^ a->data[k]) * 1099511628211u;
+        if (i < ETAGS) {
+            seen[i] = a;
+            tag[i] = h;
+        }
+    }
+    snprintf(out, size, "\"%016llx\"", (unsigned long long)h);
+}
+
+/* A page, script or style sheet: cached by the browser and asked again
+ * with its tag (no-cache: a daemon upgraded serves its new files at
+ * once), answered 304 when unchanged; the connection stays open. */
 static enum MHD_Result send_asset(struct MHD_Connection *c, const char *name, const char *method,
                                   const char *url)
 {
     const gw_http_asset_t *a = gw_http_asset_find(name);
     if (a == NULL)
         return send_error(c, 404, method, url, "not found");
-    return send_buf(c, 200, a->type, a->data, a->size, false);
+    char etag[24];
+    asset_etag(a, etag, sizeof etag);
+    const char *inm = ml->lookup_connection_value(c, MHD_HEADER_KIND, "If-None-Match");
+    bool same = inm != NULL && strstr(inm, etag) != NULL;
+    struct MHD_Response *r = ml->create_response_from_buffer(
+        same ? 0 : a->size, same ? NULL : unconst(a->data), MHD_RESPMEM_PERSISTENT);
+    if (r == NULL)
+        return MHD_NO;
+    (void)ml->add_response_header(r, "Content-Type", a->type);
+    (void)ml->add_response_header(r, "Cache-Control", "no-cache");
+    (void)ml->add_response_header(r, "ETag", etag);
+    enum MHD_Result ok = queue(c, same ? 304 : 200, r, false);
+    ml->destroy_response(r);
+    return ok;
 }
 
 /* /api/v1/status asked for text (drgatewayd status): the summary, and
@@ -338,48 +389,104 @@ static enum MHD_Result send_summary(struct MHD_Connection *c, const gw_http_api_
 
 /* ---- live values (Server-Sent Events) ------------------------------------------- */
 
-static void sse_append(sse_t *s, const char *event, const gw_json_t *j)
+/* An event into the stream's buffer; false (nothing written) when it
+ * does not fit now. */
+static bool sse_append(sse_t *s, const char *event, const gw_json_t *j)
 {
     size_t need = strlen(event) + j->len + 16;
     if (j->full || s->len + need > sizeof s->buf)
-        return; /* cannot be: one robot's values are ~15 kB; dropped, not cut */
+        return false;
     s->len += (size_t)snprintf(s->buf + s->len, sizeof s->buf - s->len, "event: %s\ndata: %s\n\n",
                                event, j->buf);
+    return true;
 }
 
-/* What this stream has to say now, into its buffer: its robot's link
- * when it changed (or first), the values that changed since the last
- * event (all of them first), else now and then a comment. False: the
- * stream ends (its robot is gone). */
+static char sse_text[SSE_BUF]; /* an event's data being made (one loop) */
+
+/* Robot k of the stream: its status when its link or the freshness of
+ * its values changed (or first), and the values that changed since the
+ * last event (all of them first), as far as the buffer has room; what
+ * did not fit goes at the next turn. False: the robot is gone. */
+static bool sse_robot(sse_t *s, const gw_http_api_t *a, sse_robot_t *k)
+{
+    int r = gw_http_api_find(a, k->name);
+    if (r < 0)
+        return false;
+    const gw_robot_t *rb = &a->env->robots[r];
+    gw_json_t j;
+    if (!k->started || rb->serial != k->serial) {
+        memset(k->last, GW_HTTP_API_UNSENT, dr_leaf_count() * sizeof *k->last);
+        k->serial = rb->serial;
+        k->started = false;
+    }
+    if (!k->started || rb->link.link_state != k->link_state || rb->link.fresh != k->fresh ||
+        rb->link.ever_up != k->ever_up) {
+        gw_json_init(&j, sse_text, sizeof sse_text);
+        gw_http_api_robot(&j, a, (unsigned)r);
+        if (!sse_append(s, "status", &j))
+            return true; /* the next turn */
+        k->link_state = rb->link.link_state;
+        k->fresh = rb->link.fresh;
+        k->ever_up = rb->link.ever_up;
+        k->started = true;
+    }
+    /* what fits the buffer now, the leaves' last values kept for a retry */
+    size_t room = sizeof s->buf - s->len;
+    if (room < 512u + GW_NAME_MAX)
+        return true;
+    static uint64_t saved[GW_HTTP_API_LEAVES];
+    size_t bytes = dr_leaf_count() * sizeof *k->last;
+    bool keep = bytes <= sizeof saved;
+    if (keep)
+        memcpy(saved, k->last, bytes);
+    gw_json_init(&j, sse_text, room - 32u);
+    if (s->multi) {
+        gw_json_str(&j, "{\"robot\":");
+        gw_json_quote(&j, k->name, strlen(k->name));
+        gw_json_str(&j, ",\"values\":");
+    }
+    unsigned n = gw_http_api_values(&j, rb, false, k->last);
+    if (s->multi)
+        gw_json_str(&j, "}");
+    if (n > 0 && !sse_append(s, "values", &j) && keep)
+        memcpy(k->last, saved, bytes); /* not sent: all of them again next turn */
+    return true;
+}
+
+/* A 64-bit FNV-1a of a text: has the overview changed since it was sent? */
+static uint64_t fnv(const char *p, size_t n)
+{
+    uint64_t h = 14695981039346656037u;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ (unsigned char)p[i]) * 1099511628211u;
+    return h;
+}
+
+/* What this stream has to say now, into its buffer: the overview (at
+ * most every OVERVIEW_US, when it changed), each robot's status and
+ * values, else now and then a comment. False: the stream ends (the robot
+ * of a robot=NAME stream is gone). */
+#define OVERVIEW_US 500000u
 static bool sse_fill(sse_t *s, uint64_t now)
 {
     ht_t *t = s->t;
     gw_http_api_t a = api_of(t);
-    int r = gw_http_api_find(&a, s->robot);
-    if (r < 0)
-        return false;
-    const gw_robot_t *rb = &t->env->robots[r];
-    static char text[SSE_BUF];
-    gw_json_t j;
-    if (!s->started || rb->serial != s->serial) {
-        memset(s->last, GW_HTTP_API_UNSENT, dr_leaf_count() * sizeof *s->last);
-        s->serial = rb->serial;
+    if (s->overview && now >= s->overview_next_us) {
+        gw_json_t j;
+        gw_json_init(&j, sse_text, sizeof sse_text);
+        gw_http_api_status(&j, &a);
+        uint64_t h = fnv(j.buf, j.len);
+        if (h != s->overview_hash && sse_append(s, "overview", &j)) {
+            s->overview_hash = h;
+            s->overview_next_us = now + OVERVIEW_US;
+        }
     }
-    /* the robot again when its link, or the freshness of its values,
-     * changed: the page marks stale values as stale */
-    if (!s->started || rb->link.link_state != s->link_state || rb->link.fresh != s->fresh ||
-        rb->link.ever_up != s->ever_up) {
-        gw_json_init(&j, text, sizeof text);
-        gw_http_api_robot(&j, &a, (unsigned)r);
-        sse_append(s, "status", &j);
-        s->link_state = rb->link.link_state;
-        s->fresh = rb->link.fresh;
-        s->ever_up = rb->link.ever_up;
+    for (unsigned i = 0; i < s->nrobots; i++) {
+        sse_robot_t *k = &s->robot[(s->turn + i) % s->nrobots];
+        if (!sse_robot(s, &a, k) && !s->multi)
+            return false;
     }
-    s->started = true;
-    gw_json_init(&j, text, sizeof text);
-    if (gw_http_api_values(&j, rb, false, s->last) > 0)
-        sse_append(s, "values", &j);
+    s->turn = s->nrobots > 0 ? (s->turn + 1u) % s->nrobots : 0;
     if (s->len > 0) {
         s->quiet_since_us = now;
     } else if (now - s->quiet_since_us >= SSE_KEEPALIVE_US) {
@@ -416,6 +523,14 @@ static ssize_t sse_read(void *cls, uint64_t pos, char *buf, size_t max)
     return (ssize_t)n;
 }
 
+static void sse_free_unlinked(sse_t *s)
+{
+    if (s->robot != NULL)
+        free(s->robot[0].last);
+    free(s->robot);
+    free(s);
+}
+
 static void sse_free(void *cls)
 {
     sse_t *s = cls;
@@ -425,19 +540,59 @@ static void sse_free(void *cls)
             s->t->nstreams--;
             break;
         }
-    free(s->last);
-    free(s);
+    sse_free_unlinked(s);
+}
+
+/* The robots a stream asks for: robot=NAME (one), or robots=A,B,...
+ * (list; at most GW_MAX_ROBOTS, each once), into names[][GW_NAME_MAX];
+ * how many, 0 with *why when one is not a robot of this gateway. */
+static unsigned sse_names(const ht_t *t, const char *one, const char *list,
+                          char names[][GW_NAME_MAX], const char **why)
+{
+    gw_http_api_t a = api_of(t);
+    unsigned n = 0;
+    const char *p = one != NULL ? one : list;
+    while (p != NULL && *p != '\0') {
+        size_t len = one != NULL ? strlen(p) : strcspn(p, ",");
+        if (len == 0 || len >= GW_NAME_MAX || n == GW_MAX_ROBOTS) {
+            *why = len == 0 ? "an empty robot name" : "too many robots";
+            return 0;
+        }
+        memcpy(names[n], p, len);
+        names[n][len] = '\0';
+        if (gw_http_api_find(&a, names[n]) < 0) {
+            *why = "no such robot";
+            return 0;
+        }
+        bool dup = false;
+        for (unsigned i = 0; i < n; i++)
+            dup = dup || strcmp(names[i], names[n]) == 0;
+        n += !dup;
+        p += len;
+        if (*p == ',')
+            p++;
+    }
+    return n;
 }
 
 static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const char *method,
                                     const char *url)
 {
-    const char *name = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "robot");
-    if (name == NULL || name[0] == '\0')
-        return send_error(c, 400, method, url, "robot=NAME missing (allowed: a robot's name)");
-    gw_http_api_t a = api_of(t);
-    if (gw_http_api_find(&a, name) < 0)
-        return send_error(c, 404, method, url, "no such robot");
+    const char *one = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "robot");
+    const char *list = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "robots");
+    const char *ov = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "overview");
+    bool overview = ov != NULL && strcmp(ov, "1") == 0;
+    if (one != NULL && one[0] == '\0')
+        one = NULL;
+    if (one == NULL && (list == NULL || list[0] == '\0') && !overview)
+        return send_error(c, 400, method, url,
+                          "robot=NAME missing (allowed: robot=NAME, or robots=A,B,... and "
+                          "overview=1)");
+    static char names[GW_MAX_ROBOTS][GW_NAME_MAX];
+    const char *why = "no such robot";
+    unsigned nrobots = sse_names(t, one, one != NULL ? NULL : list, names, &why);
+    if (nrobots == 0 && (one != NULL || (list != NULL && list[0] != '\0')))
+        return send_error(c, 404, method, url, why);
     /* Bounded in all (and to half the connections, so that the rest of
      * the console, /metrics and `drgatewayd status` keep room) and per
      * client address: one more gets 503, and the page polls instead. */
@@ -457,21 +612,31 @@ static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const cha
                           "too many live streams (the page asks for values every second)");
     }
     sse_t *s = calloc(1, sizeof *s);
-    if (s == NULL || (s->last = calloc(dr_leaf_count(), sizeof *s->last)) == NULL) {
-        free(s);
-        return send_error(c, 503, method, url, "out of memory");
+    size_t leaves = dr_leaf_count();
+    if (s != NULL && nrobots > 0 &&
+        ((s->robot = calloc(nrobots, sizeof *s->robot)) == NULL ||
+         (s->robot[0].last = calloc((size_t)nrobots * leaves, sizeof(uint64_t))) == NULL)) {
+        sse_free_unlinked(s);
+        s = NULL;
     }
+    if (s == NULL)
+        return send_error(c, 503, method, url, "out of memory");
+    for (unsigned i = 0; i < nrobots; i++) {
+        s->robot[i].last = s->robot[0].last + (size_t)i * leaves;
+        memcpy(s->robot[i].name, names[i], sizeof s->robot[i].name);
+    }
+    s->nrobots = nrobots;
+    s->multi = one == NULL;
+    s->overview = overview;
     s->t = t;
     s->c = c;
     s->ip = ip;
     s->fd = cur_hc != NULL ? cur_hc->fd : -1;
-    snprintf(s->robot, sizeof s->robot, "%s", name);
     s->quiet_since_us = s->started_us = s->progress_us = ev_now_us();
     struct MHD_Response *r =
         ml->create_response_from_callback(MHD_SIZE_UNKNOWN, 16384, sse_read, s, sse_free);
     if (r == NULL) {
-        free(s->last);
-        free(s);
+        sse_free_unlinked(s);
         return MHD_NO;
     }
     s->next = t->streams;
@@ -498,7 +663,7 @@ static void sse_resume(ht_t *t, uint64_t now, bool closing)
     bool any = false;
     for (sse_t *s = t->streams; s != NULL; s = s->next) {
         s->closing = s->closing || closing;
-        if (s->suspended && (closing || now >= s->next_us)) {
+        if (s->suspended && (closing || s->closing || now >= s->next_us)) {
             s->suspended = false;
             ml->resume_connection(s->c);
             any = true;
@@ -520,6 +685,16 @@ static void sse_limits(ht_t *t, uint64_t now)
     for (sse_t *s = t->streams; s != NULL; s = s->next) {
         if (!s->closing && now - s->started_us >= (uint64_t)t->cfg.stream_max_s * 1000000u)
             s->closing = true;
+        /* A page closed while its stream waits (off MHD's lists, its
+         * socket not watched): seen now, not at the stream's next write,
+         * which for a robot whose values never change is 10 s away. */
+        if (s->suspended && !s->closing && s->fd >= 0 && now - s->peek_us >= 1000000u) {
+            char b;
+            s->peek_us = now;
+            ssize_t n = recv(s->fd, &b, 1, MSG_PEEK | MSG_DONTWAIT);
+            if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR))
+                s->closing = true;
+        }
         if (s->fd >= 0 && now - s->progress_us >= stall) {
             (void)shutdown(s->fd, SHUT_RDWR);
             s->fd = -1;
@@ -994,9 +1169,14 @@ static void on_mhd_log(void *cls, const char *fmt, va_list ap)
         snprintf(mhd_err, mhd_errlen, "%s", msg);
         return;
     }
-    /* Clients' misdeeds (a TLS handshake that is not one, a connection
-     * over the limit): at most one line every 10 s. */
-    gw_log_limited(GW_LOG_INFO, &t->mhd_limit, "http: %s", msg);
+    /* A page closed while its answer was being sent (a tab closed on a
+     * live stream): nothing wrong, debug only. Clients' misdeeds (a TLS
+     * handshake that is not one, a connection over the limit): at most
+     * one line every 10 s. */
+    if (strstr(msg, "Failed to send") != NULL || strstr(msg, "no longer available") != NULL)
+        gw_log(GW_LOG_DEBUG, "http: %s", msg);
+    else
+        gw_log_limited(GW_LOG_INFO, &t->mhd_limit, "http: %s", msg);
 }
 
 /* ---- servers ------------------------------------------------------------------------ */

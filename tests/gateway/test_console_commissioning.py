@@ -10,6 +10,8 @@ browser takes seconds to start on a loaded machine), phase by phase:
 - every robot's address and unit ID on the overview and its page, a robot
   that never linked shown as such (no robot state from the gateway's
   zeros, no data age from the daemon's uptime, its values marked);
+- ten tabs of one browser all live (one shared stream: a browser gives a
+  host six connections);
 - the robot page's filter finds every register of a field (both halves of
   a pair, both numberings, the scaled view), a unit, an enum name and the
   user map's rows; the user map as blocks; the CSV's download; the raw
@@ -198,8 +200,73 @@ def find_any_register(console):
     assert words is not None and "2 (0x0002)" in words, words
 
 
+def metric(g, name):
+    import urllib.request
+    with urllib.request.urlopen(g.url + "/metrics", timeout=10) as r:
+        for line in r.read().decode().splitlines():
+            if line.startswith(name + " "):
+                return float(line.split()[1])
+    return None
+
+
+def tab_state(d, h):
+    d.switch_to.window(h)
+    return js(d, "var page = document.body.getAttribute('data-page');"
+                 "var live = document.getElementById('live').getAttribute('data-state');"
+                 "if (page === 'overview') return {page: page, live: live,"
+                 " robots: document.querySelectorAll('#robots tr[data-robot]').length};"
+                 "var newest = 0; document.querySelectorAll('td.v[data-updated]').forEach(function (c) {"
+                 " newest = Math.max(newest, Number(c.getAttribute('data-updated'))); });"
+                 "return {page: page, live: live, link: document.getElementById('link').textContent,"
+                 " rows: document.querySelectorAll('#fields tr[data-path]').length,"
+                 " age: newest ? Date.now() - newest : null};")
+
+
+def ten_tabs_live(console):
+    """Ten tabs of one browser (robot pages of both robots and the
+    overview) all live: the pages share one stream (a browser gives a host
+    six connections), so every tab's requests get through."""
+    g, d = console, console.driver
+    pages = ["/robot/arm1", "/robot/arm2", "/"] * 3 + ["/robot/arm1"]
+    handles = []
+    for p in pages:
+        d.switch_to.new_window("tab")
+        d.get(g.url + p)
+        handles.append(d.current_window_handle)
+
+    def all_live():
+        states = [tab_state(d, h) for h in handles]
+        for p, st in zip(pages, states):
+            if st["live"] != "live":
+                return False
+            if p == "/" and st["robots"] != 2:
+                return False
+            if p.startswith("/robot/") and st["rows"] < 300:
+                return False
+            if p == "/robot/arm1" and (st["age"] is None or st["age"] > 5000):
+                return False  # values moving in every arm1 tab
+            if p == "/robot/arm2" and st["link"] != "never linked":
+                return False
+        return True
+    wait_for(all_live, 60, "all ten tabs live")
+    # one stream for the browser (a stream the worker replaced goes at the
+    # server's next write to it), and connections to spare
+    wait_for(lambda: metric(g, "drgate_http_streams") == 1, 10, "one stream")
+    assert metric(g, "drgate_http_connections") <= 6
+    # closing tabs leaves the others live
+    for h in handles[:5]:
+        d.switch_to.window(h)
+        d.close()
+    handles, pages = handles[5:], pages[5:]
+    wait_for(all_live, 30, "the five tabs left live")
+    for h in handles:
+        d.switch_to.window(h)
+        d.close()
+
+
 def test_console_commissioning(console):
-    for phase in (request_log_shows_a_refused_fc16, identity_and_never_linked, find_any_register):
+    for phase in (request_log_shows_a_refused_fc16, identity_and_never_linked, find_any_register,
+                  ten_tabs_live):
         t0 = time.monotonic()
         phase(console)
         print("%s: %.1f s" % (phase.__name__, time.monotonic() - t0))

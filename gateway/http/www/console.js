@@ -147,6 +147,45 @@
     return r.age_ms === null ? "never" : ms(r.age_ms);
   }
 
+  // ---- the live stream ----------------------------------------------------------
+  // One stream for every page of the browser, through the pages' shared
+  // worker (static/live.js); a browser without SharedWorker opens its own
+  // (the same events). sub: {robots: [...], overview: bool}; on: the
+  // handlers overview(data), status(robot), values(robot, values),
+  // state(state, why).
+  function liveStream(sub, on) {
+    function deliver(m) {
+      if (m.type === "overview" && on.overview) on.overview(m.data);
+      else if (m.type === "status" && on.status) on.status(m.data);
+      else if (m.type === "values" && on.values) on.values(m.robot, m.values);
+      else if (m.type === "state" && on.state) on.state(m.state, m.why);
+    }
+    if (window.SharedWorker) {
+      try {
+        var port = new SharedWorker("/static/live.js").port;
+        port.onmessage = function (e) { deliver(e.data || {}); };
+        port.start();
+        port.postMessage({ type: "subscribe", robots: sub.robots || [], overview: !!sub.overview });
+        setInterval(function () { port.postMessage({ type: "ping" }); }, 5000);
+        window.addEventListener("pagehide", function () { port.postMessage({ type: "bye" }); });
+        return;
+      } catch (e) { /* a browser that refuses it: a stream of its own */ }
+    }
+    if (!window.EventSource) return;
+    var q = [];
+    if ((sub.robots || []).length) q.push("robots=" + sub.robots.map(encodeURIComponent).join(","));
+    if (sub.overview) q.push("overview=1");
+    var es = new EventSource("/api/v1/events?" + q.join("&"));
+    es.addEventListener("overview", function (e) { deliver({ type: "overview", data: JSON.parse(e.data) }); });
+    es.addEventListener("status", function (e) { deliver({ type: "status", data: JSON.parse(e.data) }); });
+    es.addEventListener("values", function (e) {
+      var d = JSON.parse(e.data);
+      deliver({ type: "values", robot: d.robot, values: d.values });
+    });
+    es.onopen = function () { deliver({ type: "state", state: "live" }); };
+    es.onerror = function () { deliver({ type: "state", state: "stale", why: "event stream interrupted: reconnecting" }); };
+  }
+
   // ---- a side's report, whatever its members ---------------------------------
   // Each side writes its own object into /api/v1/status "sides"; shown as
   // tables (arrays of objects), nested blocks and name/value lists, with
@@ -394,9 +433,16 @@
   }
 
   function overview() {
-    var lastLog = 0, lastEvents = [], lastWrites = [], lastReq = 0, reqOn = true;
+    var lastLog = 0, lastEvents = [], lastWrites = [], lastReq = 0, reqOn = true, lastStream = 0;
+    // The status from the live stream (when it changed, at most twice a
+    // second); polled while the stream brings nothing.
+    liveStream({ overview: true }, {
+      overview: function (st) { lastStream = Date.now(); renderStatus(st); live("live"); },
+      state: function (state, why) { if (state !== "live") live("stale", why); }
+    });
     function tick() {
-      var now = Date.now(), jobs = [getJSON("/api/v1/status").then(renderStatus)];
+      var now = Date.now(), jobs = [];
+      if (now - lastStream > 3000) jobs.push(getJSON("/api/v1/status").then(renderStatus));
       if (reqOn && now - lastReq >= 1000) {
         lastReq = now;
         jobs.push(getJSON("/api/v1/modbus/requests").then(function (d) { reqData = d; renderRequests(); },
@@ -609,9 +655,11 @@
         if (row.v.textContent === t) return;
         row.v.textContent = t;
         if (old !== undefined) { // highlight a change, not the first value
-          row.v.classList.remove("chg");
-          void row.v.offsetWidth; // restart the animation
-          row.v.classList.add("chg");
+          // two classes with the same animation, in turn: a new class
+          // restarts it without forcing a layout per changed value
+          var odd = row.v.classList.contains("chg");
+          row.v.classList.toggle("chg", !odd);
+          row.v.classList.toggle("chg2", odd);
         }
       });
       if (values["io_state.robot_state"] !== undefined && lastStatus && lastStatus.ever_linked && !lastStatus.values_stale)
@@ -708,21 +756,23 @@
       setText($("packets"), (r.rx_packets === undefined ? "-" : r.rx_packets) + " / " + (r.lost_packets === undefined ? "-" : r.lost_packets));
     }
 
-    // Values: Server-Sent Events (the first event carries every value,
-    // then what changed, a few times a second); while they do not come,
-    // the values are polled instead.
-    var lastValues = 0, es = null;
+    // Values: the live stream (the first event carries every value, then
+    // what changed, a few times a second); while they do not come, the
+    // values are polled instead.
+    var lastValues = 0, streaming = false;
     function stream() {
-      if (!window.EventSource) return;
       lastValues = Date.now(); // its first event carries every value
-      es = new EventSource(base.replace("/robots/" + encodeURIComponent(name), "/events?robot=" + encodeURIComponent(name)));
-      es.addEventListener("values", function (e) { lastValues = Date.now(); live("live"); apply(JSON.parse(e.data)); });
-      es.addEventListener("status", function (e) { status(JSON.parse(e.data)); });
-      es.onopen = function () { live("live"); };
-      es.onerror = function () { live("stale", "event stream interrupted: reconnecting"); };
+      liveStream({ robots: [name] }, {
+        values: function (robot, vals) { lastValues = Date.now(); live("live"); apply(vals); },
+        status: function (r) { status(r); },
+        state: function (state, why) {
+          streaming = state === "live";
+          live(state === "live" ? "live" : "stale", why);
+        }
+      });
     }
     function poll() {
-      getJSON(base).then(function (r) { status(r); if (!es || es.readyState !== 1) live("live"); },
+      getJSON(base).then(function (r) { status(r); if (!streaming) live("live"); },
         function (e) { live("stale", String(e.message || e)); })
         .then(function () { setTimeout(poll, document.hidden ? 5000 : 2000); });
     }
