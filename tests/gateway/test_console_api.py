@@ -294,3 +294,68 @@ def test_effective_configuration_with_secrets_hidden(tmp_path):
         assert st == 200 and b"/api/v1/config" in body
     finally:
         g.kill()
+
+
+def read_events(port, path, want, seconds=10):
+    """The (event, data) pairs of a stream until want(pairs) or seconds."""
+    import http.client
+    c = http.client.HTTPConnection(GW_ADDR, port, timeout=seconds)
+    pairs, ev, t0 = [], None, time.monotonic()
+    try:
+        c.request("GET", path)
+        r = c.getresponse()
+        assert r.status == 200, r.read()
+        while time.monotonic() - t0 < seconds and not want(pairs):
+            line = r.readline()
+            if not line:
+                break
+            if line.startswith(b"event: "):
+                ev = line[7:].strip().decode()
+            elif line.startswith(b"data: ") and ev is not None:
+                pairs.append((ev, json.loads(line[6:])))
+                ev = None
+    finally:
+        c.close()
+    return pairs
+
+
+def test_one_stream_carries_robots_and_the_overview(gw):
+    def enough(p):
+        kinds = {(e, d.get("name") or d.get("robot")) for e, d in p if e in ("status", "values")}
+        return {("status", "r0"), ("status", "down"), ("values", "r0")} <= kinds and \
+            any(e == "overview" for e, d in p)
+    pairs = read_events(gw.http, "/api/v1/events?robots=r0,down,r0&overview=1", enough)
+    assert enough(pairs), [(e, list(d)[:3]) for e, d in pairs]
+    first = [d for e, d in pairs if e == "values" and d["robot"] == "r0"][0]
+    assert len(first["values"]) > 300  # every value first
+    assert [d for e, d in pairs if e == "overview"][0]["robots"][0]["name"] == "r0"
+    # robot=NAME keeps its form
+    one = read_events(gw.http, "/api/v1/events?robot=r0",
+                      lambda p: any(e == "values" for e, d in p))
+    assert "io_state.robot_state" in [d for e, d in one if e == "values"][0]
+    for path, code in (("/api/v1/events?robots=r0,nobody", 404), ("/api/v1/events?robots=", 400),
+                       ("/api/v1/events", 400)):
+        assert get(gw.http, path)[0] == code, path
+
+
+def test_static_files_cached_and_connection_kept(gw):
+    import http.client
+    c = http.client.HTTPConnection(GW_ADDR, gw.http, timeout=10)
+    try:
+        c.request("GET", "/static/console.js")
+        r = c.getresponse()
+        body = r.read()
+        assert r.status == 200 and len(body) > 1000
+        etag = r.getheader("ETag")
+        assert etag and r.getheader("Cache-Control") == "no-cache"
+        sock = c.sock
+        c.request("GET", "/static/console.js", headers={"If-None-Match": etag})
+        r = c.getresponse()
+        assert r.status == 304 and r.read() == b"" and r.getheader("ETag") == etag
+        c.request("GET", "/api/v1/status")
+        r = c.getresponse()
+        r.read()
+        assert r.status == 200 and r.getheader("Cache-Control") == "no-store"
+        assert c.sock is sock  # one connection for the three
+    finally:
+        c.close()
