@@ -777,9 +777,13 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
     gw_json_init(&j, resp, sizeof resp);
     const char *p = url + strlen("/api/v1/");
     if (strcmp(p, "status") == 0) {
+        /* the text summary: asked by Accept (drgatewayd status), or by
+         * format=text (a link: the pages' <noscript> notice) */
         const char *accept = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Accept");
-        if (accept != NULL && strstr(accept, "text/plain") != NULL &&
-            strstr(accept, "json") == NULL)
+        const char *fmt = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "format");
+        if ((accept != NULL && strstr(accept, "text/plain") != NULL &&
+             strstr(accept, "json") == NULL) ||
+            (fmt != NULL && strcmp(fmt, "text") == 0))
             return send_summary(c, &a);
         gw_http_api_status(&j, &a);
     } else if (strcmp(p, "robots") == 0) {

@@ -20,6 +20,8 @@ browser takes seconds to start on a loaded machine), phase by phase:
 SKIPPED with the banner of tests/skip.sh where chromium, its driver or
 selenium is missing (test_console_browser.browser()).
 """
+import json
+import os
 import time
 
 import pytest
@@ -264,9 +266,119 @@ def ten_tabs_live(console):
         d.close()
 
 
+AXE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "axe", "node_modules",
+                   "axe-core", "axe.min.js")
+
+
+def axe_serious(d):
+    """axe-core's serious and critical violations of the page, run from the
+    pinned copy in tests/axe (make test-deps), never from the network."""
+    if not os.path.exists(AXE):
+        gwlib.skip("axe-core", "tests/axe/node_modules missing (make test-deps)")
+    with open(AXE) as f:
+        js(d, f.read() + "\n;return 1;")
+    d.set_script_timeout(gwlib.timeout(60))
+    res = d.execute_async_script(
+        "var done = arguments[arguments.length - 1];"
+        "axe.run(document, {runOnly: {type: 'tag', values: ['wcag2a', 'wcag2aa', 'wcag21a',"
+        " 'wcag21aa', 'best-practice']}}).then(function (r) { done(r.violations.map(function (v) {"
+        " return {id: v.id, impact: v.impact, nodes: v.nodes.length,"
+        " what: v.nodes.slice(0, 3).map(function (n) { return n.target.join(' ') + ': ' +"
+        " (n.failureSummary || '').slice(0, 160); })}; })); },"
+        " function (e) { done([{id: 'axe failed', impact: 'critical', nodes: 0, what: [String(e)]}]); });")
+    return [v for v in res if v["impact"] in ("serious", "critical")]
+
+
+def scheme(d, dark):
+    d.execute_cdp_cmd("Emulation.setEmulatedMedia", {"features": [
+        {"name": "prefers-color-scheme", "value": "dark" if dark else "light"}]})
+
+
+def for_every_person(console):
+    """WCAG 2.1 AA by axe-core in light and dark mode on both pages (no
+    serious or critical violation), dark mode by prefers-color-scheme,
+    headings and landmarks, aria-live link state, and the <noscript>
+    notice with the text summary's link."""
+    g, d = console, console.driver
+    d.switch_to.window(d.window_handles[0])
+    found = {}
+    for dark in (False, True):
+        scheme(d, dark)
+        for path in ("/", "/robot/arm1", "/robot/arm2", "/config"):
+            d.get(g.url + path)
+            wait_for(lambda: js(d, "return document.getElementById('live').getAttribute("
+                                   "'data-state');") == "live", 20, "the page live")
+            if path != "/config":
+                wait_for(lambda: js(d, "return document.querySelectorAll('tbody tr').length;") > 1,
+                         20, "the page's rows")
+            bg = js(d, "return getComputedStyle(document.body).backgroundColor;")
+            rgb = [int(x) for x in bg[bg.index("(") + 1:bg.index(")")].split(",")[:3]]
+            assert (sum(rgb) < 200) == dark, (path, dark, bg)
+            v = axe_serious(d)
+            if v:
+                found["%s %s" % (path, "dark" if dark else "light")] = v
+            assert js(d, "return document.querySelectorAll('h1').length;") == 1, path
+            assert js(d, "return !!document.querySelector('header') && !!document.querySelector('main')"
+                         " && !!document.querySelector('footer');"), path
+    scheme(d, False)
+    assert not found, json.dumps(found, indent=1)[:4000]
+    # link state announced
+    d.get(g.url + "/robot/arm1")
+    assert js(d, "var n = document.getElementById('link'); var p = n.closest('[aria-live]');"
+                 "return p ? p.getAttribute('aria-live') : null;") == "polite"
+    d.get(g.url + "/")
+    assert js(d, "var n = document.getElementById('robot-count');"
+                 "return n.closest('[aria-live]') ? 'polite' : null;") == "polite"
+    # without JavaScript: the notice, and the text summary it links to
+    for path in ("/", "/robot/arm1"):
+        st, body = raw_get(g, path)
+        assert st == 200 and b"<noscript>" in body and b"/api/v1/status?format=text" in body
+    st, body = raw_get(g, "/api/v1/status?format=text")
+    assert st == 200 and body.startswith(b"drgatewayd ") and b"arm1" in body
+
+
+def raw_get(g, path):
+    import urllib.request
+    with urllib.request.urlopen(g.url + path, timeout=10) as r:
+        return r.status, r.read()
+
+
+def phone(console):
+    """390 px wide (a phone): the overview's layout is as wide as the
+    screen (no horizontal scroll), and the robot page's field table scrolls
+    inside its card, the page itself not."""
+    g, d = console, console.driver
+    d.execute_cdp_cmd("Emulation.setDeviceMetricsOverride", {
+        "width": 390, "height": 844, "deviceScaleFactor": 1, "mobile": True})
+    try:
+        for path in ("/", "/robot/arm1", "/config"):
+            d.get(g.url + path)
+            wait_for(lambda: js(d, "return document.getElementById('live').getAttribute("
+                                   "'data-state');") == "live", 20, "the page live")
+            time.sleep(0.5)  # a few updates laid out
+            w = js(d, "return [document.documentElement.scrollWidth, window.innerWidth,"
+                      " document.body.scrollWidth];")
+            wide = js(d, "var out = []; document.querySelectorAll('body *').forEach(function (e) {"
+                         " var r = e.getBoundingClientRect(); if (r.right <= 390.5 || !e.offsetParent) return;"
+                         " for (var p = e.parentElement; p; p = p.parentElement)"
+                         "  if (/auto|scroll|hidden/.test(getComputedStyle(p).overflowX)) return;"
+                         " out.push(e.tagName + '#' + e.id + '.' + e.className + ' ' + Math.round(r.right)); });"
+                         " return out.slice(0, 8);")
+            assert w[0] <= w[1] == 390 and w[2] <= 390, (path, w, wide)
+        shot_phone(d)
+    finally:
+        d.execute_cdp_cmd("Emulation.clearDeviceMetricsOverride", {})
+
+
+def shot_phone(d):
+    shots = os.environ.get("GW_CONSOLE_SHOTS", "")
+    if shots:
+        d.save_screenshot(os.path.join(shots, "console-robot-phone.png"))
+
+
 def test_console_commissioning(console):
     for phase in (request_log_shows_a_refused_fc16, identity_and_never_linked, find_any_register,
-                  ten_tabs_live):
+                  ten_tabs_live, for_every_person, phone):
         t0 = time.monotonic()
         phase(console)
         print("%s: %.1f s" % (phase.__name__, time.monotonic() - t0))

@@ -801,7 +801,7 @@
               el("td", { class: "mono" }, r.name, r.user ? el("span", { class: "tag user" }, "map") : null)));
           });
           frag.appendChild(el("h3", null, t));
-          frag.appendChild(el("div", { class: "wide" }, el("table", { class: "grid", "data-table": t },
+          frag.appendChild(el("div", { class: "wide", tabindex: "0" }, el("table", { class: "grid", "data-table": t },
             el("thead", null, el("tr", null, el("th", { class: "num" }, "address"), el("th", { class: "num" }, "reference"),
               el("th", null, "words"), el("th", null, "field"))), body)));
         });
