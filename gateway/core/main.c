@@ -652,13 +652,14 @@ int main(int argc, char **argv)
         }
     }
     if (optind < argc && strcmp(argv[optind], "status") == 0) {
-        if (optind + 1 != argc || check != NULL || print_map || print_errors || help_config) {
-            fprintf(stderr, "drgatewayd: status takes -c FILE only\n");
+        if (optind + 1 != argc || check != NULL || print_map || print_errors || help_config ||
+            fmt == GW_PRINT_MARKDOWN) {
+            fprintf(stderr, "drgatewayd: status takes -c FILE and --json only\n");
             return 2;
         }
         for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
             if (gw_north_sides[i]->status_command != NULL)
-                return gw_north_sides[i]->status_command(config);
+                return gw_north_sides[i]->status_command(config, fmt == GW_PRINT_JSON);
         fprintf(stderr, "drgatewayd: status: no side of this build answers it\n");
         return 2;
     }

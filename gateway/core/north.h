@@ -165,7 +165,7 @@ typedef struct {
     void (*print_errors)(FILE *out, gw_print_fmt_t fmt);
     /* `drgatewayd status [-c FILE]`: the exit status (the first side
      * that has it answers). */
-    int (*status_command)(const char *config);
+    int (*status_command)(const char *config, bool json);
 } gw_north_ops_t;
 
 /* Every side's operations, gw_north_NAME (its north_NAME.c), from the

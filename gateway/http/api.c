@@ -4,6 +4,7 @@
 
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/link.h"
 #include "core/report.h"
@@ -23,6 +24,20 @@
 static void qstr(gw_json_t *j, const char *s)
 {
     gw_json_quote(j, s, strlen(s));
+}
+
+const char *gw_http_api_config_path(const gw_config_t *cfg)
+{
+    /* the working directory of the start, taken once: a relative path
+     * given with -c means nothing to a reader of the console */
+    static char cwd[512], abs_path[sizeof cwd + sizeof cfg->path + 2];
+    if (cfg->path[0] == '/' || cfg->path[0] == '\0')
+        return cfg->path;
+    if (cwd[0] == '\0' && getcwd(cwd, sizeof cwd) == NULL)
+        return cfg->path;
+    snprintf(abs_path, sizeof abs_path, "%s/%s", cwd,
+             strncmp(cfg->path, "./", 2) == 0 ? cfg->path + 2 : cfg->path);
+    return abs_path;
 }
 
 int gw_http_api_find(const gw_http_api_t *a, const char *name)
@@ -202,7 +217,7 @@ void gw_http_api_status(gw_json_t *j, const gw_http_api_t *a)
     qstr(j, a->env->version);
     NUM(j, ",\"uptime_s\":%llu", (unsigned long long)a->uptime_s);
     gw_json_str(j, ",\"config\":{\"file\":");
-    qstr(j, a->env->cfg->path);
+    qstr(j, gw_http_api_config_path(a->env->cfg));
     NUM(j, ",\"generation\":%u},\"robots\":", a->generation);
     gw_http_api_robots(j, a);
     /* Each side's own object: the report part's (report.h). */
@@ -326,7 +341,8 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
              "drgatewayd %s: %s\n     Uptime: %s\n     Config: %s (generation %u)\n     Robots: "
              "%u of %u linked\n",
              a->env->version, down == 0 ? "running, every robot linked" : "running, robots down",
-             up, cfg->path, a->generation, cfg->robot_count - down, cfg->robot_count);
+             up, gw_http_api_config_path(cfg), a->generation, cfg->robot_count - down,
+             cfg->robot_count);
     gw_json_str(j, line);
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         const gw_robot_t *rb = &a->env->robots[r];

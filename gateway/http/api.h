@@ -22,6 +22,10 @@ typedef struct {
     unsigned generation; /* configuration reloads so far */
 } gw_http_api_t;
 
+/* The configuration file's path as an absolute one (-c with a relative
+ * path: joined to the working directory of the start). */
+const char *gw_http_api_config_path(const gw_config_t *cfg);
+
 /* The robot named `name` (its index), -1 if none. */
 int gw_http_api_find(const gw_http_api_t *a, const char *name);
 

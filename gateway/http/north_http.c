@@ -86,6 +86,11 @@
     "connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'none'; "              \
     "frame-ancestors 'none'"
 #define HTTP_CODES 600
+/* MHD's memory per connection beyond max_request_bytes: room for the
+ * answer's head, so that a request near the limit is answered (414, 431)
+ * rather than closed without a status line, which MHD does when the
+ * request took the whole pool (on_request checks the limit itself). */
+#define ANSWER_ROOM 8192u
 
 typedef struct ht ht_t;
 
@@ -380,6 +385,27 @@ static enum MHD_Result send_summary(struct MHD_Connection *c, const gw_http_api_
     char down[16];
     snprintf(down, sizeof down, "%u", gw_http_api_down(a));
     (void)ml->add_response_header(r, "Content-Type", "text/plain; charset=utf-8");
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    (void)ml->add_response_header(r, "X-Robots-Down", down);
+    enum MHD_Result ok = queue(c, 200, r, false);
+    ml->destroy_response(r);
+    return ok;
+}
+
+/* /api/v1/status as JSON, with the robots not linked in X-Robots-Down
+ * too (`drgatewayd status --json`'s exit status). */
+static enum MHD_Result send_status_json(struct MHD_Connection *c, const gw_http_api_t *a,
+                                        gw_json_t *j)
+{
+    if (j->full)
+        return send_json(c, 200, j);
+    gw_json_str(j, "\n");
+    struct MHD_Response *r = ml->create_response_from_buffer(j->len, j->buf, MHD_RESPMEM_MUST_COPY);
+    if (r == NULL)
+        return MHD_NO;
+    char down[16];
+    snprintf(down, sizeof down, "%u", gw_http_api_down(a));
+    (void)ml->add_response_header(r, "Content-Type", "application/json");
     (void)ml->add_response_header(r, "Cache-Control", "no-store");
     (void)ml->add_response_header(r, "X-Robots-Down", down);
     enum MHD_Result ok = queue(c, 200, r, false);
@@ -786,6 +812,7 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
             (fmt != NULL && strcmp(fmt, "text") == 0))
             return send_summary(c, &a);
         gw_http_api_status(&j, &a);
+        return send_status_json(c, &a, &j);
     } else if (strcmp(p, "robots") == 0) {
         gw_http_api_robots(&j, &a);
     } else if (strcmp(p, "config") == 0) {
@@ -1027,6 +1054,30 @@ static bool has_body(struct MHD_Connection *c)
            (len != NULL && strspn(len, "0") != strlen(len));
 }
 
+/* The request's head as sent, near enough: the URL, its arguments and
+ * its headers, each with its separators. */
+static enum MHD_Result add_size(void *cls, enum MHD_ValueKind kind, const char *key,
+                                const char *value)
+{
+    size_t *n = cls;
+    (void)kind;
+    *n += strlen(key) + (value != NULL ? strlen(value) : 0) + 4u;
+    return MHD_YES;
+}
+
+/* 0, or 414 (the URL is most of it) or 431 for a head over
+ * max_request_bytes. */
+static unsigned head_too_large(const ht_t *t, struct MHD_Connection *c, const char *url)
+{
+    size_t args = 0, headers = 0;
+    (void)ml->get_connection_values(c, MHD_GET_ARGUMENT_KIND, add_size, &args);
+    (void)ml->get_connection_values(c, MHD_HEADER_KIND, add_size, &headers);
+    size_t line = strlen(url) + args, total = line + headers;
+    if (total <= t->cfg.max_request_bytes)
+        return 0;
+    return line >= headers ? 414u : 431u;
+}
+
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
                                   const char *method, const char *version,
                                   const char *upload_data, size_t *upload_data_size,
@@ -1051,6 +1102,11 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
          * log in again. Others are answered now, and closed. */
         *req_cls = sv;
         h->answering = true;
+        unsigned big = head_too_large(t, c, url);
+        if (big != 0)
+            return send_error(c, big, method, url,
+                              big == 414 ? "URI too long (max_request_bytes)"
+                                         : "request headers too large (max_request_bytes)");
         if (get && !has_body(c))
             return MHD_YES;
     }
@@ -1226,7 +1282,7 @@ static bool srv_start(srv_t *sv, ht_t *t, char *err, size_t errlen)
         {MHD_OPTION_LISTEN_SOCKET, sv->lfd, NULL},
         {MHD_OPTION_CONNECTION_LIMIT, (intptr_t)h->max_connections, NULL},
         {MHD_OPTION_CONNECTION_TIMEOUT, (intptr_t)h->timeout_s, NULL},
-        {MHD_OPTION_CONNECTION_MEMORY_LIMIT, (intptr_t)h->max_request_bytes, NULL},
+        {MHD_OPTION_CONNECTION_MEMORY_LIMIT, (intptr_t)(h->max_request_bytes + ANSWER_ROOM), NULL},
         {MHD_OPTION_PER_IP_CONNECTION_LIMIT, (intptr_t)h->max_connections_per_ip, NULL},
         {MHD_OPTION_END, 0, NULL}, /* TLS: three more, below */
         {MHD_OPTION_END, 0, NULL},

@@ -359,3 +359,83 @@ def test_static_files_cached_and_connection_kept(gw):
         assert c.sock is sock  # one connection for the three
     finally:
         c.close()
+
+
+def raw_status_line(port, data):
+    """The status line an HTTP request gets ("" if the connection closed
+    without one)."""
+    import socket as so
+    s = so.create_connection((GW_ADDR, port), timeout=10)
+    out = b""
+    try:
+        s.sendall(data)
+        while b"\r\n" not in out:
+            b = s.recv(65536)
+            if not b:
+                break
+            out += b
+    except (ConnectionResetError, so.timeout):
+        pass
+    finally:
+        s.close()
+    return out.split(b"\r\n")[0].decode()
+
+
+def test_requests_near_the_limit_get_a_status_line(gw):
+    """max_request_bytes (16384): a request around it gets an answer, never a
+    connection closed without a status line; over it, 414 when the URL is
+    most of it, 431 when the headers are (docs/http.md)."""
+    host = b"Host: %s:%d\r\n" % (GW_ADDR.encode(), gw.http)
+    for n in range(15600, 17200, 100):
+        line = raw_status_line(gw.http, b"GET /api/v1/" + b"a" * n + b" HTTP/1.1\r\n" + host +
+                               b"Accept: */*\r\n\r\n")
+        assert line.startswith("HTTP/1.1 "), (n, line)
+        assert line.split()[1] in (("404",) if n + 60 <= 16384 else ("404", "414")), (n, line)
+        assert not (n >= 16400 and line.split()[1] != "414"), (n, line)
+        line = raw_status_line(gw.http, b"GET /api/v1/status HTTP/1.1\r\n" + host + b"X-Big: " +
+                               b"b" * n + b"\r\n\r\n")
+        assert line.startswith("HTTP/1.1 "), (n, line)
+        assert not (n >= 16400 and line.split()[1] != "431"), (n, line)
+    # the issue's 16,200-byte URL: within the limit with its few headers
+    assert raw_status_line(gw.http, b"GET /api/v1/" + b"a" * 16200 + b" HTTP/1.1\r\n" + host +
+                           b"\r\n").split()[1] == "404"
+
+
+def test_closed_stream_not_logged_at_info(gw):
+    mark = len(gw.log())
+    pairs = read_events(gw.http, "/api/v1/events?robot=down", lambda p: len(p) >= 1)
+    assert pairs and pairs[0][0] == "status"
+    # the stream waits (nothing changes for a robot never linked): its
+    # close is seen by the next look at its socket, and not logged at info
+    wait_for(lambda: get_json(gw.http, "/api/v1/status") and
+             b"drgate_http_streams 0" in get(gw.http, "/metrics")[2], 10, "the stream gone")
+    assert "Failed to send" not in gw.log()[mark:], gw.log()[mark:]
+
+
+def test_status_json_and_absolute_config_path(gw):
+    p = subprocess.run([str(DRGATEWAYD), "status", "--json", "-c", str(gw.conf)],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 1, p.stderr  # the robot `down`
+    st = json.loads(p.stdout)
+    assert [r["name"] for r in st["robots"]] == ["r0", "down"]
+    assert st["config"]["file"] == str(gw.conf.resolve())
+    p = subprocess.run([str(DRGATEWAYD), "status", "--markdown", "-c", str(gw.conf)],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and "--json only" in p.stderr
+
+
+def test_relative_config_path_shown_absolute(monkeypatch):
+    import pathlib
+    port = free_port(GW_ADDR, udp=False)
+    g = Gateway("console_api_rel", [], extra=down_robot() + "\n[http]\nport = %d\n" % port)
+    full = g.conf.resolve()
+    monkeypatch.chdir(full.parent)
+    g.conf = pathlib.Path(full.name)  # drgatewayd -c console_api_rel.ini
+    try:
+        g.start(wait_link=False)
+        wait_for(lambda: g.listening(port), 10, "the console to listen")
+        assert get_json(port, "/api/v1/status")["config"]["file"] == str(full)
+        text = get(port, "/api/v1/status?format=text")[2].decode()
+        assert "Config: %s (generation" % full in text, text
+    finally:
+        g.kill()

@@ -10,6 +10,9 @@ browser takes seconds to start on a loaded machine), phase by phase:
 - every robot's address and unit ID on the overview and its page, a robot
   that never linked shown as such (no robot state from the gateway's
   zeros, no data age from the daemon's uptime, its values marked);
+- a bookmark with credentials in it (http://user:pw@host/) still live;
+- WCAG 2.1 AA (axe-core, light and dark), headings, landmarks, aria-live,
+  the <noscript> notice; the phone layout (390 px wide);
 - ten tabs of one browser all live (one shared stream: a browser gives a
   host six connections);
 - the robot page's filter finds every register of a field (both halves of
@@ -376,9 +379,23 @@ def shot_phone(d):
         d.save_screenshot(os.path.join(shots, "console-robot-phone.png"))
 
 
+def credentials_in_the_address(console):
+    """A bookmark with a user and password in it (the console asks none
+    of loopback): the pages still reach the API and go live."""
+    g, d = console, console.driver
+    base = g.url.replace("http://", "http://user:pw@")
+    for path in ("/", "/robot/arm1", "/config"):
+        d.get(base + path)
+        wait_for(lambda: js(d, "return document.getElementById('live').getAttribute("
+                               "'data-state');") == "live", 20, "%s live" % path)
+    d.get(base + "/robot/arm1")
+    wait_for(lambda: js(d, "return document.querySelectorAll('#fields tr[data-path]').length;")
+             > 300, 20, "the robot page's map")
+
+
 def test_console_commissioning(console):
     for phase in (request_log_shows_a_refused_fc16, identity_and_never_linked, find_any_register,
-                  ten_tabs_live, for_every_person, phone):
+                  ten_tabs_live, for_every_person, phone, credentials_in_the_address):
         t0 = time.monotonic()
         phase(console)
         print("%s: %.1f s" % (phase.__name__, time.monotonic() - t0))

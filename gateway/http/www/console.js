@@ -36,8 +36,16 @@
     if (node && node.textContent !== text) node.textContent = text;
   }
 
+  // An address of this gateway: from the page's origin, which has no
+  // user and password in it even when the address typed had them
+  // (http://user:pw@host/): fetch() refuses a URL made from such a page's
+  // address, and the page stayed at "no answer" (issue 33).
+  function abs(path) {
+    return location.origin + path;
+  }
+
   function getJSON(url) {
-    return fetch(url, { cache: "no-store", headers: { Accept: "application/json" } })
+    return fetch(abs(url), { cache: "no-store", headers: { Accept: "application/json" } })
       .then(function (r) {
         if (!r.ok) {
           return r.text().then(function (t) {
@@ -162,7 +170,7 @@
     }
     if (window.SharedWorker) {
       try {
-        var port = new SharedWorker("/static/live.js").port;
+        var port = new SharedWorker(abs("/static/live.js")).port;
         port.onmessage = function (e) { deliver(e.data || {}); };
         port.start();
         port.postMessage({ type: "subscribe", robots: sub.robots || [], overview: !!sub.overview });
@@ -175,7 +183,7 @@
     var q = [];
     if ((sub.robots || []).length) q.push("robots=" + sub.robots.map(encodeURIComponent).join(","));
     if (sub.overview) q.push("overview=1");
-    var es = new EventSource("/api/v1/events?" + q.join("&"));
+    var es = new EventSource(abs("/api/v1/events?" + q.join("&")));
     es.addEventListener("overview", function (e) { deliver({ type: "overview", data: JSON.parse(e.data) }); });
     es.addEventListener("status", function (e) { deliver({ type: "status", data: JSON.parse(e.data) }); });
     es.addEventListener("values", function (e) {
@@ -826,7 +834,7 @@
   // ---- configuration page --------------------------------------------------------
 
   function configPage() {
-    fetch("/api/v1/config", { cache: "no-store" }).then(function (r) {
+    fetch(abs("/api/v1/config"), { cache: "no-store" }).then(function (r) {
       if (!r.ok) throw new Error("/api/v1/config: HTTP " + r.status);
       return r.text();
     }).then(function (t) { setText($("config"), t); live("live"); },
