@@ -1112,7 +1112,8 @@ static void raw_row(map_out_t *o, unsigned area, unsigned a, unsigned end, const
         r->first = true;
     }
     uint16_t v[2] = {0, 0};
-    unsigned n = end - a > 2u ? 2u : end - a;
+    bool pair = end - a >= 2u; /* a 32-bit value's two registers (the map's rows have 1 or 2) */
+    unsigned n = pair ? 2u : 1u;
     int ex = gw_regmap_read(r->u, (gw_area_t)area, (uint16_t)a, (uint16_t)n, v);
     snprintf(t, sizeof t, "%s{\"address\":%u,\"count\":%u,\"ref\":\"%u%04u\",\"name\":",
              r->first ? "" : ",", a, n, area_prefix[area], a + 1u);
@@ -1120,7 +1121,7 @@ static void raw_row(map_out_t *o, unsigned area, unsigned a, unsigned end, const
     gw_json_quote(r->j, name, strlen(name));
     if (ex != 0)
         snprintf(t, sizeof t, ",\"ex\":%d%s}", ex, user ? ",\"user\":true" : "");
-    else if (n == 2)
+    else if (pair)
         snprintf(t, sizeof t, ",\"words\":[%u,%u]%s}", v[0], v[1], user ? ",\"user\":true" : "");
     else
         snprintf(t, sizeof t, ",\"words\":[%u]%s}", v[0], user ? ",\"user\":true" : "");

@@ -88,10 +88,10 @@ static void name(gw_json_t *j, const char *key, const char *s)
 
 void gw_reqlog_json(gw_json_t *j, const gw_reqlog_t *l, uint64_t now)
 {
-    uint32_t n = l->total < GW_REQLOG_N ? l->total : GW_REQLOG_N;
-    for (uint32_t k = 0; k < n; k++) {
-        const gw_reqlog_entry_t *e = &l->e[(l->total - n + k) % GW_REQLOG_N];
-        gw_json_str(j, k > 0 ? ",{" : "{");
+    uint32_t first = l->total > GW_REQLOG_N ? l->total - GW_REQLOG_N : 0;
+    for (uint32_t k = first; k != l->total; k++) {
+        const gw_reqlog_entry_t *e = &l->e[k % GW_REQLOG_N];
+        gw_json_str(j, k != first ? ",{" : "{");
         char t[48];
         snprintf(t, sizeof t, "\"age_ms\":%llu",
                  (unsigned long long)(now > e->us ? (now - e->us) / 1000u : 0));
