@@ -429,6 +429,7 @@ def test_relative_config_path_shown_absolute(monkeypatch):
     port = free_port(GW_ADDR, udp=False)
     g = Gateway("console_api_rel", [], extra=down_robot() + "\n[http]\nport = %d\n" % port)
     full = g.conf.resolve()
+    full.parent.mkdir(parents=True, exist_ok=True)
     monkeypatch.chdir(full.parent)
     g.conf = pathlib.Path(full.name)  # drgatewayd -c console_api_rel.ini
     try:

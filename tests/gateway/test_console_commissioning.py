@@ -268,6 +268,7 @@ def ten_tabs_live(console):
     for h in handles:
         d.switch_to.window(h)
         d.close()
+    d.switch_to.window(d.window_handles[0])
 
 
 AXE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "axe", "node_modules",
@@ -369,15 +370,25 @@ def phone(console):
                          " out.push(e.tagName + '#' + e.id + '.' + e.className + ' ' + Math.round(r.right)); });"
                          " return out.slice(0, 8);")
             assert w[0] <= w[1] == 390 and w[2] <= 390, (path, w, wide)
-        shot_phone(d)
+            shot_phone(d, {"/": "console-overview-phone.png",
+                           "/robot/arm1": "console-robot-phone.png"}.get(path))
     finally:
         d.execute_cdp_cmd("Emulation.clearDeviceMetricsOverride", {})
 
 
-def shot_phone(d):
+def shot_phone(d, name):
+    """With GW_CONSOLE_SHOTS=DIR (make console-shots), the page as a phone
+    shows it, the whole page's height."""
     shots = os.environ.get("GW_CONSOLE_SHOTS", "")
-    if shots:
-        d.save_screenshot(os.path.join(shots, "console-robot-phone.png"))
+    if shots and name:
+        os.makedirs(shots, exist_ok=True)
+        h = js(d, "return Math.min(document.documentElement.scrollHeight, 2400);")
+        d.execute_cdp_cmd("Emulation.setDeviceMetricsOverride", {
+            "width": 390, "height": h, "deviceScaleFactor": 1, "mobile": True})
+        time.sleep(0.5)
+        d.save_screenshot(os.path.join(shots, name))
+        d.execute_cdp_cmd("Emulation.setDeviceMetricsOverride", {
+            "width": 390, "height": 844, "deviceScaleFactor": 1, "mobile": True})
 
 
 def credentials_in_the_address(console):
