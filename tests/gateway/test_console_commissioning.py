@@ -105,7 +105,21 @@ def request_log_shows_a_refused_fc16(console):
         wait_for(lambda: {x["fc"] for x in request_rows(d)} == {16, 4}, 10,
                  "the filter by client")
         set_input(d, "req-filter", "")
+        # at 1400 px the Modbus clients' last column is in its card (or the
+        # card scrolls to it), not under the GPIO card beside it
+        d.set_window_size(1400, 900)
+        wait_for(lambda: js(d, "return document.querySelectorAll("
+                               "'#modbus table[data-list=clients] th').length;") > 0, 20,
+                 "the Modbus clients' table")
+        fit = js(d, "var card = document.getElementById('side-modbus').getBoundingClientRect();"
+                    "var ths = document.querySelectorAll('#modbus table[data-list=clients] th');"
+                    "var last = ths[ths.length - 1].getBoundingClientRect();"
+                    "var box = document.getElementById('modbus');"
+                    "return [last.right <= card.right + 0.5 ||"
+                    " getComputedStyle(box).overflowX === 'auto', ths[ths.length - 1].textContent];")
+        assert fit[0], fit
     finally:
+        d.set_window_size(1280, 900)
         c.close()
 
 
