@@ -72,6 +72,10 @@ GOAL_RSS_KB = 4096
 # the same wake-ups (one per RPI, O->T sent with the T->O arrivals, batched)
 # where drsim also wakes for its own production timer: no more than drsim.
 GOAL_CPU_VS_SIM = 1.0
+# The Modbus request log (issue 33): req/s of the daemon built without it
+# over the real one's, 8 clients.
+GOAL_REQLOG = 1.05
+REQLOG_CLIENTS = 8
 
 
 def log(msg):
@@ -224,7 +228,8 @@ class Bench:
         self.args = args
         b = os.path.join(TOP, args.build) if not os.path.isabs(args.build) else args.build
         self.bin = {n: os.path.join(b, n) for n in ("drsim", "drgatewayd")}
-        for n in ("gw_load", "gw_plain_server", "drgatewayd-lat", "lat_bare"):
+        for n in ("gw_load", "gw_plain_server", "drgatewayd-lat", "lat_bare",
+                  "drgatewayd-noreqlog"):
             self.bin[n] = os.path.join(b, "bench", n)
         if args.gateway:
             self.bin["drgatewayd"] = os.path.abspath(args.gateway)
@@ -254,7 +259,8 @@ class Bench:
         self.procs = []
 
     # ---- processes -----------------------------------------------------------
-    def start_gateway(self, binary, name, env=None):
+    def start_gateway(self, binary, name, env=None, sim=None):
+        sim_tcp, sim_udp = sim or (self.sim_tcp, self.sim_udp)
         mb_port = free_port(GW_ADDR, [socket.SOCK_STREAM])
         local_udp = free_port(GW_ADDR, [socket.SOCK_DGRAM])
         ini = os.path.join(self.tmp, name + ".ini")
@@ -266,8 +272,8 @@ max_clients = 100
 
 [robot bench]
 host = {SIM_ADDR}
-tcp_port = {self.sim_tcp}
-udp_port = {self.sim_udp}
+tcp_port = {sim_tcp}
+udp_port = {sim_udp}
 local_address = {GW_ADDR}
 local_udp_port = {local_udp}
 rpi_ms = {RPI_MS}
@@ -393,6 +399,38 @@ rpi_ms = {RPI_MS}
         self.stop(plain)
         self.stop(py)
 
+    def run_reqlog(self):
+        """The request log's cost (issue 33): the daemon and the same
+        daemon built without the log (-DGW_MB_NO_REQLOG), each with its own
+        drsim, take turns under REQLOG_CLIENTS clients, --rounds rounds."""
+        a = self.args
+        tcp2 = free_port(SIM_ADDR, [socket.SOCK_STREAM, socket.SOCK_DGRAM])
+        udp2 = free_port(SIM_ADDR, [socket.SOCK_DGRAM])
+        sim2 = self.start("drsim-2", [self.bin["drsim"], "--address", SIM_ADDR, "--tcp-port",
+                                      str(tcp2), "--udp-port", str(udp2)])
+        gw = self.start_gateway(self.bin["drgatewayd"], "drgatewayd-reqlog")
+        nolog = self.start_gateway(self.bin["drgatewayd-noreqlog"], "drgatewayd-noreqlog",
+                                   sim=(tcp2, udp2))
+        pairs = [("log", gw.port), ("nolog", nolog.port)]
+        self.reqlog = {"log": [], "nolog": []}
+        for rnd in range(a.rounds):
+            for name, port in pairs[rnd % 2:] + pairs[:rnd % 2]:
+                res = self.run_load(port, REQLOG_CLIENTS, self.reqs, a.duration,
+                                    f"reqlog-{name}/{REQLOG_CLIENTS}")
+                self.reqlog[name].append(res["rps"])
+            log(f"request log, round {rnd + 1}/{a.rounds}, {REQLOG_CLIENTS} clients: with "
+                f"{self.reqlog['log'][-1]:.0f}, without {self.reqlog['nolog'][-1]:.0f} req/s")
+        for p in (gw, nolog, sim2):
+            self.stop(p)
+
+    def reqlog_row(self, ok):
+        r = statistics.median(n / w for n, w in zip(self.reqlog["nolog"], self.reqlog["log"]))
+        return (f"Modbus request log's cost, FC03/FC04 req/s, {REQLOG_CLIENTS} clients: "
+                f"without the log over with it",
+                f"{statistics.median(self.reqlog['log']):.0f}",
+                f"{statistics.median(self.reqlog['nolog']):.0f} (without)",
+                f"{r:.3f}x", f"<= {GOAL_REQLOG}x", ok(r <= GOAL_REQLOG))
+
     def run(self):
         a = self.args
         t_begin = time.monotonic()
@@ -410,6 +448,12 @@ rpi_ms = {RPI_MS}
         time.sleep(0.3)
         if not sim.alive():
             raise RuntimeError(f"drsim exited:\n{sim.log()}")
+        if not a.latency_only:
+            self.run_reqlog()
+        if a.reqlog_only:
+            self.enip_check = None
+            self.cleanup()
+            return
         if not a.latency_only:
             self.run_modbus(sim)
         else:
@@ -498,6 +542,10 @@ rpi_ms = {RPI_MS}
             v = self.tput[(name, c)]
             return f"{min(v) / 1000:.1f}-{max(v) / 1000:.1f}k"
 
+        if hasattr(self, "reqlog"):
+            rows.append(self.reqlog_row(ok))
+        if self.args.reqlog_only:
+            return rows
         for c in CLIENTS if self.enip_check else ():
             r = ratio("gw", "plain", c)
             rows.append((f"FC03/FC04 req/s, {c} client{'s' if c > 1 else ''}: vs plain libmodbus",
@@ -742,11 +790,13 @@ def main():
     ap.add_argument("--write-doc", action="store_true", help=f"write the section into {DOC}")
     ap.add_argument("--latency-only", action="store_true",
                     help="only the latency part (for work on it; --write-doc refuses)")
+    ap.add_argument("--reqlog-only", action="store_true",
+                    help="only the Modbus request log's cost (--write-doc refuses)")
     ap.add_argument("--quick", action="store_true", help="1 round of 1 s (a smoke test)")
     args = ap.parse_args()
     if args.quick:
         args.rounds, args.duration, args.idle, args.lat_phase = 1, 1.0, 3.0, 2.0
-    if args.latency_only and args.write_doc:
+    if (args.latency_only or args.reqlog_only) and args.write_doc:
         ap.error("--write-doc needs the whole run")
     b = Bench(args)
     if not run_or_report(b, log):

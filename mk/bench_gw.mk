@@ -8,7 +8,7 @@
 # `make bench-gw GW_BENCH_ARGS=--write-doc`. See bench/gw_bench.py.
 
 GW_BENCH_BIN := $(B)/bench/gw_load $(B)/bench/gw_plain_server $(B)/bench/drgatewayd-lat \
-    $(B)/bench/lat_bare
+    $(B)/bench/lat_bare $(B)/bench/drgatewayd-noreqlog
 GW_BENCH_PY  ?= .venv/bin/python
 GW_BENCH_ARGS ?=
 
@@ -32,6 +32,13 @@ $(B)/bench/gw_plain_server: bench/gw_plain_server.c $(B)/bench/gw_plain_server.d
 $(eval $(call GW_VARIANT,lat,-include bench/gw_lat_hook.h,bench/gw_lat.c))
 $(B)/bench/drgatewayd-lat: $(GW_OBJ_lat) $(GPIO_A) $(LIB_A)
 	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(GW_OBJ_lat) $(GPIO_A) \
+	    $(LIB_A) $(GW_LIBS)
+
+# The daemon without the Modbus request log (gateway/modbus/reqlog.h,
+# issue 33): what the log costs, its req/s against the real one's.
+$(eval $(call GW_VARIANT,noreqlog,-DGW_MB_NO_REQLOG))
+$(B)/bench/drgatewayd-noreqlog: $(GW_OBJ_noreqlog) $(GPIO_A) $(LIB_A)
+	$(CC) $(ALL_CFLAGS) -fPIE -pie $(ALL_LDFLAGS) -o $@ $(GW_OBJ_noreqlog) $(GPIO_A) \
 	    $(LIB_A) $(GW_LIBS)
 
 bench-gw: $(GW_BIN) $(SIM_BIN) $(GW_BENCH_BIN)

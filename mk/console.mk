@@ -2,8 +2,10 @@
 # The console's pages (gateway/http/www/, issue 21).
 #
 #   console-shots   docs/console-overview.png and docs/console-robot.png,
-#                   taken by the browser test (tests/gateway/
-#                   test_console_browser.py with GW_CONSOLE_SHOTS) in
+#                   and the same at 390 px (docs/console-*-phone.png),
+#                   taken by the browser tests (tests/gateway/
+#                   test_console_browser.py, test_console_commissioning.py
+#                   with GW_CONSOLE_SHOTS) in
 #                   headless chromium against drsim: run once after the
 #                   pages change, and commit the pictures (README.md and
 #                   docs/http.md show them); about a minute
@@ -24,8 +26,10 @@ console-shots: $(GW_BIN) $(SIM_BIN) $(CLI_BIN)
 	@$(call GW_TEST_PEERS,console screenshots)
 	@$(call GW_TEST_RUN,$(B),console screenshots (docs/console-*.png),\
 	    GW_CONSOLE_SHOTS=$(CURDIR)/docs GW_LOGDIR=/tmp/drgate-console,\
-	    tests/gateway/test_console_browser.py)
-	@ls -l docs/console-overview.png docs/console-robot.png
+	    tests/gateway/test_console_browser.py \
+	    tests/gateway/test_console_commissioning.py::test_console_for_every_person)
+	@ls -l docs/console-overview.png docs/console-robot.png docs/console-overview-phone.png \
+	    docs/console-robot-phone.png
 
 CONSOLE_BENCH_ARGS ?=
 BENCH_STEPS += bench-console

@@ -289,17 +289,21 @@ fi
 [ "$set_arg" = test ] || exit 0
 
 # Eclipse Tahu's JavaScript Sparkplug packages (tests/gateway/test_sparkplug_tck.py),
-# pinned by tests/tahu/package-lock.json, into tests/tahu/node_modules.
-lock=tests/tahu/package-lock.json
-nstamp=tests/tahu/node_modules/.lock.stamp
-if [ -f "$lock" ] && ! cmp -s "$lock" "$nstamp" 2>/dev/null; then
-    say "npm ci in tests/tahu (Eclipse Tahu's sparkplug-client and sparkplug-payload, pinned)"
-    if [ -z "$dry" ]; then
-        (cd tests/tahu && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error) ||
-            { say "npm ci in tests/tahu failed (above)"; exit 1; }
-        cp "$lock" "$nstamp"
+# and axe-core (the console's accessibility check, tests/gateway/
+# test_console_commissioning.py), each pinned by its package-lock.json,
+# into tests/DIR/node_modules.
+for d in tahu axe; do
+    lock=tests/$d/package-lock.json
+    nstamp=tests/$d/node_modules/.lock.stamp
+    if [ -f "$lock" ] && ! cmp -s "$lock" "$nstamp" 2>/dev/null; then
+        say "npm ci in tests/$d (pinned by its package-lock.json)"
+        if [ -z "$dry" ]; then
+            (cd tests/$d && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error) ||
+                { say "npm ci in tests/$d failed (above)"; exit 1; }
+            cp "$lock" "$nstamp"
+        fi
     fi
-fi
+done
 
 # Python test peers, pinned, in a venv under the repository.
 req=tests/requirements.txt

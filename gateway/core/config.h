@@ -199,4 +199,12 @@ const char *gw_config_sections(void);
  * docs/configuration.md). False for an unknown section. */
 bool gw_config_print_keys(FILE *out, const char *section);
 
+/* The configuration in effect, as INI text into buf[size]: every section
+ * the daemon runs with and every key with its value, the defaults
+ * included; a key whose name says it is a secret (password, secret,
+ * token, key, auth) shows whether it is set, not its value; keys only a
+ * hook stores (allow, map, instance.*, open.*) are named as comments
+ * ("as in the file"). False: it did not fit (buf then holds nothing). */
+bool gw_config_effective(const gw_config_t *cfg, char *buf, size_t size);
+
 #endif /* DRGATE_GW_CONFIG_H */

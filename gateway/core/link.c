@@ -923,6 +923,7 @@ gw_link_t *gw_link_new(const gw_robot_config_t *rc, unsigned robot, gw_robot_t *
     l->dirty = (1u << DR_ASM_COUNT) - 1u;
     l->data->link.link_state = 1;
     l->data->link.rpi_ms = (uint16_t)rc->rpi_ms;
+    l->data->link.originator_serial = cc.serial;
     /* Before the start, whose first attempt may fail (and say so) at once. */
     bool named = strcmp(ip, rc->host) != 0; /* a host name: show its address too */
     char lay[96] = "";
@@ -1058,6 +1059,7 @@ static void update_status(gw_link_t *l, uint64_t now)
     }
     st->fresh = oldest != 0 && age <= limit;
     st->link_state = l->up ? 2 : (dr_client_ready(l->client) ? 1 : 0);
+    st->ever_up = st->ever_up || l->up;
 }
 
 void gw_link_tick(gw_link_t *l, uint64_t now, bool busy)

@@ -53,8 +53,8 @@ static const char *const words[8] = {"", "", "", "error", "warning", "", "info",
 
 /* ---- the ring of the last events (for the console) --------------------------- */
 
-static gw_log_event_t ring[GW_LOG_RING];
-static uint64_t ring_total; /* events ever put in */
+static gw_log_event_t ring[2][GW_LOG_RING]; /* by gw_log_ring_t */
+static uint64_t ring_total[2];               /* lines ever put in */
 static bool ring_on;
 
 void gw_log_ring_keep(bool on)
@@ -62,11 +62,11 @@ void gw_log_ring_keep(bool on)
     ring_on = on;
 }
 
-static void ring_put(gw_log_level_t level, const char *text)
+static void ring_put(unsigned which, gw_log_level_t level, const char *text)
 {
     struct timespec ts;
-    gw_log_event_t *e = &ring[ring_total % GW_LOG_RING];
-    ring_total++;
+    gw_log_event_t *e = &ring[which][ring_total[which] % GW_LOG_RING];
+    ring_total[which]++;
     e->time_us = clock_gettime(CLOCK_REALTIME, &ts) == 0
                      ? (uint64_t)ts.tv_sec * 1000000u + (uint64_t)ts.tv_nsec / 1000u
                      : 0;
@@ -78,16 +78,31 @@ static void ring_put(gw_log_level_t level, const char *text)
     e->text[n] = '\0';
 }
 
+static void each(unsigned which, void (*fn)(void *user, const gw_log_event_t *e), void *user)
+{
+    uint64_t n = ring_total[which], first = n > GW_LOG_RING ? n - GW_LOG_RING : 0;
+    for (uint64_t i = first; i < n; i++)
+        fn(user, &ring[which][i % GW_LOG_RING]);
+}
+
 void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user)
 {
-    uint64_t first = ring_total > GW_LOG_RING ? ring_total - GW_LOG_RING : 0;
-    for (uint64_t i = first; i < ring_total; i++)
-        fn(user, &ring[i % GW_LOG_RING]);
+    each(GW_LOG_EVENTS, fn, user);
 }
 
 uint64_t gw_log_ring_total(void)
 {
-    return ring_total;
+    return ring_total[GW_LOG_EVENTS];
+}
+
+void gw_log_writes_each(void (*fn)(void *user, const gw_log_event_t *e), void *user)
+{
+    each(GW_LOG_WRITES, fn, user);
+}
+
+uint64_t gw_log_writes_total(void)
+{
+    return ring_total[GW_LOG_WRITES];
 }
 
 const char *gw_log_level_name(gw_log_level_t level)
@@ -125,9 +140,10 @@ size_t gw_log_escape(char *out, size_t cap, const char *in, size_t n)
  * come partly from outside (a user name, a topic, a client id, a path),
  * and one with a newline in it must not become two lines, the second of
  * them forged ("\n<0>..." is an emergency in the journal). */
-static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
-    GW_PRINTF(3, 0);
-static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_list ap)
+static void vlog(unsigned which, gw_log_level_t level, unsigned suppressed, const char *fmt,
+                 va_list ap) GW_PRINTF(4, 0);
+static void vlog(unsigned which, gw_log_level_t level, unsigned suppressed, const char *fmt,
+                 va_list ap)
 {
     if (level > max_level)
         return;
@@ -140,7 +156,7 @@ static void vlog(gw_log_level_t level, unsigned suppressed, const char *fmt, va_
         snprintf(line + len, sizeof line - len, " [%u similar message%s suppressed]",
                  suppressed, suppressed == 1 ? "" : "s");
     if (ring_on)
-        ring_put(level, line);
+        ring_put(which == GW_LOG_WRITES ? GW_LOG_WRITES : GW_LOG_EVENTS, level, line);
     if (getenv("JOURNAL_STREAM") != NULL) {
         fprintf(stderr, "<%d>%s\n", (int)level, line);
     } else {
@@ -154,7 +170,17 @@ void gw_log(gw_log_level_t level, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    vlog(level, 0, fmt, ap);
+    vlog(GW_LOG_EVENTS, level, 0, fmt, ap);
+    va_end(ap);
+}
+
+/* gw_log into ring `which`. */
+static void log_to(unsigned which, gw_log_level_t level, const char *fmt, ...) GW_PRINTF(3, 4);
+static void log_to(unsigned which, gw_log_level_t level, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vlog(which, level, 0, fmt, ap);
     va_end(ap);
 }
 
@@ -174,6 +200,7 @@ typedef struct {
     uint64_t due_us;             /* end of the kind's window */
     uint64_t window_us;          /* its length (window_of) */
     gw_log_level_t level;
+    uint8_t ring;                /* the kind's (gw_log_limit_t ring) */
     unsigned count;              /* suppressed in this window */
     char text[TEXT_MAX];         /* the latest of them */
 } pending_t;
@@ -207,7 +234,8 @@ static pending_t *pending_new(gw_log_limit_t *limit, uint64_t due_us, gw_log_lev
     for (unsigned i = 0; i < PENDING_MAX; i++)
         if (pending[i].limit == NULL) {
             pending[i] = (pending_t){.limit = limit, .due_us = due_us,
-                                     .window_us = window_of(limit), .level = level};
+                                     .window_us = window_of(limit), .level = level,
+                                     .ring = limit->ring};
             limit->slot = i + 1;
             return &pending[i];
         }
@@ -216,7 +244,7 @@ static pending_t *pending_new(gw_log_limit_t *limit, uint64_t due_us, gw_log_lev
 
 static void pending_print(const pending_t *p, const char *when)
 {
-    gw_log(p->level, "%s [%u similar message%s suppressed %s, the last shown]", p->text,
+    log_to(p->ring, p->level, "%s [%u similar message%s suppressed %s, the last shown]", p->text,
            p->count, p->count == 1 ? "" : "s", when);
 }
 
@@ -249,7 +277,7 @@ void gw_log_limited(gw_log_level_t level, gw_log_limit_t *limit, const char *fmt
     }
     limit->last_us = now;
     limit->suppressed = 0;
-    vlog(level, n, fmt, ap);
+    vlog(limit->ring, level, n, fmt, ap);
     va_end(ap);
 }
 

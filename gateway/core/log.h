@@ -41,6 +41,11 @@ typedef struct {
     gw_log_level_t level;
     char text[GW_LOG_TEXT];
 } gw_log_event_t;
+/* Which ring a line goes to: the events' (everything), or the writes'
+ * (the write log's lines, gw_write_log): a PLC that writes once a second
+ * would otherwise push the start-up and link events out of the events'
+ * ring within minutes. Each ring holds GW_LOG_RING lines. */
+typedef enum { GW_LOG_EVENTS = 0, GW_LOG_WRITES = 1 } gw_log_ring_t;
 /* Keep the ring (true) or not (false, the default): only a daemon with a
  * console ([http]) keeps it, so that one without has no page of it in
  * memory (issue 21: the same RSS as before the console). */
@@ -49,6 +54,9 @@ void gw_log_ring_keep(bool on);
 void gw_log_ring_each(void (*fn)(void *user, const gw_log_event_t *e), void *user);
 /* Events ever logged (those beyond GW_LOG_RING have left the ring). */
 uint64_t gw_log_ring_total(void);
+/* The same for the writes' ring. */
+void gw_log_writes_each(void (*fn)(void *user, const gw_log_event_t *e), void *user);
+uint64_t gw_log_writes_total(void);
 /* "error", "warning", "info", "debug". */
 const char *gw_log_level_name(gw_log_level_t level);
 
@@ -59,6 +67,7 @@ typedef struct {
     unsigned suppressed; /* of this kind since, when log.c had no room for them */
     unsigned slot;       /* log.c's entry for the ones it holds (0: none) */
     uint32_t window_ms;  /* at most one line per window_ms (whole seconds); 0: 10 s */
+    uint8_t ring;        /* gw_log_ring_t its lines are kept in (0: the events') */
 } gw_log_limit_t;
 
 /* At most one line every 10 s per limit (window_ms: another window, such

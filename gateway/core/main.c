@@ -137,18 +137,23 @@ static void notify_status(gw_t *g)
 
 /* "modbus": {...}, ...: each running side's member, commas between (the
  * caller writes the braces around them). */
-static void report(void *user, gw_json_t *j)
+/* One member per running side that says something (op, or robot_op for
+ * robot `robot`), commas between. */
+static void each_side(const gw_t *g, gw_json_t *j, bool per_robot, unsigned robot)
 {
-    const gw_t *g = user;
     bool first = true;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
-        if (g->side[i] == NULL || gw_north_sides[i]->report == NULL)
+        const gw_north_ops_t *op = gw_north_sides[i];
+        if (g->side[i] == NULL || (per_robot ? op->robot_report == NULL : op->report == NULL))
             continue;
         size_t at = j->len;
         if (!first)
             gw_json_str(j, ",");
         size_t mark = j->len;
-        gw_north_sides[i]->report(g->side[i], j);
+        if (per_robot)
+            op->robot_report(g->side[i], robot, j);
+        else
+            op->report(g->side[i], j);
         if (j->len == mark && !j->full) { /* nothing to say: no comma either */
             j->len = at;
             j->buf[at] = '\0';
@@ -158,6 +163,16 @@ static void report(void *user, gw_json_t *j)
     }
 }
 
+static void report(void *user, gw_json_t *j)
+{
+    each_side(user, j, false, 0);
+}
+
+static void robot_sides(void *user, unsigned robot, gw_json_t *j)
+{
+    each_side(user, j, true, robot);
+}
+
 /* /api/v1/robots/NAME/map: from the first side that has a map. */
 static bool map(void *user, gw_json_t *j, unsigned robot)
 {
@@ -165,6 +180,26 @@ static bool map(void *user, gw_json_t *j, unsigned robot)
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
         if (gw_north_sides[i]->map_json != NULL)
             return gw_north_sides[i]->map_json(&g->cfg, robot, j);
+    return false;
+}
+
+/* /api/v1/SIDE/PATH: the running side of that name, if it has an api. */
+static bool side_api(void *user, const char *side, const char *path, gw_json_t *j)
+{
+    const gw_t *g = user;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (strcmp(gw_north_sides[i]->name, side) == 0)
+            return g->side[i] != NULL && gw_north_sides[i]->api != NULL &&
+                   gw_north_sides[i]->api(g->side[i], path, j);
+    return false;
+}
+
+static bool map_csv(void *user, gw_json_t *j, unsigned robot)
+{
+    const gw_t *g = user;
+    for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
+        if (gw_north_sides[i]->map_csv != NULL)
+            return gw_north_sides[i]->map_csv(&g->cfg, robot, j);
     return false;
 }
 
@@ -179,7 +214,7 @@ static void metrics(void *user, gw_prom_t *m)
     gw_prom_one(m, "drgate_config_generation", GW_PROM_GAUGE,
                 "Configuration generation: +1 at every reload that was applied", g->generation);
     gw_prom_one(m, "drgate_log_events_total", GW_PROM_COUNTER,
-                "Lines the daemon logged (at its log level)", (double)gw_log_ring_total());
+                "Lines the daemon logged (at its log level)", (double)(gw_log_ring_total() + gw_log_writes_total()));
     gw_lag_metrics(m, &g->lag);
     gw_report_robot_metrics(m, g->robots, g->cfg.robot_count);
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
@@ -450,7 +485,10 @@ static bool start_sides(gw_t *g)
                               .report = report,
                               .metrics = metrics,
                               .summaries = summaries,
-                              .map = map};
+                              .map = map,
+                              .map_csv = map_csv,
+                              .side_api = side_api,
+                              .robot_sides = robot_sides};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
         if (g->side[i] == NULL) {
@@ -614,13 +652,14 @@ int main(int argc, char **argv)
         }
     }
     if (optind < argc && strcmp(argv[optind], "status") == 0) {
-        if (optind + 1 != argc || check != NULL || print_map || print_errors || help_config) {
-            fprintf(stderr, "drgatewayd: status takes -c FILE only\n");
+        if (optind + 1 != argc || check != NULL || print_map || print_errors || help_config ||
+            fmt == GW_PRINT_MARKDOWN) {
+            fprintf(stderr, "drgatewayd: status takes -c FILE and --json only\n");
             return 2;
         }
         for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
             if (gw_north_sides[i]->status_command != NULL)
-                return gw_north_sides[i]->status_command(config);
+                return gw_north_sides[i]->status_command(config, fmt == GW_PRINT_JSON);
         fprintf(stderr, "drgatewayd: status: no side of this build answers it\n");
         return 2;
     }

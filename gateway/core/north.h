@@ -49,7 +49,7 @@ typedef struct {
 } gw_side_summary_t;
 
 /* --print-map and --print-errors. */
-typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON } gw_print_fmt_t;
+typedef enum { GW_PRINT_TEXT, GW_PRINT_MARKDOWN, GW_PRINT_JSON, GW_PRINT_CSV } gw_print_fmt_t;
 
 /* The bound of a map_json answer (the console's response buffer). */
 #define GW_NORTH_MAP_MAX (768u * 1024u)
@@ -85,6 +85,16 @@ typedef struct {
     /* /api/v1/robots/NAME/map: robot's map of fields, by the first side
      * with a `map_json` op; false: none (or j is full). NULL: none. */
     bool (*map)(void *user, gw_json_t *j, unsigned robot);
+    /* /api/v1/robots/NAME/map.csv: the same rows as a table, by the first
+     * side with a `map_csv` op. NULL: none. */
+    bool (*map_csv)(void *user, gw_json_t *j, unsigned robot);
+    /* GET /api/v1/SIDE/PATH: the running side named `side` answers PATH
+     * with its `api` op; false: no such side or path (404), or j full.
+     * NULL: none. */
+    bool (*side_api)(void *user, const char *side, const char *path, gw_json_t *j);
+    /* A robot's "sides" members in the console's ROBOT: each running
+     * side's robot_report, commas between, no braces. NULL: none. */
+    void (*robot_sides)(void *user, unsigned robot, gw_json_t *j);
 } gw_north_env_t;
 
 typedef enum {
@@ -130,6 +140,13 @@ typedef struct {
     /* The status summary (NULL: nothing to show): fill s, which comes
      * zeroed; a side with nothing configured leaves the label empty. */
     void (*summary)(const void *self, gw_side_summary_t *s);
+    /* GET /api/v1/NAME/PATH (env->side_api): the side's own JSON answer
+     * for PATH ("requests"); false: not one of its paths. NULL: none. */
+    bool (*api)(const void *self, const char *path, gw_json_t *j);
+    /* What the side says of robot `robot` in the console's ROBOT
+     * (env->robot_sides): `"name": {...}` (Modbus: its unit ID and
+     * aliases), nothing when it has nothing to say. NULL: none. */
+    void (*robot_report)(const void *self, unsigned robot, gw_json_t *j);
 
     /* --check-config: what the loader cannot check (TLS files load);
      * false with "FILE:LINE: ..." in err. (What the daemon asks of a
@@ -140,12 +157,15 @@ typedef struct {
     /* /api/v1/robots/NAME/map (env->map): robot's fields with this side's
      * addresses, at most GW_NORTH_MAP_MAX bytes; false: not served. */
     bool (*map_json)(const gw_config_t *cfg, unsigned robot, gw_json_t *j);
+    /* /api/v1/robots/NAME/map.csv (env->map_csv): `--print-map --json`'s
+     * rows of the robot as CSV, at most GW_NORTH_MAP_MAX bytes. */
+    bool (*map_csv)(const gw_config_t *cfg, unsigned robot, gw_json_t *j);
     /* --print-map [FILTER] (cfg NULL without -c) and --print-errors. */
     void (*print_map)(FILE *out, gw_print_fmt_t fmt, const char *filter, const gw_config_t *cfg);
     void (*print_errors)(FILE *out, gw_print_fmt_t fmt);
     /* `drgatewayd status [-c FILE]`: the exit status (the first side
      * that has it answers). */
-    int (*status_command)(const char *config);
+    int (*status_command)(const char *config, bool json);
 } gw_north_ops_t;
 
 /* Every side's operations, gw_north_NAME (its north_NAME.c), from the

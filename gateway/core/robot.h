@@ -76,6 +76,13 @@ typedef struct {
      * a CIP error (an assembly's error, recorded in last_error; the link
      * stays up). */
     uint32_t sets_refused;
+    /* The originator serial number its Forward Opens carry (the
+     * configuration's, or the one made from the machine ID). */
+    uint32_t originator_serial;
+    /* Has the link ever been up since the robot started (a reload that
+     * keeps the robot keeps it)? The console's "never linked": values
+     * that were never the robot's. */
+    bool ever_up;
 } gw_robot_link_t;
 
 /* The last write a northbound side accepted for the robot (the console

@@ -160,6 +160,7 @@ void gw_write_log(const gw_robot_t *r, gw_log_limit_t *limit)
     char fields[GW_WRITE_FIELDS * (GW_WRITE_PATH + 2) + 32];
     gw_robot_write_fields_text(r, fields, sizeof fields);
     limit->window_ms = GW_WRITE_LOG_MS;
+    limit->ring = GW_LOG_WRITES; /* kept apart from the events (log.h) */
     gw_log_limited(GW_LOG_INFO, limit, "robot %s: write by %s: %s", r->name,
                    r->last_write.client, fields);
 }

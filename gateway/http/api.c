@@ -4,10 +4,12 @@
 
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "core/link.h"
 #include "core/report.h"
 #include "drgate/client.h"
+#include "drgate/layout.h"
 #include "drgate/text.h"
 #include "http/metrics.h"
 #include "http/report.h"
@@ -24,6 +26,20 @@ static void qstr(gw_json_t *j, const char *s)
     gw_json_quote(j, s, strlen(s));
 }
 
+const char *gw_http_api_config_path(const gw_config_t *cfg)
+{
+    /* the working directory of the start, taken once: a relative path
+     * given with -c means nothing to a reader of the console */
+    static char cwd[512], abs_path[sizeof cwd + sizeof cfg->path + 2];
+    if (cfg->path[0] == '/' || cfg->path[0] == '\0')
+        return cfg->path;
+    if (cwd[0] == '\0' && getcwd(cwd, sizeof cwd) == NULL)
+        return cfg->path;
+    snprintf(abs_path, sizeof abs_path, "%s/%s", cwd,
+             strncmp(cfg->path, "./", 2) == 0 ? cfg->path + 2 : cfg->path);
+    return abs_path;
+}
+
 int gw_http_api_find(const gw_http_api_t *a, const char *name)
 {
     const gw_config_t *cfg = a->env->cfg;
@@ -36,6 +52,65 @@ int gw_http_api_find(const gw_http_api_t *a, const char *name)
 const char *gw_http_api_link_name(const gw_robot_t *rb)
 {
     return rb->link.link_state == 2 ? "up" : rb->link.link_state == 1 ? "connecting" : "down";
+}
+
+const char *gw_http_api_state_name(const gw_robot_t *rb)
+{
+    return rb->link.link_state == 2 || rb->link.ever_up ? gw_http_api_link_name(rb)
+                                                        : "never linked";
+}
+
+/* "robot_state": {"value", "name"} and "servo_on" from the robot's
+ * io_state, and "values_stale"; both null while the link was never up
+ * (the images hold zeros, not the robot's). */
+static void robot_truth(gw_json_t *j, const gw_robot_t *rb)
+{
+    dr_ref_t ref;
+    dr_value_t v;
+    bool never = !rb->link.ever_up;
+    gw_json_str(j, ",\"robot_state\":");
+    if (never || dr_path_parse("io_state.robot_state", &ref) != DR_OK ||
+        gw_robot_get(rb, ref, &v) != DR_OK) {
+        gw_json_str(j, "null");
+    } else {
+        unsigned x = (unsigned)dr_value_as_double(&v);
+        const char *name = dr_robot_state_name(x);
+        NUM(j, "{\"value\":%u,\"name\":", x);
+        qstr(j, name != NULL ? name : "?");
+        gw_json_str(j, "}");
+    }
+    gw_json_str(j, ",\"servo_on\":");
+    if (never || dr_path_parse("io_state.servo_on", &ref) != DR_OK ||
+        gw_robot_get(rb, ref, &v) != DR_OK)
+        gw_json_str(j, "null");
+    else
+        gw_json_str(j, dr_value_as_double(&v) != 0 ? "true" : "false");
+    /* the values are not the robot's now: never received, or older than
+     * the connection timeout */
+    gw_json_str(j, never || !rb->link.fresh ? ",\"values_stale\":true" : ",\"values_stale\":false");
+}
+
+/* Who the robot is: where the gateway reaches it, how, and as whom. */
+static void identity(gw_json_t *j, const gw_http_api_t *a, unsigned r)
+{
+    const gw_robot_config_t *rc = &a->env->cfg->robot[r];
+    gw_json_str(j, ",\"host\":");
+    qstr(j, rc->host);
+    NUM(j, ",\"tcp_port\":%u", (unsigned)rc->tcp_port);
+    NUM(j, ",\"udp_port\":%u", (unsigned)rc->udp_port);
+    gw_json_str(j, ",\"mode\":");
+    qstr(j, rc->mode == GW_MODE_IMPLICIT ? "implicit" : "explicit");
+    gw_json_str(j, ",\"layout\":");
+    qstr(j, dr_layout_name(rc->layout));
+    char serial[16];
+    snprintf(serial, sizeof serial, "0x%08lX",
+             (unsigned long)a->env->robots[r].link.originator_serial);
+    gw_json_str(j, ",\"originator_serial\":");
+    qstr(j, serial);
+    gw_json_str(j, ",\"sides\":{");
+    if (a->env->robot_sides != NULL)
+        a->env->robot_sides(a->env->user, r, j);
+    gw_json_str(j, "}");
 }
 
 /* "connections": each slot the robot's plan opens, with its state and its
@@ -85,6 +160,10 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
     qstr(j, rb->name);
     gw_json_str(j, ",\"link\":");
     qstr(j, gw_http_api_link_name(rb));
+    gw_json_str(j, ",\"state\":");
+    qstr(j, gw_http_api_state_name(rb));
+    gw_json_str(j, rb->link.ever_up ? ",\"ever_linked\":true" : ",\"ever_linked\":false");
+    identity(j, a, r);
     /* Why it is not up, in the log's words; null while up or before the
      * first failure. */
     gw_json_str(j, ",\"reason\":");
@@ -93,8 +172,14 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
     else
         gw_json_str(j, "null");
     NUM(j, ",\"rpi_ms\":%u", (unsigned)lk->rpi_ms);
-    NUM(j, ",\"age_ms\":%lu", (unsigned long)lk->age_ms);
+    /* the age of data received; none yet: null (not the time since the
+     * link started) */
+    if (lk->rx_us != 0)
+        NUM(j, ",\"age_ms\":%lu", (unsigned long)lk->age_ms);
+    else
+        gw_json_str(j, ",\"age_ms\":null");
     gw_json_str(j, lk->fresh ? ",\"fresh\":true" : ",\"fresh\":false");
+    robot_truth(j, rb);
     NUM(j, ",\"heartbeat\":%u", (unsigned)rb->heartbeat);
     gw_json_str(j, ",\"connections\":");
     connections(j, &a->env->cfg->robot[r], rb);
@@ -136,7 +221,7 @@ void gw_http_api_status(gw_json_t *j, const gw_http_api_t *a)
     qstr(j, a->env->version);
     NUM(j, ",\"uptime_s\":%llu", (unsigned long long)a->uptime_s);
     gw_json_str(j, ",\"config\":{\"file\":");
-    qstr(j, a->env->cfg->path);
+    qstr(j, gw_http_api_config_path(a->env->cfg));
     NUM(j, ",\"generation\":%u},\"robots\":", a->generation);
     gw_http_api_robots(j, a);
     /* Each side's own object: the report part's (report.h). */
@@ -260,7 +345,8 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
              "drgatewayd %s: %s\n     Uptime: %s\n     Config: %s (generation %u)\n     Robots: "
              "%u of %u linked\n",
              a->env->version, down == 0 ? "running, every robot linked" : "running, robots down",
-             up, cfg->path, a->generation, cfg->robot_count - down, cfg->robot_count);
+             up, gw_http_api_config_path(cfg), a->generation, cfg->robot_count - down,
+             cfg->robot_count);
     gw_json_str(j, line);
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         const gw_robot_t *rb = &a->env->robots[r];

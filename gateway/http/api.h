@@ -22,12 +22,18 @@ typedef struct {
     unsigned generation; /* configuration reloads so far */
 } gw_http_api_t;
 
+/* The configuration file's path as an absolute one (-c with a relative
+ * path: joined to the working directory of the start). */
+const char *gw_http_api_config_path(const gw_config_t *cfg);
+
 /* The robot named `name` (its index), -1 if none. */
 int gw_http_api_find(const gw_http_api_t *a, const char *name);
 
-/* ROBOT: {"name", "link", "reason", "rpi_ms", "age_ms", "fresh",
- * "heartbeat", "connections", "rx_packets", "lost_packets", "last_error",
- * "last_write"}. */
+/* ROBOT: {"name", "link", "state", "ever_linked", "host", "tcp_port",
+ * "udp_port", "mode", "layout", "originator_serial", "sides", "reason",
+ * "rpi_ms", "age_ms", "fresh", "robot_state", "servo_on", "values_stale",
+ * "heartbeat", "connections", "rx_packets", "lost_packets", ...,
+ * "last_error", "last_write"} (docs/http.md). */
 void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r);
 /* [ROBOT, ...] */
 void gw_http_api_robots(gw_json_t *j, const gw_http_api_t *a);
@@ -49,6 +55,8 @@ unsigned gw_http_api_values(gw_json_t *j, const gw_robot_t *rb, bool indent, uin
 
 /* The link state in words: "up", "connecting", "down". */
 const char *gw_http_api_link_name(const gw_robot_t *rb);
+/* The same, "never linked" for a robot whose link was never up. */
+const char *gw_http_api_state_name(const gw_robot_t *rb);
 
 /* The human summary (`drgatewayd status`), lines of text: the daemon,
  * its robots, then each side's line (env->summaries). */

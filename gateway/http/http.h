@@ -21,6 +21,6 @@ bool gw_http_check_tls(const gw_config_t *cfg, char *err, size_t errlen);
  * every robot is linked, 1 when one is not, GW_HTTP_STATUS_UNREACHABLE
  * when the daemon cannot be asked (why on stderr). */
 #define GW_HTTP_STATUS_UNREACHABLE 3
-int gw_http_status_command(const char *config);
+int gw_http_status_command(const char *config, bool json);
 
 #endif

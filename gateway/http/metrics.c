@@ -48,12 +48,15 @@ static void log_event(void *user, const gw_log_event_t *e)
     gw_json_str(j, "}");
 }
 
-void gw_http_log_json(gw_json_t *j)
+void gw_http_log_json(gw_json_t *j, bool writes)
 {
     gw_json_str(j, "[");
     if (j->full)
         return;
-    gw_log_ring_each(log_event, j);
+    if (writes)
+        gw_log_writes_each(log_event, j);
+    else
+        gw_log_ring_each(log_event, j);
     gw_json_str(j, "]");
 }
 

@@ -22,8 +22,9 @@
 size_t gw_http_metrics(const gw_north_env_t *env, char *buf, size_t cap);
 
 /* [{"time": "...", "level": "info", "text": "..."}, ...]: the last 200 log
- * events, the oldest first. */
-void gw_http_log_json(gw_json_t *j);
+ * events (writes: the last 200 lines of the write log, their own ring:
+ * core/log.h), the oldest first. */
+void gw_http_log_json(gw_json_t *j, bool writes);
 
 /* {"time": "...", "client": "192.0.2.7:50412", "fields": ["path", ...],
  * "more": N} or null when the robot was never written. ("more": fields

@@ -21,6 +21,7 @@
     X(run, MHD_run, 0) \
     X(get_timeout, MHD_get_timeout, 0) \
     X(get_connection_info, MHD_get_connection_info, 0) \
+    X(get_connection_values, MHD_get_connection_values, 0) \
     X(lookup_connection_value, MHD_lookup_connection_value, 0) \
     X(queue_response, MHD_queue_response, 0) \
     X(set_connection_option, MHD_set_connection_option, 0) \

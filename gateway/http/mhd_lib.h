@@ -39,6 +39,8 @@ typedef struct {
     const union MHD_ConnectionInfo *(*get_connection_info)(struct MHD_Connection *connection,
                                                            enum MHD_ConnectionInfoType info_type,
                                                            ...);
+    int (*get_connection_values)(struct MHD_Connection *connection, enum MHD_ValueKind kind,
+                                 MHD_KeyValueIterator iterator, void *iterator_cls);
     const char *(*lookup_connection_value)(struct MHD_Connection *connection,
                                            enum MHD_ValueKind kind, const char *key);
     enum MHD_Result (*queue_response)(struct MHD_Connection *connection, unsigned int status_code,

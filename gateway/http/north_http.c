@@ -86,6 +86,11 @@
     "connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'none'; "              \
     "frame-ancestors 'none'"
 #define HTTP_CODES 600
+/* MHD's memory per connection beyond max_request_bytes: room for the
+ * answer's head, so that a request near the limit is answered (414, 431)
+ * rather than closed without a status line, which MHD does when the
+ * request took the whole pool (on_request checks the limit itself). */
+#define ANSWER_ROOM 8192u
 
 typedef struct ht ht_t;
 
@@ -101,21 +106,35 @@ typedef struct {
     unsigned conns; /* connections open */
 } srv_t;
 
-/* One live-values stream. */
+/* One robot of a live stream: what was last sent of it. */
+typedef struct {
+    char name[GW_NAME_MAX];
+    uint32_t serial;     /* the robot's: a new one starts over */
+    uint16_t link_state; /* as last sent */
+    bool fresh, ever_up; /* as last sent */
+    bool started;        /* its status and every value sent once */
+    uint64_t *last;      /* per leaf: the value last sent (api.h) */
+} sse_robot_t;
+
+/* One live stream: one page's (or, through the pages' shared worker, one
+ * browser's) robots and the overview, multiplexed. */
 typedef struct sse {
     struct sse *next;
     ht_t *t;
     struct MHD_Connection *c;
-    char robot[GW_NAME_MAX];
-    uint32_t serial;     /* the robot's: a new one starts over */
-    uint16_t link_state; /* as last sent */
+    unsigned nrobots;
+    sse_robot_t *robot;  /* [nrobots] */
+    bool multi;          /* robots=: each event names its robot */
+    bool overview;       /* overview=1: the status too, when it changed */
+    uint64_t overview_hash, overview_next_us;
+    unsigned turn;       /* the robot whose values go first (fairness) */
     uint32_t ip;         /* the client's */
     int fd;              /* its socket (a stalled one is shut down) */
     uint64_t started_us, progress_us; /* opened; last took bytes */
-    bool suspended, closing, started;
+    uint64_t peek_us; /* its socket last looked at for a close (sse_limits) */
+    bool suspended, closing;
     uint64_t next_us, quiet_since_us;
     size_t len, off; /* buf[off..len): not yet taken by MHD */
-    uint64_t *last;  /* per leaf: the value last sent (api.h) */
     char buf[SSE_BUF];
 } sse_t;
 
@@ -305,13 +324,51 @@ static enum MHD_Result send_error(struct MHD_Connection *c, unsigned status, con
     return send_buf(c, status, "text/plain; charset=utf-8", line, strlen(line), true);
 }
 
+/* An asset's entity tag: its bytes' FNV-1a (built in: the same until the
+ * daemon is another), made once per asset. */
+#define ETAGS 16
+static void asset_etag(const gw_http_asset_t *a, char *out, size_t size)
+{
+    static const gw_http_asset_t *seen[ETAGS];
+    static uint64_t tag[ETAGS];
+    unsigned i = 0;
+    while (i < ETAGS && seen[i] != NULL && seen[i] != a)
+        i++;
+    uint64_t h = i < ETAGS && seen[i] == a ? tag[i] : 14695981039346656037u;
+    if (i == ETAGS || seen[i] != a) {
+        for (size_t k = 0; k < a->size; k++)
+            h = (h ^ a->data[k]) * 1099511628211u;
+        if (i < ETAGS) {
+            seen[i] = a;
+            tag[i] = h;
+        }
+    }
+    snprintf(out, size, "\"%016llx\"", (unsigned long long)h);
+}
+
+/* A page, script or style sheet: cached by the browser and asked again
+ * with its tag (no-cache: a daemon upgraded serves its new files at
+ * once), answered 304 when unchanged; the connection stays open. */
 static enum MHD_Result send_asset(struct MHD_Connection *c, const char *name, const char *method,
                                   const char *url)
 {
     const gw_http_asset_t *a = gw_http_asset_find(name);
     if (a == NULL)
         return send_error(c, 404, method, url, "not found");
-    return send_buf(c, 200, a->type, a->data, a->size, false);
+    char etag[24];
+    asset_etag(a, etag, sizeof etag);
+    const char *inm = ml->lookup_connection_value(c, MHD_HEADER_KIND, "If-None-Match");
+    bool same = inm != NULL && strstr(inm, etag) != NULL;
+    struct MHD_Response *r = ml->create_response_from_buffer(
+        same ? 0 : a->size, same ? NULL : unconst(a->data), MHD_RESPMEM_PERSISTENT);
+    if (r == NULL)
+        return MHD_NO;
+    (void)ml->add_response_header(r, "Content-Type", a->type);
+    (void)ml->add_response_header(r, "Cache-Control", "no-cache");
+    (void)ml->add_response_header(r, "ETag", etag);
+    enum MHD_Result ok = queue(c, same ? 304 : 200, r, false);
+    ml->destroy_response(r);
+    return ok;
 }
 
 /* /api/v1/status asked for text (drgatewayd status): the summary, and
@@ -335,45 +392,127 @@ static enum MHD_Result send_summary(struct MHD_Connection *c, const gw_http_api_
     return ok;
 }
 
+/* /api/v1/status as JSON, with the robots not linked in X-Robots-Down
+ * too (`drgatewayd status --json`'s exit status). */
+static enum MHD_Result send_status_json(struct MHD_Connection *c, const gw_http_api_t *a,
+                                        gw_json_t *j)
+{
+    if (j->full)
+        return send_json(c, 200, j);
+    gw_json_str(j, "\n");
+    struct MHD_Response *r = ml->create_response_from_buffer(j->len, j->buf, MHD_RESPMEM_MUST_COPY);
+    if (r == NULL)
+        return MHD_NO;
+    char down[16];
+    snprintf(down, sizeof down, "%u", gw_http_api_down(a));
+    (void)ml->add_response_header(r, "Content-Type", "application/json");
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    (void)ml->add_response_header(r, "X-Robots-Down", down);
+    enum MHD_Result ok = queue(c, 200, r, false);
+    ml->destroy_response(r);
+    return ok;
+}
+
 /* ---- live values (Server-Sent Events) ------------------------------------------- */
 
-static void sse_append(sse_t *s, const char *event, const gw_json_t *j)
+/* An event into the stream's buffer; false (nothing written) when it
+ * does not fit now. */
+static bool sse_append(sse_t *s, const char *event, const gw_json_t *j)
 {
     size_t need = strlen(event) + j->len + 16;
     if (j->full || s->len + need > sizeof s->buf)
-        return; /* cannot be: one robot's values are ~15 kB; dropped, not cut */
+        return false;
     s->len += (size_t)snprintf(s->buf + s->len, sizeof s->buf - s->len, "event: %s\ndata: %s\n\n",
                                event, j->buf);
+    return true;
 }
 
-/* What this stream has to say now, into its buffer: its robot's link
- * when it changed (or first), the values that changed since the last
- * event (all of them first), else now and then a comment. False: the
- * stream ends (its robot is gone). */
+static char sse_text[SSE_BUF]; /* an event's data being made (one loop) */
+
+/* Robot k of the stream: its status when its link or the freshness of
+ * its values changed (or first), and the values that changed since the
+ * last event (all of them first), as far as the buffer has room; what
+ * did not fit goes at the next turn. False: the robot is gone. */
+static bool sse_robot(sse_t *s, const gw_http_api_t *a, sse_robot_t *k)
+{
+    int r = gw_http_api_find(a, k->name);
+    if (r < 0)
+        return false;
+    const gw_robot_t *rb = &a->env->robots[r];
+    gw_json_t j;
+    if (!k->started || rb->serial != k->serial) {
+        memset(k->last, GW_HTTP_API_UNSENT, dr_leaf_count() * sizeof *k->last);
+        k->serial = rb->serial;
+        k->started = false;
+    }
+    if (!k->started || rb->link.link_state != k->link_state || rb->link.fresh != k->fresh ||
+        rb->link.ever_up != k->ever_up) {
+        gw_json_init(&j, sse_text, sizeof sse_text);
+        gw_http_api_robot(&j, a, (unsigned)r);
+        if (!sse_append(s, "status", &j))
+            return true; /* the next turn */
+        k->link_state = rb->link.link_state;
+        k->fresh = rb->link.fresh;
+        k->ever_up = rb->link.ever_up;
+        k->started = true;
+    }
+    /* what fits the buffer now, the leaves' last values kept for a retry */
+    size_t room = sizeof s->buf - s->len;
+    if (room < 512u + GW_NAME_MAX)
+        return true;
+    static uint64_t saved[GW_HTTP_API_LEAVES];
+    size_t bytes = dr_leaf_count() * sizeof *k->last;
+    bool keep = bytes <= sizeof saved;
+    if (keep)
+        memcpy(saved, k->last, bytes);
+    gw_json_init(&j, sse_text, room - 32u);
+    if (s->multi) {
+        gw_json_str(&j, "{\"robot\":");
+        gw_json_quote(&j, k->name, strlen(k->name));
+        gw_json_str(&j, ",\"values\":");
+    }
+    unsigned n = gw_http_api_values(&j, rb, false, k->last);
+    if (s->multi)
+        gw_json_str(&j, "}");
+    if (n > 0 && !sse_append(s, "values", &j) && keep)
+        memcpy(k->last, saved, bytes); /* not sent: all of them again next turn */
+    return true;
+}
+
+/* A 64-bit FNV-1a of a text: has the overview changed since it was sent? */
+static uint64_t fnv(const char *p, size_t n)
+{
+    uint64_t h = 14695981039346656037u;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ (unsigned char)p[i]) * 1099511628211u;
+    return h;
+}
+
+/* What this stream has to say now, into its buffer: the overview (at
+ * most every OVERVIEW_US, when it changed), each robot's status and
+ * values, else now and then a comment. False: the stream ends (the robot
+ * of a robot=NAME stream is gone). */
+#define OVERVIEW_US 500000u
 static bool sse_fill(sse_t *s, uint64_t now)
 {
     ht_t *t = s->t;
     gw_http_api_t a = api_of(t);
-    int r = gw_http_api_find(&a, s->robot);
-    if (r < 0)
-        return false;
-    const gw_robot_t *rb = &t->env->robots[r];
-    static char text[SSE_BUF];
-    gw_json_t j;
-    if (!s->started || rb->serial != s->serial) {
-        memset(s->last, GW_HTTP_API_UNSENT, dr_leaf_count() * sizeof *s->last);
-        s->serial = rb->serial;
+    if (s->overview && now >= s->overview_next_us) {
+        gw_json_t j;
+        gw_json_init(&j, sse_text, sizeof sse_text);
+        gw_http_api_status(&j, &a);
+        uint64_t h = fnv(j.buf, j.len);
+        if (h != s->overview_hash && sse_append(s, "overview", &j)) {
+            s->overview_hash = h;
+            s->overview_next_us = now + OVERVIEW_US;
+        }
     }
-    if (!s->started || rb->link.link_state != s->link_state) {
-        gw_json_init(&j, text, sizeof text);
-        gw_http_api_robot(&j, &a, (unsigned)r);
-        sse_append(s, "status", &j);
-        s->link_state = rb->link.link_state;
+    for (unsigned i = 0; i < s->nrobots; i++) {
+        sse_robot_t *k = &s->robot[(s->turn + i) % s->nrobots];
+        if (!sse_robot(s, &a, k) && !s->multi)
+            return false;
     }
-    s->started = true;
-    gw_json_init(&j, text, sizeof text);
-    if (gw_http_api_values(&j, rb, false, s->last) > 0)
-        sse_append(s, "values", &j);
+    s->turn = s->nrobots > 0 ? (s->turn + 1u) % s->nrobots : 0;
     if (s->len > 0) {
         s->quiet_since_us = now;
     } else if (now - s->quiet_since_us >= SSE_KEEPALIVE_US) {
@@ -410,6 +549,14 @@ static ssize_t sse_read(void *cls, uint64_t pos, char *buf, size_t max)
     return (ssize_t)n;
 }
 
+static void sse_free_unlinked(sse_t *s)
+{
+    if (s->robot != NULL)
+        free(s->robot[0].last);
+    free(s->robot);
+    free(s);
+}
+
 static void sse_free(void *cls)
 {
     sse_t *s = cls;
@@ -419,19 +566,59 @@ static void sse_free(void *cls)
             s->t->nstreams--;
             break;
         }
-    free(s->last);
-    free(s);
+    sse_free_unlinked(s);
+}
+
+/* The robots a stream asks for: robot=NAME (one), or robots=A,B,...
+ * (list; at most GW_MAX_ROBOTS, each once), into names[][GW_NAME_MAX];
+ * how many, 0 with *why when one is not a robot of this gateway. */
+static unsigned sse_names(const ht_t *t, const char *one, const char *list,
+                          char names[][GW_NAME_MAX], const char **why)
+{
+    gw_http_api_t a = api_of(t);
+    unsigned n = 0;
+    const char *p = one != NULL ? one : list;
+    while (p != NULL && *p != '\0') {
+        size_t len = one != NULL ? strlen(p) : strcspn(p, ",");
+        if (len == 0 || len >= GW_NAME_MAX || n == GW_MAX_ROBOTS) {
+            *why = len == 0 ? "an empty robot name" : "too many robots";
+            return 0;
+        }
+        memcpy(names[n], p, len);
+        names[n][len] = '\0';
+        if (gw_http_api_find(&a, names[n]) < 0) {
+            *why = "no such robot";
+            return 0;
+        }
+        bool dup = false;
+        for (unsigned i = 0; i < n; i++)
+            dup = dup || strcmp(names[i], names[n]) == 0;
+        n += !dup;
+        p += len;
+        if (*p == ',')
+            p++;
+    }
+    return n;
 }
 
 static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const char *method,
                                     const char *url)
 {
-    const char *name = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "robot");
-    if (name == NULL || name[0] == '\0')
-        return send_error(c, 400, method, url, "robot=NAME missing (allowed: a robot's name)");
-    gw_http_api_t a = api_of(t);
-    if (gw_http_api_find(&a, name) < 0)
-        return send_error(c, 404, method, url, "no such robot");
+    const char *one = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "robot");
+    const char *list = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "robots");
+    const char *ov = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "overview");
+    bool overview = ov != NULL && strcmp(ov, "1") == 0;
+    if (one != NULL && one[0] == '\0')
+        one = NULL;
+    if (one == NULL && (list == NULL || list[0] == '\0') && !overview)
+        return send_error(c, 400, method, url,
+                          "robot=NAME missing (allowed: robot=NAME, or robots=A,B,... and "
+                          "overview=1)");
+    static char names[GW_MAX_ROBOTS][GW_NAME_MAX];
+    const char *why = "no such robot";
+    unsigned nrobots = sse_names(t, one, one != NULL ? NULL : list, names, &why);
+    if (nrobots == 0 && (one != NULL || (list != NULL && list[0] != '\0')))
+        return send_error(c, 404, method, url, why);
     /* Bounded in all (and to half the connections, so that the rest of
      * the console, /metrics and `drgatewayd status` keep room) and per
      * client address: one more gets 503, and the page polls instead. */
@@ -451,21 +638,31 @@ static enum MHD_Result start_events(ht_t *t, struct MHD_Connection *c, const cha
                           "too many live streams (the page asks for values every second)");
     }
     sse_t *s = calloc(1, sizeof *s);
-    if (s == NULL || (s->last = calloc(dr_leaf_count(), sizeof *s->last)) == NULL) {
-        free(s);
-        return send_error(c, 503, method, url, "out of memory");
+    size_t leaves = dr_leaf_count();
+    if (s != NULL && nrobots > 0 &&
+        ((s->robot = calloc(nrobots, sizeof *s->robot)) == NULL ||
+         (s->robot[0].last = calloc((size_t)nrobots * leaves, sizeof(uint64_t))) == NULL)) {
+        sse_free_unlinked(s);
+        s = NULL;
     }
+    if (s == NULL)
+        return send_error(c, 503, method, url, "out of memory");
+    for (unsigned i = 0; i < nrobots; i++) {
+        s->robot[i].last = s->robot[0].last + (size_t)i * leaves;
+        memcpy(s->robot[i].name, names[i], sizeof s->robot[i].name);
+    }
+    s->nrobots = nrobots;
+    s->multi = one == NULL;
+    s->overview = overview;
     s->t = t;
     s->c = c;
     s->ip = ip;
     s->fd = cur_hc != NULL ? cur_hc->fd : -1;
-    snprintf(s->robot, sizeof s->robot, "%s", name);
     s->quiet_since_us = s->started_us = s->progress_us = ev_now_us();
     struct MHD_Response *r =
         ml->create_response_from_callback(MHD_SIZE_UNKNOWN, 16384, sse_read, s, sse_free);
     if (r == NULL) {
-        free(s->last);
-        free(s);
+        sse_free_unlinked(s);
         return MHD_NO;
     }
     s->next = t->streams;
@@ -492,7 +689,7 @@ static void sse_resume(ht_t *t, uint64_t now, bool closing)
     bool any = false;
     for (sse_t *s = t->streams; s != NULL; s = s->next) {
         s->closing = s->closing || closing;
-        if (s->suspended && (closing || now >= s->next_us)) {
+        if (s->suspended && (closing || s->closing || now >= s->next_us)) {
             s->suspended = false;
             ml->resume_connection(s->c);
             any = true;
@@ -514,6 +711,16 @@ static void sse_limits(ht_t *t, uint64_t now)
     for (sse_t *s = t->streams; s != NULL; s = s->next) {
         if (!s->closing && now - s->started_us >= (uint64_t)t->cfg.stream_max_s * 1000000u)
             s->closing = true;
+        /* A page closed while its stream waits (off MHD's lists, its
+         * socket not watched): seen now, not at the stream's next write,
+         * which for a robot whose values never change is 10 s away. */
+        if (s->suspended && !s->closing && s->fd >= 0 && now - s->peek_us >= 1000000u) {
+            char b;
+            s->peek_us = now;
+            ssize_t n = recv(s->fd, &b, 1, MSG_PEEK | MSG_DONTWAIT);
+            if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR))
+                s->closing = true;
+        }
         if (s->fd >= 0 && now - s->progress_us >= stall) {
             (void)shutdown(s->fd, SHUT_RDWR);
             s->fd = -1;
@@ -540,6 +747,54 @@ static int robot_of(const ht_t *t, const char *p, const char **rest)
     return gw_http_api_find(&a, name);
 }
 
+/* /api/v1/robots/NAME/map.csv: the robot's map as a table to download
+ * (a PLC tag import), named NAME-map.csv. */
+static enum MHD_Result send_map_csv(const ht_t *t, struct MHD_Connection *c, const char *method,
+                                    const char *url, unsigned robot)
+{
+    gw_json_t j;
+    gw_json_init(&j, resp, sizeof resp);
+    if (t->env->map_csv == NULL || !t->env->map_csv(t->env->user, &j, robot))
+        return send_error(c, j.full ? 500 : 404, method, url,
+                          j.full ? "response too large" : "not found");
+    struct MHD_Response *r = ml->create_response_from_buffer(j.len, j.buf, MHD_RESPMEM_MUST_COPY);
+    if (r == NULL)
+        return MHD_NO;
+    char disp[GW_NAME_MAX + 48];
+    snprintf(disp, sizeof disp, "attachment; filename=\"%s-map.csv\"", t->env->robots[robot].name);
+    for (char *p = disp + 22; *p != '\0'; p++) /* a name of the configuration's: only safe bytes */
+        if (!((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9') ||
+              *p == '-' || *p == '_' || *p == '.' || (*p == '"' && p[1] == '\0')))
+            *p = '_';
+    (void)ml->add_response_header(r, "Content-Type", "text/csv; charset=utf-8");
+    (void)ml->add_response_header(r, "Content-Disposition", disp);
+    (void)ml->add_response_header(r, "Cache-Control", "no-store");
+    enum MHD_Result ok = queue(c, 200, r, false);
+    ml->destroy_response(r);
+    return ok;
+}
+
+/* What a 404 under /api/ lists: every route. */
+#define NOT_FOUND_API                                                                            \
+    "not found (allowed: /api/v1/status, /api/v1/robots, /api/v1/robots/NAME, "               \
+    "/api/v1/robots/NAME/values, /api/v1/robots/NAME/map, /api/v1/robots/NAME/map.csv, "      \
+    "/api/v1/events?robot=NAME, "                                                                \
+    "/api/v1/log, /api/v1/writes, /api/v1/config, /api/v1/modbus/requests, "                \
+    "/api/v1/modbus/registers/NAME)"
+
+/* "SIDE/PATH": the side's own answer (north.h: env->side_api). */
+static bool side_api(const ht_t *t, const char *p, gw_json_t *j)
+{
+    const char *slash = strchr(p, '/');
+    char side[32];
+    size_t n = slash != NULL ? (size_t)(slash - p) : 0;
+    if (t->env->side_api == NULL || n == 0 || n >= sizeof side)
+        return false;
+    memcpy(side, p, n);
+    side[n] = '\0';
+    return t->env->side_api(t->env->user, side, slash + 1, j);
+}
+
 static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *method,
                                  const char *url)
 {
@@ -548,23 +803,34 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
     gw_json_init(&j, resp, sizeof resp);
     const char *p = url + strlen("/api/v1/");
     if (strcmp(p, "status") == 0) {
+        /* the text summary: asked by Accept (drgatewayd status), or by
+         * format=text (a link: the pages' <noscript> notice) */
         const char *accept = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Accept");
-        if (accept != NULL && strstr(accept, "text/plain") != NULL &&
-            strstr(accept, "json") == NULL)
+        const char *fmt = ml->lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "format");
+        if ((accept != NULL && strstr(accept, "text/plain") != NULL &&
+             strstr(accept, "json") == NULL) ||
+            (fmt != NULL && strcmp(fmt, "text") == 0))
             return send_summary(c, &a);
         gw_http_api_status(&j, &a);
+        return send_status_json(c, &a, &j);
     } else if (strcmp(p, "robots") == 0) {
         gw_http_api_robots(&j, &a);
+    } else if (strcmp(p, "config") == 0) {
+        if (!gw_config_effective(t->env->cfg, resp, sizeof resp))
+            return send_error(c, 500, method, url, "response too large");
+        return send_buf(c, 200, "text/plain; charset=utf-8", resp, strlen(resp), true);
     } else if (strcmp(p, "events") == 0) {
         return start_events(t, c, method, url);
-    } else if (strcmp(p, "log") == 0) {
-        if (!gw_http_report_log(t->env, &j))
+    } else if (strcmp(p, "log") == 0 || strcmp(p, "writes") == 0) {
+        if (!(p[0] == 'l' ? gw_http_report_log : gw_http_report_writes)(t->env, &j))
             return send_error(c, 501, method, url, "not built into this gateway");
     } else if (strncmp(p, "robots/", 7) == 0) {
         const char *rest;
         int r = robot_of(t, p + 7, &rest);
         if (r < 0)
             return send_error(c, 404, method, url, "no such robot");
+        if (strcmp(rest, "/map.csv") == 0)
+            return send_map_csv(t, c, method, url, (unsigned)r);
         if (rest[0] == '\0')
             gw_http_api_robot(&j, &a, (unsigned)r);
         else if (strcmp(rest, "/values") == 0)
@@ -573,11 +839,10 @@ static enum MHD_Result route_api(ht_t *t, struct MHD_Connection *c, const char *
                  (!gw_http_api_map(&j, t->env, (unsigned)r) && !j.full))
             return send_error(c, 404, method, url, "not found");
         /* a map that does not fit is send_json's 500 "response too large" */
-    } else {
-        return send_error(c, 404, method, url,
-                          "not found (allowed: /api/v1/status, /api/v1/robots, "
-                          "/api/v1/robots/NAME, /api/v1/robots/NAME/values, "
-                          "/api/v1/events?robot=NAME, /api/v1/log)");
+    } else if (!side_api(t, p, &j)) {
+        if (j.full)
+            return send_error(c, 500, method, url, "response too large");
+        return send_error(c, 404, method, url, NOT_FOUND_API);
     }
     if (!j.full && (j.len == 0 || j.buf[j.len - 1] != '\n'))
         gw_json_str(&j, "\n");
@@ -591,6 +856,8 @@ static enum MHD_Result route(ht_t *t, struct MHD_Connection *c, const char *meth
         return route_api(t, c, method, url);
     if (strcmp(url, "/") == 0 || strcmp(url, "/index.html") == 0)
         return send_asset(c, "index.html", method, url);
+    if (strcmp(url, "/config") == 0)
+        return send_asset(c, "config.html", method, url);
     if (strncmp(url, "/robot/", 7) == 0) {
         const char *rest;
         if (robot_of(t, url + 7, &rest) < 0 || rest[0] != '\0')
@@ -787,6 +1054,30 @@ static bool has_body(struct MHD_Connection *c)
            (len != NULL && strspn(len, "0") != strlen(len));
 }
 
+/* The request's head as sent, near enough: the URL, its arguments and
+ * its headers, each with its separators. */
+static enum MHD_Result add_size(void *cls, enum MHD_ValueKind kind, const char *key,
+                                const char *value)
+{
+    size_t *n = cls;
+    (void)kind;
+    *n += strlen(key) + (value != NULL ? strlen(value) : 0) + 4u;
+    return MHD_YES;
+}
+
+/* 0, or 414 (the URL is most of it) or 431 for a head over
+ * max_request_bytes. */
+static unsigned head_too_large(const ht_t *t, struct MHD_Connection *c, const char *url)
+{
+    size_t args = 0, headers = 0;
+    (void)ml->get_connection_values(c, MHD_GET_ARGUMENT_KIND, add_size, &args);
+    (void)ml->get_connection_values(c, MHD_HEADER_KIND, add_size, &headers);
+    size_t line = strlen(url) + args, total = line + headers;
+    if (total <= t->cfg.max_request_bytes)
+        return 0;
+    return line >= headers ? 414u : 431u;
+}
+
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url,
                                   const char *method, const char *version,
                                   const char *upload_data, size_t *upload_data_size,
@@ -811,6 +1102,11 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
          * log in again. Others are answered now, and closed. */
         *req_cls = sv;
         h->answering = true;
+        unsigned big = head_too_large(t, c, url);
+        if (big != 0)
+            return send_error(c, big, method, url,
+                              big == 414 ? "URI too long (max_request_bytes)"
+                                         : "request headers too large (max_request_bytes)");
         if (get && !has_body(c))
             return MHD_YES;
     }
@@ -933,9 +1229,14 @@ static void on_mhd_log(void *cls, const char *fmt, va_list ap)
         snprintf(mhd_err, mhd_errlen, "%s", msg);
         return;
     }
-    /* Clients' misdeeds (a TLS handshake that is not one, a connection
-     * over the limit): at most one line every 10 s. */
-    gw_log_limited(GW_LOG_INFO, &t->mhd_limit, "http: %s", msg);
+    /* A page closed while its answer was being sent (a tab closed on a
+     * live stream): nothing wrong, debug only. Clients' misdeeds (a TLS
+     * handshake that is not one, a connection over the limit): at most
+     * one line every 10 s. */
+    if (strstr(msg, "Failed to send") != NULL || strstr(msg, "no longer available") != NULL)
+        gw_log(GW_LOG_DEBUG, "http: %s", msg);
+    else
+        gw_log_limited(GW_LOG_INFO, &t->mhd_limit, "http: %s", msg);
 }
 
 /* ---- servers ------------------------------------------------------------------------ */
@@ -981,7 +1282,7 @@ static bool srv_start(srv_t *sv, ht_t *t, char *err, size_t errlen)
         {MHD_OPTION_LISTEN_SOCKET, sv->lfd, NULL},
         {MHD_OPTION_CONNECTION_LIMIT, (intptr_t)h->max_connections, NULL},
         {MHD_OPTION_CONNECTION_TIMEOUT, (intptr_t)h->timeout_s, NULL},
-        {MHD_OPTION_CONNECTION_MEMORY_LIMIT, (intptr_t)h->max_request_bytes, NULL},
+        {MHD_OPTION_CONNECTION_MEMORY_LIMIT, (intptr_t)(h->max_request_bytes + ANSWER_ROOM), NULL},
         {MHD_OPTION_PER_IP_CONNECTION_LIMIT, (intptr_t)h->max_connections_per_ip, NULL},
         {MHD_OPTION_END, 0, NULL}, /* TLS: three more, below */
         {MHD_OPTION_END, 0, NULL},

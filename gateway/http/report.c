@@ -19,7 +19,14 @@ bool gw_http_report_metrics(const gw_north_env_t *env, gw_json_t *out)
 bool gw_http_report_log(const gw_north_env_t *env, gw_json_t *out)
 {
     (void)env;
-    gw_http_log_json(out);
+    gw_http_log_json(out, false);
+    return true;
+}
+
+bool gw_http_report_writes(const gw_north_env_t *env, gw_json_t *out)
+{
+    (void)env;
+    gw_http_log_json(out, true);
     return true;
 }
 

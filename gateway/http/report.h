@@ -20,6 +20,8 @@ bool gw_http_report_metrics(const gw_north_env_t *env, gw_json_t *out);
 /* /api/v1/log: [{"time", "level", "text"}, ...], the last 200 log events.
  * False: not served (501). */
 bool gw_http_report_log(const gw_north_env_t *env, gw_json_t *out);
+/* /api/v1/writes: the same of the write log (its own ring). */
+bool gw_http_report_writes(const gw_north_env_t *env, gw_json_t *out);
 
 /* The sides' own objects ("modbus": {...}, "mqtt": {...}) as members of
  * the status's "sides" object (nothing: none). */

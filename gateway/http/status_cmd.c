@@ -54,8 +54,8 @@ static bool wait_fd(int fd, short ev, long long deadline)
 
 /* The response to GET path from addr:port into buf (NUL-terminated);
  * false with why. */
-static bool http_get(const char *addr, unsigned port, const char *path, char *buf, size_t cap,
-                     char *why, size_t whylen)
+static bool http_get(const char *addr, unsigned port, const char *path, bool json, char *buf,
+                     size_t cap, char *why, size_t whylen)
 {
     long long deadline = now_ms() + STATUS_TIMEOUT_MS;
     struct sockaddr_in sin;
@@ -83,9 +83,9 @@ static bool http_get(const char *addr, unsigned port, const char *path, char *bu
     step = "send";
     char req[256];
     int n = snprintf(req, sizeof req,
-                     "GET %s HTTP/1.0\r\nHost: %s:%u\r\nAccept: text/plain\r\n"
+                     "GET %s HTTP/1.0\r\nHost: %s:%u\r\nAccept: %s\r\n"
                      "User-Agent: drgatewayd-status\r\n\r\n",
-                     path, addr, port);
+                     path, addr, port, json ? "application/json" : "text/plain");
     for (int off = 0; off < n;) {
         ssize_t w = send(fd, req + off, (size_t)(n - off), MSG_NOSIGNAL);
         if (w < 0 && errno != EAGAIN && errno != EINTR)
@@ -132,7 +132,7 @@ static const char *header(const char *resp, const char *body, const char *name)
     return NULL;
 }
 
-int gw_http_status_command(const char *config)
+int gw_http_status_command(const char *config, bool json)
 {
     static gw_config_t cfg;
     static char resp[STATUS_MAX];
@@ -165,7 +165,7 @@ int gw_http_status_command(const char *config)
         addr = "127.0.0.1"; /* loopback: no login asked */
     }
     char why[300];
-    if (!http_get(addr, port, "/api/v1/status", resp, sizeof resp, why, sizeof why)) {
+    if (!http_get(addr, port, "/api/v1/status", json, resp, sizeof resp, why, sizeof why)) {
         fprintf(stderr, "drgatewayd status: cannot reach the daemon at http://%s:%u/ (%s): is "
                 "it running with this configuration (%s)?\n", addr, port, why, config);
         return GW_HTTP_STATUS_UNREACHABLE;

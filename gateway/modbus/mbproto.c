@@ -307,6 +307,24 @@ static void reply_data(const uint8_t *pdu, gw_mb_result_t *r)
     }
 }
 
+/* The address and count a request names, as far as it is there: what the
+ * request log (reqlog.h) shows of a request refused before its data is
+ * looked at (no robot for the unit ID, a read-only client). The checks
+ * below read them again, where they check them. */
+static void request_span(const uint8_t *pdu, size_t pdu_len, gw_mb_result_t *r)
+{
+    bool single = r->fc == 0x05 || r->fc == 0x06;
+    if ((r->fc < 0x01 || r->fc > 0x06) && r->fc != 0x0F && r->fc != 0x10 &&
+        r->fc != FC_READ_WRITE)
+        return;
+    if (pdu_len >= 3)
+        r->addr = be16(pdu + 1);
+    if (single)
+        r->count = 1;
+    else if (pdu_len >= 5)
+        r->count = be16(pdu + 3);
+}
+
 /* Check and apply; 0 or the exception code. */
 static int decide(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_mb_env_t *env,
                   gw_mb_result_t *r)
@@ -322,6 +340,7 @@ static int decide(uint8_t unit_id, const uint8_t *pdu, size_t pdu_len, const gw_
     memset(&r->wr, 0, sizeof r->wr);
     r->raddr = r->rcount = 0;
     r->pdu_len = 0;
+    request_span(pdu, pdu_len, r);
 
     gw_unit_t *u = env->unit_for(env->units, unit_id);
     r->unit = u;

@@ -31,6 +31,7 @@ struct gw_rtu {
     gw_log_limit_t write_log;
     gw_log_limit_t wrote_log; /* the master's accepted writes (rate-limited) */
     uint64_t reopen_us; /* port lost: when to try it again; 0: open */
+    gw_reqlog_t log;    /* the master's last requests (reqlog.h) */
 };
 
 #define REOPEN_US 1000000u
@@ -94,6 +95,9 @@ static void handle_one(gw_rtu_t *t, uint8_t addr, const uint8_t *pdu, size_t pdu
         return;
     if (ex == 0 && t->result.write && t->result.dirty != 0)
         t->hooks.on_write(t->hooks.user, t->result.unit, t->result.dirty);
+#ifndef GW_MB_NO_REQLOG
+    gw_reqlog_add(&t->log, ev_now_us(), &t->result, ex);
+#endif
     if (t->hooks.on_request != NULL)
         t->hooks.on_request(t->hooks.user, &t->result, ex, who, &t->wrote_log);
     if (t->result.reset)
@@ -326,6 +330,11 @@ uint64_t gw_rtu_next_deadline(const gw_rtu_t *t)
 const gw_rtu_counters_t *gw_rtu_counters(const gw_rtu_t *t)
 {
     return &t->n;
+}
+
+const gw_reqlog_t *gw_rtu_reqlog(const gw_rtu_t *t)
+{
+    return &t->log;
 }
 
 bool gw_rtu_serves(const gw_rtu_t *t, uint8_t unit_id)

@@ -50,6 +50,8 @@ void gw_rtu_tick(gw_rtu_t *t, uint64_t now_us);
 uint64_t gw_rtu_next_deadline(const gw_rtu_t *t);
 
 const gw_rtu_counters_t *gw_rtu_counters(const gw_rtu_t *t);
+/* The master's last requests on this line (reqlog.h). */
+const gw_reqlog_t *gw_rtu_reqlog(const gw_rtu_t *t);
 /* Does the line serve this robot (by unit ID)? */
 bool gw_rtu_serves(const gw_rtu_t *t, uint8_t unit_id);
 /* t3.5 of a line at `baud` in microseconds (1.75 ms above 19200). */

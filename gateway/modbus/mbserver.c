@@ -3,6 +3,7 @@
 #define _GNU_SOURCE /* accept4, TCP_KEEPIDLE */
 #include <arpa/inet.h>
 #include <errno.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -17,6 +18,7 @@
 #include "modbus/mbproto.h"
 #include "modbus/mbserver.h"
 #include "modbus/regmap.h"
+#include "modbus/reqlog.h"
 
 #define MAX_CLIENTS_HARD 256u
 
@@ -35,6 +37,10 @@ typedef struct {
     uint64_t req_us;  /* first byte of the request in buf; 0: none pending */
     uint8_t buf[GW_ADU_MAX];
     size_t len;
+    /* Its last requests (reqlog.h). Kept when it goes, for the console,
+     * until the slot is taken again: by the same address first (a PLC
+     * that connects anew keeps its past), by another one last. */
+    gw_reqlog_t log;
 } client_t;
 
 struct gw_mbs {
@@ -135,6 +141,28 @@ static client_t *evict_idle(gw_mbs_t *s, const char *newcomer)
     return victim;
 }
 
+/* A slot for a new client from addr: the last one that served addr (its
+ * request log goes on: a PLC that connects anew keeps its past), else
+ * one that never logged, else the one whose last request is the oldest.
+ * NULL: none free. */
+static client_t *free_slot(gw_mbs_t *s, uint32_t addr)
+{
+    client_t *same = NULL, *other = NULL;
+    for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
+        client_t *c = &s->clients[i];
+        if (c->used)
+            continue;
+        if (c->log.total > 0 && c->addr == addr) {
+            if (same == NULL || c->last_us > same->last_us)
+                same = c;
+        } else if (other == NULL || (other->log.total > 0 && (c->log.total == 0 ||
+                                                              c->last_us < other->last_us))) {
+            other = c;
+        }
+    }
+    return same != NULL ? same : other;
+}
+
 static void on_accept(void *obj, uint32_t events)
 {
     gw_mbs_t *s = obj;
@@ -158,11 +186,7 @@ static void on_accept(void *obj, uint32_t events)
             close(fd);
             continue;
         }
-        client_t *cl = NULL;
-        if (s->nclients < s->cfg.max_clients)
-            for (unsigned i = 0; i < MAX_CLIENTS_HARD && cl == NULL; i++)
-                if (!s->clients[i].used)
-                    cl = &s->clients[i];
+        client_t *cl = s->nclients < s->cfg.max_clients ? free_slot(s, addr) : NULL;
         if (cl == NULL)
             cl = evict_idle(s, who);
         if (cl == NULL) {
@@ -172,7 +196,9 @@ static void on_accept(void *obj, uint32_t events)
             close(fd);
             continue;
         }
-        memset(cl, 0, sizeof *cl);
+        if (cl->addr != addr)
+            memset(&cl->log, 0, sizeof cl->log);
+        memset(cl, 0, offsetof(client_t, log)); /* the log is the last member */
         cl->used = true;
         cl->srv = s;
         cl->fd = fd;
@@ -234,7 +260,8 @@ static void client_wrote(void *obj)
 
 /* One complete ADU (mbproto.c checks and applies it). Returns false if the
  * client must be dropped. */
-static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t len)
+static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t len,
+                           uint64_t now)
 {
     char client[48] = "modbus ";
     fmt_addr(cl->addr, cl->port, client + 7, sizeof client - 7);
@@ -268,6 +295,11 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
         s->hooks.on_write(s->hooks.user, s->result.unit, s->result.dirty);
     s->requests++;
     cl->requests++;
+#ifndef GW_MB_NO_REQLOG /* the bench's daemon without it (bench-gw) */
+    gw_reqlog_add(&cl->log, now, &s->result, ex);
+#else
+    (void)now;
+#endif
     if (ex != 0) {
         s->exceptions++;
         cl->exceptions++;
@@ -281,7 +313,7 @@ static bool handle_request(gw_mbs_t *s, client_t *cl, const uint8_t *req, size_t
 }
 
 /* Take complete frames out of the client's buffer; *frames counts them. */
-static bool drain_frames(gw_mbs_t *s, client_t *cl, unsigned *frames)
+static bool drain_frames(gw_mbs_t *s, client_t *cl, unsigned *frames, uint64_t now)
 {
     for (;;) {
         size_t total = 0;
@@ -299,7 +331,7 @@ static bool drain_frames(gw_mbs_t *s, client_t *cl, unsigned *frames)
         case GW_MBAP_FRAME:
             break;
         }
-        if (!handle_request(s, cl, cl->buf, total))
+        if (!handle_request(s, cl, cl->buf, total, now))
             return false;
         ++*frames;
         memmove(cl->buf, cl->buf + total, cl->len - total);
@@ -332,7 +364,7 @@ static void on_client(void *obj, uint32_t events)
         cl->req_us = now; /* a request's first byte: its deadline starts */
     cl->len += (size_t)got;
     unsigned frames = 0;
-    if (!drain_frames(s, cl, &frames)) {
+    if (!drain_frames(s, cl, &frames, now)) {
         client_close(cl, "bad request or send failure");
         return;
     }
@@ -558,12 +590,12 @@ void gw_mbs_release_writer(gw_mbs_t *s)
     s->writer = NULL;
 }
 
-void gw_mbs_each_client(const gw_mbs_t *s,
-                        void (*fn)(void *user, const gw_mbs_client_info_t *c), void *user)
+static void each_slot(const gw_mbs_t *s, bool gone_too,
+                      void (*fn)(void *user, const gw_mbs_client_info_t *c), void *user)
 {
     for (unsigned i = 0; i < MAX_CLIENTS_HARD; i++) {
         const client_t *cl = &s->clients[i];
-        if (!cl->used)
+        if (!cl->used && !(gone_too && cl->log.total > 0))
             continue;
         gw_mbs_client_info_t c;
         memset(&c, 0, sizeof c);
@@ -571,9 +603,23 @@ void gw_mbs_each_client(const gw_mbs_t *s,
         c.requests = cl->requests;
         c.exceptions = cl->exceptions;
         c.read_write = cl->rw;
-        c.writer = s->writer == cl;
+        c.writer = cl->used && s->writer == cl;
+        c.connected = cl->used;
+        c.log = &cl->log;
         fn(user, &c);
     }
+}
+
+void gw_mbs_each_client(const gw_mbs_t *s,
+                        void (*fn)(void *user, const gw_mbs_client_info_t *c), void *user)
+{
+    each_slot(s, false, fn, user);
+}
+
+void gw_mbs_each_log(const gw_mbs_t *s, void (*fn)(void *user, const gw_mbs_client_info_t *c),
+                     void *user)
+{
+    each_slot(s, true, fn, user);
 }
 
 uint32_t gw_mbs_requests(const gw_mbs_t *s)

@@ -17,6 +17,7 @@
 #include "core/log.h"
 #include "modbus/mbproto.h"
 #include "modbus/regmap.h"
+#include "modbus/reqlog.h"
 
 typedef struct gw_mbs gw_mbs_t;
 
@@ -69,9 +70,16 @@ typedef struct {
     char address[32]; /* "192.0.2.7:50412" */
     uint32_t requests, exceptions;
     bool read_write, writer;
+    bool connected;           /* false: gone, its slot not taken again yet */
+    const gw_reqlog_t *log;   /* its last requests (reqlog.h) */
 } gw_mbs_client_info_t;
 void gw_mbs_each_client(const gw_mbs_t *s,
                         void (*fn)(void *user, const gw_mbs_client_info_t *c), void *user);
+/* The same for every slot with a request log: the clients connected and
+ * the ones gone whose slot no new client took yet (mbserver.c: a client
+ * that connects again from the same address takes its old slot). */
+void gw_mbs_each_log(const gw_mbs_t *s, void (*fn)(void *user, const gw_mbs_client_info_t *c),
+                     void *user);
 /* Requests answered since the server started (all clients, past ones too). */
 uint32_t gw_mbs_requests(const gw_mbs_t *s);
 

@@ -47,6 +47,7 @@ typedef struct {
     uint64_t by_fc[MB_TRANSPORTS][128];
     uint64_t by_ex[MB_TRANSPORTS][256];
     uint64_t writes[MB_TRANSPORTS];
+    gw_exstats_t ex_at; /* exceptions by place (reqlog.h) */
 } mb_counts_t;
 
 /* Modbus TCP */
@@ -115,8 +116,10 @@ static void on_request(void *user, const gw_mb_result_t *r, int ex, const char *
     const mb_ctx_t *c = user;
     mb_counts_t *n = &c->mb->n;
     n->by_fc[c->transport][r->fc & 0x7Fu]++;
-    if (ex > 0)
+    if (ex > 0) {
         n->by_ex[c->transport][ex & 0xFF]++;
+        gw_exstats_add(&n->ex_at, c->transport, ev_now_us(), r, ex);
+    }
     (void)client, (void)log;
     if (ex != 0 || !r->write || r->dirty == 0 || r->unit == NULL)
         return;
@@ -692,6 +695,99 @@ static void mb_metrics(const void *self, gw_prom_t *p)
              "Modbus RTU frames for other slave addresses", rtu_other);
 }
 
+/* ---- /api/v1/modbus/requests -------------------------------------------------------- */
+
+/* Room kept for one more client's log: a request log that would not fit
+ * the console's answer (256 clients) is cut between clients, and says
+ * so. */
+#define LOG_ROOM (GW_REQLOG_N * 200u + 512u)
+
+typedef struct {
+    gw_json_t *j;
+    uint64_t now;
+    bool first, cut;
+} log_json_t;
+
+static void client_log(void *user, const gw_mbs_client_info_t *c)
+{
+    log_json_t *lj = user;
+    if (lj->j->cap - lj->j->len < LOG_ROOM) {
+        lj->cut = true;
+        return;
+    }
+    gw_json_str(lj->j, lj->first ? "{" : ",{");
+    lj->first = false;
+    json_name(lj->j, "client", c->address);
+    json_fmt(lj->j, ",\"transport\":\"tcp\",\"connected\":%s,\"read_write\":%s,"
+             "\"writer\":%s,\"requests\":%lu,\"exceptions\":%lu,\"log\":[",
+             c->connected ? "true" : "false", c->read_write ? "true" : "false",
+             c->writer ? "true" : "false", (unsigned long)c->requests,
+             (unsigned long)c->exceptions);
+    gw_reqlog_json(lj->j, c->log, lj->now);
+    gw_json_str(lj->j, "]}");
+}
+
+/* {"log_size", "clients": [{"client", "transport", "connected", ...,
+ * "log": [...]}], "truncated", "exceptions": {...}}: every TCP client's
+ * and RTU line's last requests, and the exceptions by code and place. */
+static void requests_json(const mb_t *m, gw_json_t *j)
+{
+    uint64_t now = ev_now_us();
+    json_fmt(j, "{\"log_size\":%u,\"clients\":[", GW_REQLOG_N);
+    log_json_t lj = {j, now, true, false};
+    if (m->tcp.mbs != NULL)
+        gw_mbs_each_log(m->tcp.mbs, client_log, &lj);
+    for (unsigned i = 0; i < m->rtu.count; i++) {
+        const gw_rtu_counters_t *n = gw_rtu_counters(m->rtu.line[i]);
+        gw_json_str(j, lj.first ? "{" : ",{");
+        lj.first = false;
+        json_name(j, "client", m->rtu.cfg[i].name);
+        json_fmt(j, ",\"transport\":\"rtu\",\"connected\":true,\"requests\":%lu,"
+                 "\"exceptions\":%lu,\"log\":[",
+                 (unsigned long)n->requests, (unsigned long)n->exceptions);
+        gw_reqlog_json(j, gw_rtu_reqlog(m->rtu.line[i]), now);
+        gw_json_str(j, "]}");
+    }
+    json_fmt(j, "],\"truncated\":%s,\"exceptions\":", lj.cut ? "true" : "false");
+    gw_exstats_json(j, &m->n.ex_at, &m->n.by_ex[0][0], MB_TRANSPORTS, now);
+    gw_json_str(j, "}");
+}
+
+/* "modbus": {"unit_id", "unit_id_aliases"} of robot r: what a PLC names
+ * it by. */
+static void mb_robot_report(const void *self, unsigned r, gw_json_t *j)
+{
+    const mb_t *m = self;
+    const gw_config_t *cfg = m->env->cfg;
+    if (r >= cfg->robot_count)
+        return;
+    const gw_modbus_robot_config_t *rc = &cfg->robot[r].side.modbus;
+    json_fmt(j, "\"modbus\":{\"unit_id\":%u,\"unit_id_aliases\":[%s%s%s]}",
+             (unsigned)rc->unit_id, rc->alias0 ? "0" : "", rc->alias0 && rc->alias255 ? "," : "",
+             rc->alias255 ? "255" : "");
+}
+
+/* "registers/NAME": robot NAME's registers as a PLC reads them now. */
+static bool registers_json(const mb_t *m, const char *name, gw_json_t *j)
+{
+    const gw_config_t *cfg = m->env->cfg;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        if (strcmp(cfg->robot[r].name, name) == 0) /* (its status block: refreshed ten times a second) */
+            return gw_regmap_raw_json(j, &m->unit[r], cfg, r);
+    return false;
+}
+
+static bool mb_api(const void *self, const char *path, gw_json_t *j)
+{
+    const mb_t *m = self;
+    if (strncmp(path, "registers/", 10) == 0)
+        return registers_json(m, path + 10, j);
+    if (strcmp(path, "requests") != 0)
+        return false;
+    requests_json(m, j);
+    return !j->full;
+}
+
 /* ---- the status summary ------------------------------------------------------------ */
 
 /* The TCP clients: how many, and "address (writer), ..." (as long as the
@@ -735,6 +831,11 @@ static bool mb_map_json(const gw_config_t *cfg, unsigned robot, gw_json_t *j)
     return gw_regmap_json(j, cfg, robot);
 }
 
+static bool mb_map_csv(const gw_config_t *cfg, unsigned robot, gw_json_t *j)
+{
+    return gw_regmap_csv(j, cfg, robot);
+}
+
 const gw_north_ops_t gw_north_modbus = {
     .name = "modbus",
     .create = mb_create,
@@ -752,7 +853,10 @@ const gw_north_ops_t gw_north_modbus = {
     .report = mb_report,
     .metrics = mb_metrics,
     .summary = mb_summary,
+    .api = mb_api,
+    .robot_report = mb_robot_report,
     .map_json = mb_map_json,
+    .map_csv = mb_map_csv,
     .print_map = gw_regmap_print_all,
     .print_errors = gw_regmap_print_errors,
 };

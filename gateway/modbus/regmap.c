@@ -879,6 +879,24 @@ void gw_regmap_write_fields(const gw_unit_t *u, gw_area_t area, uint16_t addr, u
     }
 }
 
+/* One CSV field (RFC 4180): quoted when it holds a comma, a quote or a
+ * line break, its quotes doubled; then a comma, or the line's end. */
+static void csv_field(FILE *out, const char *s, bool last)
+{
+    if (strpbrk(s, ",\"\r\n") == NULL) {
+        fputs(s, out);
+    } else {
+        fputc('"', out);
+        for (; *s != '\0'; s++) {
+            if (*s == '"')
+                fputc('"', out);
+            fputc(*s, out);
+        }
+        fputc('"', out);
+    }
+    fputs(last ? "\r\n" : ",", out);
+}
+
 /* One printed row: area, addresses a..end-1. */
 static void print_row(FILE *out, gw_print_fmt_t fmt, bool *first, unsigned area, unsigned a,
                       unsigned end, const char *name, const char *type, const char *unit,
@@ -897,6 +915,18 @@ static void print_row(FILE *out, gw_print_fmt_t fmt, bool *first, unsigned area,
         else
             fprintf(out, "| %u | %u%04u | `%s` | %s | %s |\n", a, p, a + 1, name, type, unit);
         break;
+    case GW_PRINT_CSV: {
+        char num[3][16];
+        snprintf(num[0], sizeof num[0], "%u", a);
+        snprintf(num[1], sizeof num[1], "%u", end - a);
+        snprintf(num[2], sizeof num[2], "%u%04u", p, a + 1);
+        const char *cols[] = {area_short[area], num[0], num[1], num[2], name, type, unit,
+                              robot != NULL ? robot : "",
+                              robot != NULL ? (writable ? "true" : "false") : ""};
+        for (unsigned i = 0; i < sizeof cols / sizeof cols[0]; i++)
+            csv_field(out, cols[i], i + 1 == sizeof cols / sizeof cols[0]);
+        break;
+    }
     case GW_PRINT_JSON:
         fprintf(out, "%s  {\"area\": \"%s\", \"address\": %u, \"count\": %u, \"name\": \"%s\", "
                      "\"type\": \"%s\", \"unit\": \"%s\"",
@@ -911,11 +941,31 @@ static void print_row(FILE *out, gw_print_fmt_t fmt, bool *first, unsigned area,
     }
 }
 
-static void print_default(FILE *out, gw_print_fmt_t fmt, const char *filter, bool *first)
+/* Where the map's rows go: printed (out, in fmt), or each handed to
+ * `row` (the console's raw register view). */
+typedef struct map_out {
+    FILE *out; /* NULL: rows to `row` only, no headers */
+    gw_print_fmt_t fmt;
+    bool first;
+    void (*row)(struct map_out *o, unsigned area, unsigned a, unsigned end, const char *name,
+                bool user);
+    void *user;
+} map_out_t;
+
+static void emit(map_out_t *o, unsigned area, unsigned a, unsigned end, const char *name,
+                 const char *type, const char *unit, const char *robot, bool writable)
+{
+    if (o->row != NULL)
+        o->row(o, area, a, end, name, robot != NULL);
+    else
+        print_row(o->out, o->fmt, &o->first, area, a, end, name, type, unit, robot, writable);
+}
+
+static void print_default(map_out_t *o, const char *filter)
 {
     for (unsigned area = 0; area < GW_AREAS; area++) {
-        if (fmt == GW_PRINT_MARKDOWN)
-            fprintf(out, "\n### %ss\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
+        if (o->out != NULL && o->fmt == GW_PRINT_MARKDOWN)
+            fprintf(o->out, "\n### %ss\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
                     area_name[area]);
         for (unsigned a = 0; a < GW_AREA_SIZE;) {
             const slot_t *s = &map[area][a];
@@ -930,7 +980,7 @@ static void print_default(FILE *out, gw_print_fmt_t fmt, const char *filter, boo
             slot_text(s, (gw_area_t)area, end - a, name, sizeof name, type, sizeof type, unit,
                       sizeof unit);
             if (filter == NULL || strstr(name, filter) != NULL)
-                print_row(out, fmt, first, area, a, end, name, type, unit, NULL, false);
+                emit(o, area, a, end, name, type, unit, NULL, false);
             a = end;
         }
     }
@@ -942,8 +992,8 @@ void gw_regmap_print(FILE *out, gw_print_fmt_t fmt)
 }
 
 /* A user entry's rows: one per element (a 32-bit view: two addresses). */
-static void print_user(FILE *out, gw_print_fmt_t fmt, const char *filter, bool *first,
-                       const char *robot, const gw_umap_entry_t *e)
+static void print_user(map_out_t *o, const char *filter, const char *robot,
+                       const gw_umap_entry_t *e)
 {
     const dr_field_t *f = dr_field_at(e->field);
     unsigned per = e->view == GW_VIEW_REAL || e->view == GW_VIEW_DINT ? 2u : 1u;
@@ -972,37 +1022,125 @@ static void print_user(FILE *out, gw_print_fmt_t fmt, const char *filter, bool *
             else
                 snprintf(type, sizeof type, "%s", e->view == GW_VIEW_BIT ? "bit" : "UINT16");
         }
-        if (e->writable && fmt != GW_PRINT_JSON)
+        if (e->writable && o->fmt != GW_PRINT_JSON && o->fmt != GW_PRINT_CSV)
             snprintf(type + strlen(type), sizeof type - strlen(type), ", writable");
         if (filter == NULL || strstr(name, filter) != NULL)
-            print_row(out, fmt, first, e->table, a, a + per, name, type, f->unit, robot,
-                      e->writable);
+            emit(o, e->table, a, a + per, name, type, f->unit, robot, e->writable);
     }
+}
+
+/* The default map and the robots' own (cfg NULL: none; only: that robot's
+ * alone, else every robot's). */
+static void print_maps(map_out_t *o, const char *filter, const gw_config_t *cfg, int only)
+{
+    gw_regmap_init();
+    FILE *out = o->out;
+    gw_print_fmt_t fmt = out != NULL ? o->fmt : GW_PRINT_TEXT;
+    if (out != NULL && fmt == GW_PRINT_JSON)
+        fputs("[\n", out);
+    if (out != NULL && fmt == GW_PRINT_CSV)
+        fputs("area,address,count,reference,name,type,unit,robot,writable\r\n", out);
+    print_default(o, filter);
+    for (unsigned r = 0; cfg != NULL && r < cfg->robot_count; r++) {
+        const gw_umap_t *m = &cfg->robot[r].side.modbus.map;
+        if (m->count == 0 || (only >= 0 && r != (unsigned)only))
+            continue;
+        if (out != NULL && fmt == GW_PRINT_MARKDOWN)
+            fprintf(out, "\n### Robot %s (unit %u): its own map\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
+                    cfg->robot[r].name, (unsigned)cfg->robot[r].side.modbus.unit_id);
+        else if (out != NULL && fmt == GW_PRINT_TEXT)
+            fprintf(out, "# robot %s (unit %u): its own map\n", cfg->robot[r].name,
+                    (unsigned)cfg->robot[r].side.modbus.unit_id);
+        for (unsigned i = 0; i < m->count; i++)
+            print_user(o, filter, cfg->robot[r].name, &m->entry[i]);
+    }
+    if (out != NULL && fmt == GW_PRINT_JSON)
+        fputs("\n]\n", out);
 }
 
 void gw_regmap_print_all(FILE *out, gw_print_fmt_t fmt, const char *filter,
                          const gw_config_t *cfg)
 {
-    gw_regmap_init();
-    bool first = true;
-    if (fmt == GW_PRINT_JSON)
-        fputs("[\n", out);
-    print_default(out, fmt, filter, &first);
-    for (unsigned r = 0; cfg != NULL && r < cfg->robot_count; r++) {
-        const gw_umap_t *m = &cfg->robot[r].side.modbus.map;
-        if (m->count == 0)
-            continue;
-        if (fmt == GW_PRINT_MARKDOWN)
-            fprintf(out, "\n### Robot %s (unit %u): its own map\n\n| Address | Modbus | Name | Type | Unit |\n|---|---|---|---|---|\n",
-                    cfg->robot[r].name, (unsigned)cfg->robot[r].side.modbus.unit_id);
-        else if (fmt == GW_PRINT_TEXT)
-            fprintf(out, "# robot %s (unit %u): its own map\n", cfg->robot[r].name,
-                    (unsigned)cfg->robot[r].side.modbus.unit_id);
-        for (unsigned i = 0; i < m->count; i++)
-            print_user(out, fmt, filter, &first, cfg->robot[r].name, &m->entry[i]);
+    map_out_t o = {out, fmt, true, NULL, NULL};
+    print_maps(&o, filter, cfg, -1);
+}
+
+bool gw_regmap_csv(gw_json_t *j, const gw_config_t *cfg, unsigned robot)
+{
+    if (robot >= cfg->robot_count || j->cap - j->len < 2)
+        return false;
+    size_t room = j->cap - j->len - 1;
+    FILE *f = fmemopen(j->buf + j->len, room + 1, "w");
+    if (f == NULL) {
+        j->full = true;
+        return false;
     }
-    if (fmt == GW_PRINT_JSON)
-        fputs("\n]\n", out);
+    map_out_t o = {f, GW_PRINT_CSV, true, NULL, NULL};
+    print_maps(&o, NULL, cfg, (int)robot);
+    long n = ftell(f);
+    bool err = ferror(f) != 0;
+    (void)fclose(f);
+    if (err || n < 0 || (size_t)n >= room) { /* did not fit (fmemopen stops at the end) */
+        j->full = true;
+        return false;
+    }
+    j->len += (size_t)n;
+    j->buf[j->len] = '\0';
+    return true;
+}
+
+/* ---- the raw registers (/api/v1/modbus/registers/NAME) ------------------------- */
+
+typedef struct {
+    gw_json_t *j;
+    const gw_unit_t *u;
+    gw_area_t area; /* the table being written; GW_AREAS: none yet */
+    bool first;
+} raw_t;
+
+/* One row of the map: its words (bits 0/1) as a Modbus read of exactly
+ * those addresses answers now, or the exception that read gets. */
+static void raw_row(map_out_t *o, unsigned area, unsigned a, unsigned end, const char *name,
+                    bool user)
+{
+    raw_t *r = o->user;
+    char t[96];
+    if (area != (unsigned)r->area) {
+        snprintf(t, sizeof t, "%s\"%s\":[", r->area == GW_AREAS ? "" : "],", area_short[area]);
+        gw_json_str(r->j, t);
+        r->area = (gw_area_t)area;
+        r->first = true;
+    }
+    uint16_t v[2] = {0, 0};
+    bool pair = end - a >= 2u; /* a 32-bit value's two registers (the map's rows have 1 or 2) */
+    unsigned n = pair ? 2u : 1u;
+    int ex = gw_regmap_read(r->u, (gw_area_t)area, (uint16_t)a, (uint16_t)n, v);
+    snprintf(t, sizeof t, "%s{\"address\":%u,\"count\":%u,\"ref\":\"%u%04u\",\"name\":",
+             r->first ? "" : ",", a, n, area_prefix[area], a + 1u);
+    gw_json_str(r->j, t);
+    gw_json_quote(r->j, name, strlen(name));
+    if (ex != 0)
+        snprintf(t, sizeof t, ",\"ex\":%d%s}", ex, user ? ",\"user\":true" : "");
+    else if (pair)
+        snprintf(t, sizeof t, ",\"words\":[%u,%u]%s}", v[0], v[1], user ? ",\"user\":true" : "");
+    else
+        snprintf(t, sizeof t, ",\"words\":[%u]%s}", v[0], user ? ",\"user\":true" : "");
+    gw_json_str(r->j, t);
+    r->first = false;
+}
+
+bool gw_regmap_raw_json(gw_json_t *j, const gw_unit_t *u, const gw_config_t *cfg, unsigned robot)
+{
+    if (robot >= cfg->robot_count)
+        return false;
+    raw_t r = {j, u, GW_AREAS, true};
+    map_out_t o = {NULL, GW_PRINT_JSON, true, raw_row, &r};
+    gw_json_str(j, "{\"robot\":");
+    gw_json_quote(j, cfg->robot[robot].name, strlen(cfg->robot[robot].name));
+    gw_json_str(j, ",\"tables\":{");
+    print_maps(&o, NULL, cfg, (int)robot);
+    gw_json_str(j, r.area == GW_AREAS ? "}}" : "]}}");
+    return !j->full;
 }
 
 /* ---- the console's map (/api/v1/robots/NAME/map) ----------------------------- */

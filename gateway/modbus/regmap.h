@@ -155,6 +155,19 @@ void gw_regmap_print_all(FILE *out, gw_print_fmt_t fmt, const char *filter,
  * entry serves about 140 bytes more (GW_MAX_MAP entries of 64 elements). */
 #define GW_REGMAP_JSON_SIZE (768u * 1024u)
 bool gw_regmap_json(gw_json_t *j, const gw_config_t *cfg, unsigned robot);
+/* /api/v1/robots/NAME/map.csv: the rows `--print-map --json` prints for
+ * robot `robot` (the default map, then its own), as CSV (RFC 4180, a
+ * header line: area,address,count,reference,name,type,unit,robot,
+ * writable; robot and writable empty on the default map's rows). False:
+ * no such robot, or j is full. */
+bool gw_regmap_csv(gw_json_t *j, const gw_config_t *cfg, unsigned robot);
+/* /api/v1/modbus/registers/NAME: the words a PLC reads from unit u (robot
+ * `robot`), row by row of the map as --print-map has them, in address
+ * order per table: {"robot", "tables": {"CO": [{"address", "count",
+ * "ref", "name", "words": [...]} or {..., "ex": code}, ...], ...}} (a
+ * row of the robot's own map: "user": true). False: no such robot, or j
+ * is full. */
+bool gw_regmap_raw_json(gw_json_t *j, const gw_unit_t *u, const gw_config_t *cfg, unsigned robot);
 
 /* Every value of the status block's last_error (IR 12) with
  * last_cip_general (IR 30): text or Markdown (docs/register-map.md). */

@@ -144,7 +144,7 @@ static void test_json(void **state)
         gw_log(GW_LOG_INFO, "filler %d", i);
     gw_log(GW_LOG_WARNING, "robot \"r0\": link down\tnow");
     gw_json_init(&j, buf, sizeof buf);
-    gw_http_log_json(&j);
+    gw_http_log_json(&j, false);
     assert_false(j.full);
     assert_true(buf[0] == '[' && buf[j.len - 1] == ']');
     assert_non_null(strstr(buf, "\"level\":\"warning\",\"text\":\"robot \\\"r0\\\": link down\\\\x09now\"}]"));
@@ -154,7 +154,7 @@ static void test_json(void **state)
     /* too small: marked full, never a cut array handed on as whole */
     char small[64];
     gw_json_init(&j, small, sizeof small);
-    gw_http_log_json(&j);
+    gw_http_log_json(&j, false);
     assert_true(j.full);
 }
 
@@ -184,6 +184,47 @@ static void test_kept_only_with_a_console(void **state)
     assert_string_equal(ring().last, "kept");
 }
 
+/* A limiter's lines go to its ring: the write log's to the writes', with
+ * its summary of the lines it held back; the events' ring is untouched. */
+typedef struct {
+    unsigned n;
+    char last[GW_LOG_TEXT];
+} writes_t;
+
+static void collect_write(void *user, const gw_log_event_t *e)
+{
+    writes_t *w = user;
+    w->n++;
+    snprintf(w->last, sizeof w->last, "%s", e->text);
+}
+
+static void test_writes_ring_apart(void **state)
+{
+    (void)state;
+    gw_log(GW_LOG_INFO, "an event");
+    uint64_t events = gw_log_ring_total(), writes = gw_log_writes_total();
+    gw_log_limit_t lim;
+    memset(&lim, 0, sizeof lim);
+    lim.ring = GW_LOG_WRITES;
+    for (int i = 0; i < GW_LOG_RING + 50; i++) {
+        lim.last_us = 0; /* every one shown */
+        gw_log_limited(GW_LOG_INFO, &lim, "robot r0: write by modbus 10.0.0.7:%d: int_in[0]", i);
+    }
+    assert_int_equal(gw_log_ring_total(), events); /* no event pushed out */
+    assert_string_equal(ring().last, "an event");
+    assert_int_equal(gw_log_writes_total(), writes + GW_LOG_RING + 50);
+    writes_t w = {0, ""};
+    gw_log_writes_each(collect_write, &w);
+    assert_int_equal(w.n, GW_LOG_RING);
+    assert_string_equal(w.last, "robot r0: write by modbus 10.0.0.7:249: int_in[0]");
+    static char buf[GW_LOG_RING * (GW_LOG_TEXT * 6 + 80)];
+    gw_json_t j;
+    gw_json_init(&j, buf, sizeof buf);
+    gw_http_log_json(&j, true);
+    assert_non_null(strstr(buf, "10.0.0.7:249"));
+    assert_null(strstr(buf, "an event"));
+}
+
 static int keep_ring(void **state)
 {
     (void)state;
@@ -198,6 +239,7 @@ int main(void)
         cmocka_unit_test(test_control_characters_escaped),
         cmocka_unit_test(test_level_filtered),
         cmocka_unit_test(test_long_line_cut),
+        cmocka_unit_test(test_writes_ring_apart),
         cmocka_unit_test(test_json),
         cmocka_unit_test(test_suppressed_count),
         cmocka_unit_test(test_kept_only_with_a_console),

@@ -36,8 +36,16 @@
     if (node && node.textContent !== text) node.textContent = text;
   }
 
+  // An address of this gateway: from the page's origin, which has no
+  // user and password in it even when the address typed had them
+  // (http://user:pw@host/): fetch() refuses a URL made from such a page's
+  // address, and the page stayed at "no answer" (issue 33).
+  function abs(path) {
+    return location.origin + path;
+  }
+
   function getJSON(url) {
-    return fetch(url, { cache: "no-store", headers: { Accept: "application/json" } })
+    return fetch(abs(url), { cache: "no-store", headers: { Accept: "application/json" } })
       .then(function (r) {
         if (!r.ok) {
           return r.text().then(function (t) {
@@ -104,8 +112,86 @@
 
   function badge(node, state) {
     state = state || "unknown";
-    if (node.className !== "badge " + state) node.className = "badge " + state;
+    var cls = "badge " + state.replace(/ /g, "-");
+    if (node.className !== cls) node.className = cls;
     setText(node, state);
+  }
+
+  // "10.0.0.5:44818"
+  function address(r) {
+    return r.host ? r.host + ":" + r.tcp_port : "-";
+  }
+
+  // "1 (also 0, 255)": the unit ID a PLC names the robot by
+  function unitText(r) {
+    var m = r.sides && r.sides.modbus;
+    if (!m) return "-";
+    var al = m.unit_id_aliases || [];
+    return m.unit_id + (al.length ? " (also " + al.join(", ") + ")" : "");
+  }
+
+  // The robot's state and servo, and whether they are the robot's now:
+  // "never linked" (zeros, not the robot's), "stale" (older than the
+  // connection timeout).
+  function staleWord(r) {
+    return !r.ever_linked ? "never linked" : r.values_stale ? "stale" : "";
+  }
+
+  function robotState(r) {
+    if (!r.robot_state) return "-";
+    return r.robot_state.name + " (" + r.robot_state.value + ")";
+  }
+
+  function servo(r) {
+    return r.servo_on === null || r.servo_on === undefined ? "-" : r.servo_on ? "on" : "off";
+  }
+
+  function setStale(node, text, stale) {
+    setText(node, text + (stale ? " (" + stale + ")" : ""));
+    node.classList.toggle("stale", !!stale);
+  }
+
+  function age(r) {
+    return r.age_ms === null ? "never" : ms(r.age_ms);
+  }
+
+  // ---- the live stream ----------------------------------------------------------
+  // One stream for every page of the browser, through the pages' shared
+  // worker (static/live.js); a browser without SharedWorker opens its own
+  // (the same events). sub: {robots: [...], overview: bool}; on: the
+  // handlers overview(data), status(robot), values(robot, values),
+  // state(state, why).
+  function liveStream(sub, on) {
+    function deliver(m) {
+      if (m.type === "overview" && on.overview) on.overview(m.data);
+      else if (m.type === "status" && on.status) on.status(m.data);
+      else if (m.type === "values" && on.values) on.values(m.robot, m.values);
+      else if (m.type === "state" && on.state) on.state(m.state, m.why);
+    }
+    if (window.SharedWorker) {
+      try {
+        var port = new SharedWorker(abs("/static/live.js")).port;
+        port.onmessage = function (e) { deliver(e.data || {}); };
+        port.start();
+        port.postMessage({ type: "subscribe", robots: sub.robots || [], overview: !!sub.overview });
+        setInterval(function () { port.postMessage({ type: "ping" }); }, 5000);
+        window.addEventListener("pagehide", function () { port.postMessage({ type: "bye" }); });
+        return;
+      } catch (e) { /* a browser that refuses it: a stream of its own */ }
+    }
+    if (!window.EventSource) return;
+    var q = [];
+    if ((sub.robots || []).length) q.push("robots=" + sub.robots.map(encodeURIComponent).join(","));
+    if (sub.overview) q.push("overview=1");
+    var es = new EventSource(abs("/api/v1/events?" + q.join("&")));
+    es.addEventListener("overview", function (e) { deliver({ type: "overview", data: JSON.parse(e.data) }); });
+    es.addEventListener("status", function (e) { deliver({ type: "status", data: JSON.parse(e.data) }); });
+    es.addEventListener("values", function (e) {
+      var d = JSON.parse(e.data);
+      deliver({ type: "values", robot: d.robot, values: d.values });
+    });
+    es.onopen = function () { deliver({ type: "state", state: "live" }); };
+    es.onerror = function () { deliver({ type: "state", state: "stale", why: "event stream interrupted: reconnecting" }); };
   }
 
   // ---- a side's report, whatever its members ---------------------------------
@@ -191,10 +277,12 @@
     cells.badge = el("span", { class: "badge" });
     cell("link").appendChild(cells.badge);
     cell("reason", "reason");
+    cell("address", "mono");
+    cell("unit", "num");
+    cell("robot_state", "mono");
+    cell("servo");
     cell("rpi", "num");
     cell("age", "num");
-    cell("fresh");
-    cell("heartbeat", "num");
     cell("rx", "num");
     cell("lost", "num");
     cell("last_error", "mono");
@@ -219,13 +307,16 @@
       var row = robotRow(r.name), c = row.cells;
       seen[r.name] = true;
       if (body.rows[i] !== row.tr) body.insertBefore(row.tr, body.rows[i] || null);
-      badge(c.badge, r.link);
+      badge(c.badge, r.state || r.link);
       c.link.setAttribute("data-state", r.link || "");
+      c.link.setAttribute("data-ever", r.ever_linked ? "yes" : "no");
       setText(c.reason, r.link === "up" ? "" : (r.reason || ""));
+      setText(c.address, address(r));
+      setText(c.unit, unitText(r));
+      setStale(c.robot_state, robotState(r), staleWord(r));
+      setStale(c.servo, servo(r), r.ever_linked && r.values_stale ? "stale" : "");
       setText(c.rpi, typeof r.rpi_ms === "number" ? r.rpi_ms + " ms" : "-");
-      setText(c.age, ms(r.age_ms));
-      setText(c.fresh, r.fresh ? "yes" : "no");
-      setText(c.heartbeat, r.heartbeat);
+      setStale(c.age, age(r), r.ever_linked && !r.fresh ? "stale" : "");
       setText(c.rx, r.rx_packets);
       setText(c.lost, r.lost_packets);
       setText(c.last_error, lastError(r.last_error));
@@ -272,13 +363,16 @@
     if (st.log_dropped) setText($("foot-note"), st.log_dropped + " log events dropped");
   }
 
-  var logSig = "";
-  function renderLog(events) {
-    var warnOnly = $("log-warn").checked;
+  var logSig = {};
+  // The events' log (tbl "log", with the warnings box) or the writes'
+  // ("writes"), the newest first; redrawn only when it changed.
+  function renderLog(events, tbl) {
+    tbl = tbl || "log";
+    var warnOnly = tbl === "log" && $("log-warn").checked;
     var sig = events.length + "|" + (events.length ? events[events.length - 1].time + events[events.length - 1].text : "") + "|" + warnOnly;
-    if (sig === logSig) return;
-    logSig = sig;
-    var body = $("log").tBodies[0], frag = document.createDocumentFragment(), shown = 0;
+    if (sig === logSig[tbl]) return;
+    logSig[tbl] = sig;
+    var body = $(tbl).tBodies[0], frag = document.createDocumentFragment(), shown = 0;
     for (var i = events.length - 1; i >= 0; i--) { // the newest first
       var e = events[i], lvl = String(e.level || "");
       if (warnOnly && !/warn|err|crit/.test(lvl)) continue;
@@ -289,13 +383,84 @@
     }
     body.textContent = "";
     body.appendChild(frag);
-    setText($("log-count"), shown + " of " + events.length + " events, the newest first");
+    setText($(tbl + "-count"), shown + " of " + events.length + (tbl === "log" ? " events" : " writes") + ", the newest first");
+  }
+
+  function renderWrites(events) {
+    renderLog(events, "writes");
+  }
+
+  // ---- Modbus requests (the Modbus side's request log) ------------------------
+
+  var reqData = null;
+
+  function exText(code, name) {
+    return hex(code, 2) + (name ? " " + name : "");
+  }
+
+  function renderRequests() {
+    var d = reqData;
+    if (!d) return;
+    $("requests-card").hidden = false;
+    var q = $("req-filter").value.trim().toLowerCase(), exOnly = $("req-ex").checked;
+    var all = [];
+    (d.clients || []).forEach(function (c) {
+      (c.log || []).forEach(function (e) { all.push({ c: c, e: e }); });
+    });
+    all.sort(function (a, b) { return a.e.age_ms - b.e.age_ms; }); // the newest first
+    var body = $("requests").tBodies[0], frag = document.createDocumentFragment(), shown = 0;
+    all.forEach(function (x) {
+      var e = x.e, c = x.c;
+      var result = e.ex ? "exception " + exText(e.ex, e.exception) : "ok";
+      var fn = "FC " + e.fc + (e.function ? " " + e.function : "");
+      var who = c.client + (c.transport === "rtu" ? " (RTU)" : c.connected ? "" : " (gone)");
+      var key = (who + " " + fn + " " + e.addr + " unit " + e.unit + " " + result).toLowerCase();
+      if ((exOnly && !e.ex) || (q && key.indexOf(q) < 0)) return;
+      frag.appendChild(el("tr", { class: e.ex ? "error" : null, "data-client": c.client, "data-fc": e.fc,
+        "data-addr": e.addr, "data-ex": e.ex },
+        el("td", null, ms(e.age_ms) + " ago"), el("td", { class: "mono" }, who),
+        el("td", { class: "num" }, e.unit), el("td", null, fn), el("td", { class: "num" }, e.addr),
+        el("td", { class: "num" }, e.count), el("td", { class: e.ex ? "reason" : null }, result)));
+      shown++;
+    });
+    body.textContent = "";
+    body.appendChild(frag);
+    setText($("req-count"), shown + " of " + all.length + " requests of " + (d.clients || []).length +
+      " client" + ((d.clients || []).length === 1 ? "" : "s") + " (the last " + d.log_size + " of each), the newest first");
+    var ex = d.exceptions || {}, box = $("req-exceptions");
+    box.textContent = "";
+    if ((ex.by_code || []).length) {
+      box.appendChild(el("h3", null, "Exceptions by code"));
+      box.appendChild(el("p", { class: "mono", id: "req-by-code" }, (ex.by_code || []).map(function (b) {
+        return exText(b.code, b.name) + ": " + b.count;
+      }).join(", ")));
+      box.appendChild(el("h3", null, "Exceptions by address" + (ex.other ? " (" + ex.other + " more elsewhere)" : "")));
+      box.appendChild(sideTable("by_address", (ex.by_address || []).map(function (p) {
+        return { transport: p.transport, unit: p.unit, "function": "FC " + p.fc + (p["function"] ? " " + p["function"] : ""),
+          address: p.addr, exception: exText(p.code, p.name), count: p.count, last: ms(p.last_age_ms) + " ago" };
+      })));
+    }
   }
 
   function overview() {
-    var lastLog = 0, lastEvents = [];
+    var lastLog = 0, lastEvents = [], lastWrites = [], lastReq = 0, reqOn = true, lastStream = 0;
+    // The status from the live stream (when it changed, at most twice a
+    // second); polled while the stream brings nothing.
+    liveStream({ overview: true }, {
+      overview: function (st) { lastStream = Date.now(); renderStatus(st); live("live"); },
+      state: function (state, why) { if (state !== "live") live("stale", why); }
+    });
     function tick() {
-      var now = Date.now(), jobs = [getJSON("/api/v1/status").then(renderStatus)];
+      var now = Date.now(), jobs = [];
+      if (now - lastStream > 3000) jobs.push(getJSON("/api/v1/status").then(renderStatus));
+      if (reqOn && now - lastReq >= 1000) {
+        lastReq = now;
+        jobs.push(getJSON("/api/v1/modbus/requests").then(function (d) { reqData = d; renderRequests(); },
+          function (e) { if (e.status === 404) reqOn = false; else throw e; }));
+      }
+      if (now - lastLog >= 2000) {
+        jobs.push(getJSON("/api/v1/writes").then(function (ev) { lastWrites = ev || []; renderWrites(lastWrites); }));
+      }
       if (now - lastLog >= 2000) {
         lastLog = now;
         jobs.push(getJSON("/api/v1/log").then(function (ev) { lastEvents = ev || []; renderLog(lastEvents); }));
@@ -304,6 +469,8 @@
         .then(function () { setTimeout(tick, document.hidden ? 5000 : 500); });
     }
     $("log-warn").addEventListener("change", function () { renderLog(lastEvents); });
+    $("req-filter").addEventListener("input", renderRequests);
+    $("req-ex").addEventListener("change", renderRequests);
     tick();
   }
 
@@ -341,6 +508,34 @@
     return String(v);
   }
 
+  var REF_PREFIX = { CO: 0, DI: 1, IR: 3, HR: 4 };
+
+  function pad(n, w) {
+    var s = String(n);
+    while (s.length < w) s = "0" + s;
+    return s;
+  }
+
+  // Every way a register of l can be asked for: "hr 2005", "42006",
+  // "402006" (the 6-digit reference), per address it takes.
+  function locTokens(l) {
+    var out = [];
+    for (var a = l.address; a < l.address + (l.count || 1); a++) {
+      var p = REF_PREFIX[l.table];
+      out.push(l.table.toLowerCase() + " " + a, String(p) + pad(a + 1, 4), String(p) + pad(a + 1, 5));
+    }
+    return out;
+  }
+
+  // A query that names one register ("HR 2005", "42006") matches that
+  // register only; any other text, any part of the row.
+  var EXACT = /^((hr|ir|co|di) ?\d+|\d{5,6})$/;
+  function matches(key, q) {
+    if (!q) return true;
+    if (EXACT.test(q)) return key.indexOf("|" + q.replace(/^(hr|ir|co|di)(\d)/, "$1 $2") + "|") >= 0;
+    return key.indexOf(q) >= 0;
+  }
+
   function group(path) {
     var m = /^[a-z0-9_]+/.exec(path);
     return m ? m[0] : path;
@@ -350,11 +545,13 @@
     var name = decodeURIComponent(location.pathname.replace(/\/+$/, "").split("/").pop() || "");
     var base = "/api/v1/robots/" + encodeURIComponent(name);
     var rows = {}, fields = {}, values = {}, allRows = [], groups = [];
-    var updates = 0, firstUpdate = 0, trend = [], drawQueued = false;
+    var updates = 0, firstUpdate = 0, trend = [], drawQueued = false, lastStatus = null;
     document.title = name + " - drgatewayd console";
     setText($("robot-name"), name);
     $("api-values").href = base + "/values";
     $("api-map").href = base + "/map";
+    $("map-csv").href = base + "/map.csv";
+    $("map-csv").setAttribute("download", name + "-map.csv");
 
     function fail(msg) {
       var body = $("fields").tBodies[0];
@@ -385,7 +582,13 @@
         var tr = el("tr", { "data-path": f.path, title: f.help || null },
           el("td", { class: "path" }, f.path), v, el("td", { class: "unit" }, f.unit || ""),
           el("td", { class: "type" }, f.type), el("td", { class: "dir" }, f.dir), mb);
-        var row = { tr: tr, v: v, key: (f.path + " " + mbText.join(" ")).toLowerCase(), group: g };
+        var toks = [f.path, f.unit || "", f.type, f.dir].concat(mbText, f.enum || []);
+        (f.modbus || []).forEach(function (l) {
+          toks = toks.concat(locTokens(l));
+          if (l.user) toks.push("map", "user map");
+          if (l.writable) toks.push("rw", "writable");
+        });
+        var row = { tr: tr, v: v, key: ("|" + toks.join("|") + "|").toLowerCase(), group: g };
         rows[f.path] = row;
         fields[f.path] = f;
         allRows.push(row);
@@ -395,12 +598,52 @@
       body.textContent = "";
       body.appendChild(frag);
       filter();
+      userMap(map.fields || []);
+    }
+
+    // The robot's own map as blocks: consecutive elements of one field
+    // in one view at consecutive addresses are one block.
+    function userMap(fl) {
+      var locs = [];
+      fl.forEach(function (f) {
+        (f.modbus || []).forEach(function (l) { if (l.user) locs.push({ l: l, path: f.path }); });
+      });
+      $("user-map-card").hidden = !locs.length;
+      if (!locs.length) return;
+      locs.sort(function (a, b) {
+        return (a.l.table < b.l.table ? -1 : a.l.table > b.l.table ? 1 : 0) || a.l.address - b.l.address;
+      });
+      var blocks = [];
+      locs.forEach(function (x) {
+        var m = /^(.*)\[(\d+)\]$/.exec(x.path), base = m ? m[1] : x.path, idx = m ? Number(m[2]) : -1;
+        var b = blocks[blocks.length - 1], end = b ? b.address + b.count : -1;
+        if (b && b.table === x.l.table && b.view === x.l.view && b.base === base && idx === b.last + 1 &&
+            (x.l.address === end || (x.l.view === "bits" && x.l.address <= end))) {
+          b.last = idx;
+          b.count = Math.max(b.count, x.l.address + x.l.count - b.address);
+          return;
+        }
+        blocks.push({ table: x.l.table, address: x.l.address, count: x.l.count, view: x.l.view, base: base,
+          first: idx, last: idx, path: x.path, writable: x.l.writable, l: x.l });
+      });
+      var body = $("user-map").tBodies[0];
+      body.textContent = "";
+      blocks.forEach(function (b) {
+        var p = REF_PREFIX[b.table], lastA = b.address + b.count - 1;
+        var fieldsText = b.first < 0 ? b.path : b.base + "[" + b.first + (b.last > b.first ? ".." + b.last : "") + "]";
+        var v = locText(b.l).split(" ").slice(3).join(" ") || b.view;
+        body.appendChild(el("tr", { "data-block": b.table + " " + b.address },
+          el("td", null, b.table), el("td", { class: "num" }, b.address + (lastA > b.address ? "-" + lastA : "")),
+          el("td", { class: "num" }, p + pad(b.address + 1, 4) + (lastA > b.address ? "-" + p + pad(lastA + 1, 4) : "")),
+          el("td", { class: "mono" }, fieldsText), el("td", null, v), el("td", null, b.writable ? "rw" : "")));
+      });
+      setText($("user-map-count"), blocks.length + " block" + (blocks.length === 1 ? "" : "s"));
     }
 
     function filter() {
-      var q = $("filter").value.trim().toLowerCase(), shown = 0;
+      var q = $("filter").value.trim().toLowerCase().replace(/\s+/g, " "), shown = 0;
       allRows.forEach(function (r) {
-        var hide = q !== "" && r.key.indexOf(q) < 0;
+        var hide = !matches(r.key, q);
         if (r.tr.hidden !== hide) r.tr.hidden = hide;
         if (!hide) shown++;
       });
@@ -422,13 +665,17 @@
         if (row.v.textContent === t) return;
         row.v.textContent = t;
         if (old !== undefined) { // highlight a change, not the first value
-          row.v.classList.remove("chg");
-          void row.v.offsetWidth; // restart the animation
-          row.v.classList.add("chg");
+          // two classes with the same animation, in turn: a new class
+          // restarts it without forcing a layout per changed value
+          var odd = row.v.classList.contains("chg");
+          row.v.classList.toggle("chg", !odd);
+          row.v.classList.toggle("chg2", odd);
         }
       });
-      if (values["io_state.robot_state"] !== undefined)
-        setText($("robot-state"), fieldValue(fields["io_state.robot_state"], values["io_state.robot_state"]));
+      if (values["io_state.robot_state"] !== undefined && lastStatus && lastStatus.ever_linked && !lastStatus.values_stale)
+        setStale($("robot-state"), fieldValue(fields["io_state.robot_state"], values["io_state.robot_state"]), "");
+      if (values["io_state.servo_on"] !== undefined && lastStatus && lastStatus.ever_linked && !lastStatus.values_stale)
+        setStale($("servo"), values["io_state.servo_on"] ? "on" : "off", "");
       updates++;
       if (!firstUpdate) firstUpdate = now;
       var secs = (now - firstUpdate) / 1000;
@@ -498,30 +745,44 @@
     }, 500);
 
     function status(r) {
-      badge($("link"), r.link);
+      lastStatus = r;
+      badge($("link"), r.state || r.link);
+      setText($("address"), address(r));
+      setText($("unit-id"), unitText(r));
+      setText($("plan"), r.mode + ", " + String(r.layout).replace(/_/g, " "));
+      setText($("serial"), r.originator_serial || "-");
+      setStale($("robot-state"), robotState(r), staleWord(r));
+      setStale($("servo"), servo(r), r.ever_linked && r.values_stale ? "stale" : "");
+      var note = $("stale-note"), word = staleWord(r);
+      note.hidden = !word;
+      $("fields").classList.toggle("stale", !!word);
+      setText(note, !r.ever_linked ? "Never linked: the values below are zeros the gateway started with, not the robot's." :
+        r.values_stale ? "Stale: the values below are the last the robot sent, " + age(r) + " ago; its link is " + r.link + "." : "");
       setText($("reason"), r.link === "up" ? "" : (r.reason || ""));
       setText($("rpi"), typeof r.rpi_ms === "number" ? r.rpi_ms + " ms" : "-");
-      setText($("age"), ms(r.age_ms));
+      setStale($("age"), age(r), r.ever_linked && !r.fresh ? "stale" : "");
       setText($("last-write"), lastWrite(r.last_write));
       setText($("last-error"), lastError(r.last_error));
       setText($("packets"), (r.rx_packets === undefined ? "-" : r.rx_packets) + " / " + (r.lost_packets === undefined ? "-" : r.lost_packets));
     }
 
-    // Values: Server-Sent Events (the first event carries every value,
-    // then what changed, a few times a second); while they do not come,
-    // the values are polled instead.
-    var lastValues = 0, es = null;
+    // Values: the live stream (the first event carries every value, then
+    // what changed, a few times a second); while they do not come, the
+    // values are polled instead.
+    var lastValues = 0, streaming = false;
     function stream() {
-      if (!window.EventSource) return;
       lastValues = Date.now(); // its first event carries every value
-      es = new EventSource(base.replace("/robots/" + encodeURIComponent(name), "/events?robot=" + encodeURIComponent(name)));
-      es.addEventListener("values", function (e) { lastValues = Date.now(); live("live"); apply(JSON.parse(e.data)); });
-      es.addEventListener("status", function (e) { status(JSON.parse(e.data)); });
-      es.onopen = function () { live("live"); };
-      es.onerror = function () { live("stale", "event stream interrupted: reconnecting"); };
+      liveStream({ robots: [name] }, {
+        values: function (robot, vals) { lastValues = Date.now(); live("live"); apply(vals); },
+        status: function (r) { status(r); },
+        state: function (state, why) {
+          streaming = state === "live";
+          live(state === "live" ? "live" : "stale", why);
+        }
+      });
     }
     function poll() {
-      getJSON(base).then(function (r) { status(r); if (!es || es.readyState !== 1) live("live"); },
+      getJSON(base).then(function (r) { status(r); if (!streaming) live("live"); },
         function (e) { live("stale", String(e.message || e)); })
         .then(function () { setTimeout(poll, document.hidden ? 5000 : 2000); });
     }
@@ -533,6 +794,33 @@
     }
 
     $("filter").addEventListener("input", filter);
+
+    // The raw registers, asked every two seconds while the box is open.
+    function raw() {
+      if (!$("raw").open) return;
+      getJSON("/api/v1/modbus/registers/" + encodeURIComponent(name)).then(function (d) {
+        var box = $("raw-tables"), frag = document.createDocumentFragment();
+        Object.keys(d.tables || {}).forEach(function (t) {
+          var body = el("tbody");
+          d.tables[t].forEach(function (r) {
+            var words = r.words ? r.words.map(function (w) { return w + " (" + hex(w, 4) + ")"; }).join(" ") :
+              "exception " + hex(r.ex, 2);
+            body.appendChild(el("tr", { "data-reg": t + " " + r.address },
+              el("td", { class: "num" }, r.address + (r.count > 1 ? "-" + (r.address + r.count - 1) : "")),
+              el("td", { class: "num" }, r.ref), el("td", { class: "mono" }, words),
+              el("td", { class: "mono" }, r.name, r.user ? el("span", { class: "tag user" }, "map") : null)));
+          });
+          frag.appendChild(el("h3", null, t));
+          frag.appendChild(el("div", { class: "wide", tabindex: "0" }, el("table", { class: "grid", "data-table": t },
+            el("thead", null, el("tr", null, el("th", { class: "num" }, "address"), el("th", { class: "num" }, "reference"),
+              el("th", null, "words"), el("th", null, "field"))), body)));
+        });
+        box.textContent = "";
+        box.appendChild(frag);
+      }, function (e) { setText($("raw-tables"), String(e.message || e)); })
+        .then(function () { setTimeout(raw, 2000); });
+    }
+    $("raw").addEventListener("toggle", raw);
     Promise.all([getJSON(base + "/map"), getJSON(base)]).then(function (res) {
       build(res[0]);
       status(res[1]);
@@ -545,9 +833,20 @@
     });
   }
 
+  // ---- configuration page --------------------------------------------------------
+
+  function configPage() {
+    fetch(abs("/api/v1/config"), { cache: "no-store" }).then(function (r) {
+      if (!r.ok) throw new Error("/api/v1/config: HTTP " + r.status);
+      return r.text();
+    }).then(function (t) { setText($("config"), t); live("live"); },
+      function (e) { live("stale", String(e.message || e)); });
+  }
+
   document.addEventListener("DOMContentLoaded", function () {
     var page = document.body.getAttribute("data-page");
     if (page === "overview") overview();
     else if (page === "robot") robotPage();
+    else if (page === "config") configPage();
   });
 })();
