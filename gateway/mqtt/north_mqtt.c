@@ -39,6 +39,7 @@
 #include <errno.h>
 #include <math.h>
 #include <poll.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -127,6 +128,7 @@ typedef struct {
     unsigned gone_count;
     const char *closing;  /* why this side disconnects on purpose (NULL: it does not) */
     char fail_why[160];   /* why the connection attempt failed, once known */
+    char down_why[256];   /* why it is not connected, as last logged (mq_report) */
     gw_log_limit_t refused[MQ_REF_KINDS];
     bool data_seen[GW_MAX_ROBOTS]; /* new T->O data since the last scan */
     unsigned asm_seen[GW_MAX_ROBOTS]; /* T->O assemblies received since link up */
@@ -620,6 +622,18 @@ static void on_message(struct mosquitto *mosq, void *obj, const struct mosquitto
 
 /* ---- connection ------------------------------------------------------------------ */
 
+/* A warning that the broker connection is down or cannot be made: the
+ * same words are the console's reason (mq_report) until it is up. */
+static void mq_down(mq_t *t, const char *fmt, ...) GW_PRINTF(2, 3);
+static void mq_down(mq_t *t, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(t->down_why, sizeof t->down_why, fmt, ap);
+    va_end(ap);
+    gw_log(GW_LOG_WARNING, "mqtt: %s", t->down_why);
+}
+
 /* The next broker of `servers` for the next attempt (`why` it leaves this
  * one); with one broker, the same one. */
 static void next_server(mq_t *t, const char *why)
@@ -640,8 +654,8 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     (void)mosq;
     t->connecting = false;
     if (rc != 0) {
-        gw_log(GW_LOG_WARNING, "mqtt: broker %s:%u refused the connection: %s", server(t)->host,
-               server(t)->port, ml->connack_string(rc));
+        mq_down(t, "broker %s:%u refused the connection: %s", server(t)->host, server(t)->port,
+                ml->connack_string(rc));
         if (t->spb != NULL)
             spb_connect_answered(t->spb, false); /* its bdSeq is used */
         next_server(t, "refused");
@@ -649,6 +663,7 @@ static void on_connect(struct mosquitto *mosq, void *obj, int rc)
     }
     gw_log(GW_LOG_INFO, "mqtt: connected to %s:%u", server(t)->host, server(t)->port);
     t->connected = true;
+    t->down_why[0] = '\0';
     t->con.connects++;
     t->inflight = 0;
     if (t->spb != NULL) {
@@ -685,8 +700,8 @@ static void on_disconnect(struct mosquitto *mosq, void *obj, int rc)
         gw_log(GW_LOG_INFO, "mqtt: disconnected from %s:%u (%s)", server(t)->host,
                server(t)->port, t->closing);
     else if (t->connected) {
-        gw_log(GW_LOG_WARNING, "mqtt: connection to %s:%u lost (%s)", server(t)->host,
-               server(t)->port, rc == 0 ? "closed" : ml->strerror(rc));
+        mq_down(t, "connection to %s:%u lost (%s)", server(t)->host, server(t)->port,
+                rc == 0 ? "closed" : ml->strerror(rc));
         next_server(t, "connection lost");
     }
     t->connected = false;
@@ -740,8 +755,8 @@ static void sync_watch(mq_t *t, uint64_t now)
         ev_unwatch(t->env->epfd, &t->ev);
         if (t->connected || t->connecting) {
             if (t->connecting) {
-                gw_log(GW_LOG_WARNING, "mqtt: cannot connect to %s:%u: %s", server(t)->host,
-                       server(t)->port, t->fail_why[0] ? t->fail_why : "connection closed");
+                mq_down(t, "cannot connect to %s:%u: %s", server(t)->host, server(t)->port,
+                        t->fail_why[0] ? t->fail_why : "connection closed");
                 next_server(t, "cannot connect");
             }
             t->connected = t->connecting = false;
@@ -1355,8 +1370,8 @@ static void mq_tick(void *self, uint64_t now)
         return;
     }
     if (t->connecting && !t->connected && now >= t->connect_deadline_us) {
-        gw_log(GW_LOG_WARNING, "mqtt: no answer from %s:%u%s", server(t)->host, server(t)->port,
-               t->lookup != NULL ? " (its name's lookup is still running)" : "");
+        mq_down(t, "no answer from %s:%u%s", server(t)->host, server(t)->port,
+                t->lookup != NULL ? " (its name's lookup is still running)" : "");
         next_server(t, "no answer");
         drop_connection(t, now);
         return;
@@ -1373,9 +1388,9 @@ static void mq_tick(void *self, uint64_t now)
             t->backoff_us = MQ_BACKOFF_MIN_US; /* a good server */
             t->host_wait_us = 0;
         } else if (t->host_wait_us != 0 && now >= t->host_wait_us) {
-            gw_log(GW_LOG_WARNING, "mqtt: sparkplug: primary host %s not online on %s:%u "
-                   "within %u s", t->cfg.primary_host_id, server(t)->host, server(t)->port,
-                   t->cfg.host_wait_s);
+            mq_down(t, "sparkplug: primary host %s not online on %s:%u within %u s",
+                    t->cfg.primary_host_id, server(t)->host, server(t)->port,
+                    t->cfg.host_wait_s);
             next_server(t, "primary host not online");
             drop_connection(t, now);
             return;
@@ -1493,7 +1508,9 @@ static void mq_side_free(void *self)
 /* ---- the console: last write, report and metrics ------------------------------- */
 
 /* "mqtt": {"broker", "client_id", "connected", "published", "writes":
- * {"accepted", "refused"}, "reconnects"}; nothing without [mqtt]. */
+ * {"accepted", "refused"}, "reconnects", "reason"}; nothing without
+ * [mqtt]. reason: null while connected, else the last warning's words
+ * ("cannot connect to ...: connection refused"), or "connecting". */
 static void mq_report(const void *self, gw_json_t *j)
 {
     const mq_t *t = self;
@@ -1509,11 +1526,19 @@ static void mq_report(const void *self, gw_json_t *j)
     gw_json_quote(j, t->prefix, strlen(t->prefix));
     snprintf(num, sizeof num,
              ",\"connected\":%s,\"published\":%llu,\"writes\":{\"enabled\":%s,"
-             "\"accepted\":%llu,\"refused\":%llu},\"reconnects\":%llu}",
+             "\"accepted\":%llu,\"refused\":%llu},\"reconnects\":%llu",
              t->connected ? "true" : "false", t->con.published, t->cfg.writes ? "true" : "false",
              t->con.accepted, t->con.received - t->con.accepted,
              t->con.connects > 0 ? t->con.connects - 1u : 0u);
     gw_json_str(j, num);
+    gw_json_str(j, ",\"reason\":");
+    if (t->connected)
+        gw_json_str(j, "null");
+    else if (t->down_why[0] != '\0')
+        gw_json_quote(j, t->down_why, strlen(t->down_why));
+    else
+        gw_json_str(j, "\"connecting\"");
+    gw_json_str(j, "}");
 }
 
 static void mq_metrics(const void *self, gw_prom_t *p)

@@ -440,3 +440,23 @@ def test_relative_config_path_shown_absolute(monkeypatch):
         assert "Config: %s (generation" % full in text, text
     finally:
         g.kill()
+
+
+def test_mqtt_card_says_why_it_is_not_connected():
+    """The MQTT side's report (the overview's MQTT card) gives the reason it
+    is not connected, in the log's words; "connected": false alone said
+    nothing (before: no reason in the report)."""
+    port = free_port(GW_ADDR, udp=False)
+    broker = free_port(GW_ADDR, udp=False)  # nobody listens there
+    g = Gateway("console_api_mqtt_down", [], extra=down_robot() + (
+        "\n[http]\nport = %d\n\n[mqtt]\nhost = %s\nport = %d\n" % (port, GW_ADDR, broker)))
+    try:
+        g.start(wait_link=False)
+        wait_for(lambda: g.listening(port), 10, "the console to listen")
+        words = "cannot connect to %s:%d: " % (GW_ADDR, broker)
+        mq = wait_for(lambda: (lambda m: m if (m.get("reason") or "").startswith(words) else None)(
+            get_json(port, "/api/v1/status")["sides"]["mqtt"]), 20, "the MQTT card's reason")
+        assert mq["connected"] is False
+        assert "mqtt: " + mq["reason"] in g.log()
+    finally:
+        g.kill()
