@@ -54,10 +54,11 @@
 #include "opcua/ua_pem.h"
 
 #define UA_NS_FLAT "urn:drgate:robots"
+#define UA_POLICY_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
 #define UA_POLL_MS 10u          /* without the event loop's descriptor */
 #define UA_FD_SCAN 4096         /* descriptors looked at for it */
 #define UA_LOGIN_CACHE_S 300u   /* a checked password, this long */
-#define UA_LOGIN_FAILS_PER_S 2u /* crypt checks of refused logins per second */
+#define UA_LOGIN_FAILS_PER_S 4u /* crypt checks of refused logins per second */
 
 typedef struct ua ua_t;
 
@@ -372,6 +373,21 @@ static double fastest_rpi_ms(const gw_config_t *cfg)
     return ms < 5.0 ? 5.0 : ms;
 }
 
+/* No X.509 user tokens: with no trust list (open62541 accepts every
+ * certificate then) any certificate would log in past auth_file. The
+ * server takes a token only under a policy its endpoint offers. */
+static void drop_x509_tokens(UA_AccessControl *ac)
+{
+    size_t kept = 0;
+    for (size_t i = 0; i < ac->userTokenPoliciesSize; i++) {
+        if (ac->userTokenPolicies[i].tokenType == UA_USERTOKENTYPE_CERTIFICATE)
+            UA_UserTokenPolicy_clear(&ac->userTokenPolicies[i]);
+        else
+            ac->userTokenPolicies[kept++] = ac->userTokenPolicies[i];
+    }
+    ac->userTokenPoliciesSize = kept;
+}
+
 /* The security policies and their endpoints, the users. */
 static bool set_security(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
 {
@@ -385,8 +401,10 @@ static bool set_security(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
     }
     const UA_ByteString *cp = cert.length > 0 ? &cert : NULL;
     unsigned p = t->cfg.policies;
-    if (p & GW_OPCUA_POLICY_NONE)
-        st |= UA_ServerConfig_addSecurityPolicyNone(c, cp);
+    /* None as a policy always, as an endpoint only when configured: a
+     * client discovers the endpoints (GetEndpoints) over a None channel,
+     * the one service open62541 serves on a policy without an endpoint */
+    st |= UA_ServerConfig_addSecurityPolicyNone(c, cp);
     if (p & GW_OPCUA_POLICY_BASIC256SHA256)
         st |= UA_ServerConfig_addSecurityPolicyBasic256Sha256(c, &cert, &key);
     if (p & GW_OPCUA_POLICY_AES128)
@@ -397,11 +415,21 @@ static bool set_security(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
         memset(key.data, 0, key.length); /* the private key: not left in freed memory */
     UA_ByteString_clear(&key);
     UA_ByteString_clear(&cert);
-    if (st == UA_STATUSCODE_GOOD)
-        st = UA_ServerConfig_addAllEndpoints(c);
+    /* The users before the endpoints, which copy their token policies.
+     * A user name policy is offered only with a list of logins: one that
+     * the callback (auth_file) answers for instead. */
     bool auth = t->cfg.auth_file[0] != '\0';
+    UA_UsernamePasswordLogin stand_in = {UA_STRING_STATIC("auth_file"), UA_STRING_STATIC("")};
     if (st == UA_STATUSCODE_GOOD)
-        st = UA_AccessControl_defaultWithLoginCallback(c, !auth, NULL, 0, NULL, ua_login, t);
+        st = UA_AccessControl_defaultWithLoginCallback(c, !auth, NULL, auth ? 1 : 0, &stand_in,
+                                                       ua_login, t);
+    if (st == UA_STATUSCODE_GOOD)
+        drop_x509_tokens(&c->accessControl);
+    if (st == UA_STATUSCODE_GOOD && (p & GW_OPCUA_POLICY_SECURE))
+        st = UA_ServerConfig_addAllSecureEndpoints(c);
+    if (st == UA_STATUSCODE_GOOD && (p & GW_OPCUA_POLICY_NONE))
+        st = UA_ServerConfig_addEndpoint(c, UA_STRING(UA_POLICY_NONE_URI),
+                                         UA_MESSAGESECURITYMODE_NONE);
     if (st != UA_STATUSCODE_GOOD) {
         snprintf(err, errlen, "security policies: %s (cert_file, key_file)",
                  UA_StatusCode_name(st));
