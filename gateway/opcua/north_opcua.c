@@ -52,6 +52,7 @@
 #include "http/passwd.h"
 #include "opcua/ua_model.h"
 #include "opcua/ua_pem.h"
+#include "opcua/ua_robotics.h"
 
 #define UA_NS_FLAT "urn:drgate:robots"
 #define UA_POLICY_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
@@ -68,7 +69,10 @@ typedef struct {
     ua_t *t;
     unsigned robot;
     dr_ref_t ref;
+    ua_view_kind_t kind; /* the Robotics view's variables: ua_robotics.h */
+    const UA_DataType *type; /* UA_VIEW_NONE: the value's type */
 } ua_node_t;
+#define UA_VIEW_NODES 128u /* the Robotics view's variables per robot (79) */
 
 struct ua {
     const gw_north_env_t *env;
@@ -86,7 +90,11 @@ struct ua {
     uint64_t next_us;       /* the server's next cyclic time */
     UA_UInt16 ns;           /* urn:drgate:robots */
     ua_node_t *nodes;       /* robot_count * dr_leaf_count() */
+    ua_node_t *view;        /* the Robotics view's: robot_count * UA_VIEW_NODES */
+    size_t view_used;
     gw_http_users_t users;  /* auth_file */
+    gw_http_users_t next_users; /* auth_file read again by a reload's prepare */
+    bool next_set;
     /* Per robot: the T->O assemblies received since the side started, and
      * when each last came (UA_DateTime), the O->T ones when last written. */
     unsigned seen[GW_MAX_ROBOTS];
@@ -192,6 +200,32 @@ static UA_StatusCode ua_login(const UA_String *user, const UA_ByteString *pass, 
 
 /* ---- the flat view's values ------------------------------------------------------- */
 
+/* The value as the variable's kind has it. */
+static UA_StatusCode view_value(const ua_node_t *n, const gw_robot_t *rb, const dr_value_t *v,
+                                UA_Variant *out)
+{
+    if (n->kind == UA_VIEW_DOUBLE) {
+        UA_Double d = v->f;
+        return UA_Variant_setScalarCopy(out, &d, &UA_TYPES[UA_TYPES_DOUBLE]);
+    }
+    if (n->kind == UA_VIEW_VERSION) {
+        static const char *const parts[] = {"io_state.version.major", "io_state.version.minor",
+                                            "io_state.version.patch"};
+        unsigned num[3] = {0, 0, 0};
+        char text[16];
+        for (unsigned i = 0; i < 3; i++) {
+            dr_ref_t ref;
+            dr_value_t p;
+            if (dr_path_parse(parts[i], &ref) == DR_OK && gw_robot_get(rb, ref, &p) == DR_OK)
+                num[i] = (unsigned)(p.u & 0xFFu);
+        }
+        snprintf(text, sizeof text, "%u.%u.%u", num[0], num[1], num[2]);
+        UA_String str = ua_model_text(text);
+        return UA_Variant_setScalarCopy(out, &str, &UA_TYPES[UA_TYPES_STRING]);
+    }
+    return ua_model_value(n->ref, v, out);
+}
+
 static UA_StatusCode node_read(UA_Server *s, const UA_NodeId *sid, void *sctx,
                                const UA_NodeId *nid, void *nctx, UA_Boolean with_ts,
                                const UA_NumericRange *range, UA_DataValue *dv)
@@ -208,6 +242,19 @@ static UA_StatusCode node_read(UA_Server *s, const UA_NodeId *sid, void *sctx,
         dv->status = UA_STATUSCODE_BADINDEXRANGEINVALID;
         return UA_STATUSCODE_GOOD;
     }
+    if (n->kind == UA_VIEW_NONE) { /* not in the assemblies: docs/opcua.md */
+        if (t->building) { /* what open62541 checks the type of */
+            void *zero = UA_new(n->type);
+            if (zero == NULL)
+                return UA_STATUSCODE_BADOUTOFMEMORY;
+            UA_Variant_setScalar(&dv->value, zero, n->type);
+            dv->hasValue = true;
+            return UA_STATUSCODE_GOOD;
+        }
+        dv->hasStatus = true;
+        dv->status = UA_STATUSCODE_BADNOTSUPPORTED;
+        return UA_STATUSCODE_GOOD;
+    }
     const gw_robot_t *rb = &t->env->robots[n->robot];
     dr_asm_t a = (dr_asm_t)n->ref.field->assembly;
     bool t2o = dr_asm_info(a)->dir == DR_DIR_T2O;
@@ -222,7 +269,7 @@ static UA_StatusCode node_read(UA_Server *s, const UA_NodeId *sid, void *sctx,
         dv->status = UA_STATUSCODE_BADINTERNALERROR;
         return UA_STATUSCODE_GOOD;
     }
-    UA_StatusCode rc = ua_model_value(n->ref, &v, &dv->value);
+    UA_StatusCode rc = view_value(n, rb, &v, &dv->value);
     if (rc != UA_STATUSCODE_GOOD)
         return rc;
     dv->hasValue = true;
@@ -339,6 +386,40 @@ static bool add_robot(ua_t *t, unsigned r, UA_NodeId parent, char *err, size_t e
             return false;
         }
     }
+    return true;
+}
+
+/* A variable of the Robotics view (ua_robotics.h): its context. */
+static void *view_context(void *user, unsigned r, ua_view_kind_t kind, const char *path,
+                          const UA_DataType *type)
+{
+    ua_t *t = user;
+    if (t->view_used == (size_t)t->robot_count * UA_VIEW_NODES)
+        return NULL;
+    ua_node_t *n = &t->view[t->view_used];
+    n->t = t;
+    n->robot = r;
+    n->kind = kind;
+    n->type = type;
+    /* the version's and the unavailable ones' status: io_state's */
+    if (dr_path_parse(path != NULL ? path : "io_state.version.major", &n->ref) != DR_OK)
+        return NULL;
+    t->view_used++;
+    return n;
+}
+
+static bool add_robotics_view(ua_t *t, char *err, size_t errlen)
+{
+    ua_robotics_t v = {t->ns, {node_read, node_write}, view_context, t};
+    UA_StatusCode st = ua_robotics_types(t->server);
+    if (st != UA_STATUSCODE_GOOD) {
+        snprintf(err, errlen, "the Robotics types: %s", UA_StatusCode_name(st));
+        return false;
+    }
+    for (unsigned r = 0; r < t->robot_count; r++)
+        if (ua_robotics_add(t->server, &v, r, t->robot_name[r], err, errlen) !=
+            UA_STATUSCODE_GOOD)
+            return false;
     return true;
 }
 
@@ -558,12 +639,14 @@ static bool ua_start(ua_t *t, char *err, size_t errlen)
     t->ns = UA_Server_addNamespace(t->server, UA_NS_FLAT);
     size_t n = (size_t)t->robot_count * dr_leaf_count();
     t->nodes = calloc(n > 0 ? n : 1, sizeof *t->nodes);
-    if (t->nodes == NULL) {
+    t->view = calloc(t->robot_count > 0 ? (size_t)t->robot_count * UA_VIEW_NODES : 1,
+                     sizeof *t->view);
+    if (t->nodes == NULL || t->view == NULL) {
         snprintf(err, errlen, "out of memory");
         return false;
     }
     t->building = true;
-    bool built = add_flat_view(t, err, errlen);
+    bool built = add_flat_view(t, err, errlen) && add_robotics_view(t, err, errlen);
     t->building = false;
     if (!built)
         return false;
@@ -603,6 +686,7 @@ static void ua_free(ua_t *t)
         UA_Server_delete(t->server);
     }
     free(t->nodes);
+    free(t->view);
     memset(t->login_ok, 0, sizeof t->login_ok);
     free(t);
 }
@@ -679,6 +763,19 @@ static void *op_create(const gw_north_env_t *env, char *err, size_t errlen)
     return t;
 }
 
+/* Every key of [opcua] the same (the struct compared member by member:
+ * its padding and the text after a string's end are not the keys'). */
+static bool same_section(const gw_opcua_config_t *a, const gw_opcua_config_t *b)
+{
+    return a->enabled == b->enabled && strcmp(a->listen, b->listen) == 0 &&
+           a->port == b->port && strcmp(a->application_uri, b->application_uri) == 0 &&
+           strcmp(a->application_name, b->application_name) == 0 &&
+           a->policies == b->policies && strcmp(a->auth_file, b->auth_file) == 0 &&
+           strcmp(a->cert_file, b->cert_file) == 0 && strcmp(a->key_file, b->key_file) == 0 &&
+           a->max_sessions == b->max_sessions && a->max_subscriptions == b->max_subscriptions &&
+           a->writes == b->writes && a->insecure == b->insecure;
+}
+
 static bool same_robots(const ua_t *t, const gw_config_t *cfg)
 {
     if (cfg->robot_count != t->robot_count)
@@ -697,7 +794,15 @@ static gw_north_reload_t op_prepare(void *self, const gw_config_t *next, const g
                                     void **out, char *err, size_t errlen)
 {
     ua_t *t = self;
-    if (memcmp(&next->side.opcua, &t->cfg, sizeof t->cfg) == 0 && same_robots(t, next)) {
+    if (same_section(&next->side.opcua, &t->cfg) && same_robots(t, next)) {
+        char why[400];
+        /* the same server; auth_file read again (its users may change) */
+        if (t->cfg.auth_file[0] != '\0' &&
+            !gw_http_passwd_load(t->cfg.auth_file, &t->next_users, why, sizeof why)) {
+            snprintf(err, errlen, "opcua: auth_file %s", why);
+            return GW_NORTH_REFUSED;
+        }
+        t->next_set = t->cfg.auth_file[0] != '\0';
         *out = t;
         return GW_NORTH_OK;
     }
@@ -716,14 +821,21 @@ static void op_abort(void *self, void *out)
 {
     if (out != self)
         ua_free(out);
+    ((ua_t *)self)->next_set = false;
 }
 
 static void *op_commit(void *self, void *out, const gw_north_env_t *env)
 {
     ua_t *t = self, *n = out;
     char why[400];
-    if (n == t)
+    if (n == t) {
+        if (t->next_set) { /* the users as the file says now; logins checked again */
+            t->users = t->next_users;
+            memset(t->login_ok, 0, sizeof t->login_ok);
+            t->next_set = false;
+        }
         return t;
+    }
     ua_free(t); /* its port is the new one's, maybe */
     n->env = env;
     if (n->cfg.enabled) {

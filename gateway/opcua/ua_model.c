@@ -92,33 +92,62 @@ dr_status_t ua_model_from_variant(dr_ref_t ref, const UA_Variant *var, dr_value_
     return DR_OK;
 }
 
+/* Constant text as open62541's strings, which are not const but are only
+ * read where these go (attributes are copied into the nodes). */
+UA_String ua_model_text(const char *s)
+{
+    UA_String u;
+    u.length = strlen(s);
+    memcpy((void *)&u.data, (const void *)&s, sizeof u.data); /* drop the const: never written */
+    return u;
+}
+
+static UA_LocalizedText lt(const char *locale, const char *text)
+{
+    UA_LocalizedText l;
+    l.locale = ua_model_text(locale);
+    l.text = ua_model_text(text);
+    return l;
+}
+
 /* A property (HasProperty, PropertyType) named `name` of node `parent`. */
 static UA_StatusCode add_property(UA_Server *s, UA_NodeId parent, const char *name,
                                   const UA_Variant *value)
 {
     UA_VariableAttributes va = UA_VariableAttributes_default;
-    va.displayName = UA_LOCALIZEDTEXT("", (char *)(uintptr_t)name);
+    va.displayName = lt("", name);
     va.value = *value;
     va.dataType = value->type->typeId;
     va.valueRank = UA_Variant_isScalar(value) ? UA_VALUERANK_SCALAR : UA_VALUERANK_ONE_DIMENSION;
     va.accessLevel = UA_ACCESSLEVELMASK_READ;
     return UA_Server_addVariableNode(s, UA_NODEID_NULL, parent,
                                      UA_NODEID_NUMERIC(0, UA_NS0ID_HASPROPERTY),
-                                     UA_QUALIFIEDNAME(0, (char *)(uintptr_t)name),
+                                     (UA_QualifiedName){0, ua_model_text(name)},
                                      UA_NODEID_NUMERIC(0, UA_NS0ID_PROPERTYTYPE), va, NULL, NULL);
 }
 
-static UA_StatusCode add_units(UA_Server *s, UA_NodeId node, const ua_unit_t *u)
+UA_StatusCode ua_model_add_units(UA_Server *s, UA_NodeId node, const dr_field_t *f)
 {
+    const ua_unit_t *u = unit_of(f);
+    if (u == NULL)
+        return UA_STATUSCODE_GOOD;
     UA_EUInformation eu;
     UA_EUInformation_init(&eu);
-    eu.namespaceUri = UA_STRING((char *)(uintptr_t)UNECE_NAMESPACE);
+    eu.namespaceUri = ua_model_text(UNECE_NAMESPACE);
     eu.unitId = ua_model_unit_id(u->code);
-    eu.displayName = UA_LOCALIZEDTEXT("", (char *)(uintptr_t)u->display);
-    eu.description = UA_LOCALIZEDTEXT("en", (char *)(uintptr_t)u->description);
+    eu.displayName = lt("", u->display);
+    eu.description = lt("en", u->description);
     UA_Variant v;
     UA_Variant_setScalar(&v, &eu, &UA_TYPES[UA_TYPES_EUINFORMATION]);
-    return add_property(s, node, "EngineeringUnits", &v);
+    /* a type whose EngineeringUnits is mandatory (AnalogUnitType) made it
+     * with the node: its value is written; else the property is added */
+    UA_QualifiedName qn = UA_QUALIFIEDNAME(0, "EngineeringUnits");
+    UA_BrowsePathResult bp = UA_Server_browseSimplifiedBrowsePath(s, node, 1, &qn);
+    UA_StatusCode st = bp.statusCode == UA_STATUSCODE_GOOD && bp.targetsSize > 0
+                           ? UA_Server_writeValue(s, bp.targets[0].targetId.nodeId, v)
+                           : add_property(s, node, "EngineeringUnits", &v);
+    UA_BrowsePathResult_clear(&bp);
+    return st;
 }
 
 /* MultiStateDiscreteType's EnumStrings (instantiated with the variable):
@@ -131,7 +160,7 @@ static UA_StatusCode set_enum_strings(UA_Server *s, UA_NodeId node)
         const char *name = dr_robot_state_name((unsigned)n);
         if (name == NULL || name[0] == '\0' || strchr(name, '(') != NULL)
             break;
-        names[n] = UA_LOCALIZEDTEXT("en", (char *)(uintptr_t)name);
+        names[n] = lt("en", name);
     }
     UA_QualifiedName qn = UA_QUALIFIEDNAME(0, "EnumStrings");
     UA_BrowsePathResult bp = UA_Server_browseSimplifiedBrowsePath(s, node, 1, &qn);
@@ -155,7 +184,7 @@ UA_StatusCode ua_model_add_field(UA_Server *s, const ua_model_var_t *var)
     UA_VariableAttributes va = UA_VariableAttributes_default;
     va.displayName.locale = UA_STRING_NULL;
     va.displayName.text = var->name.name;
-    va.description = UA_LOCALIZEDTEXT("en", (char *)(uintptr_t)(f->help != NULL ? f->help : ""));
+    va.description = lt("en", f->help != NULL ? f->help : "");
     va.dataType = type_of(f)->typeId;
     va.valueRank = UA_VALUERANK_SCALAR;
     va.accessLevel = UA_ACCESSLEVELMASK_READ;
@@ -171,8 +200,8 @@ UA_StatusCode ua_model_add_field(UA_Server *s, const ua_model_var_t *var)
     UA_StatusCode st = UA_Server_addDataSourceVariableNode(
         s, var->id, var->parent, UA_NODEID_NUMERIC(0, UA_NS0ID_HASCOMPONENT), var->name, type, va,
         var->source, var->context, NULL);
-    if (st == UA_STATUSCODE_GOOD && u != NULL)
-        st = add_units(s, var->id, u);
+    if (st == UA_STATUSCODE_GOOD)
+        st = ua_model_add_units(s, var->id, f);
     if (st == UA_STATUSCODE_GOOD && f->kind == DR_KIND_ENUM)
         st = set_enum_strings(s, var->id);
     return st;

@@ -28,12 +28,19 @@ typedef struct {
  * (MultiStateDiscreteType, robot_state). */
 UA_StatusCode ua_model_add_field(UA_Server *server, const ua_model_var_t *var);
 
+/* Field f's unit as node's EngineeringUnits property (EUInformation,
+ * UNECE code); nothing for a field without a unit. */
+UA_StatusCode ua_model_add_units(UA_Server *server, UA_NodeId node, const dr_field_t *f);
+
 /* v (of the field ref names) as a scalar variant (allocated). */
 UA_StatusCode ua_model_value(dr_ref_t ref, const dr_value_t *v, UA_Variant *out);
 
 /* A written scalar variant as the field's value: DR_OK, or DR_EINVAL for
  * a variant of another type or not a scalar. */
 dr_status_t ua_model_from_variant(dr_ref_t ref, const UA_Variant *var, dr_value_t *out);
+
+/* s as an open62541 string (not copied: s must outlive its use). */
+UA_String ua_model_text(const char *s);
 
 /* The UNECE code's UnitId (OPC UA Part 8, EUInformation): "DD" -> 17476. */
 int32_t ua_model_unit_id(const char *code);

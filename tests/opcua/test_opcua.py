@@ -4,6 +4,7 @@
 own view comes from drcli get against drsim, not from the gateway."""
 import asyncio
 import datetime
+import signal
 import subprocess
 
 import pytest
@@ -95,7 +96,8 @@ def test_types_units_enum_access(still):
 def test_read_equals_drcli(still):
     """Every T->O value read over OPC UA equals the robot's own (drcli get
     against drsim; --still: nothing moves), with status Good and the
-    packet's source timestamp."""
+    packet's source timestamp. (A robot still booting changes a few
+    fields: the OPC UA read is taken between two equal drcli reads.)"""
     want = drcli_get(still.sim, *T2O)
 
     async def read_all():
@@ -114,7 +116,14 @@ def test_read_equals_drcli(still):
                     params.NodesToRead.append(rv)
                 dvs += await c.uaclient.read(params)
             return dict(zip(paths, dvs))
-    got = run(read_all())
+    for _ in range(20):
+        got = run(read_all())
+        again = drcli_get(still.sim, *T2O)
+        if again == want:
+            break
+        want = again
+    else:
+        pytest.fail("the robot's values never stood still between two reads")
     now = datetime.datetime.now(datetime.timezone.utc)
     for p, dv in got.items():
         assert dv.StatusCode.is_good(), (p, dv.StatusCode)
@@ -289,3 +298,103 @@ def test_check_config_exposure():
     rc, out, conf = check_config("ua_nocert", "security_policies = Basic256Sha256\n")
     assert rc == EXIT_CONFIG
     assert "%s:5: [opcua] security_policies Basic256Sha256 needs cert_file" % conf in out
+
+
+def test_reload_keeps_the_robot():
+    """SIGHUP with [opcua] unchanged keeps the server and its sessions; a
+    new port builds a new server there, the robot's link untouched."""
+    with gateway("ua_reload") as g:
+        async def session_over_reload():
+            async with client(g.url) as c:
+                before = (await read(c, "r0", JOINTS[2])).Value.Value
+                mark = len(g.log())
+                g.signal(signal.SIGHUP)
+                g.log_wait("reloaded (generation", 20, mark)
+                await asyncio.sleep(0)  # the same session, after the reload
+                return before, (await read(c, "r0", JOINTS[2])).Value.Value
+        assert run(session_over_reload()) == (90.0, 90.0)
+        old = g.ua_port
+        g.ua_port = ualib.free_port(ualib.GW_ADDR, udp=False)
+        g.extra = g.extra.replace("port = %d\n" % old, "port = %d\n" % g.ua_port)
+        g.url = "opc.tcp://%s:%d" % (ualib.GW_ADDR, g.ua_port)
+        g.write_config()
+        mark = len(g.log())
+        g.signal(signal.SIGHUP)
+        g.log_wait("opcua: listening on %s" % g.url, 20, mark)
+
+        async def one():
+            async with client(g.url) as c:
+                return (await read(c, "r0", JOINTS[2])).Value.Value
+        assert run(one()) == 90.0
+        assert "link down" not in g.log()[mark:]
+
+
+def test_robotics_view(still):
+    """The Robotics companion view (OPC 40010-1): DeviceSet/r0 a
+    MotionDeviceSystem with its mandatory members; six axes whose
+    ActualPosition is the robot's joint position (Double, degree), the
+    motors' temperatures, the controller's software revision from
+    io_state.version, the safety state's stops from the state flags; what
+    the assemblies do not carry there with BadNotSupported."""
+    robot = drcli_get(still.sim, "joint_state", "io_state")
+
+    async def look():
+        async with client(still.url) as c:
+            di = await c.get_namespace_index(ualib.NS_DI)
+            rb = await c.get_namespace_index(ualib.NS_ROBOTICS)
+            ns = await ns_of(c)
+            ds = await c.nodes.objects.get_child("%d:DeviceSet" % di)
+            system = await ds.get_child("%d:r0" % ns)
+            out = {"system_type": await system.read_type_definition()}
+
+            async def at(*names):
+                return await system.get_child(list(names))
+
+            md = await at("%d:MotionDevices" % rb, "%d:Manipulator" % ns)
+            out["md_type"] = await md.read_type_definition()
+            for p in ("Manufacturer", "Model", "ProductCode", "SerialNumber"):
+                out[p] = (await (await md.get_child("%d:%s" % (di, p))).read_data_value(
+                    raise_on_bad_status=False)).StatusCode.value
+            out["category"] = await (await md.get_child("%d:MotionDeviceCategory" % rb)).read_value()
+            out["speed"] = (await (await md.get_child(["%d:ParameterSet" % di,
+                                                        "%d:SpeedOverride" % rb])).read_data_value(
+                raise_on_bad_status=False)).StatusCode.value
+            out["axes"] = []
+            for i in range(1, 7):
+                ax = await md.get_child(["%d:Axes" % rb, "%d:Axis%d" % (rb, i)])
+                pos = await ax.get_child(["%d:ParameterSet" % di, "%d:ActualPosition" % rb])
+                eu = await (await pos.get_child("0:EngineeringUnits")).read_value()
+                temp = await md.get_child(["%d:PowerTrains" % rb, "%d:PowerTrain%d" % (rb, i),
+                                           "%d:Motor" % rb, "%d:ParameterSet" % di,
+                                           "%d:MotorTemperature" % rb])
+                out["axes"].append((await ax.read_type_definition(), await pos.read_value(),
+                                    (await pos.read_data_type()), eu.UnitId,
+                                    await temp.read_value()))
+            sw = await at("%d:Controllers" % rb, "%d:Controller" % ns, "%d:Software" % rb,
+                          "%d:Firmware" % ns, "%d:SoftwareRevision" % di)
+            out["revision"] = await sw.read_value()
+            ps = await at("%d:SafetyStates" % rb, "%d:SafetyState" % ns, "%d:ParameterSet" % di)
+            out["estop"] = await (await ps.get_child("%d:EmergencyStop" % rb)).read_value()
+            out["pstop"] = await (await ps.get_child("%d:ProtectiveStop" % rb)).read_value()
+            out["mode"] = (await (await ps.get_child("%d:OperationalMode" % rb)).read_data_value(
+                raise_on_bad_status=False)).StatusCode.value
+            return out, rb
+    out, rb = run(look())
+    assert out["system_type"] == ua.NodeId(1002, rb)  # MotionDeviceSystemType
+    assert out["md_type"] == ua.NodeId(1004, rb)      # MotionDeviceType
+    for p in ("Manufacturer", "Model", "ProductCode", "SerialNumber"):
+        assert out[p] == ua.StatusCodes.BadNotSupported, p
+    assert out["category"] == 1  # ARTICULATED_ROBOT
+    assert out["speed"] == ua.StatusCodes.BadNotSupported
+    for i, (ty, pos, dt, unit, temp) in enumerate(out["axes"], 1):
+        assert ty == ua.NodeId(16601, rb)  # AxisType
+        assert dt == ua.NodeId(ua.ObjectIds.Double)
+        assert pos == f32(robot["joint_state.position[%d]" % i])
+        assert unit == (ord("D") << 8) | ord("D")
+        assert temp == f32(robot["joint_state.motor_temperature[%d]" % i])
+    assert out["revision"] == "%d.%d.%d" % (robot["io_state.version.major"],
+                                            robot["io_state.version.minor"],
+                                            robot["io_state.version.patch"])
+    assert out["estop"] == robot["io_state.emergency_stopped"]
+    assert out["pstop"] == robot["io_state.safety_stopped"]
+    assert out["mode"] == ua.StatusCodes.BadNotSupported

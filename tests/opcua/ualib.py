@@ -98,3 +98,5 @@ def f32(x):
 
 
 wait_for = gwlib.wait_for
+NS_DI = "http://opcfoundation.org/UA/DI/"
+NS_ROBOTICS = "http://opcfoundation.org/UA/Robotics/"
