@@ -182,11 +182,12 @@ static void opcua_check(gw_cfg_ctx_t *c)
     const gw_opcua_config_t *u = &c->cfg.side.opcua;
     if (!u->enabled)
         return;
+    /* cppcheck-suppress knownConditionTrueFalse ; a constant of the build */
     if (!built_with_opcua()) {
         gw_cfg_fail(c, u->line,
-                "[opcua]: this drgatewayd was built without OPC UA (open62541 1.4 was not found "
-                "at build time: Debian 13's libopen62541-1.4-dev; Debian 12 has none, "
-                "docs/deployment.md)");
+                    "[opcua]: this drgatewayd was built without OPC UA (open62541 1.4 was not "
+                    "found at build time: Debian 13's libopen62541-1.4-dev; Debian 12 has none, "
+                    "docs/deployment.md)");
         return;
     }
     bool cert = u->cert_file[0] != '\0', key = u->key_file[0] != '\0';
