@@ -239,9 +239,25 @@ def test_subscription_with_source_timestamps():
     assert all(dv.StatusCode.is_good() for dv in first)
 
 
+def stamps(url, path):
+    """(SourceTimestamp, ServerTimestamp) of r0's path."""
+    async def one():
+        async with client(url) as c:
+            params = ua.ReadParameters()
+            params.TimestampsToReturn = ua.TimestampsToReturn.Both
+            rv = ua.ReadValueId()
+            rv.NodeId = (await node(c, "r0", path)).nodeid
+            rv.AttributeId = ua.AttributeIds.Value
+            params.NodesToRead.append(rv)
+            dv = (await c.uaclient.read(params))[0]
+            return dv.SourceTimestamp, dv.ServerTimestamp
+    return run(one())
+
+
 def test_link_loss_statuses():
     """drsim killed: T->O values go UncertainLastUsableValue (O->T ones stay
-    Good); drsim back on the same ports: Good again."""
+    Good) with the last packet's source timestamp; drsim back on the same
+    ports: Good again."""
     with gateway("ua_loss") as g:
         def status(path):
             async def one():
@@ -253,6 +269,13 @@ def test_link_loss_statuses():
         wait_for(lambda: status(JOINTS[0]) == ua.StatusCodes.UncertainLastUsableValue, 30,
                  "joint 1 Uncertain")
         assert status("int_in[0]") == ua.StatusCodes.Good
+        # the source timestamp is the last packet's: it stands still while
+        # the server's own goes on
+        first = stamps(g.url, JOINTS[0])
+        wait_for(lambda: stamps(g.url, JOINTS[0])[1] > first[1] + datetime.timedelta(
+            seconds=0.5), 30, "the server's clock to move on")
+        later = stamps(g.url, JOINTS[0])
+        assert later[0] == first[0] and later[0] < later[1], (first, later)
         g.sim.start(same_ports=True)
         g.wait_link(True, seconds=60)
         wait_for(lambda: status(JOINTS[0]) == ua.StatusCodes.Good, 30, "joint 1 Good again")
