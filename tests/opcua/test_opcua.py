@@ -139,17 +139,9 @@ def test_read_equals_drcli(still):
 
 def test_t2o_write_refused(still):
     """A write to a T->O variable: BadNotWritable, the robot unchanged."""
-    async def write():
-        async with client(still.url) as c:
-            codes = []
-            for p, v in (("joint_state.position[1]", ua.Variant(12.5, ua.VariantType.Float)),
-                         ("int_out[0]", ua.Variant(7, ua.VariantType.Int32))):
-                n = await node(c, "r0", p)
-                with pytest.raises(ua.UaStatusCodeError) as e:
-                    await n.write_value(ua.DataValue(v))
-                codes.append(e.value.code)
-            return codes
-    assert run(write()) == [ua.StatusCodes.BadNotWritable] * 2
+    assert refused_write(still.url, "joint_state.position[1]",
+                         ua.Variant(12.5, ua.VariantType.Float)) == ua.StatusCodes.BadNotWritable
+    assert refused_write(still.url, "int_out[0]") == ua.StatusCodes.BadNotWritable
     assert drcli_get(still.sim, "int_out[0]")["int_out[0]"] == \
         drcli_get(still.sim, "int_in[0]")["int_in[0]"]
 
@@ -176,34 +168,29 @@ def test_write_echoes_through_the_robot(still):
 
 
 def test_wrong_type_refused(still):
-    async def write():
-        async with client(still.url) as c:
-            w = await node(c, "r0", "int_in[1]")
+    assert refused_write(still.url, "int_in[1]", ua.Variant("12", ua.VariantType.String)) in \
+        (ua.StatusCodes.BadTypeMismatch, ua.StatusCodes.BadWriteNotSupported)
+
+
+def refused_write(url, path="int_in[0]", variant=None):
+    """The status code a write of variant (Int32 5) to r0's path is
+    refused with."""
+    async def w():
+        async with client(url) as c:
             with pytest.raises(ua.UaStatusCodeError) as e:
-                await w.write_value(ua.DataValue(ua.Variant("12", ua.VariantType.String)))
+                await (await node(c, "r0", path)).write_value(
+                    ua.DataValue(variant or ua.Variant(5, ua.VariantType.Int32)))
             return e.value.code
-    assert run(write()) in (ua.StatusCodes.BadTypeMismatch, ua.StatusCodes.BadWriteNotSupported)
+    return run(w())
 
 
 def test_writes_off_and_single_writer():
     """writes = no: O->T variables are read-only; single-writer mode: the
     outputs belong to the Modbus writer, an OPC UA write is refused."""
     with gateway("ua_ro", opcua="") as g:
-        async def w():
-            async with client(g.url) as c:
-                with pytest.raises(ua.UaStatusCodeError) as e:
-                    await (await node(c, "r0", "int_in[0]")).write_value(
-                        ua.DataValue(ua.Variant(5, ua.VariantType.Int32)))
-                return e.value.code
-        assert run(w()) == ua.StatusCodes.BadNotWritable
+        assert refused_write(g.url) == ua.StatusCodes.BadNotWritable
     with gateway("ua_single", modbus="single_writer = yes") as g:
-        async def w2():
-            async with client(g.url) as c:
-                with pytest.raises(ua.UaStatusCodeError) as e:
-                    await (await node(c, "r0", "int_in[0]")).write_value(
-                        ua.DataValue(ua.Variant(5, ua.VariantType.Int32)))
-                return e.value.code
-        assert run(w2()) == ua.StatusCodes.BadUserAccessDenied
+        assert refused_write(g.url) == ua.StatusCodes.BadUserAccessDenied
         assert drcli_get(g.sim, "int_out[0]")["int_out[0]"] == 0
 
 

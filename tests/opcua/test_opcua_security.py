@@ -136,8 +136,10 @@ def connect_error(cell, security=None, user=None, password=None):
             return type(e).__name__
         try:
             ns = await c.get_namespace_index("urn:drgate:robots")
-            dv = await c.get_node(ua.NodeId("r0/joint_state.position[3]", ns)).read_data_value()
-            assert dv.StatusCode.is_good() and dv.Value.Value == 90.0
+            dv = await c.get_node(ua.NodeId("r0/joint_state.position[3]", ns)).read_data_value(
+                raise_on_bad_status=False)
+            # (Uncertain: a link a loaded machine let time out a moment)
+            assert not dv.StatusCode.is_bad() and dv.Value.Value == 90.0, dv
             return None
         finally:
             await c.disconnect()
