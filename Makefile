@@ -156,7 +156,22 @@ GPIO_OBJ      := $(GPIO_SRC:%.c=$(B)/%.o)
 GPIO_A        := $(B)/gateway/libgwgpio.a
 GPIO_OBJ_CFLAGS = $(ALL_CPPFLAGS) $(GPIO_CPPFLAGS) $(GPIO_CFLAGS) $(ALL_CFLAGS) -fPIC
 
-GW_SRC      := $(filter-out $(GPIO_ALL_SRC),$(sort $(wildcard gateway/*/*.c)))
+# OPC UA (gateway/opcua/, docs/opcua.md): built with open62541 1.4 when
+# pkg-config finds it (Debian 13's libopen62541-1.4-dev; Debian 12 has
+# none, and its daemon refuses an [opcua] section). Debian's open62541.pc
+# names mbedTLS's libraries as -l/usr/lib/.../libmbedtls.so: those are
+# passed as the files they are. libcrypt checks auth_file's passwords.
+OPCUA_VERSION := $(call pc,--modversion,open62541)
+ifneq ($(OPCUA_VERSION),)
+OPCUA_CFLAGS  := -DGW_HAVE_OPCUA $(call pc,--cflags,open62541)
+OPCUA_LIBS    := $(patsubst -l/%,/%,$(call pc,--libs,open62541)) -lcrypt
+endif
+# What only a build with open62541 compiles, and what one without does
+# instead (the side that has nothing to do).
+OPCUA_ONLY_SRC := gateway/opcua/north_opcua.c gateway/opcua/ua_model.c gateway/opcua/ua_robotics.c
+OPCUA_NONE_SRC := gateway/opcua/north_opcua_none.c
+GW_SRC      := $(filter-out $(GPIO_ALL_SRC) $(if $(OPCUA_VERSION),$(OPCUA_NONE_SRC),$(OPCUA_ONLY_SRC)),\
+                 $(sort $(wildcard gateway/*/*.c)))
 GW_HDR      := $(filter-out $(GPIO_HDR),$(wildcard gateway/*/*.h))
 GW_LIB_SRC  := $(filter-out gateway/core/main.c,$(GW_SRC))
 GW_LIB_OBJ  := $(GW_LIB_SRC:%.c=$(B)/%.o)
@@ -170,7 +185,7 @@ GW_ASSETS_OBJ := $(B)/gateway/http/assets_gen.o
 GW_A        := $(B)/gateway/libgw.a
 GW_BIN      := $(B)/drgatewayd
 GW_CFLAGS    = $(ALL_CPPFLAGS) -Igateway -DDRGATE_VERSION='"$(VERSION)"' \
-               $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(NANOPB_CFLAGS) $(ALL_CFLAGS)
+               $(INIH_CFLAGS) $(SYSTEMD_CFLAGS) $(NANOPB_CFLAGS) $(OPCUA_CFLAGS) $(ALL_CFLAGS)
 # Sparkplug B payloads (gateway/mqtt/sparkplug.c): nanopb's runtime, the
 # static archive of Debian's libnanopb-dev (no .pc file; position
 # independent, so it links into the PIE daemon). The generated
@@ -195,7 +210,8 @@ endif
 # dlopen in libc; -ldl is an empty stub there and keeps older C libraries
 # linking. The console's libmicrohttpd and libcrypt are loaded the same
 # way, only with [http] (gateway/http/mhd_lib.c, docs/http.md).
-GW_LIBS     := $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(NANOPB_LIBS) -ldl -lm
+GW_LIBS     := $(INIH_LIBS) $(GPIO_LIBS) $(SYSTEMD_LIBS) $(NANOPB_LIBS) $(OPCUA_LIBS) \
+               -ldl -lm
 GW_DEP_LIBS := $(GW_A) $(GPIO_A) $(COMMON_A) $(LIB_A) $(GW_LIBS)
 
 BINS        := $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
@@ -221,8 +237,9 @@ GW_TEST_BIN   := $(GW_TEST_SRC:%.c=$(B)/%)
 GW_TEST_FAKES := tests/gpio/gpio_fake.c
 GW_TEST_FAKE_OBJ := $(GW_TEST_FAKES:%.c=$(B)/%.o)
 GW_TEST_CFLAGS = $(ALL_CPPFLAGS) -Igateway -Itests -Itests/gpio -DGW_TEST_TOP='"$(CURDIR)"' \
-                 $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(CMOCKA_CFLAGS) $(ALL_CFLAGS)
-GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) -ldl -lm
+                 $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(OPCUA_CFLAGS) $(CMOCKA_CFLAGS) \
+                 $(ALL_CFLAGS)
+GW_TEST_LIBS  := $(INIH_LIBS) $(CMOCKA_LIBS) $(OPCUA_LIBS) -ldl -lm
 
 .PHONY: all lib gateway clean install eds check-eds uninstall check check-unit check-cli check-docs \
         check-cm4 check-firmware check-be check-asan demo deps docs bench \

@@ -772,6 +772,11 @@ static void gen_config(void)
                      "map = hr 2001 joint_state.position[1..6] real\n"
                      "map = hr 2036 int_in[0..3] int16 writable saturate\n"
                      "map = co 2048 bit_in[0..15] writable\n"},
+        {"opcua", "[robot]\nhost = 1.2.3.4\n[opcua]\nlisten = 192.0.2.1\nport = 4840\n"
+                  "security_policies = Basic256Sha256, Aes256_Sha256_RsaPss\n"
+                  "application_uri = urn:x:y\ncert_file = /nonexistent.der\n"
+                  "key_file = /nonexistent.key\nauth_file = /nonexistent\nwrites = yes\n"
+                  "max_sessions = 5\nmax_subscriptions = 3\ninsecure = no\n"},
     };
     for (size_t k = 0; k < sizeof s / sizeof s[0]; k++)
         put("config", s[k].name, (const uint8_t *)s[k].text, strlen(s[k].text));

@@ -27,12 +27,14 @@
 #include "modbus/config_modbus.h"
 #include "mqtt/config_mqtt.h"
 #include "http/config_http.h"
+#include "opcua/config_opcua.h"
 #include "gpio/config_gpio.h"
 
 #define GW_SIDES(X) \
     X(modbus)       \
     X(mqtt)         \
     X(http)         \
+    X(opcua)        \
     X(gpio) /* last: its reload cannot be undone */
 
 /* How many sides the list has. */

@@ -45,6 +45,14 @@ cd "$(dirname "$0")/.."
 # (mk/check-dep-split.sh, in make check) fails if one appears.
 DEMO_PKGS="build-essential pkg-config libjansson-dev libgpiod-dev \
  libinih-dev libsystemd-dev libmosquitto-dev libmicrohttpd-dev libnanopb-dev mbpoll"
+# Debian 13 (trixie) packages open62541 1.4: there the daemon is built with
+# its OPC UA side (docs/opcua.md); Debian 12 has no package of it and builds
+# the daemon without (docs/deployment.md "Supported releases").
+codename=$(sed -n 's/^VERSION_CODENAME=//p' /etc/os-release 2>/dev/null || true)
+case $codename in
+    ""|bookworm) ;;
+    *) DEMO_PKGS="$DEMO_PKGS libopen62541-1.4-dev" ;;
+esac
 # What make check adds: unit tests, cross and big-endian builds, firmware,
 # sanitizers, static analysis, coverage, captures, peers, the Debian
 # packages (check-deb: debhelper, lintian, mmdebstrap; check-arm64: the

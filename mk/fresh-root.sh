@@ -408,16 +408,17 @@ exit $st'
     fi
     # trixie: what make check can run there beyond the demo: the unit
     # tests, the gateway's end-to-end suite, the library's CMake package
-    # (trixie's newer CMake) and the Debian packages (amd64 and arm64),
+    # (trixie's newer CMake), the OPC UA side's (only trixie packages
+    # open62541, mk/opcua.mk) and the Debian packages (amd64 and arm64),
     # after `make test-deps`. The inner make's results come back
     # as "result: PASSED FAILED LABEL" lines of the log.
     trixie_check='DEPS_YES=1 make test-deps && make -j2 all || exit 1
-make -k check-unit check-gateway check-cmake check-deb check-arm64 RESULTS=/src/build/trixie-results; st=$?
+make -k check-unit check-gateway check-cmake check-opcua check-deb check-arm64 RESULTS=/src/build/trixie-results; st=$?
 sed "s/^/result: /" build/trixie-results
 exit $st'
     l=$b/fresh/trixie-check.log
     case_run trixie check "$trixie_check" \
-        "DEPS_YES=1 make test-deps && make -j2 all && make check-unit check-gateway check-cmake check-deb check-arm64"
+        "DEPS_YES=1 make test-deps && make -j2 all && make check-unit check-gateway check-cmake check-opcua check-deb check-arm64"
     cst=$?
     if grep -q '^result: ' "$l"; then
         # shellcheck disable=SC2034

@@ -11,7 +11,7 @@ gw_write_status_t gw_write_allowed(const gw_robot_t *r, const gw_write_origin_t 
     if (!o->may_write)
         return GW_WRITE_RIGHTS;
     if (r->write_policy.one_owner &&
-        (o->side == GW_ORIGIN_MQTT || o->side == GW_ORIGIN_SPARKPLUG ||
+        (o->side == GW_ORIGIN_MQTT || o->side == GW_ORIGIN_SPARKPLUG || o->side == GW_ORIGIN_OPCUA ||
          (o->side == GW_ORIGIN_MODBUS_TCP && !o->owner)))
         return GW_WRITE_SINGLE;
     if (r->fault && !o->reset)

@@ -7,10 +7,11 @@
  * write, in this order, and applies nothing unless every item passes:
  *
  *   1. the side's right for this client (origin.may_write: [modbus] allow
- *      rw, [modbus_rtu] read_only = no, [mqtt] writes = yes);
+ *      rw, [modbus_rtu] read_only = no, [mqtt] writes = yes, [opcua] writes
+ *      = yes);
  *   2. single-writer mode ([modbus] single_writer): the outputs belong to
- *      one Modbus TCP client (origin.owner); an MQTT or Sparkplug write is
- *      refused; an RTU master and GPIO inputs are not arbitrated;
+ *      one Modbus TCP client (origin.owner); an MQTT, Sparkplug or OPC UA
+ *      write is refused; an RTU master and GPIO inputs are not arbitrated;
  *   3. the write fault latch (gw_robot_t.fault): every write is refused
  *      but the reset (origin.reset, with no field in it); GPIO inputs are
  *      the wiring's and go on;
@@ -50,6 +51,7 @@ typedef enum {
     GW_ORIGIN_MQTT,      /* <prefix>/<robot>/set/<path> */
     GW_ORIGIN_SPARKPLUG, /* DCMD */
     GW_ORIGIN_GPIO,      /* an input line */
+    GW_ORIGIN_OPCUA,     /* a write of an O->T variable */
     GW_ORIGINS
 } gw_origin_side_t;
 

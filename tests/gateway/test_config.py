@@ -220,3 +220,20 @@ def test_docs_name_the_default_config_path():
                                                           t.read_text())}
     assert ("configuration.md", default) in named, named
     assert all(p == default for _, p in named), sorted(named)
+
+
+def test_opcua_section_in_either_build():
+    """An [opcua] section: a daemon built with open62541 checks it (a
+    non-loopback endpoint with SecurityPolicy None refused at its line); one
+    built without (Debian 12) refuses the section itself at its header's
+    line, saying why, at --check-config as at start."""
+    p = write("opcua_either", ROBOT + "\n[opcua]\nlisten = 192.0.2.1\n")
+    r = run("--check-config", p)
+    assert r.returncode == EXIT_CONFIG, r
+    if "built without OPC UA" in r.stderr:
+        assert "%s:4: [opcua]: this drgatewayd was built without OPC UA" % p in r.stderr
+        assert "libopen62541-1.4-dev" in r.stderr
+        s = run("-c", p)
+        assert s.returncode == EXIT_CONFIG and "%s:4: [opcua]" % p in s.stderr, s
+    else:
+        assert "%s:5: [opcua] listen 192.0.2.1 with security_policies None" % p in r.stderr

@@ -405,7 +405,7 @@ typedef struct {
     "output_assemblies, output_size, "                                         \
     "instance.<assembly>, open.<T->O assembly>"
 #define OPEN_ALLOWED "owner:<O->T assembly>, input_only, listen_only, none"
-#define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], [mqtt], [http]"
+#define SECTIONS "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], [mqtt], [http], [opcua]"
 #define NOT_A_BIT                                                        \
     "(a GPIO line follows or drives one bit, e.g. io_state.cb_do[1] or " \
     "bit_in[0])"
@@ -1443,7 +1443,7 @@ static void test_key_tables(void **state)
     /* every section: the core's and, through the side list, the sides' */
     const gw_cfg_side_t *all_sides[GW_CFG_MAX_SECTIONS];
     unsigned n = gw_cfg_all_sections(all_sides);
-    assert_int_equal(n, 7);
+    assert_int_equal(n, 8);
     for (size_t j = 0; j < n; j++) {
         const gw_cfg_side_t *s = all_sides[j];
         assert_true(s->nkeys > 0 && s->nkeys <= GW_CFG_MAX_KEYS);

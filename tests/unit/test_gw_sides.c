@@ -73,7 +73,7 @@ static void test_sections_in_rank_order(void **state)
     assert_string_equal(all[0]->kw, "daemon");
     assert_string_equal(gw_config_sections(),
                         "[daemon], [modbus], [robot NAME], [gpio NAME], [modbus_rtu NAME], "
-                        "[mqtt], [http]");
+                        "[mqtt], [http], [opcua]");
 }
 
 /* Every listed side's sections: documented (--help-config), in the

@@ -1,0 +1,947 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * OPC UA as a northbound side (north.h): an open62541 1.4 server with the
+ * robots' fields ([opcua], docs/opcua.md).
+ *
+ * The server runs in the daemon's one loop, on no thread of its own
+ * (open62541 1.4 built with UA_MULTITHREADING 100 takes locks but starts
+ * no thread). Its POSIX event loop keeps its sockets in an epoll set of
+ * its own; that set's descriptor is itself pollable (readable while one of
+ * its sockets is), so it goes into the daemon's epoll set, and when it is
+ * readable UA_Server_run_iterate(server, false) runs the server's
+ * callbacks without waiting. What the server has to do on time (publishing
+ * subscriptions, sampling, session timeouts) is its next cyclic time, which
+ * run_iterate returns: our deadline. open62541 gives no accessor for that
+ * descriptor, so it is found as the one epoll descriptor the process
+ * gained while the server started (/proc/self/fd); should that ever fail,
+ * the side polls the server every UA_POLL_MS instead (logged), which is
+ * no busy loop either.
+ *
+ * The flat view (docs/opcua.md): Objects/drgate/<robot>/<path>, one
+ * variable per field element by its canonical path (the names of drcli,
+ * the Modbus map and MQTT), NodeId ns=<urn:drgate:robots>;s=<robot>/<path>.
+ * Values come from the robot's images at the moment they are read or
+ * sampled (a DataSource: nothing is copied per packet), with the time the
+ * assembly's packet went into the images as source timestamp and a status
+ * code: Good; UncertainLastUsableValue while the robot's link is down;
+ * BadNoCommunication before the first packet of the assembly. O->T
+ * variables are written through the one write path (core/write.h).
+ */
+#include "core/north.h"
+
+#include <crypt.h>
+#include <dirent.h>
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/epoll.h>
+#include <sys/random.h>
+#include <unistd.h>
+
+#include <open62541/plugin/accesscontrol_default.h>
+#include <open62541/plugin/log.h>
+#include <open62541/server.h>
+#include <open62541/server_config_default.h>
+
+#include "common/ev.h"
+#include "core/log.h"
+#include "core/write.h"
+#include "http/auth.h"
+#include "http/passwd.h"
+#include "opcua/ua_model.h"
+#include "opcua/ua_pem.h"
+#include "opcua/ua_robotics.h"
+
+#define UA_NS_FLAT "urn:drgate:robots"
+#define UA_POLICY_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
+#define UA_POLL_MS 10u          /* without the event loop's descriptor */
+#define UA_FD_SCAN 4096         /* descriptors looked at for it */
+#define UA_LOGIN_CACHE_S 300u   /* a checked password, this long */
+#define UA_LOGIN_FAILS_PER_S 4u /* crypt checks of refused logins per second */
+
+typedef struct ua ua_t;
+
+/* What a variable of the flat view is: the robot (its index) and the
+ * field element. */
+typedef struct {
+    ua_t *t;
+    unsigned robot;
+    dr_ref_t ref;
+    ua_view_kind_t kind; /* the Robotics view's variables: ua_robotics.h */
+    const UA_DataType *type; /* UA_VIEW_NONE: the value's type */
+} ua_node_t;
+#define UA_VIEW_NODES 128u /* the Robotics view's variables per robot (79) */
+
+struct ua {
+    const gw_north_env_t *env;
+    gw_opcua_config_t cfg; /* a copy: a reload compares the new one with it */
+    /* The robots as the server's nodes have them (index and name): a
+     * reload that changes them builds a new server. */
+    unsigned robot_count;
+    char robot_name[GW_MAX_ROBOTS][GW_NAME_MAX];
+    UA_Server *server;
+    UA_Logger logger;
+    ev_t ev;                /* the server's event loop's epoll descriptor */
+    bool polled;            /* no such descriptor: iterate every UA_POLL_MS */
+    bool building;          /* adding nodes: open62541 reads each to check its type */
+    bool started;           /* UA_Server_run_startup succeeded */
+    uint64_t next_us;       /* the server's next cyclic time */
+    UA_UInt16 ns;           /* urn:drgate:robots */
+    ua_node_t *nodes;       /* robot_count * dr_leaf_count() */
+    ua_node_t *view;        /* the Robotics view's: robot_count * UA_VIEW_NODES */
+    size_t view_used;
+    gw_http_users_t users;  /* auth_file */
+    gw_http_users_t next_users; /* auth_file read again by a reload's prepare */
+    bool next_set;
+    /* Per robot: the T->O assemblies received since the side started, and
+     * when each last came (UA_DateTime), the O->T ones when last written. */
+    unsigned seen[GW_MAX_ROBOTS];
+    UA_DateTime at[GW_MAX_ROBOTS][DR_ASM_COUNT];
+    /* Logins: the last good (user, password digest) per user, so that a
+     * client reconnecting costs no crypt; refused crypt checks this second. */
+    struct {
+        char user[GW_HTTP_USER_MAX];
+        uint8_t digest[32]; /* HMAC-SHA-256 of the password under key */
+        uint64_t until_us;
+    } login_ok[GW_HTTP_USERS_MAX];
+    uint8_t key[32];
+    uint64_t fail_second;
+    unsigned fail_count;
+    gw_log_limit_t write_log[GW_MAX_ROBOTS], refused_log, login_log;
+    /* the console's: counters since the side started */
+    unsigned long long reads, writes, refused, logins, logins_refused;
+};
+
+/* ---- logging ------------------------------------------------------------------ */
+
+static void ua_log(void *ctx, UA_LogLevel level, UA_LogCategory cat, const char *msg, va_list ap)
+{
+    char line[512];
+    (void)ctx;
+    (void)cat;
+    if (level < UA_LOGLEVEL_INFO)
+        return;
+    vsnprintf(line, sizeof line, msg, ap);
+    for (char *p = line; *p != '\0'; p++)
+        if (*p == '\t') /* open62541 separates its fields with tabs */
+            *p = ' ';
+    gw_log(level >= UA_LOGLEVEL_ERROR     ? GW_LOG_ERROR
+           : level >= UA_LOGLEVEL_WARNING ? GW_LOG_WARNING
+                                          : GW_LOG_DEBUG,
+           "opcua: %s", line);
+}
+
+/* ---- logins ------------------------------------------------------------------- */
+
+/* user:password against auth_file's hash (the console's format). A good
+ * one is remembered (its crypt output, which is what the file holds) for
+ * UA_LOGIN_CACHE_S, so that reconnecting clients cost no crypt; refused
+ * ones cost at most UA_LOGIN_FAILS_PER_S crypt runs a second in the loop,
+ * beyond which they are refused unchecked (docs/opcua.md "Security"). */
+static UA_StatusCode ua_login(const UA_String *user, const UA_ByteString *pass, size_t n,
+                              const UA_UsernamePasswordLogin *list, void **sctx, void *lctx)
+{
+    ua_t *t = lctx;
+    char name[GW_HTTP_USER_MAX], word[256];
+    (void)n;
+    (void)list;
+    (void)sctx;
+    if (user->length == 0 || user->length >= sizeof name || pass->length >= sizeof word)
+        return UA_STATUSCODE_BADUSERACCESSDENIED;
+    memcpy(name, user->data, user->length);
+    name[user->length] = '\0';
+    memcpy(word, pass->data, pass->length);
+    word[pass->length] = '\0';
+    const gw_http_user_t *u = gw_http_passwd_find(&t->users, name);
+    uint64_t now = ev_now_us();
+    unsigned slot = u != NULL ? (unsigned)(u - t->users.user) : 0;
+    bool ok = false;
+    uint8_t digest[32];
+    gw_http_hmac_sha256(t->key, sizeof t->key, word, pass->length, digest);
+    if (u != NULL && t->login_ok[slot].until_us > now &&
+        strcmp(t->login_ok[slot].user, name) == 0)
+        ok = memcmp(t->login_ok[slot].digest, digest, sizeof digest) == 0;
+    if (!ok) {
+        if (now / 1000000u != t->fail_second) {
+            t->fail_second = now / 1000000u;
+            t->fail_count = 0;
+        }
+        if (t->fail_count >= UA_LOGIN_FAILS_PER_S) {
+            t->logins_refused++;
+            gw_log_limited(GW_LOG_WARNING, &t->login_log,
+                           "opcua: login of '%s' refused unchecked: too many refused logins",
+                           name);
+            return UA_STATUSCODE_BADUSERACCESSDENIED;
+        }
+        static struct crypt_data cd; /* 32 kB: not on the stack */
+        memset(&cd, 0, sizeof cd);
+        const char *hash = u != NULL ? u->hash : t->users.user[0].hash;
+        const char *out = crypt_r(word, hash, &cd);
+        ok = u != NULL && out != NULL && strcmp(out, u->hash) == 0;
+        if (ok) {
+            snprintf(t->login_ok[slot].user, sizeof t->login_ok[slot].user, "%s", name);
+            memcpy(t->login_ok[slot].digest, digest, sizeof digest);
+            t->login_ok[slot].until_us = now + UA_LOGIN_CACHE_S * 1000000ull;
+        } else {
+            t->fail_count++;
+        }
+    }
+    memset(word, 0, sizeof word);
+    if (!ok) {
+        t->logins_refused++;
+        gw_log_limited(GW_LOG_WARNING, &t->login_log, "opcua: login of '%s' refused", name);
+        return UA_STATUSCODE_BADUSERACCESSDENIED;
+    }
+    t->logins++;
+    return UA_STATUSCODE_GOOD;
+}
+
+/* ---- the flat view's values ------------------------------------------------------- */
+
+/* The value as the variable's kind has it. */
+static UA_StatusCode view_value(const ua_node_t *n, const gw_robot_t *rb, const dr_value_t *v,
+                                UA_Variant *out)
+{
+    if (n->kind == UA_VIEW_DOUBLE) {
+        UA_Double d = v->f;
+        return UA_Variant_setScalarCopy(out, &d, &UA_TYPES[UA_TYPES_DOUBLE]);
+    }
+    if (n->kind == UA_VIEW_VERSION) {
+        static const char *const parts[] = {"io_state.version.major", "io_state.version.minor",
+                                            "io_state.version.patch"};
+        unsigned num[3] = {0, 0, 0};
+        char text[16];
+        for (unsigned i = 0; i < 3; i++) {
+            dr_ref_t ref;
+            dr_value_t p;
+            if (dr_path_parse(parts[i], &ref) == DR_OK && gw_robot_get(rb, ref, &p) == DR_OK)
+                num[i] = (unsigned)(p.u & 0xFFu);
+        }
+        snprintf(text, sizeof text, "%u.%u.%u", num[0], num[1], num[2]);
+        UA_String str = ua_model_text(text);
+        return UA_Variant_setScalarCopy(out, &str, &UA_TYPES[UA_TYPES_STRING]);
+    }
+    return ua_model_value(n->ref, v, out);
+}
+
+static UA_StatusCode node_read(UA_Server *s, const UA_NodeId *sid, void *sctx,
+                               const UA_NodeId *nid, void *nctx, UA_Boolean with_ts,
+                               const UA_NumericRange *range, UA_DataValue *dv)
+{
+    const ua_node_t *n = nctx;
+    ua_t *t = n->t;
+    (void)s;
+    (void)sid;
+    (void)sctx;
+    (void)nid;
+    t->reads++;
+    if (range != NULL) {
+        dv->hasStatus = true;
+        dv->status = UA_STATUSCODE_BADINDEXRANGEINVALID;
+        return UA_STATUSCODE_GOOD;
+    }
+    if (n->kind == UA_VIEW_NONE) { /* not in the assemblies: docs/opcua.md */
+        if (t->building) { /* what open62541 checks the type of */
+            void *zero = UA_new(n->type);
+            if (zero == NULL)
+                return UA_STATUSCODE_BADOUTOFMEMORY;
+            UA_Variant_setScalar(&dv->value, zero, n->type);
+            dv->hasValue = true;
+            return UA_STATUSCODE_GOOD;
+        }
+        dv->hasStatus = true;
+        dv->status = UA_STATUSCODE_BADNOTSUPPORTED;
+        return UA_STATUSCODE_GOOD;
+    }
+    const gw_robot_t *rb = &t->env->robots[n->robot];
+    dr_asm_t a = (dr_asm_t)n->ref.field->assembly;
+    bool t2o = dr_asm_info(a)->dir == DR_DIR_T2O;
+    if (t2o && !(t->seen[n->robot] & (1u << a)) && !t->building) {
+        dv->hasStatus = true;
+        dv->status = UA_STATUSCODE_BADNOCOMMUNICATION;
+        return UA_STATUSCODE_GOOD;
+    }
+    dr_value_t v;
+    if (gw_robot_get(rb, n->ref, &v) != DR_OK) {
+        dv->hasStatus = true;
+        dv->status = UA_STATUSCODE_BADINTERNALERROR;
+        return UA_STATUSCODE_GOOD;
+    }
+    UA_StatusCode rc = view_value(n, rb, &v, &dv->value);
+    if (rc != UA_STATUSCODE_GOOD)
+        return rc;
+    dv->hasValue = true;
+    if (t2o && !t->building && !t->env->link_up(t->env->user, n->robot)) {
+        dv->hasStatus = true;
+        dv->status = UA_STATUSCODE_UNCERTAINLASTUSABLEVALUE;
+    }
+    if (with_ts && t->at[n->robot][a] != 0) {
+        dv->hasSourceTimestamp = true;
+        dv->sourceTimestamp = t->at[n->robot][a];
+    }
+    return UA_STATUSCODE_GOOD;
+}
+
+/* The write path's refusal as OPC UA says it. */
+static UA_StatusCode write_status(gw_write_status_t st)
+{
+    switch (st) {
+    case GW_WRITE_OK: return UA_STATUSCODE_GOOD;
+    case GW_WRITE_RIGHTS:
+    case GW_WRITE_SINGLE: return UA_STATUSCODE_BADUSERACCESSDENIED;
+    case GW_WRITE_FAULT: return UA_STATUSCODE_BADINVALIDSTATE;
+    case GW_WRITE_FIELD: return UA_STATUSCODE_BADNODEIDUNKNOWN;
+    case GW_WRITE_DIRECTION:
+    case GW_WRITE_UNSENT:
+    case GW_WRITE_GPIO: return UA_STATUSCODE_BADNOTWRITABLE;
+    case GW_WRITE_VALUE: return UA_STATUSCODE_BADOUTOFRANGE;
+    }
+    return UA_STATUSCODE_BADINTERNALERROR;
+}
+
+static UA_StatusCode node_write(UA_Server *s, const UA_NodeId *sid, void *sctx,
+                                const UA_NodeId *nid, void *nctx, const UA_NumericRange *range,
+                                const UA_DataValue *dv)
+{
+    const ua_node_t *n = nctx;
+    ua_t *t = n->t;
+    (void)s;
+    (void)sctx;
+    (void)nid;
+    if (range != NULL)
+        return UA_STATUSCODE_BADINDEXRANGEINVALID;
+    gw_write_item_t item = {n->ref, {DR_VAL_UINT, 0, 0, 0.0}, 0};
+    if (!dv->hasValue || ua_model_from_variant(n->ref, &dv->value, &item.value) != DR_OK) {
+        t->refused++;
+        return UA_STATUSCODE_BADTYPEMISMATCH;
+    }
+    char who[GW_WRITE_CLIENT] = "opcua session";
+    UA_String sess = UA_STRING_NULL;
+    if (UA_NodeId_print(sid, &sess) == UA_STATUSCODE_GOOD)
+        snprintf(who, sizeof who, "opcua session %.*s", (int)(sess.length > 40 ? 40 : sess.length),
+                 (const char *)sess.data);
+    UA_String_clear(&sess);
+    gw_write_origin_t o = {GW_ORIGIN_OPCUA, who, t->cfg.writes, false, false,
+                           &t->write_log[n->robot]};
+    gw_write_result_t res;
+    gw_write_status_t st = gw_robot_write(&t->env->robots[n->robot], &item, 1, &o, &res);
+    if (st != GW_WRITE_OK) {
+        char path[GW_WRITE_PATH] = "?";
+        (void)dr_ref_path(n->ref, path, sizeof path);
+        t->refused++;
+        gw_log_limited(GW_LOG_WARNING, &t->refused_log, "opcua: write of %s/%s by %s refused: %s",
+                       t->env->robots[n->robot].name, path, who, gw_write_status_text(st));
+        return write_status(st);
+    }
+    t->writes++;
+    t->at[n->robot][n->ref.field->assembly] = UA_DateTime_now();
+    if (res.dirty != 0)
+        t->env->outputs_changed(t->env->user, n->robot, res.dirty);
+    return UA_STATUSCODE_GOOD;
+}
+
+/* ---- building the server ------------------------------------------------------------ */
+
+/* The flat view of robot r under `parent`. */
+static bool add_robot(ua_t *t, unsigned r, UA_NodeId parent, char *err, size_t errlen)
+{
+    const gw_robot_config_t *rc = &t->env->cfg->robot[r];
+    char id[GW_NAME_MAX + 64];
+    UA_NodeId folder = UA_NODEID_STRING(t->ns, t->robot_name[r]);
+    UA_ObjectAttributes oa = UA_ObjectAttributes_default;
+    oa.displayName = UA_LOCALIZEDTEXT("", t->robot_name[r]);
+    UA_StatusCode st = UA_Server_addObjectNode(
+        t->server, folder, parent, UA_NODEID_NUMERIC(0, UA_NS0ID_ORGANIZES),
+        UA_QUALIFIEDNAME(t->ns, t->robot_name[r]), UA_NODEID_NUMERIC(0, UA_NS0ID_FOLDERTYPE), oa,
+        NULL, NULL);
+    if (st != UA_STATUSCODE_GOOD) {
+        snprintf(err, errlen, "robot %s: %s", t->robot_name[r], UA_StatusCode_name(st));
+        return false;
+    }
+    uint16_t leaves = dr_leaf_count();
+    UA_DataSource ds = {node_read, node_write};
+    for (uint16_t i = 0; i < leaves; i++) {
+        ua_node_t *n = &t->nodes[(size_t)r * leaves + i];
+        char path[64];
+        n->t = t;
+        n->robot = r;
+        if (dr_leaf_at(i, &n->ref) != DR_OK || dr_ref_path(n->ref, path, sizeof path) != DR_OK)
+            continue;
+        snprintf(id, sizeof id, "%s/%s", t->robot_name[r], path);
+        ua_model_var_t var = {
+            .id = UA_NODEID_STRING(t->ns, id),
+            .parent = folder,
+            .name = UA_QUALIFIEDNAME(t->ns, path),
+            .ref = n->ref,
+            .writable = t->cfg.writes,
+            .rpi_ms = rc->rpi_ms,
+            .source = ds,
+            .context = n,
+        };
+        st = ua_model_add_field(t->server, &var);
+        if (st != UA_STATUSCODE_GOOD) {
+            snprintf(err, errlen, "%s: %s", id, UA_StatusCode_name(st));
+            return false;
+        }
+    }
+    return true;
+}
+
+/* A variable of the Robotics view (ua_robotics.h): its context. */
+static void *view_context(void *user, unsigned r, ua_view_kind_t kind, const char *path,
+                          const UA_DataType *type)
+{
+    ua_t *t = user;
+    if (t->view_used == (size_t)t->robot_count * UA_VIEW_NODES)
+        return NULL;
+    ua_node_t *n = &t->view[t->view_used];
+    n->t = t;
+    n->robot = r;
+    n->kind = kind;
+    n->type = type;
+    /* the version's and the unavailable ones' status: io_state's */
+    if (dr_path_parse(path != NULL ? path : "io_state.version.major", &n->ref) != DR_OK)
+        return NULL;
+    t->view_used++;
+    return n;
+}
+
+static bool add_robotics_view(ua_t *t, char *err, size_t errlen)
+{
+    ua_robotics_t v = {t->ns, {node_read, node_write}, view_context, t};
+    UA_StatusCode st = ua_robotics_types(t->server);
+    if (st != UA_STATUSCODE_GOOD) {
+        snprintf(err, errlen, "the Robotics types: %s", UA_StatusCode_name(st));
+        return false;
+    }
+    for (unsigned r = 0; r < t->robot_count; r++)
+        if (ua_robotics_add(t->server, &v, r, t->robot_name[r], err, errlen) !=
+            UA_STATUSCODE_GOOD)
+            return false;
+    return true;
+}
+
+static bool add_flat_view(ua_t *t, char *err, size_t errlen)
+{
+    UA_NodeId root = UA_NODEID_STRING(t->ns, "drgate");
+    UA_ObjectAttributes oa = UA_ObjectAttributes_default;
+    oa.displayName = UA_LOCALIZEDTEXT("", "drgate");
+    oa.description = UA_LOCALIZEDTEXT("en", "the robots' fields by canonical path");
+    UA_StatusCode st = UA_Server_addObjectNode(
+        t->server, root, UA_NODEID_NUMERIC(0, UA_NS0ID_OBJECTSFOLDER),
+        UA_NODEID_NUMERIC(0, UA_NS0ID_ORGANIZES), UA_QUALIFIEDNAME(t->ns, "drgate"),
+        UA_NODEID_NUMERIC(0, UA_NS0ID_FOLDERTYPE), oa, NULL, NULL);
+    if (st != UA_STATUSCODE_GOOD) {
+        snprintf(err, errlen, "the drgate folder: %s", UA_StatusCode_name(st));
+        return false;
+    }
+    for (unsigned r = 0; r < t->robot_count; r++)
+        if (!add_robot(t, r, root, err, errlen))
+            return false;
+    return true;
+}
+
+/* The slowest a subscription may sample: the fastest robot's RPI (open62541
+ * takes nothing under 5 ms). */
+static double fastest_rpi_ms(const gw_config_t *cfg)
+{
+    double ms = 1000.0;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        if (cfg->robot[r].rpi_ms < ms)
+            ms = cfg->robot[r].rpi_ms;
+    return ms < 5.0 ? 5.0 : ms;
+}
+
+/* No X.509 user tokens: with no trust list (open62541 accepts every
+ * certificate then) any certificate would log in past auth_file. The
+ * server takes a token only under a policy its endpoint offers. */
+static void drop_x509_tokens(UA_AccessControl *ac)
+{
+    size_t kept = 0;
+    for (size_t i = 0; i < ac->userTokenPoliciesSize; i++) {
+        if (ac->userTokenPolicies[i].tokenType == UA_USERTOKENTYPE_CERTIFICATE)
+            UA_UserTokenPolicy_clear(&ac->userTokenPolicies[i]);
+        else
+            ac->userTokenPolicies[kept++] = ac->userTokenPolicies[i];
+    }
+    ac->userTokenPoliciesSize = kept;
+}
+
+/* The security policies and their endpoints, the users. */
+static bool set_security(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
+{
+    UA_ByteString cert = UA_BYTESTRING_NULL, key = UA_BYTESTRING_NULL;
+    UA_StatusCode st = UA_STATUSCODE_GOOD;
+    if (t->cfg.cert_file[0] != '\0' &&
+        (!ua_pem_load(t->cfg.cert_file, &cert, err, errlen) ||
+         !ua_pem_load(t->cfg.key_file, &key, err, errlen))) {
+        UA_ByteString_clear(&cert);
+        return false;
+    }
+    const UA_ByteString *cp = cert.length > 0 ? &cert : NULL;
+    unsigned p = t->cfg.policies;
+    /* None as a policy always, as an endpoint only when configured: a
+     * client discovers the endpoints (GetEndpoints) over a None channel,
+     * the one service open62541 serves on a policy without an endpoint */
+    st |= UA_ServerConfig_addSecurityPolicyNone(c, cp);
+    if (p & GW_OPCUA_POLICY_BASIC256SHA256)
+        st |= UA_ServerConfig_addSecurityPolicyBasic256Sha256(c, &cert, &key);
+    if (p & GW_OPCUA_POLICY_AES128)
+        st |= UA_ServerConfig_addSecurityPolicyAes128Sha256RsaOaep(c, &cert, &key);
+    if (p & GW_OPCUA_POLICY_AES256)
+        st |= UA_ServerConfig_addSecurityPolicyAes256Sha256RsaPss(c, &cert, &key);
+    if (key.data != NULL)
+        memset(key.data, 0, key.length); /* the private key: not left in freed memory */
+    UA_ByteString_clear(&key);
+    UA_ByteString_clear(&cert);
+    /* The users before the endpoints, which copy their token policies.
+     * A user name policy is offered only with a list of logins: one that
+     * the callback (auth_file) answers for instead. */
+    bool auth = t->cfg.auth_file[0] != '\0';
+    UA_UsernamePasswordLogin stand_in = {UA_STRING_STATIC("auth_file"), UA_STRING_STATIC("")};
+    if (st == UA_STATUSCODE_GOOD)
+        st = UA_AccessControl_defaultWithLoginCallback(c, !auth, NULL, auth ? 1 : 0, &stand_in,
+                                                       ua_login, t);
+    if (st == UA_STATUSCODE_GOOD)
+        drop_x509_tokens(&c->accessControl);
+    if (st == UA_STATUSCODE_GOOD && (p & GW_OPCUA_POLICY_SECURE))
+        st = UA_ServerConfig_addAllSecureEndpoints(c);
+    if (st == UA_STATUSCODE_GOOD && (p & GW_OPCUA_POLICY_NONE))
+        st = UA_ServerConfig_addEndpoint(c, UA_STRING(UA_POLICY_NONE_URI),
+                                         UA_MESSAGESECURITYMODE_NONE);
+    if (st != UA_STATUSCODE_GOOD) {
+        snprintf(err, errlen, "security policies: %s (cert_file, key_file)",
+                 UA_StatusCode_name(st));
+        return false;
+    }
+    return true;
+}
+
+static bool set_config(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
+{
+    char url[128], host[80];
+    memset(c, 0, sizeof *c);
+    c->logging = &t->logger;
+    if (UA_ServerConfig_setBasics_withPort(c, t->cfg.port) != UA_STATUSCODE_GOOD) {
+        snprintf(err, errlen, "cannot configure the server");
+        return false;
+    }
+    if (!set_security(t, c, err, errlen))
+        return false;
+    snprintf(url, sizeof url, "opc.tcp://%s:%u", t->cfg.listen, (unsigned)t->cfg.port);
+    UA_Array_delete(c->serverUrls, c->serverUrlsSize, &UA_TYPES[UA_TYPES_STRING]);
+    c->serverUrls = UA_String_new();
+    c->serverUrlsSize = c->serverUrls != NULL ? 1 : 0;
+    if (c->serverUrls != NULL)
+        *c->serverUrls = UA_String_fromChars(url);
+    if (gethostname(host, sizeof host) != 0)
+        snprintf(host, sizeof host, "localhost");
+    host[sizeof host - 1] = '\0';
+    char uri[sizeof t->cfg.application_uri + 8];
+    if (t->cfg.application_uri[0] != '\0')
+        snprintf(uri, sizeof uri, "%s", t->cfg.application_uri);
+    else
+        snprintf(uri, sizeof uri, "urn:drgate:%.80s:drgatewayd", host);
+    UA_ApplicationDescription *ad = &c->applicationDescription;
+    UA_String_clear(&ad->applicationUri);
+    ad->applicationUri = UA_String_fromChars(uri);
+    UA_LocalizedText_clear(&ad->applicationName);
+    ad->applicationName = UA_LOCALIZEDTEXT_ALLOC("en", t->cfg.application_name);
+    UA_String_clear(&ad->productUri);
+    ad->productUri = UA_String_fromChars("urn:drgate:drgatewayd");
+    /* the endpoints carry the description as it is now */
+    for (size_t i = 0; i < c->endpointsSize; i++) {
+        UA_ApplicationDescription_clear(&c->endpoints[i].server);
+        (void)UA_ApplicationDescription_copy(ad, &c->endpoints[i].server);
+    }
+    c->tcpReuseAddr = true;
+    c->maxSessions = (UA_UInt16)t->cfg.max_sessions;
+    c->maxSecureChannels = (UA_UInt16)(t->cfg.max_sessions + 2u);
+    c->maxSubscriptionsPerSession = t->cfg.max_subscriptions;
+    double ms = fastest_rpi_ms(t->env->cfg);
+    c->samplingIntervalLimits.min = ms;
+    c->publishingIntervalLimits.min = ms;
+    return true;
+}
+
+/* The descriptors open now, as bits (not the one that reads them, whose
+ * number a later descriptor may take). */
+static void fd_snapshot(uint8_t *bits)
+{
+    memset(bits, 0, UA_FD_SCAN / 8);
+    DIR *d = opendir("/proc/self/fd");
+    if (d == NULL)
+        return;
+    int self = dirfd(d);
+    for (struct dirent *e; (e = readdir(d)) != NULL;) {
+        char *end;
+        long fd = strtol(e->d_name, &end, 10);
+        if (*end == '\0' && fd >= 0 && fd < UA_FD_SCAN && fd != self)
+            bits[fd / 8] |= (uint8_t)(1u << (fd % 8));
+    }
+    closedir(d);
+}
+
+/* The one epoll descriptor opened since `before`, or -1. */
+static int new_epoll_fd(const uint8_t *before)
+{
+    uint8_t now[UA_FD_SCAN / 8];
+    int found = -1, count = 0;
+    fd_snapshot(now);
+    for (int fd = 0; fd < UA_FD_SCAN; fd++) {
+        if (!(now[fd / 8] & (1u << (fd % 8))) || (before[fd / 8] & (1u << (fd % 8))))
+            continue;
+        char link[64], target[64];
+        snprintf(link, sizeof link, "/proc/self/fd/%d", fd);
+        ssize_t n = readlink(link, target, sizeof target - 1);
+        if (n <= 0)
+            continue;
+        target[n] = '\0';
+        if (strcmp(target, "anon_inode:[eventpoll]") == 0) {
+            found = fd;
+            count++;
+        }
+    }
+    return count == 1 ? found : -1;
+}
+
+static void iterate(ua_t *t)
+{
+    UA_UInt16 ms = UA_Server_run_iterate(t->server, false);
+    if (t->polled && ms > UA_POLL_MS)
+        ms = UA_POLL_MS;
+    t->next_us = ev_now_us() + (uint64_t)ms * 1000u;
+}
+
+static void on_ready(void *obj, uint32_t events)
+{
+    (void)events;
+    iterate(obj);
+}
+
+/* The server up and listening, in the loop. */
+static bool ua_start(ua_t *t, char *err, size_t errlen)
+{
+    uint8_t before[UA_FD_SCAN / 8];
+    UA_ServerConfig c;
+    fd_snapshot(before);
+    if (!set_config(t, &c, err, errlen)) {
+        UA_ServerConfig_clean(&c);
+        return false;
+    }
+    t->server = UA_Server_newWithConfig(&c);
+    if (t->server == NULL) {
+        snprintf(err, errlen, "cannot create the server");
+        return false;
+    }
+    t->ns = UA_Server_addNamespace(t->server, UA_NS_FLAT);
+    size_t n = (size_t)t->robot_count * dr_leaf_count();
+    t->nodes = calloc(n > 0 ? n : 1, sizeof *t->nodes);
+    t->view = calloc(t->robot_count > 0 ? (size_t)t->robot_count * UA_VIEW_NODES : 1,
+                     sizeof *t->view);
+    if (t->nodes == NULL || t->view == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return false;
+    }
+    t->building = true;
+    bool built = add_flat_view(t, err, errlen) && add_robotics_view(t, err, errlen);
+    t->building = false;
+    if (!built)
+        return false;
+    UA_StatusCode st = UA_Server_run_startup(t->server);
+    if (st != UA_STATUSCODE_GOOD) {
+        snprintf(err, errlen, "cannot listen on %s:%u: %s", t->cfg.listen, (unsigned)t->cfg.port,
+                 UA_StatusCode_name(st));
+        return false;
+    }
+    t->started = true;
+    iterate(t); /* the event loop makes its epoll set when it first runs */
+    int fd = new_epoll_fd(before);
+    t->ev.fn = on_ready;
+    t->ev.obj = t;
+    t->ev.fd = -1;
+    if (fd < 0 || !ev_watch(t->env->epfd, &t->ev, fd, EPOLLIN)) {
+        t->polled = true;
+        gw_log(GW_LOG_WARNING, "opcua: the server's event loop descriptor was not found: polling "
+               "it every %u ms", UA_POLL_MS);
+    }
+    iterate(t);
+    char pol[128];
+    gw_log(GW_LOG_INFO, "opcua: listening on opc.tcp://%s:%u (%s%s)", t->cfg.listen,
+           (unsigned)t->cfg.port, gw_opcua_policies_text(t->cfg.policies, pol, sizeof pol),
+           t->cfg.auth_file[0] != '\0' ? ", user names" : ", anonymous");
+    return true;
+}
+
+static void ua_free(ua_t *t)
+{
+    if (t == NULL)
+        return;
+    if (t->server != NULL) {
+        ev_unwatch(t->env->epfd, &t->ev);
+        if (t->started)
+            (void)UA_Server_run_shutdown(t->server);
+        UA_Server_delete(t->server);
+    }
+    free(t->nodes);
+    free(t->view);
+    memset(t->login_ok, 0, sizeof t->login_ok);
+    free(t);
+}
+
+/* The T->O assemblies robot r has data of now (a new side, or one a
+ * reload made, starts from what the robot has). */
+static void seed_seen(ua_t *t)
+{
+    UA_DateTime now = UA_DateTime_now();
+    for (unsigned r = 0; r < t->robot_count; r++) {
+        const gw_robot_t *rb = &t->env->robots[r];
+        if (rb->link.rx_us == 0)
+            continue;
+        for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+            if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O &&
+                gw_robot_reads(&t->env->cfg->robot[r], (dr_asm_t)a)) {
+                t->seen[r] |= 1u << a;
+                t->at[r][a] = now;
+            }
+    }
+}
+
+/* A side for cfg (env->cfg's robots): NULL with err. */
+static ua_t *ua_new(const gw_config_t *cfg, const gw_north_env_t *env, char *err, size_t errlen)
+{
+    ua_t *t = calloc(1, sizeof *t);
+    if (t == NULL) {
+        snprintf(err, errlen, "opcua: out of memory");
+        return NULL;
+    }
+    t->env = env;
+    t->cfg = cfg->side.opcua;
+    t->ev.fd = -1;
+    t->logger.log = ua_log;
+    if (getrandom(t->key, sizeof t->key, 0) != (ssize_t)sizeof t->key) {
+        snprintf(err, errlen, "opcua: no random key: %s", strerror(errno));
+        free(t);
+        return NULL;
+    }
+    t->robot_count = cfg->robot_count;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        snprintf(t->robot_name[r], sizeof t->robot_name[r], "%s", cfg->robot[r].name);
+    return t;
+}
+
+static bool load_users(ua_t *t, char *err, size_t errlen)
+{
+    char why[400];
+    if (t->cfg.auth_file[0] == '\0' || gw_http_passwd_load(t->cfg.auth_file, &t->users, why,
+                                                             sizeof why))
+        return true;
+    snprintf(err, errlen, "opcua: auth_file %s", why);
+    return false;
+}
+
+/* ---- the side's operations ------------------------------------------------------------ */
+
+static void *op_create(const gw_north_env_t *env, char *err, size_t errlen)
+{
+    char why[400];
+    ua_t *t = ua_new(env->cfg, env, err, errlen);
+    if (t == NULL || !t->cfg.enabled)
+        return t;
+    if (!load_users(t, err, errlen)) {
+        ua_free(t);
+        return NULL;
+    }
+    if (!ua_start(t, why, sizeof why)) {
+        snprintf(err, errlen, "opcua: %s", why);
+        ua_free(t);
+        return NULL;
+    }
+    seed_seen(t);
+    return t;
+}
+
+/* Every key of [opcua] the same (the struct compared member by member:
+ * its padding and the text after a string's end are not the keys'). */
+static bool same_section(const gw_opcua_config_t *a, const gw_opcua_config_t *b)
+{
+    return a->enabled == b->enabled && strcmp(a->listen, b->listen) == 0 &&
+           a->port == b->port && strcmp(a->application_uri, b->application_uri) == 0 &&
+           strcmp(a->application_name, b->application_name) == 0 &&
+           a->policies == b->policies && strcmp(a->auth_file, b->auth_file) == 0 &&
+           strcmp(a->cert_file, b->cert_file) == 0 && strcmp(a->key_file, b->key_file) == 0 &&
+           a->max_sessions == b->max_sessions && a->max_subscriptions == b->max_subscriptions &&
+           a->writes == b->writes && a->insecure == b->insecure;
+}
+
+static bool same_robots(const ua_t *t, const gw_config_t *cfg)
+{
+    if (cfg->robot_count != t->robot_count)
+        return false;
+    for (unsigned r = 0; r < cfg->robot_count; r++)
+        if (strcmp(cfg->robot[r].name, t->robot_name[r]) != 0 ||
+            cfg->robot[r].rpi_ms != t->env->cfg->robot[r].rpi_ms)
+            return false;
+    return true;
+}
+
+/* A reload: the same section and robots keep the server (its clients
+ * stay); anything else builds a new one at commit, whose files are read
+ * here so that a bad one refuses the reload. */
+static gw_north_reload_t op_prepare(void *self, const gw_config_t *next, const gw_north_env_t *env,
+                                    void **out, char *err, size_t errlen)
+{
+    ua_t *t = self;
+    if (same_section(&next->side.opcua, &t->cfg) && same_robots(t, next)) {
+        char why[400];
+        /* the same server; auth_file read again (its users may change) */
+        if (t->cfg.auth_file[0] != '\0' &&
+            !gw_http_passwd_load(t->cfg.auth_file, &t->next_users, why, sizeof why)) {
+            snprintf(err, errlen, "opcua: auth_file %s", why);
+            return GW_NORTH_REFUSED;
+        }
+        t->next_set = t->cfg.auth_file[0] != '\0';
+        *out = t;
+        return GW_NORTH_OK;
+    }
+    ua_t *n = ua_new(next, env, err, errlen);
+    if (n == NULL)
+        return GW_NORTH_REFUSED;
+    if (n->cfg.enabled && !load_users(n, err, errlen)) {
+        ua_free(n);
+        return GW_NORTH_REFUSED;
+    }
+    *out = n;
+    return GW_NORTH_OK;
+}
+
+static void op_abort(void *self, void *out)
+{
+    if (out != self)
+        ua_free(out);
+    ((ua_t *)self)->next_set = false;
+}
+
+static void *op_commit(void *self, void *out, const gw_north_env_t *env)
+{
+    ua_t *t = self, *n = out;
+    char why[400];
+    if (n == t) {
+        if (t->next_set) { /* the users as the file says now; logins checked again */
+            t->users = t->next_users;
+            memset(t->login_ok, 0, sizeof t->login_ok);
+            t->next_set = false;
+        }
+        return t;
+    }
+    ua_free(t); /* its port is the new one's, maybe */
+    n->env = env;
+    if (n->cfg.enabled) {
+        if (!ua_start(n, why, sizeof why)) {
+            gw_log(GW_LOG_ERROR, "opcua: %s", why);
+            ua_free(n);
+            return NULL;
+        }
+        seed_seen(n);
+    }
+    return n;
+}
+
+static void op_tick(void *self, uint64_t now)
+{
+    ua_t *t = self;
+    if (t->server != NULL && now >= t->next_us)
+        iterate(t);
+}
+
+static uint64_t op_deadline(const void *self)
+{
+    const ua_t *t = self;
+    return t->server != NULL ? t->next_us : UINT64_MAX;
+}
+
+static void op_on_data(void *self, unsigned robot, dr_asm_t a)
+{
+    ua_t *t = self;
+    if (t->server == NULL || robot >= t->robot_count || a >= DR_ASM_COUNT)
+        return;
+    t->seen[robot] |= 1u << a;
+    t->at[robot][a] = UA_DateTime_now();
+}
+
+static void op_on_link(void *self, unsigned robot, bool up)
+{
+    (void)self;
+    (void)robot;
+    (void)up; /* read from the link when a value is read */
+}
+
+static void op_on_fault(void *self, unsigned robot, bool latched)
+{
+    (void)self;
+    (void)robot;
+    (void)latched;
+}
+
+static void op_refresh(void *self)
+{
+    (void)self;
+}
+
+static void op_safe(void *self)
+{
+    (void)self; /* holds no output of its own */
+}
+
+static void op_free(void *self)
+{
+    ua_free(self);
+}
+
+static void op_report(const void *self, gw_json_t *j)
+{
+    const ua_t *t = self;
+    char text[320];
+    if (!t->cfg.enabled)
+        return;
+    gw_json_str(j, "\"opcua\":{\"endpoint\":");
+    snprintf(text, sizeof text, "opc.tcp://%s:%u", t->cfg.listen, (unsigned)t->cfg.port);
+    gw_json_quote(j, text, strlen(text));
+    snprintf(text, sizeof text,
+             ",\"reads\":%llu,\"writes\":{\"enabled\":%s,\"accepted\":%llu,"
+             "\"refused\":%llu},\"logins\":{\"accepted\":%llu,\"refused\":%llu}}",
+             t->reads, t->cfg.writes ? "true" : "false", t->writes, t->refused, t->logins,
+             t->logins_refused);
+    gw_json_str(j, text);
+}
+
+static void op_summary(const void *self, gw_side_summary_t *s)
+{
+    const ua_t *t = self;
+    if (!t->cfg.enabled)
+        return;
+    snprintf(s->label, sizeof s->label, "OPC UA");
+    snprintf(s->line, sizeof s->line, "opc.tcp://%s:%u, %llu read(s), %llu write(s), %llu refused",
+             t->cfg.listen, (unsigned)t->cfg.port, t->reads, t->writes, t->refused);
+    snprintf(s->brief, sizeof s->brief, "OPC UA :%u", (unsigned)t->cfg.port);
+}
+
+const gw_north_ops_t gw_north_opcua = {
+    .name = "opcua",
+    .create = op_create,
+    .prepare = op_prepare,
+    .abort = op_abort,
+    .commit = op_commit,
+    .tick = op_tick,
+    .deadline = op_deadline,
+    .on_data = op_on_data,
+    .on_link = op_on_link,
+    .on_fault = op_on_fault,
+    .refresh = op_refresh,
+    .safe = op_safe,
+    .free = op_free,
+    .report = op_report,
+    .summary = op_summary,
+};

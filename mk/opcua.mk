@@ -1,0 +1,43 @@
+# SPDX-License-Identifier: MIT
+# The OPC UA side end to end (tests/opcua/, docs/opcua.md): drsim and
+# drgatewayd with [opcua] on loopback, driven by an independent OPC UA
+# client (python asyncua from .venv, pinned in tests/requirements.txt).
+#
+#   check-opcua        the suite against $(B)/drgatewayd and $(B)/drsim
+#   check-opcua-asan   the same against both built with ASan+UBSan (as
+#                      check-gateway-asan, in $(B)/asan)
+#
+# Only a drgatewayd built with open62541 has the side: Debian 13 (trixie)
+# packages it, Debian 12 does not, so `make check` on bookworm does not run
+# these; check-fresh runs check-opcua in its trixie root (mk/fresh-root.sh).
+# Where the build has no open62541, check-opcua is SKIPPED with a banner
+# (under CI a failure, tests/skip.sh).
+
+.PHONY: check-opcua check-opcua-asan
+
+# Its logs and configurations: beside the gateway suite's, not among them
+# (that suite clears its folder when it starts).
+OPCUA_ENV = GW_LOGDIR=$(abspath $(B))/tests/opcua
+
+OPCUA_SKIP = sh tests/skip.sh $@ "this drgatewayd is built without open62541 (Debian 13's \
+             libopen62541-1.4-dev, make test-deps there; make check-fresh runs it in a trixie \
+             root)" "$(RESULTS)" "OPC UA side end to end"
+OPCUA_PEERS = if ! $(GW_TEST_PY) -c 'import asyncua, pytest, xdist' 2>/dev/null; then \
+                  echo "$@: no asyncua, pytest or pytest-xdist in $(GW_TEST_PY) (run make test-deps)"; \
+                  echo "0 1 $(1) (no asyncua/pytest: make test-deps)" >> $(RESULTS); \
+                  exit 1; fi
+
+check-opcua: $(GW_BIN) $(SIM_BIN) $(CLI_BIN)
+	@if [ -z "$(OPCUA_VERSION)" ]; then $(OPCUA_SKIP); exit $$?; fi; \
+	$(call OPCUA_PEERS,OPC UA side end to end); \
+	$(call GW_TEST_RUN,$(B),OPC UA side end to end (tests/opcua),$(OPCUA_ENV),tests/opcua)
+
+# Slower under the sanitizers: the tests' deadlines are scaled.
+check-opcua-asan:
+	@if [ -z "$(OPCUA_VERSION)" ]; then $(OPCUA_SKIP); exit $$?; fi; \
+	$(call OPCUA_PEERS,OPC UA side end to end [asan]); \
+	$(MAKE) --no-print-directory B=$(B)/asan CFLAGS="$(SAN_FLAGS)" \
+	    LDFLAGS="-fsanitize=address,undefined" HARDEN= \
+	    $(B)/asan/drgatewayd $(B)/asan/drsim $(B)/asan/drcli || exit 1; \
+	$(call GW_TEST_RUN,$(B)/asan,OPC UA side end to end (tests/opcua) [asan],\
+	    $(OPCUA_ENV) GW_TIMEOUT_SCALE=3 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0,tests/opcua)
