@@ -36,7 +36,8 @@
 #
 # In a run: the copy is extracted under FRESH_TMP (/var/tmp); the host's
 # /usr/local/share/ca-certificates/*.crt are added (this site's HTTPS has
-# its own CA); then `unshare --mount --pid --net --fork --kill-child` and
+# its own CA), and /etc/hosts as Debian's installer writes it (localhost);
+# then `unshare --mount --pid --net --fork --kill-child` and
 # chroot, with /proc, /sys, /dev (a few nodes, devpts, /dev/net/tun),
 # /run (tmpfs) mounted in that mount namespace only. The network namespace
 # has loopback only; socat (the host's, inside the namespace) bridges
@@ -293,6 +294,11 @@ EOF
     mkdir -p "$root/etc/dpkg/dpkg.cfg.d"
     echo force-unsafe-io > "$root/etc/dpkg/dpkg.cfg.d/drgate-fresh-unsafe-io"
     cp /usr/local/share/ca-certificates/*.crt "$root/usr/local/share/ca-certificates/" 2>/dev/null || true
+    # What every installed Debian has and a minbase root lacks: no package
+    # ships /etc/hosts, the installer (or the cloud image) writes it, so
+    # "localhost" resolves there (test_tls_by_host_name names its broker so)
+    [ -e "$root/etc/hosts" ] || printf '127.0.0.1\tlocalhost\n::1\t\tlocalhost ip6-localhost ip6-loopback\n' \
+        > "$root/etc/hosts"
     git clone -q --no-checkout "$top" "$root/src" && git -C "$root/src" checkout -q "$sha" ||
         die "git clone of $top at $sha failed"
     cache=$(apt_cache "$s")
