@@ -23,6 +23,7 @@ DIR/console-overview.png and DIR/console-robot.png.
 SKIPPED with the banner of tests/skip.sh where chromium, its driver or
 selenium is missing or chromium cannot start (a failure under CI).
 """
+import contextlib
 import json
 import os
 import shutil
@@ -92,10 +93,12 @@ def browser():
     return d
 
 
-@pytest.fixture
-def console():
-    sim = gwlib.Drsim(NAME).start()
-    g = ConsoleGateway(NAME, [sim, NoRobot()])
+@contextlib.contextmanager
+def console_cell(name, **gateway_args):
+    """drsim, a gateway with the console (robot arm1 on drsim, arm2 on
+    nobody) linked, and a chromium driving it (g.driver)."""
+    sim = gwlib.Drsim(name).start()
+    g = ConsoleGateway(name, [sim, NoRobot()], **gateway_args)
     g.sim = sim
     g.http_port = gwlib.free_port(gwlib.GW_ADDR, udp=False)
     d = None
@@ -110,6 +113,12 @@ def console():
             d.quit()
         g.kill()
         sim.kill()
+
+
+@pytest.fixture
+def console():
+    with console_cell(NAME) as g:
+        yield g
 
 
 def js(d, script, *args):

@@ -32,7 +32,7 @@ import pytest
 
 import gwlib
 from gwlib import wait_for
-from test_console_browser import ConsoleGateway, NoRobot, api, browser, js
+from test_console_browser import api, console_cell, js
 
 NAME = "console_commissioning"
 JOINT = "joint_state.position[1]"
@@ -46,22 +46,8 @@ USER_MAPPED = ["int_in[%d]" % i for i in range(4)] + ["float_in[1]"] + \
 
 @pytest.fixture
 def console():
-    sim = gwlib.Drsim(NAME).start()
-    g = ConsoleGateway(NAME, [sim, NoRobot()], robot=USER_MAP)
-    g.sim = sim
-    g.http_port = gwlib.free_port(gwlib.GW_ADDR, udp=False)
-    d = None
-    try:
-        g.start(wait_link=False)
-        g.wait_link(True, unit=1)
-        d = browser()
-        g.driver = d
+    with console_cell(NAME, robot=USER_MAP) as g:
         yield g
-    finally:
-        if d is not None:
-            d.quit()
-        g.kill()
-        sim.kill()
 
 
 def request_rows(d):
