@@ -6,6 +6,7 @@ only once its MQTT peers listen (test_sparkplug.py's too)."""
 import contextlib
 import json
 import shutil
+import socket
 import threading
 import time
 
@@ -22,8 +23,9 @@ class Broker:
     persistence (a restart forgets retained messages); or on addr:port in
     network namespace netns (test_mqtt_failover.py)."""
 
-    def __init__(self, name, tls=None, addr=GW_ADDR, port=None, netns=None):
+    def __init__(self, name, tls=None, addr=GW_ADDR, port=None, netns=None, ipv6=False):
         self.name = name
+        self.ipv6 = ipv6  # also on [::1]:port (where it can be bound)
         self.tls = tls  # dict of cafile/certfile/keyfile, or None
         self.addr, self.port, self.netns = addr, port, netns
         self.proc = None
@@ -35,9 +37,11 @@ class Broker:
             self.port = free_port(GW_ADDR, udp=False)
         text = ("per_listener_settings false\nallow_anonymous true\n"
                 "persistence false\nuser root\nlistener %d %s\n" % (self.port, self.addr))
-        if self.tls:
-            text += "cafile %s\ncertfile %s\nkeyfile %s\n" % (
-                self.tls["ca"], self.tls["cert"], self.tls["key"])
+        tls = "cafile %s\ncertfile %s\nkeyfile %s\n" % (
+            self.tls["ca"], self.tls["cert"], self.tls["key"]) if self.tls else ""
+        text += tls
+        if self.ipv6 and loopback6_bindable():
+            text += "listener %d ::1\n%s" % (self.port, tls)
         LOGDIR.mkdir(parents=True, exist_ok=True)
         self.conf.write_text(text)
         mark = len(read_text(self.log_path))
@@ -54,10 +58,19 @@ class Broker:
             self.proc.wait(timeout(10))
 
 
+def loopback6_bindable():
+    try:
+        with socket.socket(socket.AF_INET6, socket.SOCK_STREAM) as s:
+            s.bind(("::1", 0))
+        return True
+    except OSError:
+        return False
+
+
 @contextlib.contextmanager
-def broker_running(name, tls=None):
+def broker_running(name, tls=None, ipv6=False):
     """A started Broker, stopped on the way out."""
-    b = Broker(name, tls=tls).start()
+    b = Broker(name, tls=tls, ipv6=ipv6).start()
     try:
         yield b
     finally:
