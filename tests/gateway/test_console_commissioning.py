@@ -256,9 +256,10 @@ def ten_tabs_live(console):
         return True
     wait_for(all_live, 60, "all ten tabs live")
     # one stream for the browser (a stream the worker replaced goes at the
-    # server's next write to it), and connections to spare
+    # server's next write to it); its connections are chromium's six at
+    # most, and this metric request's own: 7 seen in the trixie root
     wait_for(lambda: metric(g, "drgate_http_streams") == 1, 10, "one stream")
-    assert metric(g, "drgate_http_connections") <= 6
+    assert metric(g, "drgate_http_connections") <= 6 + 1
     # closing tabs leaves the others live
     for h in handles[:5]:
         d.switch_to.window(h)
