@@ -42,7 +42,7 @@ FUZZ_LIBS_rtu        := $(MODBUS_LIBS)
 # config_robot.c's `map` lines: the user's map parser and the default map;
 # [http] auth_file: the password file parser
 FUZZ_SRC_config      := $(sort $(wildcard gateway/*/config*.c)) $(FUZZ_REGMAP_SRC) \
-                        gateway/http/passwd.c common/eds.c common/eds_plan.c
+                        gateway/core/passwd.c common/eds.c common/eds_plan.c
 FUZZ_SRC_usermap     := $(FUZZ_REGMAP_SRC)
 FUZZ_LIBS_config     := $(INIH_LIBS)
 # Sparkplug B commands (gateway/mqtt/sparkplug.c) over nanopb: Debian's
@@ -54,8 +54,8 @@ FUZZ_SRC_sparkplug   := gateway/mqtt/sparkplug.c gateway/mqtt/sparkplug_b.pb.c \
 FUZZ_LIBS_sparkplug  := $(NANOPB_LIBS)
 FUZZ_SRC_sim_request := $(SIM_LIB_SRC)
 # The console's login (its worker thread, a fake crypt), Host check, and
-# the path as logged and quoted (gateway/http/auth.c, request.c).
-FUZZ_SRC_http        := gateway/http/auth.c gateway/http/request.c gateway/http/passwd.c \
+# the path as logged and quoted (gateway/core/auth.c, request.c).
+FUZZ_SRC_http        := gateway/core/auth.c gateway/http/request.c gateway/core/passwd.c \
                         gateway/core/log.c gateway/core/json.c common/ev.c
 # All of drcli but its main() (cli/drcli.c, on top of the rest).
 FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) common/eds.c common/eds_plan.c \

@@ -27,10 +27,10 @@
 #include <string.h>
 #include <strings.h>
 
+#include "core/auth.h"
 #include "core/json.h"
 #include "core/log.h"
 #include "fuzz.h"
-#include "http/auth.h"
 #include "http/request.h"
 
 #define HASH "$6$abcdefgh$fakefakefakefake"
@@ -96,7 +96,7 @@ static void on_done(void *user, void *cookie, bool ok, uint64_t until)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    static gw_http_auth_t *auth;
+    static gw_auth_t *auth;
     static uint64_t now = 1000000000u;
     char field[3][1024];
     size_t len[3] = {0, 0, 0}, at = 0;
@@ -139,10 +139,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FUZZ_CHECK(gw_http_host_ok(NULL, port, NULL));
 
     /* the Authorization value */
-    char user[GW_HTTP_USER_MAX], pass[256];
+    char user[GW_USER_MAX], pass[256];
     if (gw_http_basic_parse(field[2], user, sizeof user, pass, sizeof pass)) {
         FUZZ_CHECK(strchr(user, ':') == NULL);
-        char both[GW_HTTP_USER_MAX + 256 + 2], again[sizeof both * 2 + 16], u2[sizeof user],
+        char both[GW_USER_MAX + 256 + 2], again[sizeof both * 2 + 16], u2[sizeof user],
             p2[sizeof pass];
         size_t bl = (size_t)snprintf(both, sizeof both, "%s:%s", user, pass);
         (void)snprintf(again, sizeof again, "%s", "Basic ");
@@ -152,37 +152,38 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if (auth == NULL) {
         gw_log_set_level(GW_LOG_ERROR); /* the refusals' info lines: not printed */
-        static gw_http_users_t users;
+        static gw_users_t users;
         memset(&users, 0, sizeof users);
         users.count = 1;
         memcpy(users.user[0].user, "admin", 6);
         memcpy(users.user[0].hash, HASH, sizeof HASH);
         char err[200];
-        auth = gw_http_auth_new(&users, fake_crypt, err, sizeof err);
+        auth = gw_auth_new(&users, fake_crypt, "http", "address", err, sizeof err);
         FUZZ_CHECK(auth != NULL);
     }
     now += 100000u; /* 0.1 s a request */
     uint64_t until;
     int cookie;
-    gw_http_auth_result_t r =
-        gw_http_auth_check(auth, len[2] > 0 ? field[2] : NULL, ip, &cookie, now, &until);
-    bool should = gw_http_basic_parse(field[2], user, sizeof user, pass, sizeof pass) &&
-                  strcmp(user, "admin") == 0 && strcmp(pass, "good") == 0;
-    if (r == GW_HTTP_AUTH_PENDING) {
-        struct pollfd p = {gw_http_auth_fd(auth), POLLIN, 0};
+    char from[GW_AUTH_FROM_MAX];
+    (void)snprintf(from, sizeof from, "10.0.0.%u", (unsigned)(ip & 255u));
+    bool basic = gw_http_basic_parse(field[2], user, sizeof user, pass, sizeof pass);
+    gw_auth_result_t r = gw_auth_check(auth, basic ? user : NULL, basic ? pass : NULL, from,
+                                       &cookie, now, &until);
+    bool should = basic && strcmp(user, "admin") == 0 && strcmp(pass, "good") == 0;
+    if (r == GW_AUTH_PENDING) {
+        struct pollfd p = {gw_auth_fd(auth), POLLIN, 0};
         cb_called = false;
         while (!cb_called) {
             (void)poll(&p, 1, 1000);
-            gw_http_auth_collect(auth, now, on_done, NULL);
+            gw_auth_collect(auth, now, on_done, NULL);
         }
         FUZZ_CHECK(cb_ok == should);
         if (cb_ok) /* and now from the cache */
-            FUZZ_CHECK(gw_http_auth_check(auth, field[2], ip, &cookie, now, &until) ==
-                       GW_HTTP_AUTH_OK);
-    } else if (r == GW_HTTP_AUTH_OK) {
+            FUZZ_CHECK(gw_auth_check(auth, user, pass, from, &cookie, now, &until) == GW_AUTH_OK);
+    } else if (r == GW_AUTH_OK) {
         FUZZ_CHECK(should);
     } else {
-        FUZZ_CHECK(r == GW_HTTP_AUTH_REFUSED);
+        FUZZ_CHECK(r == GW_AUTH_REFUSED);
         FUZZ_CHECK(until >= now);
     }
     return 0;

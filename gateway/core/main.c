@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/epoll.h>
 #include <systemd/sd-daemon.h>
 
 #include "common/ev.h"
@@ -40,6 +41,7 @@ typedef struct {
     void *side[GW_NORTH_SIDES]; /* by gw_north_sides[]; NULL: not running */
     bool sides_quiet; /* reload: old links close unheard by the new sides */
     bool stop, reload;
+    const void *aside; /* a side waiting in wait_aside: not ticked meanwhile */
     uint64_t start_us, next_tick_us, next_beat_us;
     uint64_t watchdog_us; /* systemd watchdog period (0: off) */
     bool notify;          /* under systemd (NOTIFY_SOCKET): STATUS= lines */
@@ -229,7 +231,8 @@ static void tick(gw_t *g, uint64_t now, bool busy)
     for (unsigned r = 0; r < g->cfg.robot_count; r++)
         gw_link_tick(g->links[r], now, busy);
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
-        gw_north_sides[i]->tick(g->side[i], now);
+        if (g->side[i] != g->aside || g->aside == NULL)
+            gw_north_sides[i]->tick(g->side[i], now);
     if (now < g->next_tick_us)
         return;
     g->next_tick_us = now + TICK_US;
@@ -238,7 +241,8 @@ static void tick(gw_t *g, uint64_t now, bool busy)
     if (beat)
         g->next_beat_us = now + 1000000u;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
-        gw_north_sides[i]->refresh(g->side[i]);
+        if (g->side[i] != g->aside || g->aside == NULL)
+            gw_north_sides[i]->refresh(g->side[i]);
     if (beat && g->notify)
         notify_status(g); /* once a second, and only for systemd */
     for (unsigned r = 0; r < g->cfg.robot_count; r++) {
@@ -259,6 +263,8 @@ static uint64_t next_deadline(const gw_t *g)
             d = x;
     }
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
+        if (g->side[i] == g->aside && g->aside != NULL)
+            continue;
         uint64_t x = gw_north_sides[i]->deadline(g->side[i]);
         if (x < d)
             d = x;
@@ -469,6 +475,54 @@ static void free_sides(gw_t *g)
     }
 }
 
+/* One turn of the loop: wait for a descriptor or the next deadline (no
+ * later than until_us), then what is due. False if the wait failed (the
+ * daemon stops). */
+static bool turn(gw_t *g, uint64_t until_us)
+{
+    uint64_t due = next_deadline(g);
+    int n = ev_run(&g->loop, deadline_ns(due < until_us ? due : until_us));
+    if (n < 0) {
+        gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
+        g->exit_status = 1;
+        g->stop = true;
+        return false;
+    }
+    uint64_t now = ev_now_us();
+    /* A deadline was due: how late did we wake up? (The first turn's
+     * tick is due at 0, not late.) */
+    if (now >= due && due >= g->start_us)
+        gw_lag_observe(&g->lag, now - due);
+    tick(g, now, n > 1);
+    notify_watchdog(g, now);
+    gw_link_ports_flush(g->ports);
+    return true;
+}
+
+static void aside_ready(void *obj, uint32_t events)
+{
+    (void)events;
+    *(bool *)obj = true;
+}
+
+/* env->wait_aside (north.h): the loop's turns without `self`, until fd is
+ * readable, until_us passes or the daemon is to stop. A reload waits for
+ * the outer turn; a second side waiting at once is refused. */
+static bool wait_aside(void *user, const void *self, int fd, uint64_t until_us)
+{
+    gw_t *g = user;
+    bool ready = false;
+    ev_t ev = {aside_ready, &ready, -1, 0};
+    if (g->aside != NULL || !ev_watch(g->loop.epfd, &ev, fd, EPOLLIN))
+        return false;
+    g->aside = self;
+    while (!ready && !g->stop && ev_now_us() < until_us && turn(g, until_us))
+        ;
+    g->aside = NULL;
+    ev_unwatch(g->loop.epfd, &ev);
+    return ready;
+}
+
 /* Every side from the configuration, in list order; false (logged) if
  * one cannot start: those started are freed. */
 static bool start_sides(gw_t *g)
@@ -488,7 +542,8 @@ static bool start_sides(gw_t *g)
                               .map = map,
                               .map_csv = map_csv,
                               .side_api = side_api,
-                              .robot_sides = robot_sides};
+                              .robot_sides = robot_sides,
+                              .wait_aside = wait_aside};
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
         g->side[i] = gw_north_sides[i]->create(&g->env, err, sizeof err);
         if (g->side[i] == NULL) {
@@ -558,24 +613,9 @@ static int run(gw_t *g)
     sd_notify(0, "READY=1");
     gw_log(GW_LOG_INFO, "drgatewayd %s running: %s", DRGATE_VERSION, gw_config_brief(&g->cfg));
 
-    while (!g->stop) {
-        uint64_t due = next_deadline(g);
-        int n = ev_run(&g->loop, deadline_ns(due));
-        if (n < 0) {
-            gw_log(GW_LOG_ERROR, "epoll_wait: %s", strerror(errno));
-            g->exit_status = 1;
-            break;
-        }
-        uint64_t now = ev_now_us();
-        /* A deadline was due: how late did we wake up? (The first turn's
-         * tick is due at 0, not late.) */
-        if (now >= due && due >= g->start_us)
-            gw_lag_observe(&g->lag, now - due);
-        tick(g, now, n > 1);
-        notify_watchdog(g, now);
+    while (!g->stop && turn(g, UINT64_MAX)) {
         if (g->reload)
             reload(g);
-        gw_link_ports_flush(g->ports);
     }
     shutdown_all(g);
     return close_loop(g, g->exit_status);

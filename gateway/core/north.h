@@ -95,6 +95,17 @@ typedef struct {
     /* A robot's "sides" members in the console's ROBOT: each running
      * side's robot_report, commas between, no braces. NULL: none. */
     void (*robot_sides)(void *user, unsigned robot, gw_json_t *j);
+    /* For a side whose library asks it a question synchronously that must
+     * not be answered in the loop (OPC UA: open62541 asks for a login's
+     * verdict in a callback; the password's crypt runs on core/auth.h's
+     * worker): run the daemon's loop for the robots and every other side
+     * until fd is readable (true), until_us passes or the daemon is to
+     * stop (false). `self` is neither ticked nor asked its deadline
+     * meanwhile and must unwatch its own descriptors first; its on_data,
+     * on_link, on_fault and the console's calls (report, metrics) still
+     * come, and must not call back into what is waiting. One side at a
+     * time (false at once for a second). NULL: none (tests). */
+    bool (*wait_aside)(void *user, const void *self, int fd, uint64_t until_us);
 } gw_north_env_t;
 
 typedef enum {

@@ -17,7 +17,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "http/passwd.h"
+#include "core/passwd.h"
 
 #define H(m) GW_CFG_AT(gw_http_config_t, m)
 
@@ -177,9 +177,9 @@ static void check_files(gw_cfg_ctx_t *c, gw_http_config_t *h)
                    "tls_key", h->tls_key);
     }
     if (h->auth_file[0] != '\0') {
-        static gw_http_users_t users;
+        static gw_users_t users;
         char err[400];
-        if (!gw_http_passwd_load(h->auth_file, &users, err, sizeof err))
+        if (!gw_passwd_load(h->auth_file, &users, err, sizeof err))
             gw_cfg_fail(c, h->auth_line, "[http] auth_file %s", err);
         else
             check_mode(c, h->auth_line, "auth_file", h->auth_file);

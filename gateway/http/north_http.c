@@ -51,10 +51,10 @@
 #include "drgate/codec.h"
 #include "http/api.h"
 #include "http/asset.h"
-#include "http/auth.h"
+#include "core/auth.h"
 #include "http/http.h"
 #include "http/mhd_lib.h"
-#include "http/passwd.h"
+#include "core/passwd.h"
 #include "http/report.h"
 #include "http/request.h"
 
@@ -164,13 +164,13 @@ struct ht {
     const gw_north_env_t *env;
     gw_http_config_t cfg; /* a copy: a reload compares the new one with it */
     srv_t srv[2];         /* [0] the console, [1] status_port's (or none) */
-    gw_http_users_t users;
+    gw_users_t users;
     char *cert, *key; /* PEM texts, for MHD's TLS set-up */
     sse_t *streams;
     hc_t *conns;
     unsigned generation;
     gw_log_limit_t mhd_limit, slow_limit, stream_limit;
-    gw_http_auth_t *auth; /* logins (auth.h), with auth_file */
+    gw_auth_t *auth; /* logins (auth.h), with auth_file */
     ev_t auth_ev;         /* its eventfd in the loop */
     unsigned nstreams;
     uint64_t streams_refused, streams_cut, hosts_refused;
@@ -222,8 +222,8 @@ static char *read_file(const char *path, const char *key, char *err, size_t errl
         snprintf(err, errlen, "http: %s %s: %s", key, path, strerror(errno));
         return NULL;
     }
-    buf = malloc(GW_HTTP_PASSWD_FILE_MAX + 1);
-    size_t n = buf != NULL ? fread(buf, 1, GW_HTTP_PASSWD_FILE_MAX, f) : 0;
+    buf = malloc(GW_PASSWD_FILE_MAX + 1);
+    size_t n = buf != NULL ? fread(buf, 1, GW_PASSWD_FILE_MAX, f) : 0;
     if (buf == NULL || ferror(f)) {
         snprintf(err, errlen, "http: %s %s: %s", key, path,
                  buf == NULL ? "out of memory" : strerror(errno));
@@ -966,7 +966,28 @@ static void on_auth_ready(void *obj, uint32_t events)
 {
     ht_t *t = obj;
     (void)events;
-    gw_http_auth_collect(t->auth, ev_now_us(), on_auth_done, t);
+    gw_auth_collect(t->auth, ev_now_us(), on_auth_done, t);
+}
+
+
+/* The Authorization value's login (core/auth.h): none at all is a
+ * browser's first try, refused and not counted; one that is not Basic is
+ * refused and counted. */
+static gw_auth_result_t login(ht_t *t, hc_t *h, const char *authz, uint64_t now,
+                              uint64_t *until)
+{
+    char user[GW_USER_MAX], pass[GW_AUTH_PASS_MAX], from[GW_AUTH_FROM_MAX];
+    *until = now;
+    if (authz == NULL)
+        return GW_AUTH_REFUSED;
+    snprintf(from, sizeof from, "%u.%u.%u.%u", (unsigned)(h->ip >> 24),
+             (unsigned)(h->ip >> 16 & 255u), (unsigned)(h->ip >> 8 & 255u),
+             (unsigned)(h->ip & 255u));
+    bool basic = gw_http_basic_parse(authz, user, sizeof user, pass, sizeof pass);
+    gw_auth_result_t r = gw_auth_check(t->auth, basic ? user : NULL, basic ? pass : NULL, from,
+                                       h, now, until);
+    memset(pass, 0, sizeof pass);
+    return r;
 }
 
 /* Basic authentication, for clients not on loopback when auth_file is
@@ -1005,15 +1026,15 @@ static bool authorized(ht_t *t, hc_t *h, struct MHD_Connection *c, enum MHD_Resu
     }
     const char *authz = ml->lookup_connection_value(c, MHD_HEADER_KIND, "Authorization");
     uint64_t until, now = ev_now_us();
-    switch (gw_http_auth_check(t->auth, authz, h->ip, h, now, &until)) {
-    case GW_HTTP_AUTH_OK:
+    switch (login(t, h, authz, now, &until)) {
+    case GW_AUTH_OK:
         h->auth = AUTH_OK;
         return true;
-    case GW_HTTP_AUTH_PENDING:
+    case GW_AUTH_PENDING:
         h->auth = AUTH_PENDING;
         hc_suspend(h);
         return false;
-    case GW_HTTP_AUTH_BUSY: {
+    case GW_AUTH_BUSY: {
         static const char busy[] = "{\"error\":\"logins are being checked: try again\"}\n";
         h->auth = AUTH_NONE;
         struct MHD_Response *r = ml->create_response_from_buffer(
@@ -1027,7 +1048,7 @@ static bool authorized(ht_t *t, hc_t *h, struct MHD_Connection *c, enum MHD_Resu
         }
         return false;
     }
-    case GW_HTTP_AUTH_REFUSED:
+    case GW_AUTH_REFUSED:
         break;
     }
     h->auth = AUTH_REFUSED;
@@ -1173,7 +1194,7 @@ static void on_conn(void *cls, struct MHD_Connection *c, void **ctx,
         if (h == NULL)
             return;
         if (t->auth != NULL)
-            gw_http_auth_cancel(t->auth, h);
+            gw_auth_cancel(t->auth, h);
         if (cur_hc == h)
             cur_hc = NULL;
         for (hc_t **p = &t->conns; *p != NULL; p = &(*p)->next)
@@ -1371,7 +1392,7 @@ static void ht_free(ht_t *t)
         ev_unwatch(t->env->epfd, &t->auth_ev);
     for (unsigned i = 0; i < 2; i++)
         srv_stop(&t->srv[i], t->env->epfd);
-    gw_http_auth_free(t->auth);
+    gw_auth_free(t->auth);
     gw_log_limit_end(&t->stream_limit);
     free(t->cert);
     free(t->key);
@@ -1424,7 +1445,7 @@ static ht_t *ht_new(const gw_http_config_t *h, const gw_north_env_t *env, const 
         return NULL;
     }
     bool tls = h->tls_cert[0] != '\0';
-    if (h->auth_file[0] != '\0' && !gw_http_passwd_load(h->auth_file, &t->users, err, errlen)) {
+    if (h->auth_file[0] != '\0' && !gw_passwd_load(h->auth_file, &t->users, err, errlen)) {
         char why[400];
         snprintf(why, sizeof why, "%s", err);
         snprintf(err, errlen, "http: auth_file %s", why);
@@ -1432,7 +1453,7 @@ static ht_t *ht_new(const gw_http_config_t *h, const gw_north_env_t *env, const 
         return NULL;
     }
     if (t->users.count > 0 &&
-        (t->auth = gw_http_auth_new(&t->users, ml->crypt_r, err, errlen)) == NULL) {
+        (t->auth = gw_auth_new(&t->users, ml->crypt_r, "http", "address", err, errlen)) == NULL) {
         ht_free(t);
         return NULL;
     }
@@ -1460,7 +1481,7 @@ static ht_t *ht_new(const gw_http_config_t *h, const gw_north_env_t *env, const 
 static bool ht_watch(ht_t *t)
 {
     if (t->auth != NULL &&
-        !ev_watch(t->env->epfd, &t->auth_ev, gw_http_auth_fd(t->auth), EPOLLIN))
+        !ev_watch(t->env->epfd, &t->auth_ev, gw_auth_fd(t->auth), EPOLLIN))
         return false;
     return srv_watch(&t->srv[0], t->env->epfd) && srv_watch(&t->srv[1], t->env->epfd);
 }
@@ -1667,9 +1688,9 @@ static void ht_metrics(const void *self, gw_prom_t *m)
     gw_prom_one(m, "drgate_http_host_refused_total", GW_PROM_COUNTER,
                 "requests without a login refused for their Host header (421)",
                 (double)t->hosts_refused);
-    gw_http_auth_stats_t a = {0, 0, 0, 0};
+    gw_auth_stats_t a = {0, 0, 0, 0};
     if (t->auth != NULL)
-        a = gw_http_auth_stats(t->auth);
+        a = gw_auth_stats(t->auth);
     gw_prom_one(m, "drgate_http_logins_total", GW_PROM_COUNTER, "logins accepted (checked once)",
                 (double)a.ok);
     gw_prom_one(m, "drgate_http_logins_failed_total", GW_PROM_COUNTER,

@@ -8,10 +8,15 @@
 #include "core/config_internal.h"
 
 #include <arpa/inet.h>
+#include <dirent.h>
+#include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
-#include "http/passwd.h"
+#include "core/passwd.h"
+#include "opcua/ua_pem.h"
 
 #define U(m) GW_CFG_AT(gw_opcua_config_t, m)
 
@@ -32,6 +37,7 @@ static const gw_cfg_key_t opcua_keys[] = {
     { .name = "auth_file", .type = GW_CFG_TEXT, U(auth_file), .valid = gw_cfg_no_blank, .allowed = "a file of user:HASH lines", .doc_default = "(none: anonymous sessions)", .help = "user names and passwords: the console's format (`user:HASH` lines, HASH from `openssl passwd -6`); set, anonymous sessions are refused. Read at start and reload" },
     { .name = "cert_file", .type = GW_CFG_TEXT, U(cert_file), .valid = gw_cfg_no_blank, .allowed = "an X.509 certificate file (DER or PEM)", .help = "the server's application instance certificate, with `key_file`" },
     { .name = "key_file", .type = GW_CFG_TEXT, U(key_file), .valid = gw_cfg_no_blank, .allowed = "a private key file (DER or PEM)", .help = "the certificate's RSA private key" },
+    { .name = "trust_dir", .type = GW_CFG_TEXT, U(trust_dir), .valid = gw_cfg_no_blank, .allowed = "a directory of certificates", .doc_default = "(none: any client certificate)", .help = "the client application certificates to trust, one per file (`.der`, `.pem` or `.crt`; a CA's certificate trusts those it signed, with its revocation list as a `.crl` file); set, a secure channel with any other certificate is refused. Needs a secure `security_policies`. Read at start and at every reload (a change of its files restarts the server)" },
     { .name = "max_sessions", .type = GW_CFG_UINT, U(max_sessions), .lo = 1, .hi = 100, .def = 10, .help = "sessions at once; one more is refused" },
     { .name = "max_subscriptions", .type = GW_CFG_UINT, U(max_subscriptions), .lo = 1, .hi = 100, .def = 10, .help = "subscriptions per session" },
     { .name = "writes", .type = GW_CFG_BOOL, U(writes), .def = 0, .help = "the O->T nodes are writable (through the one write path: single-writer mode, the write fault, GPIO inputs' bits apply); no: every write is refused with BadUserAccessDenied" },
@@ -167,6 +173,86 @@ static bool check_exposure(gw_cfg_ctx_t *c, const gw_opcua_config_t *u)
     return false;
 }
 
+gw_opcua_trust_kind_t gw_opcua_trust_kind(const char *name)
+{
+    const char *dot = strrchr(name, '.');
+    if (name[0] == '.')
+        return GW_OPCUA_TRUST_SKIP;
+    if (dot != NULL && (strcasecmp(dot, ".der") == 0 || strcasecmp(dot, ".pem") == 0 ||
+                        strcasecmp(dot, ".crt") == 0))
+        return GW_OPCUA_TRUST_CERT;
+    if (dot != NULL && strcasecmp(dot, ".crl") == 0)
+        return GW_OPCUA_TRUST_CRL;
+    return GW_OPCUA_TRUST_UNKNOWN;
+}
+
+/* One file of trust_dir: readable, DER or PEM. */
+static bool check_trust_file(gw_cfg_ctx_t *c, const char *dir, const char *name)
+{
+    static char text[UA_PEM_FILE_MAX];
+    static uint8_t der[UA_PEM_FILE_MAX];
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "rb");
+    if (f == NULL) {
+        gw_cfg_fail(c, key_line(c, "trust_dir"), "[opcua] trust_dir %s: %s", path,
+                    strerror(errno));
+        return false;
+    }
+    size_t n = fread(text, 1, sizeof text, f);
+    bool big = n == sizeof text;
+    (void)fclose(f);
+    if (big || ua_pem_to_der(text, n, der, sizeof der) == 0) {
+        gw_cfg_fail(c, key_line(c, "trust_dir"),
+                    "[opcua] trust_dir %s: not a certificate or revocation list in DER or PEM%s",
+                    path, big ? " (over 64 KiB)" : "");
+        return false;
+    }
+    return true;
+}
+
+/* trust_dir: a directory of certificates (at least one) and revocation
+ * lists, nothing else, with a secure policy to use them. */
+static bool check_trust_dir(gw_cfg_ctx_t *c, const gw_opcua_config_t *u)
+{
+    unsigned line = key_line(c, "trust_dir"), certs = 0, files = 0;
+    if (!(u->policies & GW_OPCUA_POLICY_SECURE)) {
+        gw_cfg_fail(c, line, "[opcua] trust_dir needs a secure security_policies (client "
+                    "certificates come only with Basic256Sha256, ...)");
+        return false;
+    }
+    DIR *d = opendir(u->trust_dir);
+    if (d == NULL) {
+        gw_cfg_fail(c, line, "[opcua] trust_dir %s: %s", u->trust_dir, strerror(errno));
+        return false;
+    }
+    bool ok = true;
+    for (struct dirent *e; ok && (e = readdir(d)) != NULL;) {
+        gw_opcua_trust_kind_t k = gw_opcua_trust_kind(e->d_name);
+        if (k == GW_OPCUA_TRUST_SKIP)
+            continue;
+        if (k == GW_OPCUA_TRUST_UNKNOWN) {
+            gw_cfg_fail(c, line, "[opcua] trust_dir %s/%s: not a certificate (.der, .pem, "
+                        ".crt) or revocation list (.crl)", u->trust_dir, e->d_name);
+            ok = false;
+        } else if (++files > GW_OPCUA_TRUST_MAX) {
+            gw_cfg_fail(c, line, "[opcua] trust_dir %s: over %u files", u->trust_dir,
+                        GW_OPCUA_TRUST_MAX);
+            ok = false;
+        } else {
+            certs += k == GW_OPCUA_TRUST_CERT;
+            ok = check_trust_file(c, u->trust_dir, e->d_name);
+        }
+    }
+    (void)closedir(d);
+    if (ok && certs == 0) {
+        gw_cfg_fail(c, line, "[opcua] trust_dir %s holds no certificate: no client could "
+                    "connect", u->trust_dir);
+        ok = false;
+    }
+    return ok;
+}
+
 /* Is the side in this build (make: pkg-config found open62541)? */
 static bool built_with_opcua(void)
 {
@@ -206,13 +292,15 @@ static void opcua_check(gw_cfg_ctx_t *c)
     if (!check_exposure(c, u))
         return;
     if (u->auth_file[0] != '\0') {
-        static gw_http_users_t users;
+        static gw_users_t users;
         char err[400];
-        if (!gw_http_passwd_load(u->auth_file, &users, err, sizeof err)) {
+        if (!gw_passwd_load(u->auth_file, &users, err, sizeof err)) {
             gw_cfg_fail(c, key_line(c, "auth_file"), "[opcua] auth_file %s", err);
             return;
         }
     }
+    if (u->trust_dir[0] != '\0' && !check_trust_dir(c, u))
+        return;
     if (c->cfg.side.modbus.port == u->port)
         gw_cfg_fail(c, key_line(c, "port"), "[opcua] port %u is the Modbus port (allowed: "
                     "another port)", (unsigned)u->port);

@@ -28,6 +28,7 @@ typedef struct {
     char auth_file[256];        /* user:crypt(3) hash lines ([http]'s format) */
     char cert_file[256];        /* the server's certificate (DER or PEM) */
     char key_file[256];         /* its private key */
+    char trust_dir[256];        /* trusted client certificates ("": any) */
     unsigned max_sessions;      /* default 10 */
     unsigned max_subscriptions; /* per session, default 10 */
     bool insecure;              /* off loopback without security, knowingly */
@@ -45,5 +46,14 @@ typedef struct {
 
 /* "None, Basic256Sha256" of policies into buf. */
 const char *gw_opcua_policies_text(unsigned policies, char *buf, size_t size);
+
+/* trust_dir's files: what each is by its name. */
+typedef enum { GW_OPCUA_TRUST_SKIP, GW_OPCUA_TRUST_CERT, GW_OPCUA_TRUST_CRL,
+               GW_OPCUA_TRUST_UNKNOWN } gw_opcua_trust_kind_t;
+#define GW_OPCUA_TRUST_MAX 64 /* files in trust_dir */
+
+/* A file of trust_dir by its name: "." files skipped; .der, .pem, .crt a
+ * certificate; .crl a revocation list; anything else unknown (refused). */
+gw_opcua_trust_kind_t gw_opcua_trust_kind(const char *name);
 
 #endif /* DRGATE_GW_OPCUA_CONFIG_H */

@@ -36,20 +36,24 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <poll.h>
 #include <sys/epoll.h>
-#include <sys/random.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <open62541/plugin/accesscontrol_default.h>
 #include <open62541/plugin/log.h>
+#include <open62541/plugin/pki_default.h>
 #include <open62541/server.h>
 #include <open62541/server_config_default.h>
 
 #include "common/ev.h"
+#include "core/auth.h"
 #include "core/log.h"
+#include "core/passwd.h"
 #include "core/write.h"
-#include "http/auth.h"
-#include "http/passwd.h"
+#include "core/auth.h"
+#include "core/passwd.h"
 #include "opcua/ua_model.h"
 #include "opcua/ua_pem.h"
 #include "opcua/ua_robotics.h"
@@ -58,8 +62,8 @@
 #define UA_POLICY_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
 #define UA_POLL_MS 10u          /* without the event loop's descriptor */
 #define UA_FD_SCAN 4096         /* descriptors looked at for it */
-#define UA_LOGIN_CACHE_S 300u   /* a checked password, this long */
-#define UA_LOGIN_FAILS_PER_S 4u /* crypt checks of refused logins per second */
+#define UA_LOG_KINDS 16u        /* open62541's log categories (UA_LogCategory) */
+#define UA_LOGIN_WAIT_US 10000000u /* a login's check, at most (core/auth.h's worker) */
 
 typedef struct ua ua_t;
 
@@ -92,107 +96,139 @@ struct ua {
     ua_node_t *nodes;       /* robot_count * dr_leaf_count() */
     ua_node_t *view;        /* the Robotics view's: robot_count * UA_VIEW_NODES */
     size_t view_used;
-    gw_http_users_t users;  /* auth_file */
-    gw_http_users_t next_users; /* auth_file read again by a reload's prepare */
-    bool next_set;
+    gw_users_t users;  /* auth_file */
+    gw_auth_t *auth;   /* its logins, checked off the loop */
+    gw_users_t next_users; /* auth_file read again by a reload's prepare, */
+    gw_auth_t *next_auth;  /* and their checker */
+    uint64_t trust;        /* trust_digest of trust_dir when the server was built */
+    bool in_login;     /* waiting for a login's check (wait_aside) */
     /* Per robot: the T->O assemblies received since the side started, and
      * when each last came (UA_DateTime), the O->T ones when last written. */
     unsigned seen[GW_MAX_ROBOTS];
     UA_DateTime at[GW_MAX_ROBOTS][DR_ASM_COUNT];
-    /* Logins: the last good (user, password digest) per user, so that a
-     * client reconnecting costs no crypt; refused crypt checks this second. */
-    struct {
-        char user[GW_HTTP_USER_MAX];
-        uint8_t digest[32]; /* HMAC-SHA-256 of the password under key */
-        uint64_t until_us;
-    } login_ok[GW_HTTP_USERS_MAX];
-    uint8_t key[32];
-    uint64_t fail_second;
-    unsigned fail_count;
-    gw_log_limit_t write_log[GW_MAX_ROBOTS], refused_log, login_log;
+    gw_log_limit_t write_log[GW_MAX_ROBOTS], refused_log;
+    gw_log_limit_t ua_log_limit[UA_LOG_KINDS]; /* open62541's, by category */
     /* the console's: counters since the side started */
     unsigned long long reads, writes, refused, logins, logins_refused;
 };
 
 /* ---- logging ------------------------------------------------------------------ */
 
+/* open62541's lines, tabs as spaces. Its warnings and notes about
+ * connections, channels and sessions come once per client's try (a
+ * refused login, an unknown certificate), so each of those categories
+ * is held to one line per 10 s, the rest counted (core/log.h): a client
+ * cannot flood the log. The server's own lines are not held back. */
 static void ua_log(void *ctx, UA_LogLevel level, UA_LogCategory cat, const char *msg, va_list ap)
 {
+    ua_t *t = ctx;
     char line[512];
-    (void)ctx;
-    (void)cat;
     if (level < UA_LOGLEVEL_INFO)
         return;
     vsnprintf(line, sizeof line, msg, ap);
     for (char *p = line; *p != '\0'; p++)
         if (*p == '\t') /* open62541 separates its fields with tabs */
             *p = ' ';
-    gw_log(level >= UA_LOGLEVEL_ERROR     ? GW_LOG_ERROR
-           : level >= UA_LOGLEVEL_WARNING ? GW_LOG_WARNING
-                                          : GW_LOG_DEBUG,
-           "opcua: %s", line);
+    gw_log_level_t lv = level >= UA_LOGLEVEL_ERROR     ? GW_LOG_ERROR
+                        : level >= UA_LOGLEVEL_WARNING ? GW_LOG_WARNING
+                                                       : GW_LOG_DEBUG;
+    bool per_client = cat == UA_LOGCATEGORY_NETWORK || cat == UA_LOGCATEGORY_SECURECHANNEL ||
+                      cat == UA_LOGCATEGORY_SESSION || cat == UA_LOGCATEGORY_SECURITYPOLICY ||
+                      cat == UA_LOGCATEGORY_USERLAND || cat == UA_LOGCATEGORY_CLIENT;
+    if (t != NULL && per_client && (unsigned)cat < UA_LOG_KINDS)
+        gw_log_limited(lv, &t->ua_log_limit[cat], "opcua: %s", line);
+    else
+        gw_log(lv, "opcua: %s", line);
 }
 
 /* ---- logins ------------------------------------------------------------------- */
 
-/* user:password against auth_file's hash (the console's format). A good
- * one is remembered (its crypt output, which is what the file holds) for
- * UA_LOGIN_CACHE_S, so that reconnecting clients cost no crypt; refused
- * ones cost at most UA_LOGIN_FAILS_PER_S crypt runs a second in the loop,
- * beyond which they are refused unchecked (docs/opcua.md "Security"). */
+typedef struct {
+    bool done, ok;
+} ua_verdict_t;
+
+static void login_done(void *user, void *cookie, bool ok, uint64_t until)
+{
+    ua_verdict_t *v = cookie;
+    (void)user;
+    (void)until;
+    v->done = true;
+    v->ok = ok;
+}
+
+/* A check on core/auth.h's worker, waited for with the loop going on for
+ * the robots and the other sides (env->wait_aside): open62541 wants the
+ * verdict before this callback returns, and crypt must not run in the
+ * loop. The server's own descriptor is out of the loop meanwhile, so
+ * that its other clients wait (only they: docs/opcua.md "Security"). */
+static bool login_wait(ua_t *t, ua_verdict_t *v)
+{
+    int fd = gw_auth_fd(t->auth);
+    uint64_t until = ev_now_us() + UA_LOGIN_WAIT_US;
+    bool watched = t->ev.fd >= 0;
+    int ev_fd = t->ev.fd;
+    if (watched)
+        ev_unwatch(t->env->epfd, &t->ev);
+    t->in_login = true;
+    while (!v->done && ev_now_us() < until) {
+        bool ready;
+        if (t->env->wait_aside != NULL) {
+            ready = t->env->wait_aside(t->env->user, t, fd, until);
+        } else { /* a daemon without one (tests): the check's own wait */
+            struct pollfd p = {fd, POLLIN, 0};
+            ready = poll(&p, 1, (int)((until - ev_now_us()) / 1000u) + 1) > 0;
+        }
+        if (!ready)
+            break;
+        gw_auth_collect(t->auth, ev_now_us(), login_done, t);
+    }
+    t->in_login = false;
+    if (watched && !ev_watch(t->env->epfd, &t->ev, ev_fd, EPOLLIN)) {
+        t->polled = true; /* iterated every UA_POLL_MS from now on */
+        gw_log(GW_LOG_WARNING, "opcua: cannot watch the server's descriptor again: polling it");
+    }
+    if (!v->done)
+        gw_auth_cancel(t->auth, v);
+    return v->done && v->ok;
+}
+
+/* user:password against auth_file's hash (the console's format), the
+ * console's way (core/auth.h): cached after a check, refusals counted per
+ * user name (open62541 does not tell the client's address here), unknown
+ * names together. */
 static UA_StatusCode ua_login(const UA_String *user, const UA_ByteString *pass, size_t n,
                               const UA_UsernamePasswordLogin *list, void **sctx, void *lctx)
 {
     ua_t *t = lctx;
-    char name[GW_HTTP_USER_MAX], word[256];
+    char name[GW_USER_MAX], word[GW_AUTH_PASS_MAX], from[GW_AUTH_FROM_MAX];
     (void)n;
     (void)list;
     (void)sctx;
-    if (user->length == 0 || user->length >= sizeof name || pass->length >= sizeof word)
-        return UA_STATUSCODE_BADUSERACCESSDENIED;
-    memcpy(name, user->data, user->length);
-    name[user->length] = '\0';
-    memcpy(word, pass->data, pass->length);
-    word[pass->length] = '\0';
-    const gw_http_user_t *u = gw_http_passwd_find(&t->users, name);
-    uint64_t now = ev_now_us();
-    unsigned slot = u != NULL ? (unsigned)(u - t->users.user) : 0;
-    bool ok = false;
-    uint8_t digest[32];
-    gw_http_hmac_sha256(t->key, sizeof t->key, word, pass->length, digest);
-    if (u != NULL && t->login_ok[slot].until_us > now &&
-        strcmp(t->login_ok[slot].user, name) == 0)
-        ok = memcmp(t->login_ok[slot].digest, digest, sizeof digest) == 0;
-    if (!ok) {
-        if (now / 1000000u != t->fail_second) {
-            t->fail_second = now / 1000000u;
-            t->fail_count = 0;
-        }
-        if (t->fail_count >= UA_LOGIN_FAILS_PER_S) {
-            t->logins_refused++;
-            gw_log_limited(GW_LOG_WARNING, &t->login_log,
-                           "opcua: login of '%s' refused unchecked: too many refused logins",
-                           name);
-            return UA_STATUSCODE_BADUSERACCESSDENIED;
-        }
-        static struct crypt_data cd; /* 32 kB: not on the stack */
-        memset(&cd, 0, sizeof cd);
-        const char *hash = u != NULL ? u->hash : t->users.user[0].hash;
-        const char *out = crypt_r(word, hash, &cd);
-        ok = u != NULL && out != NULL && strcmp(out, u->hash) == 0;
-        if (ok) {
-            snprintf(t->login_ok[slot].user, sizeof t->login_ok[slot].user, "%s", name);
-            memcpy(t->login_ok[slot].digest, digest, sizeof digest);
-            t->login_ok[slot].until_us = now + UA_LOGIN_CACHE_S * 1000000ull;
-        } else {
-            t->fail_count++;
-        }
+    bool readable = user->length > 0 && user->length < sizeof name && pass->length < sizeof word &&
+                    memchr(user->data, '\0', user->length) == NULL &&
+                    memchr(pass->data, '\0', pass->length) == NULL;
+    if (readable) {
+        memcpy(name, user->data, user->length);
+        name[user->length] = '\0';
+        memcpy(word, pass->data, pass->length);
+        word[pass->length] = '\0';
     }
+    if (t->auth == NULL || t->in_login) { /* no auth_file; or a login in a login */
+        t->logins_refused++;
+        return UA_STATUSCODE_BADUSERACCESSDENIED;
+    }
+    snprintf(from, sizeof from, "%s",
+             readable && gw_passwd_find(&t->users, name) != NULL ? name : "(unknown user)");
+    ua_verdict_t v = {false, false};
+    uint64_t until;
+    gw_auth_result_t r = gw_auth_check(t->auth, readable ? name : NULL, readable ? word : NULL,
+                                       from, &v, ev_now_us(), &until);
     memset(word, 0, sizeof word);
+    bool ok = r == GW_AUTH_OK || (r == GW_AUTH_PENDING && login_wait(t, &v));
     if (!ok) {
         t->logins_refused++;
-        gw_log_limited(GW_LOG_WARNING, &t->login_log, "opcua: login of '%s' refused", name);
-        return UA_STATUSCODE_BADUSERACCESSDENIED;
+        return r == GW_AUTH_BUSY ? UA_STATUSCODE_BADTOOMANYOPERATIONS
+                                 : UA_STATUSCODE_BADUSERACCESSDENIED;
     }
     t->logins++;
     return UA_STATUSCODE_GOOD;
@@ -469,6 +505,78 @@ static void drop_x509_tokens(UA_AccessControl *ac)
     ac->userTokenPoliciesSize = kept;
 }
 
+/* trust_dir's certificates and revocation lists as the server's trust
+ * list, for secure channels and sessions alike. */
+static bool set_trust(const ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
+{
+    UA_ByteString cert[GW_OPCUA_TRUST_MAX], crl[GW_OPCUA_TRUST_MAX];
+    size_t ncert = 0, ncrl = 0;
+    bool ok = true;
+    DIR *d = opendir(t->cfg.trust_dir);
+    if (d == NULL) {
+        snprintf(err, errlen, "trust_dir %s: %s", t->cfg.trust_dir, strerror(errno));
+        return false;
+    }
+    for (struct dirent *e; ok && (e = readdir(d)) != NULL;) {
+        gw_opcua_trust_kind_t k = gw_opcua_trust_kind(e->d_name);
+        char path[512];
+        if (k == GW_OPCUA_TRUST_SKIP || k == GW_OPCUA_TRUST_UNKNOWN)
+            continue; /* unknown ones: refused by the configuration's check */
+        if (ncert + ncrl == GW_OPCUA_TRUST_MAX)
+            break;
+        snprintf(path, sizeof path, "%s/%s", t->cfg.trust_dir, e->d_name);
+        UA_ByteString *to = k == GW_OPCUA_TRUST_CERT ? &cert[ncert++] : &crl[ncrl++];
+        ok = ua_pem_load(path, to, err, errlen);
+        if (!ok)
+            *to = UA_BYTESTRING_NULL;
+    }
+    (void)closedir(d);
+    UA_StatusCode st = UA_STATUSCODE_GOOD;
+    if (ok) {
+        c->secureChannelPKI.clear(&c->secureChannelPKI);
+        st = UA_CertificateVerification_Trustlist(&c->secureChannelPKI, cert, ncert, NULL, 0,
+                                                  crl, ncrl);
+        c->sessionPKI.clear(&c->sessionPKI);
+        if (st == UA_STATUSCODE_GOOD)
+            st = UA_CertificateVerification_Trustlist(&c->sessionPKI, cert, ncert, NULL, 0, crl,
+                                                      ncrl);
+        if (st != UA_STATUSCODE_GOOD)
+            snprintf(err, errlen, "trust_dir %s: %s (a certificate or revocation list that "
+                     "does not parse?)", t->cfg.trust_dir, UA_StatusCode_name(st));
+    }
+    for (size_t i = 0; i < ncert; i++)
+        UA_ByteString_clear(&cert[i]);
+    for (size_t i = 0; i < ncrl; i++)
+        UA_ByteString_clear(&crl[i]);
+    return ok && st == UA_STATUSCODE_GOOD;
+}
+
+/* What trust_dir holds, as a digest of its files' names, sizes and times
+ * (0: no trust_dir): a reload that finds another builds a new server. */
+static uint64_t trust_digest(const char *dir)
+{
+    uint64_t h = 1469598103934665603ull; /* FNV-1a */
+    DIR *d = dir[0] != '\0' ? opendir(dir) : NULL;
+    if (d == NULL)
+        return 0;
+    for (struct dirent *e; (e = readdir(d)) != NULL;) {
+        char path[512];
+        struct stat st;
+        if (gw_opcua_trust_kind(e->d_name) == GW_OPCUA_TRUST_SKIP)
+            continue;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        uint64_t part = 1469598103934665603ull;
+        for (const char *p = e->d_name; *p != '\0'; p++)
+            part = (part ^ (uint8_t)*p) * 1099511628211ull;
+        if (stat(path, &st) == 0)
+            part ^= (uint64_t)st.st_size * 31u ^ (uint64_t)st.st_mtim.tv_sec * 1000003u ^
+                    (uint64_t)st.st_mtim.tv_nsec;
+        h ^= part * 1099511628211ull; /* the order readdir gives does not count */
+    }
+    (void)closedir(d);
+    return h;
+}
+
 /* The security policies and their endpoints, the users. */
 static bool set_security(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
 {
@@ -506,6 +614,9 @@ static bool set_security(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
                                                        ua_login, t);
     if (st == UA_STATUSCODE_GOOD)
         drop_x509_tokens(&c->accessControl);
+    if (st == UA_STATUSCODE_GOOD && t->cfg.trust_dir[0] != '\0' &&
+        !set_trust(t, c, err, errlen))
+        return false;
     if (st == UA_STATUSCODE_GOOD && (p & GW_OPCUA_POLICY_SECURE))
         st = UA_ServerConfig_addAllSecureEndpoints(c);
     if (st == UA_STATUSCODE_GOOD && (p & GW_OPCUA_POLICY_NONE))
@@ -627,6 +738,7 @@ static bool ua_start(ua_t *t, char *err, size_t errlen)
     uint8_t before[UA_FD_SCAN / 8];
     UA_ServerConfig c;
     fd_snapshot(before);
+    t->trust = trust_digest(t->cfg.trust_dir);
     if (!set_config(t, &c, err, errlen)) {
         UA_ServerConfig_clean(&c);
         return false;
@@ -687,7 +799,13 @@ static void ua_free(ua_t *t)
     }
     free(t->nodes);
     free(t->view);
-    memset(t->login_ok, 0, sizeof t->login_ok);
+    gw_auth_free(t->auth);
+    gw_auth_free(t->next_auth);
+    for (unsigned i = 0; i < UA_LOG_KINDS; i++)
+        gw_log_limit_end(&t->ua_log_limit[i]);
+    for (unsigned r = 0; r < GW_MAX_ROBOTS; r++)
+        gw_log_limit_end(&t->write_log[r]);
+    gw_log_limit_end(&t->refused_log);
     free(t);
 }
 
@@ -721,25 +839,28 @@ static ua_t *ua_new(const gw_config_t *cfg, const gw_north_env_t *env, char *err
     t->cfg = cfg->side.opcua;
     t->ev.fd = -1;
     t->logger.log = ua_log;
-    if (getrandom(t->key, sizeof t->key, 0) != (ssize_t)sizeof t->key) {
-        snprintf(err, errlen, "opcua: no random key: %s", strerror(errno));
-        free(t);
-        return NULL;
-    }
+    t->logger.context = t;
     t->robot_count = cfg->robot_count;
     for (unsigned r = 0; r < cfg->robot_count; r++)
         snprintf(t->robot_name[r], sizeof t->robot_name[r], "%s", cfg->robot[r].name);
     return t;
 }
 
-static bool load_users(ua_t *t, char *err, size_t errlen)
+/* auth_file's users and their logins' checker (its worker thread) into
+ * *users and *auth; nothing without auth_file. */
+static bool load_users(const ua_t *t, gw_users_t *users, gw_auth_t **auth, char *err,
+                       size_t errlen)
 {
     char why[400];
-    if (t->cfg.auth_file[0] == '\0' || gw_http_passwd_load(t->cfg.auth_file, &t->users, why,
-                                                             sizeof why))
+    *auth = NULL;
+    if (t->cfg.auth_file[0] == '\0')
         return true;
-    snprintf(err, errlen, "opcua: auth_file %s", why);
-    return false;
+    if (!gw_passwd_load(t->cfg.auth_file, users, why, sizeof why)) {
+        snprintf(err, errlen, "opcua: auth_file %s", why);
+        return false;
+    }
+    *auth = gw_auth_new(users, crypt_r, "opcua", "user", err, errlen);
+    return *auth != NULL;
 }
 
 /* ---- the side's operations ------------------------------------------------------------ */
@@ -750,7 +871,7 @@ static void *op_create(const gw_north_env_t *env, char *err, size_t errlen)
     ua_t *t = ua_new(env->cfg, env, err, errlen);
     if (t == NULL || !t->cfg.enabled)
         return t;
-    if (!load_users(t, err, errlen)) {
+    if (!load_users(t, &t->users, &t->auth, err, errlen)) {
         ua_free(t);
         return NULL;
     }
@@ -772,6 +893,7 @@ static bool same_section(const gw_opcua_config_t *a, const gw_opcua_config_t *b)
            strcmp(a->application_name, b->application_name) == 0 &&
            a->policies == b->policies && strcmp(a->auth_file, b->auth_file) == 0 &&
            strcmp(a->cert_file, b->cert_file) == 0 && strcmp(a->key_file, b->key_file) == 0 &&
+           strcmp(a->trust_dir, b->trust_dir) == 0 &&
            a->max_sessions == b->max_sessions && a->max_subscriptions == b->max_subscriptions &&
            a->writes == b->writes && a->insecure == b->insecure;
 }
@@ -794,22 +916,19 @@ static gw_north_reload_t op_prepare(void *self, const gw_config_t *next, const g
                                     void **out, char *err, size_t errlen)
 {
     ua_t *t = self;
-    if (same_section(&next->side.opcua, &t->cfg) && same_robots(t, next)) {
-        char why[400];
+    if (same_section(&next->side.opcua, &t->cfg) && same_robots(t, next) &&
+        trust_digest(t->cfg.trust_dir) == t->trust) {
         /* the same server; auth_file read again (its users may change) */
-        if (t->cfg.auth_file[0] != '\0' &&
-            !gw_http_passwd_load(t->cfg.auth_file, &t->next_users, why, sizeof why)) {
-            snprintf(err, errlen, "opcua: auth_file %s", why);
+        gw_auth_free(t->next_auth);
+        if (!load_users(t, &t->next_users, &t->next_auth, err, errlen))
             return GW_NORTH_REFUSED;
-        }
-        t->next_set = t->cfg.auth_file[0] != '\0';
         *out = t;
         return GW_NORTH_OK;
     }
     ua_t *n = ua_new(next, env, err, errlen);
     if (n == NULL)
         return GW_NORTH_REFUSED;
-    if (n->cfg.enabled && !load_users(n, err, errlen)) {
+    if (n->cfg.enabled && !load_users(n, &n->users, &n->auth, err, errlen)) {
         ua_free(n);
         return GW_NORTH_REFUSED;
     }
@@ -819,9 +938,11 @@ static gw_north_reload_t op_prepare(void *self, const gw_config_t *next, const g
 
 static void op_abort(void *self, void *out)
 {
+    ua_t *t = self;
     if (out != self)
         ua_free(out);
-    ((ua_t *)self)->next_set = false;
+    gw_auth_free(t->next_auth);
+    t->next_auth = NULL;
 }
 
 static void *op_commit(void *self, void *out, const gw_north_env_t *env)
@@ -829,10 +950,11 @@ static void *op_commit(void *self, void *out, const gw_north_env_t *env)
     ua_t *t = self, *n = out;
     char why[400];
     if (n == t) {
-        if (t->next_set) { /* the users as the file says now; logins checked again */
+        if (t->next_auth != NULL) { /* the users as the file says now; logins checked again */
             t->users = t->next_users;
-            memset(t->login_ok, 0, sizeof t->login_ok);
-            t->next_set = false;
+            gw_auth_free(t->auth);
+            t->auth = t->next_auth;
+            t->next_auth = NULL;
         }
         return t;
     }

@@ -310,6 +310,27 @@ def test_check_config_exposure():
     assert "%s:5: [opcua] security_policies Basic256Sha256 needs cert_file" % conf in out
 
 
+def test_check_config_trust_dir(tmp_path):
+    """trust_dir: refused with FILE:LINE without a secure policy, when it
+    is missing, holds a file of another kind, or holds no certificate."""
+    secure = "cert_file = /x.der\nkey_file = /x.key\nsecurity_policies = Basic256Sha256\n"
+    rc, out, conf = check_config("ua_trust_none", "trust_dir = %s\n" % tmp_path)
+    assert rc == EXIT_CONFIG
+    assert "%s:5: [opcua] trust_dir needs a secure security_policies" % conf in out
+    rc, out, conf = check_config("ua_trust_missing", secure + "trust_dir = %s/no\n" % tmp_path)
+    assert rc == EXIT_CONFIG
+    assert "%s:8: [opcua] trust_dir %s/no: No such file or directory" % (conf, tmp_path) in out
+    (tmp_path / "README").write_text("the plant's clients\n")
+    rc, out, conf = check_config("ua_trust_other", secure + "trust_dir = %s\n" % tmp_path)
+    assert rc == EXIT_CONFIG
+    assert "%s:8: [opcua] trust_dir %s/README: not a certificate" % (conf, tmp_path) in out
+    (tmp_path / "README").unlink()
+    (tmp_path / "ca.crl").write_text("-----BEGIN X509 CRL-----\nAAAA\n-----END X509 CRL-----\n")
+    rc, out, conf = check_config("ua_trust_empty", secure + "trust_dir = %s\n" % tmp_path)
+    assert rc == EXIT_CONFIG
+    assert "%s:8: [opcua] trust_dir %s holds no certificate" % (conf, tmp_path) in out
+
+
 def test_reload_keeps_the_robot():
     """SIGHUP with [opcua] unchanged keeps the server and its sessions; a
     new port builds a new server there, the robot's link untouched."""

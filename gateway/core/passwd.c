@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* The console's password file (passwd.h). */
-#include "http/passwd.h"
+#include "core/passwd.h"
 
 #include <errno.h>
 #include <stdint.h>
@@ -41,8 +41,8 @@ static bool valid_hash(const char *h, size_t n, char *why, size_t whylen)
             snprintf(why, whylen, "invalid character in the hash (at column %zu)", i + 1);
             return false;
         }
-    if (n >= GW_HTTP_HASH_MAX) {
-        snprintf(why, whylen, "hash too long (at most %d characters)", GW_HTTP_HASH_MAX - 1);
+    if (n >= GW_HASH_MAX) {
+        snprintf(why, whylen, "hash too long (at most %d characters)", GW_HASH_MAX - 1);
         return false;
     }
     return true;
@@ -96,11 +96,11 @@ static bool hash_policy(const char *h, char *why, size_t whylen)
         char *end;
         errno = 0;
         unsigned long long r = strtoull(h + 10, &end, 10);
-        if (*end != '$' || errno != 0 || r > GW_HTTP_SHA_ROUNDS_MAX) {
+        if (*end != '$' || errno != 0 || r > GW_PASSWD_SHA_ROUNDS_MAX) {
             snprintf(why, whylen,
                      "$%c$ with rounds=%.20s: more than %d rounds would hold every login for "
                      "long (allowed: at most rounds=%d; %s)",
-                     h[1], h + 10, GW_HTTP_SHA_ROUNDS_MAX, GW_HTTP_SHA_ROUNDS_MAX, use);
+                     h[1], h + 10, GW_PASSWD_SHA_ROUNDS_MAX, GW_PASSWD_SHA_ROUNDS_MAX, use);
             return false;
         }
         return true;
@@ -111,11 +111,11 @@ static bool hash_policy(const char *h, char *why, size_t whylen)
             return false;
         }
         int cost = (h[4] - '0') * 10 + (h[5] - '0');
-        if (cost > GW_HTTP_BCRYPT_COST_MAX) {
+        if (cost > GW_PASSWD_BCRYPT_COST_MAX) {
             snprintf(why, whylen,
                      "bcrypt cost %d: 2^%d rounds would hold every login for long (allowed: "
                      "a cost of at most %d; %s)",
-                     cost, cost, GW_HTTP_BCRYPT_COST_MAX, use);
+                     cost, cost, GW_PASSWD_BCRYPT_COST_MAX, use);
             return false;
         }
         return true;
@@ -135,13 +135,13 @@ static bool hash_policy(const char *h, char *why, size_t whylen)
             return false;
         }
         /* memory: 128 * r * N bytes */
-        if (nlog2 > 30 || (uint64_t)r << nlog2 > (uint64_t)GW_HTTP_YESCRYPT_MIB_MAX << 13) {
+        if (nlog2 > 30 || (uint64_t)r << nlog2 > (uint64_t)GW_PASSWD_YESCRYPT_MIB_MAX << 13) {
             snprintf(why, whylen,
                      "yescrypt with N=2^%u and r=%u needs more than %d MiB per login "
                      "(allowed: at most %d MiB, such as the default $y$j9T$ of "
                      "`mkpasswd -m yescrypt`: 16 MiB)",
-                     (unsigned)nlog2, (unsigned)r, GW_HTTP_YESCRYPT_MIB_MAX,
-                     GW_HTTP_YESCRYPT_MIB_MAX);
+                     (unsigned)nlog2, (unsigned)r, GW_PASSWD_YESCRYPT_MIB_MAX,
+                     GW_PASSWD_YESCRYPT_MIB_MAX);
             return false;
         }
         return true;
@@ -164,8 +164,8 @@ static bool valid_user(const char *u, size_t n, char *why, size_t whylen)
         snprintf(why, whylen, "no user name before ':' (allowed: user:HASH)");
         return false;
     }
-    if (n >= GW_HTTP_USER_MAX) {
-        snprintf(why, whylen, "user name too long (at most %d characters)", GW_HTTP_USER_MAX - 1);
+    if (n >= GW_USER_MAX) {
+        snprintf(why, whylen, "user name too long (at most %d characters)", GW_USER_MAX - 1);
         return false;
     }
     for (size_t i = 0; i < n; i++)
@@ -177,7 +177,7 @@ static bool valid_user(const char *u, size_t n, char *why, size_t whylen)
 }
 
 /* One line (no '\n'); a '\r' before it is dropped. */
-static bool parse_line(const char *s, size_t n, gw_http_users_t *out, char *why, size_t whylen)
+static bool parse_line(const char *s, size_t n, gw_users_t *out, char *why, size_t whylen)
 {
     if (n > 0 && s[n - 1] == '\r')
         n--;
@@ -191,30 +191,30 @@ static bool parse_line(const char *s, size_t n, gw_http_users_t *out, char *why,
     size_t un = (size_t)(colon - s), hn = n - un - 1;
     if (!valid_user(s, un, why, whylen) || !valid_hash(colon + 1, hn, why, whylen))
         return false;
-    char hash[GW_HTTP_HASH_MAX];
+    char hash[GW_HASH_MAX];
     memcpy(hash, colon + 1, hn);
     hash[hn] = '\0';
     if (!hash_policy(hash, why, whylen))
         return false;
-    char user[GW_HTTP_USER_MAX];
+    char user[GW_USER_MAX];
     memcpy(user, s, un);
     user[un] = '\0';
-    if (gw_http_passwd_find(out, user) != NULL) {
+    if (gw_passwd_find(out, user) != NULL) {
         snprintf(why, whylen, "user %s listed twice", user);
         return false;
     }
-    if (out->count >= GW_HTTP_USERS_MAX) {
-        snprintf(why, whylen, "too many users (at most %d)", GW_HTTP_USERS_MAX);
+    if (out->count >= GW_USERS_MAX) {
+        snprintf(why, whylen, "too many users (at most %d)", GW_USERS_MAX);
         return false;
     }
-    gw_http_user_t *e = &out->user[out->count++];
+    gw_user_t *e = &out->user[out->count++];
     memcpy(e->user, user, un + 1);
     memcpy(e->hash, colon + 1, hn);
     e->hash[hn] = '\0';
     return true;
 }
 
-bool gw_http_passwd_parse(const char *text, size_t len, gw_http_users_t *out, unsigned *line,
+bool gw_passwd_parse(const char *text, size_t len, gw_users_t *out, unsigned *line,
                           char *why, size_t whylen)
 {
     memset(out, 0, sizeof *out);
@@ -241,9 +241,9 @@ bool gw_http_passwd_parse(const char *text, size_t len, gw_http_users_t *out, un
     return true;
 }
 
-bool gw_http_passwd_load(const char *path, gw_http_users_t *out, char *err, size_t errlen)
+bool gw_passwd_load(const char *path, gw_users_t *out, char *err, size_t errlen)
 {
-    static char text[GW_HTTP_PASSWD_FILE_MAX + 1];
+    static char text[GW_PASSWD_FILE_MAX + 1];
     FILE *f = fopen(path, "r");
     if (f == NULL) {
         snprintf(err, errlen, "%s: %s", path, strerror(errno));
@@ -257,13 +257,13 @@ bool gw_http_passwd_load(const char *path, gw_http_users_t *out, char *err, size
         snprintf(err, errlen, "%s: %s", path, strerror(e));
         return false;
     }
-    if (n > GW_HTTP_PASSWD_FILE_MAX) {
-        snprintf(err, errlen, "%s: larger than %d bytes", path, GW_HTTP_PASSWD_FILE_MAX);
+    if (n > GW_PASSWD_FILE_MAX) {
+        snprintf(err, errlen, "%s: larger than %d bytes", path, GW_PASSWD_FILE_MAX);
         return false;
     }
     unsigned line;
     char why[200];
-    if (!gw_http_passwd_parse(text, n, out, &line, why, sizeof why)) {
+    if (!gw_passwd_parse(text, n, out, &line, why, sizeof why)) {
         if (line != 0)
             snprintf(err, errlen, "%s:%u: %s", path, line, why);
         else
@@ -273,7 +273,7 @@ bool gw_http_passwd_load(const char *path, gw_http_users_t *out, char *err, size
     return true;
 }
 
-const gw_http_user_t *gw_http_passwd_find(const gw_http_users_t *u, const char *user)
+const gw_user_t *gw_passwd_find(const gw_users_t *u, const char *user)
 {
     for (unsigned i = 0; i < u->count; i++)
         if (strcmp(u->user[i].user, user) == 0)

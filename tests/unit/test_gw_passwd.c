@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The console's password file parser (gateway/http/passwd.c): `user:HASH`
+ * The console's password file parser (gateway/core/passwd.c): `user:HASH`
  * lines with crypt(3) hashes as `openssl passwd -6` and `mkpasswd` write
  * them, comments and blank lines skipped, CRLF files read; a plain
  * password, a DES hash, a missing ':' or user, a user twice, bytes that
@@ -16,16 +16,16 @@
 #include <string.h>
 #include <cmocka.h>
 
-#include "http/passwd.h"
+#include "core/passwd.h"
 
 #define SHA512 "$6$Frj6jrGJ.WTM25BQ$xYq8dr6acIEgxqKA2FJ5WEyvxXQqAtvPLDu0BPUlINpsN6Opvwzct4/om7M6E5r1CXsXGPM5hz.of7v5XRkiY."
 #define YESCRYPT "$y$j9T$Zu7hVq4yGcsyZ0EQ7oP5H.$G1BA/mRWnT0hl8OkBsBqTo/PHfWrdEZ3Y7dUBVhd2n6"
 
-static gw_http_users_t U;
+static gw_users_t U;
 
 static bool parse(const char *text, unsigned *line, char *why)
 {
-    return gw_http_passwd_parse(text, strlen(text), &U, line, why, 200);
+    return gw_passwd_parse(text, strlen(text), &U, line, why, 200);
 }
 
 static void test_good(void **state)
@@ -39,16 +39,16 @@ static void test_good(void **state)
     assert_string_equal(U.user[0].hash, SHA512); /* the CR is not part of it */
     assert_string_equal(U.user[1].user, "ops");
     assert_string_equal(U.user[1].hash, YESCRYPT); /* no newline at the end */
-    assert_ptr_equal(gw_http_passwd_find(&U, "ops"), &U.user[1]);
-    assert_null(gw_http_passwd_find(&U, "op"));
-    assert_null(gw_http_passwd_find(&U, "root"));
+    assert_ptr_equal(gw_passwd_find(&U, "ops"), &U.user[1]);
+    assert_null(gw_passwd_find(&U, "op"));
+    assert_null(gw_passwd_find(&U, "root"));
 }
 
 static void expect_refused(const char *text, unsigned want_line, const char *want)
 {
     unsigned line = 99;
     char why[200] = "";
-    assert_false(gw_http_passwd_parse(text, strlen(text), &U, &line, why, sizeof why));
+    assert_false(gw_passwd_parse(text, strlen(text), &U, &line, why, sizeof why));
     assert_int_equal(line, want_line);
     if (strstr(why, want) == NULL)
         fail_msg("'%s' does not say '%s'", why, want);
@@ -71,7 +71,7 @@ static void test_refused(void **state)
     static const char nul[] = "a:" SHA512 "\nb\0c:x\n";
     unsigned line = 0;
     char why[200];
-    assert_false(gw_http_passwd_parse(nul, sizeof nul - 1, &U, &line, why, sizeof why));
+    assert_false(gw_passwd_parse(nul, sizeof nul - 1, &U, &line, why, sizeof why));
     assert_int_equal(line, 2);
     assert_non_null(strstr(why, "NUL"));
 }
@@ -113,20 +113,20 @@ static void test_policy(void **state)
 
 static void test_limits(void **state)
 {
-    static char text[GW_HTTP_USERS_MAX * 200 + 400];
+    static char text[GW_USERS_MAX * 200 + 400];
     size_t len = 0;
     (void)state;
-    for (unsigned i = 0; i < GW_HTTP_USERS_MAX; i++)
+    for (unsigned i = 0; i < GW_USERS_MAX; i++)
         len += (size_t)snprintf(text + len, sizeof text - len, "u%u:%s\n", i, SHA512);
     unsigned line;
     char why[200];
-    assert_true(gw_http_passwd_parse(text, len, &U, &line, why, sizeof why));
-    assert_int_equal(U.count, GW_HTTP_USERS_MAX);
+    assert_true(gw_passwd_parse(text, len, &U, &line, why, sizeof why));
+    assert_int_equal(U.count, GW_USERS_MAX);
     snprintf(text + len, sizeof text - len, "one-more:%s\n", SHA512);
-    expect_refused(text, GW_HTTP_USERS_MAX + 1, "too many users");
-    char user[GW_HTTP_USER_MAX + 8];
-    memset(user, 'u', GW_HTTP_USER_MAX);
-    user[GW_HTTP_USER_MAX] = '\0';
+    expect_refused(text, GW_USERS_MAX + 1, "too many users");
+    char user[GW_USER_MAX + 8];
+    memset(user, 'u', GW_USER_MAX);
+    user[GW_USER_MAX] = '\0';
     snprintf(text, sizeof text, "%s:%s\n", user, SHA512);
     expect_refused(text, 1, "user name too long");
 }
@@ -135,14 +135,14 @@ static void test_load(void **state)
 {
     char err[400];
     (void)state;
-    assert_false(gw_http_passwd_load("/nonexistent/users", &U, err, sizeof err));
+    assert_false(gw_passwd_load("/nonexistent/users", &U, err, sizeof err));
     assert_string_equal(err, "/nonexistent/users: No such file or directory");
-    char path[] = "/tmp/test_gw_http_passwd.XXXXXX";
+    char path[] = "/tmp/test_gw_passwd.XXXXXX";
     FILE *f = fopen(path, "w");
     assert_non_null(f);
     fputs("admin:" SHA512 "\nroot:toor\n", f);
     (void)fclose(f);
-    assert_false(gw_http_passwd_load(path, &U, err, sizeof err));
+    assert_false(gw_passwd_load(path, &U, err, sizeof err));
     char want[200];
     snprintf(want, sizeof want, "%s:2: not a crypt(3) hash", path);
     assert_memory_equal(err, want, strlen(want));

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
-/* The console's logins off the event loop: see auth.h. */
-#include "http/auth.h"
+/* Logins off the event loop: see auth.h. */
+#include "core/auth.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -15,7 +15,7 @@
 
 #include "core/log.h"
 
-#define PASS_MAX 256
+#define PASS_MAX GW_AUTH_PASS_MAX
 
 /* ---- SHA-256 and HMAC ------------------------------------------------------------- */
 
@@ -110,7 +110,7 @@ static void sha256_end(sha256_t *s, uint8_t out[32])
     }
 }
 
-void gw_http_hmac_sha256(const uint8_t *key, size_t klen, const void *msg, size_t mlen,
+void gw_hmac_sha256(const uint8_t *key, size_t klen, const void *msg, size_t mlen,
                          uint8_t out[32])
 {
     uint8_t k[64] = {0}, pad[64], inner[32];
@@ -145,70 +145,6 @@ static bool same32(const uint8_t *a, const uint8_t *b)
     return d == 0;
 }
 
-/* ---- Basic ------------------------------------------------------------------------- */
-
-static int b64(char ch)
-{
-    if (ch >= 'A' && ch <= 'Z')
-        return ch - 'A';
-    if (ch >= 'a' && ch <= 'z')
-        return ch - 'a' + 26;
-    if (ch >= '0' && ch <= '9')
-        return ch - '0' + 52;
-    return ch == '+' ? 62 : ch == '/' ? 63 : -1;
-}
-
-bool gw_http_basic_parse(const char *authz, char *user, size_t ucap, char *pass, size_t pcap)
-{
-    char text[PASS_MAX + GW_HTTP_USER_MAX + 8];
-    size_t n = 0;
-    if (authz == NULL || ucap == 0 || pcap == 0)
-        return false;
-    if (strncmp(authz, "Basic ", 6) != 0 && strncmp(authz, "basic ", 6) != 0)
-        return false;
-    const char *p = authz + 6;
-    while (*p == ' ')
-        p++;
-    uint32_t acc = 0;
-    unsigned bits = 0, pads = 0;
-    for (; *p != '\0' && *p != ' '; p++) {
-        if (*p == '=') {
-            pads++;
-            continue;
-        }
-        int v = b64(*p);
-        if (v < 0 || pads > 0)
-            return false;
-        acc = (acc << 6 | (uint32_t)v) & 0xffffffu;
-        bits += 6;
-        if (bits >= 8) {
-            bits -= 8;
-            if (n >= sizeof text - 1)
-                return false;
-            text[n++] = (char)(acc >> bits & 0xffu);
-        }
-    }
-    while (*p == ' ')
-        p++;
-    if (*p != '\0' || pads > 2)
-        return false;
-    text[n] = '\0';
-    if (memchr(text, '\0', n) != NULL)
-        return false; /* a NUL inside: no user or password has one */
-    const char *colon = memchr(text, ':', n);
-    if (colon == NULL)
-        return false;
-    size_t un = (size_t)(colon - text), pn = n - un - 1;
-    if (un >= ucap || pn >= pcap)
-        return false;
-    memcpy(user, text, un);
-    user[un] = '\0';
-    memcpy(pass, colon + 1, pn);
-    pass[pn] = '\0';
-    memset(text, 0, sizeof text);
-    return true;
-}
-
 /* ---- the state ---------------------------------------------------------------------- */
 
 typedef struct {
@@ -218,7 +154,7 @@ typedef struct {
 } cached_t;
 
 typedef struct {
-    uint32_t ip;
+    char from[GW_AUTH_FROM_MAX]; /* "": a free slot */
     unsigned fails;
     uint64_t last_us, until_us;
     gw_log_limit_t log;
@@ -227,27 +163,29 @@ typedef struct {
 typedef struct {
     bool used, done, ok;
     void *cookie;
-    uint32_t ip;
+    char from[GW_AUTH_FROM_MAX];
     int user; /* -1: unknown, checked against the dummy */
     uint8_t key[32];
-    char name[GW_HTTP_USER_MAX];
+    char name[GW_USER_MAX];
     char pass[PASS_MAX];
 } job_t;
 
-struct gw_http_auth {
-    gw_http_users_t users;
-    gw_http_crypt_fn crypt;
+struct gw_auth {
+    char label[16]; /* the side's, as its log lines start */
+    bool per_user;  /* a source is a user name (OPC UA), not an address */
+    gw_users_t users;
+    gw_crypt_fn crypt;
     uint8_t secret[32];
-    cached_t cache[GW_HTTP_AUTH_CACHE];
-    client_t client[GW_HTTP_AUTH_CLIENTS];
-    gw_http_auth_stats_t stats;
+    cached_t cache[GW_AUTH_CACHE];
+    client_t client[GW_AUTH_CLIENTS];
+    gw_auth_stats_t stats;
     gw_log_limit_t flood; /* beyond ten addresses' lines in 10 s */
     uint64_t lines_since_us;
     unsigned lines;
     /* shared with the worker, under mu */
     pthread_mutex_t mu;
     pthread_cond_t cv;
-    job_t job[GW_HTTP_AUTH_QUEUE];
+    job_t job[GW_AUTH_QUEUE];
     bool stop;
     int efd;
     pthread_t worker;
@@ -255,14 +193,14 @@ struct gw_http_auth {
 
 static void *worker(void *arg)
 {
-    gw_http_auth_t *a = arg;
+    gw_auth_t *a = arg;
     struct crypt_data *cd = calloc(1, sizeof *cd); /* 32 kB: not on the stack */
     job_t j;
     for (;;) {
         int at = -1;
         (void)pthread_mutex_lock(&a->mu);
         while (!a->stop) {
-            for (int i = 0; i < GW_HTTP_AUTH_QUEUE && at < 0; i++)
+            for (int i = 0; i < GW_AUTH_QUEUE && at < 0; i++)
                 if (a->job[i].used && !a->job[i].done)
                     at = i;
             if (at >= 0)
@@ -311,14 +249,16 @@ static void *worker(void *arg)
     }
 }
 
-gw_http_auth_t *gw_http_auth_new(const gw_http_users_t *users, gw_http_crypt_fn crypt, char *err,
-                                 size_t errlen)
+gw_auth_t *gw_auth_new(const gw_users_t *users, gw_crypt_fn crypt, const char *label,
+                       const char *per, char *err, size_t errlen)
 {
-    gw_http_auth_t *a = calloc(1, sizeof *a);
+    gw_auth_t *a = calloc(1, sizeof *a);
     if (a == NULL) {
-        snprintf(err, errlen, "http: out of memory");
+        snprintf(err, errlen, "%s: out of memory", label);
         return NULL;
     }
+    snprintf(a->label, sizeof a->label, "%s", label);
+    a->per_user = strcmp(per, "user") == 0;
     a->users = *users;
     a->crypt = crypt;
     a->efd = -1;
@@ -327,14 +267,14 @@ gw_http_auth_t *gw_http_auth_new(const gw_http_users_t *users, gw_http_crypt_fn 
     if (rnd >= 0)
         (void)close(rnd);
     if (!keyed) {
-        snprintf(err, errlen, "http: no random key for the login cache (/dev/urandom: %s)",
-                 strerror(errno));
+        snprintf(err, errlen, "%s: no random key for the login cache (/dev/urandom: %s)",
+                 label, strerror(errno));
         free(a);
         return NULL;
     }
     a->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
     if (a->efd < 0 || pthread_mutex_init(&a->mu, NULL) != 0) {
-        snprintf(err, errlen, "http: eventfd: %s", strerror(errno));
+        snprintf(err, errlen, "%s: eventfd: %s", label, strerror(errno));
         if (a->efd >= 0)
             (void)close(a->efd);
         free(a);
@@ -344,7 +284,7 @@ gw_http_auth_t *gw_http_auth_new(const gw_http_users_t *users, gw_http_crypt_fn 
     if (e == 0 && (e = pthread_create(&a->worker, NULL, worker, a)) != 0)
         (void)pthread_cond_destroy(&a->cv);
     if (e != 0) {
-        snprintf(err, errlen, "http: cannot start the login worker: %s", strerror(e));
+        snprintf(err, errlen, "%s: cannot start the login worker: %s", label, strerror(e));
         (void)pthread_mutex_destroy(&a->mu);
         (void)close(a->efd);
         free(a);
@@ -354,7 +294,7 @@ gw_http_auth_t *gw_http_auth_new(const gw_http_users_t *users, gw_http_crypt_fn 
     return a;
 }
 
-void gw_http_auth_free(gw_http_auth_t *a)
+void gw_auth_free(gw_auth_t *a)
 {
     if (a == NULL)
         return;
@@ -366,40 +306,40 @@ void gw_http_auth_free(gw_http_auth_t *a)
     (void)pthread_cond_destroy(&a->cv);
     (void)pthread_mutex_destroy(&a->mu);
     (void)close(a->efd);
-    for (unsigned i = 0; i < GW_HTTP_AUTH_CLIENTS; i++)
-        if (a->client[i].ip != 0)
+    for (unsigned i = 0; i < GW_AUTH_CLIENTS; i++)
+        if (a->client[i].from[0] != '\0')
             gw_log_limit_end(&a->client[i].log);
     gw_log_limit_end(&a->flood);
     memset(a, 0, sizeof *a); /* the cache's keys and the secret */
     free(a);
 }
 
-int gw_http_auth_fd(const gw_http_auth_t *a)
+int gw_auth_fd(const gw_auth_t *a)
 {
     return a->efd;
 }
 
-gw_http_auth_stats_t gw_http_auth_stats(const gw_http_auth_t *a)
+gw_auth_stats_t gw_auth_stats(const gw_auth_t *a)
 {
     return a->stats;
 }
 
-/* ---- client addresses ------------------------------------------------------------------ */
+/* ---- sources ---------------------------------------------------------------------------- */
 
-static client_t *client_of(gw_http_auth_t *a, uint32_t ip, uint64_t now, bool make)
+static client_t *client_of(gw_auth_t *a, const char *from, uint64_t now, bool make)
 {
     client_t *free_one = NULL, *oldest = NULL;
-    for (unsigned i = 0; i < GW_HTTP_AUTH_CLIENTS; i++) {
+    for (unsigned i = 0; i < GW_AUTH_CLIENTS; i++) {
         client_t *c = &a->client[i];
-        if (c->ip == ip && c->fails > 0 &&
-            now - c->last_us < (uint64_t)GW_HTTP_AUTH_FORGET_S * 1000000u)
+        bool same = c->from[0] != '\0' && strcmp(c->from, from) == 0;
+        if (same && c->fails > 0 && now - c->last_us < (uint64_t)GW_AUTH_FORGET_S * 1000000u)
             return c;
-        if (c->ip == ip) {
+        if (same) {
             c->fails = 0; /* quiet long enough: starts over */
             c->until_us = 0;
             return make ? c : NULL;
         }
-        if (c->ip == 0 && free_one == NULL)
+        if (c->from[0] == '\0' && free_one == NULL)
             free_one = c;
         if (oldest == NULL || c->last_us < oldest->last_us)
             oldest = c;
@@ -407,38 +347,33 @@ static client_t *client_of(gw_http_auth_t *a, uint32_t ip, uint64_t now, bool ma
     if (!make)
         return NULL;
     client_t *c = free_one != NULL ? free_one : oldest;
-    if (c->ip != 0)
+    if (c->from[0] != '\0')
         gw_log_limit_end(&c->log);
     memset(c, 0, sizeof *c);
-    c->ip = ip;
+    snprintf(c->from, sizeof c->from, "%s", from);
     c->log.window_ms = 10000;
     return c;
 }
 
-static const char *ip_text(uint32_t ip, char *buf, size_t cap)
+/* A refusal from `from`: counted, logged (limited), and when to answer it. */
+static uint64_t refused(gw_auth_t *a, const char *from, const char *user, uint64_t now)
 {
-    snprintf(buf, cap, "%u.%u.%u.%u", (unsigned)(ip >> 24), (unsigned)(ip >> 16 & 255u),
-             (unsigned)(ip >> 8 & 255u), (unsigned)(ip & 255u));
-    return buf;
-}
-
-/* A refusal from ip: counted, logged (limited), and when to answer it. */
-static uint64_t refused(gw_http_auth_t *a, uint32_t ip, const char *user, uint64_t now)
-{
-    client_t *c = client_of(a, ip, now, true);
+    client_t *c = client_of(a, from, now, true);
     a->stats.refused++;
     c->fails++;
     c->last_us = now;
     uint64_t wait = 0;
-    if (c->fails > GW_HTTP_AUTH_FREE_FAILS) {
-        unsigned k = c->fails - GW_HTTP_AUTH_FREE_FAILS - 1u;
-        wait = k >= 5 ? GW_HTTP_AUTH_WAIT_MAX_S : 1u << k;
+    if (c->fails > GW_AUTH_FREE_FAILS) {
+        unsigned k = c->fails - GW_AUTH_FREE_FAILS - 1u;
+        wait = k >= 5 ? GW_AUTH_WAIT_MAX_S : 1u << k;
         c->until_us = now + wait * 1000000u;
     }
-    char addr[16], more[64] = "";
+    char more[64] = "";
     if (wait > 0)
-        snprintf(more, sizeof more, "; answered after %llu s", (unsigned long long)wait);
-    /* one line per address per 10 s, and ten addresses' lines per 10 s in
+        snprintf(more, sizeof more, a->per_user ? "; checked again after %llu s"
+                                                : "; answered after %llu s",
+                 (unsigned long long)wait);
+    /* one line per source per 10 s, and ten sources' lines per 10 s in
      * all: a flood cannot push the console's last 200 events out */
     if (now - a->lines_since_us >= 10000000u) {
         a->lines_since_us = now;
@@ -448,16 +383,21 @@ static uint64_t refused(gw_http_auth_t *a, uint32_t ip, const char *user, uint64
     bool due = c->log.last_us == 0 || now >= c->log.last_us + 10000000u;
     if (due && ++a->lines > 10)
         lim = &a->flood;
-    gw_log_limited(GW_LOG_INFO, lim,
-                   "http: login refused for user \"%.63s\" from %s (%u refused from this "
-                   "address%s)",
-                   user, ip_text(ip, addr, sizeof addr), c->fails, more);
+    if (a->per_user)
+        gw_log_limited(GW_LOG_INFO, lim,
+                       "%s: login refused for user \"%.63s\" (%u refused for this user%s)",
+                       a->label, user, c->fails, more);
+    else
+        gw_log_limited(GW_LOG_INFO, lim,
+                       "%s: login refused for user \"%.63s\" from %s (%u refused from this "
+                       "address%s)",
+                       a->label, user, from, c->fails, more);
     return c->until_us > now ? c->until_us : now;
 }
 
-static void good(gw_http_auth_t *a, uint32_t ip, uint64_t now)
+static void good(gw_auth_t *a, const char *from, uint64_t now)
 {
-    client_t *c = client_of(a, ip, now, false);
+    client_t *c = client_of(a, from, now, false);
     a->stats.ok++;
     if (c != NULL) {
         gw_log_limit_end(&c->log);
@@ -468,10 +408,10 @@ static void good(gw_http_auth_t *a, uint32_t ip, uint64_t now)
 
 /* ---- the cache -------------------------------------------------------------------------- */
 
-static cached_t *cache_find(gw_http_auth_t *a, const uint8_t key[32], uint64_t now)
+static cached_t *cache_find(gw_auth_t *a, const uint8_t key[32], uint64_t now)
 {
     cached_t *hit = NULL;
-    for (unsigned i = 0; i < GW_HTTP_AUTH_CACHE; i++) {
+    for (unsigned i = 0; i < GW_AUTH_CACHE; i++) {
         cached_t *e = &a->cache[i];
         if (e->used && now >= e->expires_us)
             e->used = false;
@@ -481,15 +421,15 @@ static cached_t *cache_find(gw_http_auth_t *a, const uint8_t key[32], uint64_t n
     return hit;
 }
 
-static void cache_put(gw_http_auth_t *a, const uint8_t key[32], bool ok, uint64_t now)
+static void cache_put(gw_auth_t *a, const uint8_t key[32], bool ok, uint64_t now)
 {
     cached_t *slot = cache_find(a, key, now);
-    for (unsigned i = 0; slot == NULL && i < GW_HTTP_AUTH_CACHE; i++)
+    for (unsigned i = 0; slot == NULL && i < GW_AUTH_CACHE; i++)
         if (!a->cache[i].used)
             slot = &a->cache[i];
     /* full: the refused one that expires first, else the good one */
     for (unsigned pass = 0; pass < 2 && slot == NULL; pass++)
-        for (unsigned i = 0; i < GW_HTTP_AUTH_CACHE; i++) {
+        for (unsigned i = 0; i < GW_AUTH_CACHE; i++) {
             cached_t *e = &a->cache[i];
             if ((pass == 1 || !e->ok) && (slot == NULL || e->expires_us < slot->expires_us))
                 slot = e;
@@ -498,62 +438,73 @@ static void cache_put(gw_http_auth_t *a, const uint8_t key[32], bool ok, uint64_
     slot->used = true;
     slot->ok = ok;
     slot->expires_us =
-        now + (uint64_t)(ok ? GW_HTTP_AUTH_OK_TTL_S : GW_HTTP_AUTH_BAD_TTL_S) * 1000000u;
+        now + (uint64_t)(ok ? GW_AUTH_OK_TTL_S : GW_AUTH_BAD_TTL_S) * 1000000u;
 }
 
 /* ---- the calls -------------------------------------------------------------------------- */
 
-gw_http_auth_result_t gw_http_auth_check(gw_http_auth_t *a, const char *authz, uint32_t ip,
-                                         void *cookie, uint64_t now_us, uint64_t *until)
+/* The cache's key of a user and password: HMAC(user NUL pass). */
+static void login_key(const gw_auth_t *a, const char *user, const char *pass, uint8_t key[32])
 {
-    char user[GW_HTTP_USER_MAX] = "", pass[PASS_MAX] = "";
+    char both[GW_USER_MAX + PASS_MAX];
+    size_t un = strnlen(user, GW_USER_MAX - 1), pn = strnlen(pass, PASS_MAX - 1);
+    memcpy(both, user, un);
+    both[un] = '\0';
+    memcpy(both + un + 1, pass, pn);
+    gw_hmac_sha256(a->secret, sizeof a->secret, both, un + 1 + pn, key);
+    memset(both, 0, sizeof both);
+}
+
+gw_auth_result_t gw_auth_check(gw_auth_t *a, const char *user, const char *pass,
+                               const char *from, void *cookie, uint64_t now_us, uint64_t *until)
+{
     uint8_t key[32];
     *until = now_us;
-    if (authz == NULL)
-        return GW_HTTP_AUTH_REFUSED; /* a browser's first try: not counted */
-    gw_http_hmac_sha256(a->secret, sizeof a->secret, authz, strlen(authz), key);
-    const cached_t *e = cache_find(a, key, now_us);
-    if (e != NULL && e->ok)
-        return GW_HTTP_AUTH_OK;
-    bool parsed = gw_http_basic_parse(authz, user, sizeof user, pass, sizeof pass);
-    const client_t *c = client_of(a, ip, now_us, false);
-    if (e != NULL || !parsed || (c != NULL && c->until_us > now_us)) {
-        /* refused before, not Basic, or the address is waiting: no check */
-        memset(pass, 0, sizeof pass);
-        *until = refused(a, ip, parsed ? user : "?", now_us);
+    bool readable = user != NULL && pass != NULL && strlen(user) < GW_USER_MAX &&
+                    strlen(pass) < PASS_MAX;
+    const cached_t *e = NULL;
+    if (readable) {
+        login_key(a, user, pass, key);
+        e = cache_find(a, key, now_us);
+        if (e != NULL && e->ok)
+            return GW_AUTH_OK;
+    }
+    const client_t *c = client_of(a, from, now_us, false);
+    if (e != NULL || !readable || (c != NULL && c->until_us > now_us)) {
+        /* refused before, unreadable, or the source is waiting: no check */
+        *until = refused(a, from, readable ? user : "?", now_us);
         if (c != NULL && c->until_us > *until)
             *until = c->until_us;
-        return GW_HTTP_AUTH_REFUSED;
+        return GW_AUTH_REFUSED;
     }
-    const gw_http_user_t *u = gw_http_passwd_find(&a->users, user);
-    gw_http_auth_result_t r = GW_HTTP_AUTH_BUSY;
+    const gw_user_t *u = gw_passwd_find(&a->users, user);
+    gw_auth_result_t r = GW_AUTH_BUSY;
     (void)pthread_mutex_lock(&a->mu);
-    for (unsigned i = 0; i < GW_HTTP_AUTH_QUEUE; i++) {
+    for (unsigned i = 0; i < GW_AUTH_QUEUE; i++) {
         job_t *j = &a->job[i];
         if (j->used)
             continue;
         memset(j, 0, sizeof *j);
         j->used = true;
         j->cookie = cookie;
-        j->ip = ip;
+        snprintf(j->from, sizeof j->from, "%s", from);
         j->user = u != NULL ? (int)(u - a->users.user) : -1;
         memcpy(j->key, key, 32);
         snprintf(j->name, sizeof j->name, "%s", user);
-        memcpy(j->pass, pass, sizeof pass);
+        snprintf(j->pass, sizeof j->pass, "%s", pass);
         (void)pthread_cond_signal(&a->cv);
-        r = GW_HTTP_AUTH_PENDING;
+        r = GW_AUTH_PENDING;
         break;
     }
     (void)pthread_mutex_unlock(&a->mu);
-    memset(pass, 0, sizeof pass);
-    if (r == GW_HTTP_AUTH_BUSY)
+    if (r == GW_AUTH_BUSY)
         a->stats.busy++;
     else
         a->stats.checks++;
     return r;
 }
 
-void gw_http_auth_collect(gw_http_auth_t *a, uint64_t now_us,
+void gw_auth_collect(gw_auth_t *a, uint64_t now_us,
                           void (*done)(void *user, void *cookie, bool ok, uint64_t until),
                           void *user)
 {
@@ -564,7 +515,7 @@ void gw_http_auth_collect(gw_http_auth_t *a, uint64_t now_us,
         job_t j;
         bool got = false;
         (void)pthread_mutex_lock(&a->mu);
-        for (unsigned i = 0; i < GW_HTTP_AUTH_QUEUE && !got; i++)
+        for (unsigned i = 0; i < GW_AUTH_QUEUE && !got; i++)
             if (a->job[i].used && a->job[i].done) {
                 j = a->job[i];
                 a->job[i].used = false;
@@ -576,18 +527,18 @@ void gw_http_auth_collect(gw_http_auth_t *a, uint64_t now_us,
         cache_put(a, j.key, j.ok, now_us);
         uint64_t until = now_us;
         if (j.ok)
-            good(a, j.ip, now_us);
+            good(a, j.from, now_us);
         else
-            until = refused(a, j.ip, j.name, now_us);
+            until = refused(a, j.from, j.name, now_us);
         if (j.cookie != NULL)
             done(user, j.cookie, j.ok, until);
     }
 }
 
-void gw_http_auth_cancel(gw_http_auth_t *a, const void *cookie)
+void gw_auth_cancel(gw_auth_t *a, const void *cookie)
 {
     (void)pthread_mutex_lock(&a->mu);
-    for (unsigned i = 0; i < GW_HTTP_AUTH_QUEUE; i++)
+    for (unsigned i = 0; i < GW_AUTH_QUEUE; i++)
         if (a->job[i].used && a->job[i].cookie == cookie)
             a->job[i].cookie = NULL; /* still checked and counted */
     (void)pthread_mutex_unlock(&a->mu);
