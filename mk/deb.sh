@@ -22,8 +22,13 @@ git ls-files -z --cached --others --exclude-standard | xargs -0 tar cf - | tar x
 # parallel=2: the package's make -j2 (the build is most of the time).
 # A cross build runs no test (debian/rules) and needs no test dependency
 # of the other architecture: the nocheck profile and option.
+# Without open62541 1.4 (Debian 12 has no package of it) the daemon is
+# built without its OPC UA side: the pkg.drgate.noopcua profile drops that
+# build dependency (debian/control, docs/deployment.md).
+profiles=${arch:+nocheck}
+pkg-config --exists open62541 2>/dev/null || profiles="${profiles:+$profiles,}pkg.drgate.noopcua"
 (cd "$out/src" && DEB_BUILD_OPTIONS="parallel=${DEB_JOBS:-2} ${arch:+nocheck} ${DEB_BUILD_OPTIONS:-}" \
-    dpkg-buildpackage -b -us -uc ${arch:+-a "$arch" -Pnocheck})
+    dpkg-buildpackage -b -us -uc ${arch:+-a "$arch"} ${profiles:+-P"$profiles"})
 ls -l "$out"/*.deb
 # lintian: no error and no warning (issue 24)
 if [ "${DEB_LINTIAN:-yes}" = no ]; then

@@ -75,6 +75,10 @@ CROSS_PKGS="libcmocka-dev:s390x libinih-dev:s390x \
  pkgconf:arm64 libjansson-dev:arm64 libgpiod-dev:arm64 \
  libinih-dev:arm64 libsystemd-dev:arm64 libmosquitto-dev:arm64 \
  libmicrohttpd-dev:arm64 libnanopb-dev:arm64"
+case $codename in
+    ""|bookworm) ;;
+    *) CROSS_PKGS="$CROSS_PKGS libopen62541-1.4-dev:arm64" ;;
+esac
 
 # DEPS_ADMINDIR=DIR (a dpkg status in DIR/status, e.g. mk/minimal-root.sh's):
 # --dry-run plans as on the machine DIR describes, and a user other than
