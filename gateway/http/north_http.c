@@ -170,7 +170,7 @@ struct ht {
     hc_t *conns;
     unsigned generation;
     gw_log_limit_t mhd_limit, slow_limit, stream_limit;
-    gw_auth_t *auth; /* logins (auth.h), with auth_file */
+    gw_auth_t *auth; /* logins (core/auth.h), with auth_file */
     ev_t auth_ev;         /* its eventfd in the loop */
     unsigned nstreams;
     uint64_t streams_refused, streams_cut, hosts_refused;
@@ -950,7 +950,7 @@ static void hc_resume(ht_t *t, hc_t *h)
     }
 }
 
-/* A check the worker finished (auth.h): the waiting request goes on, or
+/* A check the worker finished (core/auth.h): the waiting request goes on, or
  * gets its 401 when its address's wait is over. */
 static void on_auth_done(void *user, void *cookie, bool ok, uint64_t until)
 {
