@@ -792,6 +792,60 @@ def in_netns(path):
         os.close(theirs)
 
 
+class NetnsCell:
+    """A network namespace of its own, held by a sleeping process, with
+    loopback up and `addresses` (/32 each) on it: no route out, so nothing
+    sent in it leaves the machine. spawn() runs a program in it, sock() a
+    TCP connection from it; close() ends them and the namespace."""
+
+    def __init__(self, addresses):
+        self.addresses = list(addresses)
+        self.holder = subprocess.Popen(
+            ["unshare", "-n", "sh", "-c", " && ".join(
+                ["ip link set lo up"] + ["ip addr add %s/32 dev lo" % a for a in self.addresses]
+                + ["exec sleep 100000"])])
+        self.ns = "/proc/%d/ns/net" % self.holder.pid
+        self.procs = []
+        wait_for(self.addresses_up, 10, "the namespace's addresses")
+
+    @staticmethod
+    def possible():
+        return subprocess.run(["unshare", "-n", "true"], capture_output=True).returncode == 0
+
+    def addresses_up(self):
+        out = subprocess.run(["nsenter", "--net=" + self.ns, "ip", "-o", "addr"],
+                             capture_output=True, text=True).stdout
+        return all(a + "/32" in out for a in self.addresses)
+
+    def spawn(self, argv, log):
+        if log.exists():
+            log.unlink()
+        p = spawn(["nsenter", "--net=" + self.ns] + [str(a) for a in argv], log)
+        self.procs.append(p)
+        return p
+
+    def stop(self, p):
+        p.kill()
+        p.wait()
+        self.procs.remove(p)
+
+    def sock(self, addr, port, src=None):
+        with in_netns(self.ns):
+            s = socket.socket()
+            s.settimeout(timeout(10))
+            if src:
+                s.bind((src, 0))
+            s.connect((addr, port))
+        return s
+
+    def close(self):
+        for p in self.procs:
+            p.kill()
+            p.wait()
+        self.holder.kill()
+        self.holder.wait()
+
+
 def skip(name, reason):
     """The SKIPPED banner of tests/skip.sh for a test this machine cannot
     run; under CI (CI set) a failure, since CI machines run every check."""

@@ -27,7 +27,7 @@ import time
 
 import pytest
 
-from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, RawModbus, in_netns, skip, spawn, timeout,
+from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, RawModbus, in_netns, skip, timeout,
                    wait_for)
 
 GW_IP = "10.9.1.1"
@@ -52,33 +52,15 @@ def openssl(*args, cwd):
                    timeout=timeout(60))
 
 
-class Cell:
-    """The namespace (held by a sleeping process), drsim and gateways in it."""
+class Cell(NetnsCell):
+    """The namespace (gwlib.NetnsCell), drsim and gateways in it."""
 
     def __init__(self, d):
+        super().__init__([GW_IP] + list(ATTACKERS))
         self.dir = d
-        self.holder = subprocess.Popen(
-            ["unshare", "-n", "sh", "-c",
-             "ip link set lo up && ip addr add %s/32 dev lo && %s && exec sleep 100000"
-             % (GW_IP, " && ".join("ip addr add %s/32 dev lo" % a for a in ATTACKERS))])
-        self.ns = "/proc/%d/ns/net" % self.holder.pid
-        self.procs = []
-        wait_for(lambda: self.addresses_up(), 10, "the namespace's addresses")
         self.sim_log = LOGDIR / "attack.drsim.log"
         self.sim = self.spawn([DRSIM, "-a", "127.0.0.2", "-v"], self.sim_log)
         wait_for(lambda: "listening on" in self.sim_log.read_text(), 10, "drsim")
-
-    def addresses_up(self):
-        out = subprocess.run(["nsenter", "--net=" + self.ns, "ip", "-o", "addr"],
-                             capture_output=True, text=True).stdout
-        return ATTACKERS[-1] + "/32" in out
-
-    def spawn(self, argv, log):
-        if log.exists():
-            log.unlink()
-        p = spawn(["nsenter", "--net=" + self.ns] + [str(a) for a in argv], log)
-        self.procs.append(p)
-        return p
 
     def gateway(self, name, http):
         conf = LOGDIR / ("attack_%s.ini" % name)
@@ -93,20 +75,6 @@ class Cell:
         wait_for(lambda: self.modbus_status()[1] == 2, 20, "the robot's link up")
         return p
 
-    def stop(self, p):
-        p.kill()
-        p.wait()
-        self.procs.remove(p)
-
-    def sock(self, addr, port, src=None):
-        with in_netns(self.ns):
-            s = socket.socket()
-            s.settimeout(timeout(10))
-            if src:
-                s.bind((src, 0))
-            s.connect((addr, port))
-        return s
-
     def modbus(self):
         with in_netns(self.ns):
             return RawModbus("127.0.0.1", MODBUS_PORT, connect_timeout=5)
@@ -115,17 +83,10 @@ class Cell:
         with self.modbus() as m:
             return m.read(4, 0, 31)
 
-    def close(self):
-        for p in self.procs:
-            p.kill()
-            p.wait()
-        self.holder.kill()
-        self.holder.wait()
-
 
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory):
-    if subprocess.run(["unshare", "-n", "true"], capture_output=True).returncode != 0:
+    if not NetnsCell.possible():
         skip("test_http_attack", "cannot make a network namespace")
     LOGDIR.mkdir(parents=True, exist_ok=True)
     d = tmp_path_factory.mktemp("attack")

@@ -16,7 +16,7 @@ import time
 import pytest
 from asyncua import Client, ua
 
-from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, in_netns, skip, spawn, timeout, wait_for)
+from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, in_netns, skip, timeout, wait_for)
 from ualib import run
 
 UA_IP = "10.9.2.1"
@@ -56,32 +56,15 @@ def yescrypt(password, cost=7):
     return lc.crypt(password.encode(), lc.crypt_gensalt(b"$y$", cost, None, 0)).decode()
 
 
-class Cell:
-    """The namespace (held by a sleeping process), drsim and the gateway."""
+class Cell(NetnsCell):
+    """The namespace (gwlib.NetnsCell), drsim and the gateway."""
 
     def __init__(self, d):
+        super().__init__([UA_IP])
         self.dir = d
-        self.holder = subprocess.Popen(
-            ["unshare", "-n", "sh", "-c",
-             "ip link set lo up && ip addr add %s/32 dev lo && exec sleep 100000" % UA_IP])
-        self.ns = "/proc/%d/ns/net" % self.holder.pid
-        self.procs = []
-        wait_for(self.address_up, 10, "the namespace's address")
         self.sim_log = LOGDIR / "ua_sec.drsim.log"
         self.spawn([DRSIM, "-a", "127.0.0.2", "-v", "--still"], self.sim_log)
         wait_for(lambda: "listening on" in self.sim_log.read_text(), 10, "drsim")
-
-    def address_up(self):
-        out = subprocess.run(["nsenter", "--net=" + self.ns, "ip", "-o", "addr"],
-                             capture_output=True, text=True).stdout
-        return UA_IP + "/32" in out
-
-    def spawn(self, argv, log):
-        if log.exists():
-            log.unlink()
-        p = spawn(["nsenter", "--net=" + self.ns] + [str(a) for a in argv], log)
-        self.procs.append(p)
-        return p
 
     def gateway(self, opcua):
         conf = LOGDIR / "ua_sec.ini"
@@ -97,17 +80,10 @@ class Cell:
         wait_for(lambda: "link up" in log.read_text(), 20, "the robot's link up")
         return p
 
-    def close(self):
-        for p in self.procs:
-            p.kill()
-            p.wait()
-        self.holder.kill()
-        self.holder.wait()
-
 
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory):
-    if subprocess.run(["unshare", "-n", "true"], capture_output=True).returncode != 0:
+    if not NetnsCell.possible():
         skip("test_opcua_security", "cannot make a network namespace")
     LOGDIR.mkdir(parents=True, exist_ok=True)
     d = tmp_path_factory.mktemp("ua_sec")
