@@ -775,7 +775,8 @@ static void gen_config(void)
         {"opcua", "[robot]\nhost = 1.2.3.4\n[opcua]\nlisten = 192.0.2.1\nport = 4840\n"
                   "security_policies = Basic256Sha256, Aes256_Sha256_RsaPss\n"
                   "application_uri = urn:x:y\ncert_file = /nonexistent.der\n"
-                  "key_file = /nonexistent.key\nauth_file = /nonexistent\nwrites = yes\n"
+                  "key_file = /nonexistent.key\nauth_file = /nonexistent\ntrust_dir = /nonexistent.d\n"
+                  "writes = yes\n"
                   "max_sessions = 5\nmax_subscriptions = 3\ninsecure = no\n"},
     };
     for (size_t k = 0; k < sizeof s / sizeof s[0]; k++)
