@@ -250,16 +250,21 @@ dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_
     return DR_OK;
 }
 
+void gw_robot_identity_refusal(const gw_robot_identity_t *id, char *buf, size_t size)
+{
+    if (id->why == DR_ESHORT)
+        snprintf(buf, size, "a reply too short for an Identity");
+    else
+        gw_robot_error_text(id->why, buf, size);
+}
+
 void gw_robot_identity_text(const gw_robot_identity_t *id, char *buf, size_t size)
 {
     char vendor[32], serial[16], why[120];
     if (id->state == GW_IDENTITY_WAITING) {
         snprintf(buf, size, "not read yet");
     } else if (id->state == GW_IDENTITY_REFUSED) {
-        if (id->why == DR_ESHORT)
-            snprintf(why, sizeof why, "a reply too short for an Identity");
-        else
-            gw_robot_error_text(id->why, why, sizeof why);
+        gw_robot_identity_refusal(id, why, sizeof why);
         snprintf(buf, size, "refused: %s", why);
     } else {
         gw_identity_vendor_text(id->vendor_id, vendor, sizeof vendor);

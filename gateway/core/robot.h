@@ -254,6 +254,10 @@ void gw_identity_vendor_text(uint16_t vendor, char *buf, size_t size);
 /* The Identity's serial number as drcli identity prints it: "0x0012abcd". */
 void gw_identity_serial_text(uint32_t serial, char *buf, size_t size);
 
+/* Why a REFUSED identity is unknown: "CIP 0x08 service not supported",
+ * "a reply too short for an Identity". */
+void gw_robot_identity_refusal(const gw_robot_identity_t *id, char *buf, size_t size);
+
 /* One line for logs and drgatewayd status: "Doosan Robotics, 'M1013
  * controller' (product code 3, revision 2.12, serial 0x0012abcd)"; "not
  * read yet" / "refused: CIP 0x08 service not supported". */
