@@ -244,7 +244,7 @@ dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_
     size_t n = data[IDENTITY_FIXED - 1], k = 0;
     for (; k < n && k + 1 < sizeof id->product_name; k++) {
         uint8_t c = data[IDENTITY_FIXED + k];
-        id->product_name[k] = c >= 0x20 && c < 0x7F ? (char)c : '?';
+        id->product_name[k] = (char)(c >= 0x20 && c < 0x7F ? c : '?');
     }
     id->product_name[k] = '\0';
     return DR_OK;

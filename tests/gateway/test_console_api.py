@@ -18,7 +18,7 @@ import time
 import pytest
 
 import gwlib
-from gwlib import DRGATEWAYD, GW_ADDR, Drsim, Gateway, free_port, wait_for
+from gwlib import DRGATEWAYD, GW_ADDR, Drsim, Gateway, drcli_identity, free_port, wait_for
 from test_http import down_robot, get, get_json
 
 STATE_NAMES = {0: "INITIALIZING", 1: "STANDBY", 2: "OPERATING"}  # drsim's (dr_robot_state_name)
@@ -149,14 +149,6 @@ def test_robot_identity(gw):
     assert down["host"] == gwlib.SIM_ADDR and down["tcp_port"] > 0
     assert [r["name"] for r in get_json(gw.http, "/api/v1/robots")] == ["r0", "down"]
     assert get_json(gw.http, "/api/v1/robots")[0]["host"] == r0["host"]
-
-
-def drcli_identity(sim):
-    """drcli identity --json against drsim itself: its Identity object."""
-    out = subprocess.run([str(gwlib.DRCLI), "-H", gwlib.SIM_ADDR, "--port", str(sim.tcp),
-                          "identity", "--json"], capture_output=True, text=True,
-                         timeout=gwlib.timeout(30), check=True).stdout
-    return json.loads(out)["identity"]
 
 
 def test_robots_identity_object(gw):

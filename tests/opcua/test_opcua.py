@@ -4,7 +4,6 @@
 own view comes from drcli get against drsim, not from the gateway."""
 import asyncio
 import datetime
-import json
 import signal
 import subprocess
 
@@ -12,7 +11,7 @@ import pytest
 from asyncua import ua
 
 import ualib
-from gwlib import DRCLI, DRGATEWAYD, EXIT_CONFIG, EXIT_OK, LOGDIR, SIM_ADDR, timeout, wait_for
+from gwlib import DRGATEWAYD, EXIT_CONFIG, EXIT_OK, LOGDIR, drcli_identity, timeout, wait_for
 from ualib import O2T, T2O, client, drcli_get, f32, gateway, node, ns_of, read, run
 
 JOINTS = ["joint_state.position[%d]" % i for i in range(1, 7)]
@@ -434,14 +433,6 @@ def identification(url, where="MotionDevices/Manipulator"):
                 out[p] = (dv.StatusCode.value, v.Text if isinstance(v, ua.LocalizedText) else v)
             return out
     return run(look())
-
-
-def drcli_identity(sim):
-    """drcli identity --json against drsim itself: its Identity object."""
-    out = subprocess.run([str(DRCLI), "-H", SIM_ADDR, "--port", str(sim.tcp), "identity",
-                          "--json"], capture_output=True, text=True, timeout=timeout(30),
-                         check=True).stdout
-    return json.loads(out)["identity"]
 
 
 def expected(ident, vendor_name):
