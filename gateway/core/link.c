@@ -274,14 +274,6 @@ static void sync_fds(gw_link_t *l)
 
 /* ---- the Identity ------------------------------------------------------------- */
 
-static bool same_identity(const gw_robot_identity_t *a, const gw_robot_identity_t *b)
-{
-    return a->state == b->state && a->vendor_id == b->vendor_id &&
-           a->device_type == b->device_type && a->product_code == b->product_code &&
-           a->rev_major == b->rev_major && a->rev_minor == b->rev_minor &&
-           a->serial == b->serial && strcmp(a->product_name, b->product_name) == 0;
-}
-
 /* The robot answered the Identity read (or the request ended without an
  * answer: then nothing changes, and the next session asks again). Who it
  * is goes to the log when it is new or changed; a refusal or a reply that
@@ -300,7 +292,7 @@ static void on_identity(dr_client_t *c, dr_status_t st, const uint8_t *data, siz
     char text[200];
     if (got == DR_OK) {
         l->ident_logged = false;
-        if (!same_identity(&before, id)) {
+        if (!gw_robot_identity_same(&before, id)) {
             gw_robot_identity_text(id, text, sizeof text);
             gw_log(GW_LOG_INFO, "robot %s: identity: %s", l->cfg.name, text);
         }

@@ -250,6 +250,14 @@ dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_
     return DR_OK;
 }
 
+bool gw_robot_identity_same(const gw_robot_identity_t *a, const gw_robot_identity_t *b)
+{
+    return a->state == b->state && a->why == b->why && a->vendor_id == b->vendor_id &&
+           a->device_type == b->device_type && a->product_code == b->product_code &&
+           a->rev_major == b->rev_major && a->rev_minor == b->rev_minor &&
+           a->serial == b->serial && strcmp(a->product_name, b->product_name) == 0;
+}
+
 void gw_robot_identity_refusal(const gw_robot_identity_t *id, char *buf, size_t size)
 {
     if (id->why == DR_ESHORT)

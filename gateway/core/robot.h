@@ -247,6 +247,9 @@ void gw_robot_write_fields_text(const gw_robot_t *r, char *buf, size_t size);
 dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_t *data,
                                      size_t len);
 
+/* a and b say the same (state, cause and every field). */
+bool gw_robot_identity_same(const gw_robot_identity_t *a, const gw_robot_identity_t *b);
+
 /* The name ODVA gives vendor ID `vendor` for the vendors this gateway
  * knows of (1573: "Doosan Robotics"), else "vendor N", into buf. */
 void gw_identity_vendor_text(uint16_t vendor, char *buf, size_t size);
