@@ -282,11 +282,14 @@ static void on_identity(dr_client_t *c, dr_status_t st, const uint8_t *data, siz
                         void *user)
 {
     gw_link_t *l = user;
-    (void)c;
     l->ident_out = false;
     if (l->closing != NULL)
         return;
     gw_robot_identity_t before = l->data->identity;
+    /* a session that failed fails its requests with its own cause (a
+     * malformed frame among them): that is no answer to this one */
+    if (st != DR_OK && !DR_IS_CIP(st) && !dr_client_ready(c))
+        st = DR_ESESSION;
     dr_status_t got = gw_robot_identity_answer(l->data, st, data, len);
     const gw_robot_identity_t *id = &l->data->identity;
     char text[200];

@@ -224,8 +224,12 @@ dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_
     if (st == DR_OK && (data == NULL || len < IDENTITY_FIXED ||
                         len < IDENTITY_FIXED + (size_t)data[IDENTITY_FIXED - 1]))
         st = DR_ESHORT; /* not the seven attributes the service returns */
-    if (st != DR_OK && !DR_IS_CIP(st) && st != DR_ESHORT)
-        return st; /* no answer: the next session asks again */
+    /* an answer that refuses (CIP, encapsulation) or is not one (a reply
+     * malformed or to another service); anything else is no answer */
+    bool answered = DR_IS_CIP(st) || DR_IS_ENCAP(st) || st == DR_ESHORT ||
+                    st == DR_EMALFORMED || st == DR_EMISMATCH;
+    if (st != DR_OK && !answered)
+        return st; /* the next session asks again */
     if (st != DR_OK) {
         memset(id, 0, sizeof *id);
         id->state = GW_IDENTITY_REFUSED;

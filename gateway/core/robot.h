@@ -239,11 +239,12 @@ void gw_robot_write_fields_text(const gw_robot_t *r, char *buf, size_t size);
 /* The robot's answer to the link's Get_Attributes_All of its Identity:
  * `st` the request's status, data[0..len) the reply's data. DR_OK with
  * the seven attributes (more may follow, as CIP allows) makes the identity
- * KNOWN; a CIP error, or a reply too short for them (DR_ESHORT), or a
- * name longer than the reply (DR_ESHORT), makes it REFUSED; anything else
- * (no answer: a timeout, the session lost) leaves it as it was, for the
- * next session to ask again. Returns the new state's status: DR_OK
- * (known), the refusal, or `st` (left). */
+ * KNOWN; a refusal (a CIP or encapsulation error), a reply that is not one
+ * (DR_EMALFORMED, DR_EMISMATCH), or one too short for the attributes or
+ * its name (DR_ESHORT) makes it REFUSED; anything else (no answer: a
+ * timeout, the session lost) leaves it as it was, for the next session to
+ * ask again. Returns the new state's status: DR_OK (known), the refusal,
+ * or `st` (left). */
 dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_t *data,
                                      size_t len);
 

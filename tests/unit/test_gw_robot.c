@@ -112,8 +112,16 @@ static void test_identity(void **state)
     assert_string_equal(text, "vendor 65535");
     /* the session lost with the request out: what was known stays */
     assert_int_equal(gw_robot_identity_answer(&R, DR_ESESSION, NULL, 0), DR_ESESSION);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_ECLOSED, NULL, 0), DR_ECLOSED);
     assert_int_equal(R.identity.state, GW_IDENTITY_KNOWN);
     assert_int_equal(R.identity.serial, 0x0012ABCDu);
+    /* a reply that is not one (its CIP header, another service's) */
+    assert_int_equal(gw_robot_identity_answer(&R, DR_EMALFORMED, NULL, 0), DR_EMALFORMED);
+    assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, sizeof reply), DR_OK);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_EMISMATCH, NULL, 0), DR_EMISMATCH);
+    assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, sizeof reply), DR_OK);
     /* refused (another robot behind the address now): nothing known */
     assert_int_equal(gw_robot_identity_answer(&R, DR_CIP(0x08, 0), NULL, 0), DR_CIP(0x08, 0));
     assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
