@@ -8,7 +8,7 @@
 #   make fuzz-corpus   regenerate fuzz/corpus/ from the library's builders
 
 FUZZ_TARGETS       := encap cip_reply cip_request io_frame path modbus rtu config \
-                      sim_request cli usermap sparkplug http eds
+                      sim_request cli usermap sparkplug http eds identity
 FUZZ_SECONDS       ?= 60
 # make check runs every harness this long: 10 x 7 s, two at a time
 # (FUZZ_JOBS, fuzz/run-fuzz.sh), keeps check-fuzz,
@@ -63,6 +63,8 @@ FUZZ_SRC_cli         := $(filter-out cli/drcli.c,$(CLI_SRC)) common/eds.c common
 FUZZ_LIBS_cli        := $(JSON_LIBS)
 # The EDS reader and the plan it gives alone (no I/O, no jansson).
 FUZZ_SRC_eds         := common/eds.c common/eds_plan.c
+# The robot's Identity as the link takes it (gateway/core/robot.c).
+FUZZ_SRC_identity    := gateway/core/robot.c
 # Every harness and every object gets all the packages' flags: they only
 # add include directories.
 FUZZ_CPPFLAGS        := $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Igateway $(MODBUS_CFLAGS) $(INIH_CFLAGS) $(NANOPB_CFLAGS) $(JSON_CFLAGS)

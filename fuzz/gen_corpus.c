@@ -264,6 +264,23 @@ static void gen_cip_reply(void)
     put_w("cip_reply", "not_settable", &w);
 }
 
+/* The link's Identity read (fuzz_identity): the status byte (0: answered),
+ * then the reply's data: a whole Identity with attribute 8, one cut in its
+ * name, one refused. */
+static void gen_identity(void)
+{
+    uint8_t b[128];
+    dr_wr_t w;
+    dr_identity_t id = identity();
+    dr_wr_init(&w, b, sizeof b);
+    dr_wr_u8(&w, 0);
+    dr_identity_write_all(&w, &id);
+    dr_wr_u8(&w, 3); /* attribute 8, state */
+    put_w("identity", "identity_all", &w);
+    put("identity", "name_cut", b, 1 + 15 + 3);
+    put("identity", "refused", (const uint8_t *)"\x01", 1);
+}
+
 static void gen_cip_request(void)
 {
     uint8_t b[512], conn[64];
@@ -1131,6 +1148,7 @@ int main(int argc, char **argv)
     mkdir_p(root);
     gen_encap();
     gen_cip_reply();
+    gen_identity();
     gen_cip_request();
     gen_io_frame();
     gen_path();

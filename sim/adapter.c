@@ -107,6 +107,7 @@ void drsim_config_default(drsim_config_t *cfg)
     cfg->udp_port = DR_ENIP_UDP_PORT;
     cfg->hb_input_only = DRSIM_HB_INPUT_ONLY;
     cfg->hb_listen_only = DRSIM_HB_LISTEN_ONLY;
+    cfg->vendor_id = DRSIM_VENDOR_ID;
     dr_layout_default(&cfg->layout, DR_LAYOUT_PER_ASSEMBLY);
 }
 
@@ -148,7 +149,7 @@ void drsim_init(drsim_t *s, const drsim_config_t *cfg, uint64_t now_ns)
     points_init(s);
 
     dr_identity_t *id = &s->identity;
-    id->vendor = DRSIM_VENDOR_ID;
+    id->vendor = cfg->vendor_id;
     id->device_type = DRSIM_DEVICE_TYPE;
     id->product_code = DRSIM_PRODUCT_CODE;
     id->rev_major = 2;
@@ -343,6 +344,10 @@ static void identity_service(req_ctx_t *ctx, const dr_cip_req_t *rq,
     dr_wr_init(&d, buf, sizeof buf);
     switch (rq->service) {
     case DR_CIP_SVC_GET_ATTRIBUTES_ALL:
+        if (ctx->s->cfg.refuse_identity) { /* --refuse-identity */
+            reply(w, rq->service, GS_SERVICE, NULL, 0);
+            break;
+        }
         dr_identity_write_all(&d, &ctx->s->identity);
         reply(w, rq->service, GS_OK, buf, d.len);
         break;

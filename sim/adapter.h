@@ -54,6 +54,11 @@ typedef struct {
                                   like targets that only know 0x54 */
     bool no_get_assembly;      /* Get on an assembly instance: 0x08 (its
                                   data only through I/O connections) */
+    bool refuse_identity;      /* Get_Attributes_All on the Identity: 0x08
+                                  (--refuse-identity; its single
+                                  attributes are still served) */
+    uint16_t vendor_id;        /* the Identity's vendor ID (--vendor-id);
+                                  DRSIM_VENDOR_ID by default */
     unsigned lose_fo_replies;  /* the first N successful Forward Opens
                                   open their connection, but their reply
                                   is not sent (lost on the way back) */

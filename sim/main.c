@@ -81,6 +81,12 @@ static void usage(FILE *f)
 "      --seed N              seed for noise, drops, serial number, IDs (0)\n"
 "      --still               stand still once booted: no motion, no noise, so\n"
 "                            the data changes only with what is written\n"
+"      --vendor-id N         the Identity object's vendor ID, 0..65535\n"
+"                            (default 65535: no ODVA vendor; 1573 is Doosan\n"
+"                            Robotics')\n"
+"  SIGUSR1 raises the emergency stop, and clears it the next time;\n"
+"  SIGUSR2 likewise the protective stop (robot_state EMERGENCY_STOP or\n"
+"  SAFE_STOP, emergency_stopped or safety_stopped set; the arm holds)\n"
 "\n"
 "Adapter behaviours (what real adapters do, see docs/interop.md):\n"
 "      --seq-on-change       advance the T->O CIP sequence count only when the\n"
@@ -148,13 +154,16 @@ static void usage(FILE *f)
 "                            supported), as an adapter whose assemblies are\n"
 "                            reached only through I/O connections: drcli\n"
 "                            probe then needs --open to find their sizes\n"
+"      --refuse-identity     answer Get_Attributes_All on the Identity object\n"
+"                            with 0x08 (service not supported); its single\n"
+"                            attributes and ListIdentity still answer\n"
 "\n"
 "Other:\n"
 "  -v, --verbose             log events to stderr; twice: every request\n"
 "  -h, --help                show this help and exit\n"
 "  -V, --version             show the version and exit\n"
 "\n"
-"SIGINT or SIGTERM stops drsim cleanly. Exit status: 0 after a signal,\n"
+"SIGINT or SIGTERM stops drsim cleanly (SIGUSR1, SIGUSR2: see Robot). Exit status: 0 after a signal,\n"
 "1 on a runtime error (e.g. a port in use), 2 on a usage error.\n"
 "See drsim(1).\n", f);
 }
@@ -255,7 +264,8 @@ enum {
     OPT_CONFIG_INSTANCE, OPT_HB_INPUT_ONLY, OPT_HB_LISTEN_ONLY,
     OPT_STILL, OPT_SEQ_ON_CHANGE, OPT_TICK, OPT_API_REPORT, OPT_TRAILING_ITEM,
     OPT_OWNER_HOLD,
-    OPT_CLOCK_PPM, OPT_DROP_T2O, OPT_T2O_TO_PEER, OPT_LAYOUT
+    OPT_CLOCK_PPM, OPT_DROP_T2O, OPT_T2O_TO_PEER, OPT_LAYOUT, OPT_REFUSE_IDENTITY,
+    OPT_VENDOR_ID
 };
 
 static const struct option long_options[] = {
@@ -287,6 +297,8 @@ static const struct option long_options[] = {
     {"clock-ppm", required_argument, NULL, OPT_CLOCK_PPM},
     {"drop-t2o", no_argument, NULL, OPT_DROP_T2O},
     {"t2o-to-peer", no_argument, NULL, OPT_T2O_TO_PEER},
+    {"refuse-identity", no_argument, NULL, OPT_REFUSE_IDENTITY},
+    {"vendor-id", required_argument, NULL, OPT_VENDOR_ID},
     {"verbose", no_argument, NULL, 'v'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, 'V'},
@@ -431,6 +443,14 @@ static int parse_options(int argc, char **argv, options_t *o)
             break;
         case OPT_T2O_TO_PEER:
             o->cfg.t2o_to_peer = true;
+            break;
+        case OPT_REFUSE_IDENTITY:
+            o->cfg.refuse_identity = true;
+            break;
+        case OPT_VENDOR_ID:
+            if (parse_uint(optarg, 0, 0xFFFF, &n) != 0)
+                return bad("--vendor-id", optarg);
+            o->cfg.vendor_id = (uint16_t)n;
             break;
         case 'v':
             drsim_verbose++;
@@ -935,9 +955,20 @@ static void on_udp_encap(void *obj, uint32_t events)
     udp_encap_readable(obj);
 }
 
+/* SIGUSR1 and SIGUSR2 raise and clear the robot's safety stops (tests
+ * drive them so); the others stop drsim. */
 static void on_signal(void *obj, int signo)
 {
     loop_t *L = obj;
+    if (signo == SIGUSR1 || signo == SIGUSR2) {
+        drsim_robot_t *r = &L->sim.robot;
+        bool estop = r->estop != (signo == SIGUSR1), pstop = r->pstop != (signo == SIGUSR2);
+        drsim_robot_safety(r, estop, pstop, ev_now_ns(), &L->sim.img);
+        drsim_log(1, "signal %d: %s stop %s", signo,
+                  signo == SIGUSR1 ? "emergency" : "protective",
+                  (signo == SIGUSR1 ? estop : pstop) ? "raised" : "cleared");
+        return;
+    }
     drsim_log(1, "signal %d: stopping", signo);
     L->quit = 1;
 }
@@ -961,7 +992,7 @@ static void on_client(void *obj, uint32_t events)
 
 static int setup(loop_t *L)
 {
-    static const int signals[] = {SIGINT, SIGTERM};
+    static const int signals[] = {SIGINT, SIGTERM, SIGUSR1, SIGUSR2};
     const drsim_config_t *cfg = &L->opt.cfg;
     /* first: teardown closes what these opened, whatever fails below */
     for (int i = 0; i < MAX_CLIENTS; i++) {

@@ -155,10 +155,14 @@ static void euler_zyz(double rot[3][3], double *a, double *b, double *c)
 static void update_io(drsim_robot_t *r, double t)
 {
     uint8_t state = robot_state_at(t);
+    r->io.servo_on = state != DR_ROBOT_INITIALIZING && !r->estop;
+    if (r->estop)
+        state = DR_ROBOT_EMERGENCY_STOP;
+    else if (r->pstop)
+        state = DR_ROBOT_SAFE_STOP;
     r->io.robot_state = state;
-    r->io.servo_on = state != DR_ROBOT_INITIALIZING;
-    r->io.safety_stopped = false;
-    r->io.emergency_stopped = false;
+    r->io.safety_stopped = r->pstop && !r->estop;
+    r->io.emergency_stopped = r->estop;
     r->io.direct_teach_pressed = false;
     r->io.power_button_pressed = false;
     /* DI1: "cell ready" once booted; DI2: a part sensor toggling every 2 s. */
@@ -175,14 +179,15 @@ static void update_io(drsim_robot_t *r, double t)
     r->io.tool_di = (uint8_t)(r->io.tool_do & 0x03u);
 }
 
-static void update_joints(drsim_robot_t *r, double t, double dt, double q[6])
+/* t: the motion's time (stops left out); stopped: a safety stop holds. */
+static void update_joints(drsim_robot_t *r, double t, bool stopped, double dt, double q[6])
 {
     bool moving = !r->still && t >= DRSIM_T_OPERATING_S;
     double tau = moving ? t - DRSIM_T_OPERATING_S : 0.0;
     double qd[6], qdd[6];
     for (unsigned j = 0; j < 6; j++) {
         joint_motion(j, tau, &q[j], &qd[j], &qdd[j]);
-        if (!moving)
+        if (!moving || stopped) /* stopped: held where the stop found it */
             qd[j] = qdd[j] = 0.0;
     }
     /* Gravity on the shoulder and elbow (arm masses ~25 kg and ~10 kg). */
@@ -298,9 +303,13 @@ void drsim_robot_update(drsim_robot_t *r, uint64_t now_ns, drsim_images_t *img)
     double t = seconds_since(now_ns, r->start_ns);
     double dt = r->updated ? seconds_since(now_ns, r->last_ns) : 0.0;
     uint8_t before = r->io.robot_state;
+    bool stopped = r->estop || r->pstop;
+    /* the motion's clock stands while a stop holds */
+    uint64_t lost = r->stopped_ns + (stopped && now_ns > r->stop_since_ns
+                                         ? now_ns - r->stop_since_ns : 0u);
     double q[6];
     update_io(r, t);
-    update_joints(r, t, dt, q);
+    update_joints(r, seconds_since(now_ns, r->start_ns + lost), stopped, dt, q);
     update_task(r, q, dt);
     if (r->updated && before != r->io.robot_state)
         drsim_log(1, "robot: state %s -> %s", dr_robot_state_name(before),
@@ -309,6 +318,19 @@ void drsim_robot_update(drsim_robot_t *r, uint64_t now_ns, drsim_images_t *img)
     r->last_ns = now_ns;
     r->step++;
     write_images(r, img);
+}
+
+void drsim_robot_safety(drsim_robot_t *r, bool estop, bool pstop, uint64_t now_ns,
+                        drsim_images_t *img)
+{
+    bool was = r->estop || r->pstop, is = estop || pstop;
+    if (!was && is)
+        r->stop_since_ns = now_ns;
+    if (was && !is && now_ns > r->stop_since_ns)
+        r->stopped_ns += now_ns - r->stop_since_ns;
+    r->estop = estop;
+    r->pstop = pstop;
+    drsim_robot_update(r, now_ns, img);
 }
 
 /* Copy a GPR input image to its output image through the typed structs. */

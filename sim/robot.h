@@ -32,6 +32,12 @@ typedef struct {
     bool still;         /* stands still once booted: no motion, no noise */
     uint64_t seed;
     uint64_t step;      /* update counter, varies the noise */
+    /* Safety stops raised from outside (drsim_robot_safety): an emergency
+     * stop, a protective stop; while either holds the arm stands where it
+     * stopped, and the motion goes on from there when both are clear. */
+    bool estop, pstop;
+    uint64_t stop_since_ns; /* when the current stop began */
+    uint64_t stopped_ns;    /* motion time lost to stops that ended */
     float temperature[6];
     double rot[3][3];   /* last TCP orientation, for angular velocity */
     double tcp[3];      /* last TCP position, for linear velocity */
@@ -46,6 +52,14 @@ void drsim_robot_init(drsim_robot_t *r, uint64_t now_ns, uint64_t seed,
 
 /* Advance the model to `now_ns` and rewrite the T->O images. */
 void drsim_robot_update(drsim_robot_t *r, uint64_t now_ns, drsim_images_t *img);
+
+/* Raise or clear the emergency stop and the protective stop at `now_ns`
+ * and rewrite the T->O images at once. An emergency stop shows as
+ * robot_state EMERGENCY_STOP, emergency_stopped set and the servos off; a
+ * protective stop (with no emergency stop) as robot_state SAFE_STOP and
+ * safety_stopped set, the servos on and holding. */
+void drsim_robot_safety(drsim_robot_t *r, bool estop, bool pstop, uint64_t now_ns,
+                        drsim_images_t *img);
 
 /* O->T image `a` changed (Set_Attribute_Single or a Class 1 packet): make
  * it show at once in the T->O images (io_control in io_state, GPR echo),

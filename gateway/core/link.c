@@ -80,6 +80,10 @@ struct gw_link {
     uint32_t rx_base, lost_base;
     unsigned t2o_planned;    /* T->O assemblies the plan opens (explicit: polls) */
     unsigned o2t_planned;    /* O->T assemblies with an owner connection */
+    /* The Identity read (robot.h, gw_robot_identity_t): due after each
+     * session the client registers, out while its request is; a refusal
+     * is logged once (again only after a read that succeeded). */
+    bool ident_due, ident_out, ident_logged;
 };
 
 /* Robots whose links use the same local address and UDP port share one
@@ -194,8 +198,10 @@ static void on_session(dr_client_t *c, dr_status_t why, void *user)
     l->sess_ready = why == DR_OK;
     l->sess_why = why;
     l->status_now = true;
-    if (why == DR_OK)
+    if (why == DR_OK) {
+        l->ident_due = true; /* asked after this turn's Forward Opens (settle) */
         return;
+    }
     char cause[160];
     gw_robot_error_text(why, cause, sizeof cause);
     if (was_ready && l->up && l->cfg.mode == GW_MODE_IMPLICIT) {
@@ -266,10 +272,82 @@ static void sync_fds(gw_link_t *l)
     }
 }
 
+/* ---- the Identity ------------------------------------------------------------- */
+
+/* The robot answered the Identity read (or the request ended without an
+ * answer: then nothing changes, and the next session asks again). Who it
+ * is goes to the log when it is new or changed; a refusal or a reply that
+ * is not an Identity, once: the link goes on either way. */
+static void on_identity(dr_client_t *c, dr_status_t st, const uint8_t *data, size_t len,
+                        void *user)
+{
+    gw_link_t *l = user;
+    l->ident_out = false;
+    if (l->closing != NULL)
+        return;
+    gw_robot_identity_t before = l->data->identity;
+    /* a session that failed fails its requests with its own cause (a
+     * malformed frame among them): that is no answer to this one */
+    if (st != DR_OK && !DR_IS_CIP(st) && !dr_client_ready(c))
+        st = DR_ESESSION;
+    dr_status_t got = gw_robot_identity_answer(l->data, st, data, len);
+    const gw_robot_identity_t *id = &l->data->identity;
+    char text[200];
+    if (got == DR_OK) {
+        l->ident_logged = false;
+        if (!gw_robot_identity_same(&before, id)) {
+            gw_robot_identity_text(id, text, sizeof text);
+            gw_log(GW_LOG_INFO, "robot %s: identity: %s", l->cfg.name, text);
+        }
+    } else if (id->state == GW_IDENTITY_REFUSED && !l->ident_logged) {
+        l->ident_logged = true;
+        if (got == DR_ESHORT)
+            snprintf(text, sizeof text, "answered with %u bytes, too short for its attributes",
+                     (unsigned)len);
+        else
+            gw_robot_error_text(got, text, sizeof text);
+        /* the product name is the only text from the robot, and only a
+         * known identity has one: the log line holds none of it */
+        gw_log(GW_LOG_WARNING,
+               "robot %s: Identity object (Get_Attributes_All, class 1, instance 1): %s; the "
+               "robot's identity stays unknown (the link is not affected)",
+               l->cfg.name, text);
+    }
+}
+
+/* Ask for the Identity when a new session wants it: never before the
+ * Forward Opens the same turn of the client sent, and never in place of
+ * an explicit-mode poll (a full request pool: the next turn tries again). */
+static void identity_step(gw_link_t *l)
+{
+    if (!l->ident_due || l->ident_out || l->closing != NULL)
+        return;
+    if (!dr_client_ready(l->client)) {
+        l->ident_due = false; /* the session is gone: the next one asks */
+        return;
+    }
+    uint8_t path[12];
+    size_t n = dr_cip_path(path, sizeof path, DR_CIP_CLASS_IDENTITY, 1, -1);
+    dr_status_t st = dr_client_call_async(l->client, DR_CIP_SVC_GET_ATTRIBUTES_ALL, path, n,
+                                          NULL, 0, on_identity, l);
+    if (st == DR_EFULL)
+        return;
+    l->ident_due = false;
+    l->ident_out = st == DR_OK;
+}
+
+/* After the client's turn: the requests that wait for one, then its
+ * descriptors as they are now. */
+static void settle(gw_link_t *l)
+{
+    identity_step(l);
+    sync_fds(l);
+}
+
 static void process(gw_link_t *l)
 {
     dr_client_process(l->client);
-    sync_fds(l);
+    settle(l);
 }
 
 /* One of the client's descriptors is ready: only that one is read (its
@@ -279,7 +357,7 @@ static void on_client_fd(void *obj, uint32_t events)
     link_ev_t *e = obj;
     dr_pollfd_t fd = {e->ev.fd, 0, (short)(events != 0)};
     dr_client_process_ready(e->link->client, &fd, 1);
-    sync_fds(e->link);
+    settle(e->link);
 }
 
 /* ---- the observer -------------------------------------------------------------- */
@@ -1071,7 +1149,7 @@ void gw_link_tick(gw_link_t *l, uint64_t now, bool busy)
         process(l);
     } else if (now >= dr_client_next_deadline(l->client)) {
         dr_client_process_ready(l->client, NULL, 0); /* timers; no socket is ready */
-        sync_fds(l);
+        settle(l);
     } else if (busy && l->port != NULL && now - l->port->read_us >= PORT_POLL_US) {
         /* Implicit mode, nothing due: the client's descriptors (its TCP
          * socket and timer) and the shared UDP port are in the loop and

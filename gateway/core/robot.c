@@ -186,3 +186,103 @@ dr_status_t gw_robot_get(const gw_robot_t *r, dr_ref_t ref, dr_value_t *v)
     dr_asm_t a = (dr_asm_t)ref.field->assembly;
     return dr_field_get(r->img[a], dr_asm_info(a)->size, ref, v);
 }
+
+/* ---- the Identity ---------------------------------------------------------------- */
+
+/* Identity attributes 1-6 (vendor, device type, product code, revision,
+ * status, serial) and the name's length byte: the least a reply carries. */
+#define IDENTITY_FIXED 15u
+
+/* ODVA's vendor IDs of the robots this gateway serves, as ODVA's vendor
+ * list names them (pycomm3 1.2.14's copy of it, cip/status_info.py). */
+static const struct {
+    uint16_t id;
+    const char *name;
+} vendors[] = {
+    {1573, "Doosan Robotics"},
+};
+
+void gw_identity_vendor_text(uint16_t vendor, char *buf, size_t size)
+{
+    for (size_t i = 0; i < sizeof vendors / sizeof vendors[0]; i++)
+        if (vendors[i].id == vendor) {
+            snprintf(buf, size, "%s", vendors[i].name);
+            return;
+        }
+    snprintf(buf, size, "vendor %u", (unsigned)vendor);
+}
+
+void gw_identity_serial_text(uint32_t serial, char *buf, size_t size)
+{
+    snprintf(buf, size, "0x%08lx", (unsigned long)serial);
+}
+
+dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_t *data,
+                                     size_t len)
+{
+    gw_robot_identity_t *id = &r->identity;
+    if (st == DR_OK && (data == NULL || len < IDENTITY_FIXED ||
+                        len < IDENTITY_FIXED + (size_t)data[IDENTITY_FIXED - 1]))
+        st = DR_ESHORT; /* not the seven attributes the service returns */
+    /* an answer that refuses (CIP, encapsulation) or is not one (a reply
+     * malformed or to another service); anything else is no answer */
+    bool answered = DR_IS_CIP(st) || DR_IS_ENCAP(st) || st == DR_ESHORT ||
+                    st == DR_EMALFORMED || st == DR_EMISMATCH;
+    if (st != DR_OK && !answered)
+        return st; /* the next session asks again */
+    if (st != DR_OK) {
+        memset(id, 0, sizeof *id);
+        id->state = GW_IDENTITY_REFUSED;
+        id->why = st;
+        return st;
+    }
+    id->state = GW_IDENTITY_KNOWN;
+    id->why = DR_OK;
+    id->vendor_id = dr_get_le16(data);
+    id->device_type = dr_get_le16(data + 2);
+    id->product_code = dr_get_le16(data + 4);
+    id->rev_major = data[6];
+    id->rev_minor = data[7];
+    /* data + 8: the status word, the robot's state now, not who it is */
+    id->serial = dr_get_le32(data + 10);
+    size_t n = data[IDENTITY_FIXED - 1], k = 0;
+    for (; k < n && k + 1 < sizeof id->product_name; k++) {
+        uint8_t c = data[IDENTITY_FIXED + k];
+        id->product_name[k] = (char)(c >= 0x20 && c < 0x7F ? c : '?');
+    }
+    id->product_name[k] = '\0';
+    return DR_OK;
+}
+
+bool gw_robot_identity_same(const gw_robot_identity_t *a, const gw_robot_identity_t *b)
+{
+    return a->state == b->state && a->why == b->why && a->vendor_id == b->vendor_id &&
+           a->device_type == b->device_type && a->product_code == b->product_code &&
+           a->rev_major == b->rev_major && a->rev_minor == b->rev_minor &&
+           a->serial == b->serial && strcmp(a->product_name, b->product_name) == 0;
+}
+
+void gw_robot_identity_refusal(const gw_robot_identity_t *id, char *buf, size_t size)
+{
+    if (id->why == DR_ESHORT)
+        snprintf(buf, size, "a reply too short for an Identity");
+    else
+        gw_robot_error_text(id->why, buf, size);
+}
+
+void gw_robot_identity_text(const gw_robot_identity_t *id, char *buf, size_t size)
+{
+    char vendor[32], serial[16], why[120];
+    if (id->state == GW_IDENTITY_WAITING) {
+        snprintf(buf, size, "not read yet");
+    } else if (id->state == GW_IDENTITY_REFUSED) {
+        gw_robot_identity_refusal(id, why, sizeof why);
+        snprintf(buf, size, "refused: %s", why);
+    } else {
+        gw_identity_vendor_text(id->vendor_id, vendor, sizeof vendor);
+        gw_identity_serial_text(id->serial, serial, sizeof serial);
+        snprintf(buf, size, "%s, '%s' (product code %u, revision %u.%u, serial %s)", vendor,
+                 id->product_name, (unsigned)id->product_code, (unsigned)id->rev_major,
+                 (unsigned)id->rev_minor, serial);
+    }
+}

@@ -85,6 +85,30 @@ typedef struct {
     bool ever_up;
 } gw_robot_link_t;
 
+/* The robot's Identity object (class 1, instance 1), as the link reads it
+ * (Get_Attributes_All) after each session it registers: who the robot says
+ * it is, for the sides that show it (OPC UA's MotionDevice and Controller
+ * identification, the console's /api/v1 robot object, drgatewayd status).
+ * WAITING until the first read answers (also while the link never came
+ * up); REFUSED when the robot refused the read or answered something that
+ * is not an Identity: the values stay unknown, the link is not touched.
+ * A later session reads it again: the robot behind the address may have
+ * been replaced. */
+typedef enum {
+    GW_IDENTITY_WAITING = 0,
+    GW_IDENTITY_KNOWN = 1,
+    GW_IDENTITY_REFUSED = 2
+} gw_identity_state_t;
+#define GW_IDENTITY_NAME 33 /* SHORT_STRING, at most 32 characters (CIP Vol. 1, 5A-2) */
+typedef struct {
+    uint8_t state;          /* gw_identity_state_t */
+    dr_status_t why;        /* REFUSED: the robot's answer (DR_CIP(), DR_ESHORT, ...) */
+    uint16_t vendor_id, device_type, product_code;
+    uint8_t rev_major, rev_minor;
+    uint32_t serial;
+    char product_name[GW_IDENTITY_NAME]; /* printable ASCII only ('?' for the rest) */
+} gw_robot_identity_t;
+
 /* The last write a northbound side accepted for the robot (the console
  * shows it): when, from whom, and the fields it changed by canonical path. */
 #define GW_WRITE_CLIENT 64
@@ -141,6 +165,7 @@ typedef struct {
     uint32_t uptime_s;
     uint16_t generation;
     gw_robot_write_t last_write; /* set by gw_robot_wrote() */
+    gw_robot_identity_t identity; /* set by the link (gw_robot_identity_answer) */
 } gw_robot_t;
 
 /* A robot that has not started: images, link facts and counters zero,
@@ -210,6 +235,37 @@ void gw_robot_wrote(gw_robot_t *r, const char *client);
 void gw_robot_write_field(gw_robot_t *r, const char *path);
 /* The fields of last_write as "a, b, c (+N more)" into buf. */
 void gw_robot_write_fields_text(const gw_robot_t *r, char *buf, size_t size);
+
+/* The robot's answer to the link's Get_Attributes_All of its Identity:
+ * `st` the request's status, data[0..len) the reply's data. DR_OK with
+ * the seven attributes (more may follow, as CIP allows) makes the identity
+ * KNOWN; a refusal (a CIP or encapsulation error), a reply that is not one
+ * (DR_EMALFORMED, DR_EMISMATCH), or one too short for the attributes or
+ * its name (DR_ESHORT) makes it REFUSED; anything else (no answer: a
+ * timeout, the session lost) leaves it as it was, for the next session to
+ * ask again. Returns the new state's status: DR_OK (known), the refusal,
+ * or `st` (left). */
+dr_status_t gw_robot_identity_answer(gw_robot_t *r, dr_status_t st, const uint8_t *data,
+                                     size_t len);
+
+/* a and b say the same (state, cause and every field). */
+bool gw_robot_identity_same(const gw_robot_identity_t *a, const gw_robot_identity_t *b);
+
+/* The name ODVA gives vendor ID `vendor` for the vendors this gateway
+ * knows of (1573: "Doosan Robotics"), else "vendor N", into buf. */
+void gw_identity_vendor_text(uint16_t vendor, char *buf, size_t size);
+
+/* The Identity's serial number as drcli identity prints it: "0x0012abcd". */
+void gw_identity_serial_text(uint32_t serial, char *buf, size_t size);
+
+/* Why a REFUSED identity is unknown: "CIP 0x08 service not supported",
+ * "a reply too short for an Identity". */
+void gw_robot_identity_refusal(const gw_robot_identity_t *id, char *buf, size_t size);
+
+/* One line for logs and drgatewayd status: "Doosan Robotics, 'M1013
+ * controller' (product code 3, revision 2.12, serial 0x0012abcd)"; "not
+ * read yet" / "refused: CIP 0x08 service not supported". */
+void gw_robot_identity_text(const gw_robot_identity_t *id, char *buf, size_t size);
 
 /* Field `ref` of the robot's images; DR_OK or why not. */
 dr_status_t gw_robot_get(const gw_robot_t *r, dr_ref_t ref, dr_value_t *v);

@@ -113,6 +113,38 @@ static void identity(gw_json_t *j, const gw_http_api_t *a, unsigned r)
     gw_json_str(j, "}");
 }
 
+/* "identity": the robot's Identity object as the link read it (robot.h):
+ * the members of drcli identity --json, with the vendor's name; only
+ * "state" ("waiting", "refused" with its "reason") before it is known. */
+static void robot_identity(gw_json_t *j, const gw_robot_identity_t *id)
+{
+    char text[160];
+    gw_json_str(j, ",\"identity\":{\"state\":");
+    if (id->state != GW_IDENTITY_KNOWN) {
+        qstr(j, id->state == GW_IDENTITY_WAITING ? "waiting" : "refused");
+        if (id->state == GW_IDENTITY_REFUSED) {
+            gw_robot_identity_refusal(id, text, sizeof text);
+            gw_json_str(j, ",\"reason\":");
+            qstr(j, text);
+        }
+        gw_json_str(j, "}");
+        return;
+    }
+    qstr(j, "known");
+    NUM(j, ",\"vendor\":%u,\"vendor_name\":", (unsigned)id->vendor_id);
+    gw_identity_vendor_text(id->vendor_id, text, sizeof text);
+    qstr(j, text);
+    NUM(j, ",\"device_type\":%u", (unsigned)id->device_type);
+    NUM(j, ",\"product_code\":%u", (unsigned)id->product_code);
+    snprintf(text, sizeof text, "%u.%u", (unsigned)id->rev_major, (unsigned)id->rev_minor);
+    gw_json_str(j, ",\"revision\":");
+    qstr(j, text);
+    NUM(j, ",\"serial\":%lu", (unsigned long)id->serial);
+    gw_json_str(j, ",\"product_name\":");
+    qstr(j, id->product_name);
+    gw_json_str(j, "}");
+}
+
 /* "connections": each slot the robot's plan opens, with its state and its
  * packets received and lost since the link started (the overview shows
  * them beside the state). */
@@ -164,6 +196,7 @@ void gw_http_api_robot(gw_json_t *j, const gw_http_api_t *a, unsigned r)
     qstr(j, gw_http_api_state_name(rb));
     gw_json_str(j, rb->link.ever_up ? ",\"ever_linked\":true" : ",\"ever_linked\":false");
     identity(j, a, r);
+    robot_identity(j, &rb->identity);
     /* Why it is not up, in the log's words; null while up or before the
      * first failure. */
     gw_json_str(j, ",\"reason\":");
@@ -362,6 +395,12 @@ void gw_http_api_summary(gw_json_t *j, const gw_http_api_t *a)
             snprintf(line, sizeof line, "       %-12s %s (%s:%u)\n", rb->name, st,
                      cfg->robot[r].host, (unsigned)cfg->robot[r].tcp_port);
         gw_json_str(j, line);
+        /* who it is, once its Identity has answered */
+        if (rb->identity.state != GW_IDENTITY_WAITING) {
+            gw_robot_identity_text(&rb->identity, st, sizeof st);
+            snprintf(line, sizeof line, "%20sidentity: %s\n", "", st);
+            gw_json_str(j, line);
+        }
     }
     /* Each side's line, as it fills it (north.h: summary). */
     static gw_side_summary_t sides[GW_NORTH_SIDES];

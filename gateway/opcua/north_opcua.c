@@ -278,7 +278,12 @@ static UA_StatusCode node_read(UA_Server *s, const UA_NodeId *sid, void *sctx,
         dv->status = UA_STATUSCODE_BADINDEXRANGEINVALID;
         return UA_STATUSCODE_GOOD;
     }
-    if (n->kind == UA_VIEW_NONE) { /* not in the assemblies: docs/opcua.md */
+    if (ua_robotics_is_identity(n->kind) && !t->building) {
+        ua_robotics_identity_read(n->kind, &t->env->robots[n->robot].identity, dv);
+        return UA_STATUSCODE_GOOD;
+    }
+    if (n->kind == UA_VIEW_NONE || ua_robotics_is_identity(n->kind)) {
+        /* not in the assemblies: docs/opcua.md */
         if (t->building) { /* what open62541 checks the type of */
             void *zero = UA_new(n->type);
             if (zero == NULL)

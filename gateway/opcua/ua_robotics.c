@@ -249,20 +249,63 @@ static bool enum_property(build_t *b, const char *parent, const char *path, cons
 }
 
 /* Manufacturer, Model (LocalizedText), ProductCode, SerialNumber (String):
- * DI's identification, which needs the robot's Identity object: not
- * available (UA_VIEW_NONE, docs/opcua.md). */
-static bool identification(build_t *b, const char *at)
+ * DI's identification. The robot's Identity object names the EtherNet/IP
+ * device, the controller, which is sold with its arm as one product: the
+ * MotionDevice and the Controller show it (identity); a Motor has none
+ * the assemblies carry (UA_VIEW_NONE, docs/opcua.md). */
+static bool identification(build_t *b, const char *at, bool identity)
 {
     static const char *const names[] = {"Manufacturer", "Model", "ProductCode", "SerialNumber"};
+    static const ua_view_kind_t kinds[] = {UA_VIEW_MANUFACTURER, UA_VIEW_MODEL,
+                                           UA_VIEW_PRODUCT_CODE, UA_VIEW_SERIAL};
     char path[160];
     for (unsigned i = 0; i < 4; i++) {
         snprintf(path, sizeof path, "%s/%s", at, names[i]);
         if (!variable(b, at, path, b->di, names[i],
                       &UA_TYPES[i < 2 ? UA_TYPES_LOCALIZEDTEXT : UA_TYPES_STRING], UA_NODEID_NULL,
-                      true, UA_NODEID_NULL, UA_VIEW_NONE, NULL))
+                      true, UA_NODEID_NULL, identity ? kinds[i] : UA_VIEW_NONE, NULL))
             return false;
     }
     return true;
+}
+
+bool ua_robotics_is_identity(ua_view_kind_t kind)
+{
+    return kind == UA_VIEW_MANUFACTURER || kind == UA_VIEW_MODEL ||
+           kind == UA_VIEW_PRODUCT_CODE || kind == UA_VIEW_SERIAL;
+}
+
+void ua_robotics_identity_read(ua_view_kind_t kind, const gw_robot_identity_t *id,
+                               UA_DataValue *dv)
+{
+    if (id->state != GW_IDENTITY_KNOWN) {
+        dv->hasStatus = true;
+        dv->status = id->state == GW_IDENTITY_WAITING ? UA_STATUSCODE_BADWAITINGFORINITIALDATA
+                                                      : UA_STATUSCODE_BADNOTSUPPORTED;
+        return;
+    }
+    char s[GW_IDENTITY_NAME + 8];
+    if (kind == UA_VIEW_MANUFACTURER)
+        gw_identity_vendor_text(id->vendor_id, s, sizeof s);
+    else if (kind == UA_VIEW_MODEL)
+        snprintf(s, sizeof s, "%s", id->product_name);
+    else if (kind == UA_VIEW_PRODUCT_CODE)
+        snprintf(s, sizeof s, "%u", (unsigned)id->product_code);
+    else
+        gw_identity_serial_text(id->serial, s, sizeof s);
+    UA_StatusCode st;
+    if (kind == UA_VIEW_MANUFACTURER || kind == UA_VIEW_MODEL) {
+        UA_LocalizedText lt = text(s);
+        st = UA_Variant_setScalarCopy(&dv->value, &lt, &UA_TYPES[UA_TYPES_LOCALIZEDTEXT]);
+    } else {
+        UA_String str = ua_model_text(s);
+        st = UA_Variant_setScalarCopy(&dv->value, &str, &UA_TYPES[UA_TYPES_STRING]);
+    }
+    dv->hasValue = st == UA_STATUSCODE_GOOD;
+    if (st != UA_STATUSCODE_GOOD) {
+        dv->hasStatus = true;
+        dv->status = st;
+    }
 }
 
 /* An analog value of the spec (AnalogUnitType, Double, EngineeringUnits
@@ -318,7 +361,7 @@ static bool power_train(build_t *b, unsigned i)
     if (!object(b, "MotionDevices/Manipulator/PowerTrains", at, b->rb, path,
                 num(b->rb, RB_POWER_TRAIN_TYPE)) ||
         !object(b, at, motor, b->rb, "Motor", num(b->rb, RB_MOTOR_TYPE)) ||
-        !identification(b, motor) ||
+        !identification(b, motor, false) ||
         !object(b, motor, ps, b->di, "ParameterSet", num(0, UA_NS0ID_BASEOBJECTTYPE)))
         return false;
     snprintf(path, sizeof path, "%s/MotorTemperature", ps);
@@ -340,7 +383,7 @@ static bool motion_device(build_t *b)
     if (!folder(b, "", "MotionDevices", "MotionDevices") ||
         !object(b, "MotionDevices", md, b->v->ns, "Manipulator",
                 num(b->rb, RB_MOTION_DEVICE_TYPE)) ||
-        !identification(b, md) ||
+        !identification(b, md, true) ||
         !enum_property(b, md, "MotionDevices/Manipulator/MotionDeviceCategory",
                        "MotionDeviceCategory", RB_MOTION_DEVICE_CATEGORY_ENUM,
                        RB_ARTICULATED_ROBOT) ||
@@ -366,7 +409,7 @@ static bool controller(build_t *b)
     const char *tc = "Controllers/Controller/TaskControls/TaskControl";
     return folder(b, "", "Controllers", "Controllers") &&
            object(b, "Controllers", c, b->v->ns, "Controller", num(b->rb, RB_CONTROLLER_TYPE)) &&
-           identification(b, c) &&
+           identification(b, c, true) &&
            object(b, c, "Controllers/Controller/CurrentUser", b->rb, "CurrentUser",
                   num(b->rb, RB_USER_TYPE)) &&
            variable(b, "Controllers/Controller/CurrentUser",
@@ -378,7 +421,7 @@ static bool controller(build_t *b)
                   num(b->di, DI_SOFTWARE_TYPE)) &&
            variable(b, sw, "Controllers/Controller/Software/Firmware/Manufacturer", b->di,
                     "Manufacturer", &UA_TYPES[UA_TYPES_LOCALIZEDTEXT], UA_NODEID_NULL, true,
-                    UA_NODEID_NULL, UA_VIEW_NONE, NULL) &&
+                    UA_NODEID_NULL, UA_VIEW_MANUFACTURER, NULL) &&
            variable(b, sw, "Controllers/Controller/Software/Firmware/Model", b->di, "Model",
                     &UA_TYPES[UA_TYPES_LOCALIZEDTEXT], UA_NODEID_NULL, true, UA_NODEID_NULL,
                     UA_VIEW_NONE, NULL) &&

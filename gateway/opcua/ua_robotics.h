@@ -18,6 +18,7 @@
 
 #include <open62541/server.h>
 
+#include "core/robot.h"
 #include "drgate/codec.h"
 
 #define UA_NS_DI "http://opcfoundation.org/UA/DI/"
@@ -29,8 +30,24 @@ typedef enum {
     UA_VIEW_FIELD,   /* a field, as its OPC UA type (the flat view's) */
     UA_VIEW_DOUBLE,  /* a REAL field as Double (the companion spec's type) */
     UA_VIEW_VERSION, /* io_state.version as "major.minor.patch" */
-    UA_VIEW_NONE     /* what the assemblies do not carry: BadNotSupported */
+    UA_VIEW_NONE,    /* what the assemblies do not carry: BadNotSupported */
+    /* DI's identification from the robot's Identity object (robot.h,
+     * gw_robot_identity_t): ua_robotics_identity_read() */
+    UA_VIEW_MANUFACTURER, /* the vendor's name (LocalizedText) */
+    UA_VIEW_MODEL,        /* the product name (LocalizedText) */
+    UA_VIEW_PRODUCT_CODE, /* the product code in decimal (String) */
+    UA_VIEW_SERIAL        /* the serial number as drcli prints it (String) */
 } ua_view_kind_t;
+
+/* Is `kind` one of the identification's? */
+bool ua_robotics_is_identity(ua_view_kind_t kind);
+
+/* What a variable of identification kind `kind` reads of `id`: the value
+ * once the link has read the robot's Identity, BadWaitingForInitialData
+ * until its first read answers, BadNotSupported when the robot refused it
+ * (docs/opcua.md). */
+void ua_robotics_identity_read(ua_view_kind_t kind, const gw_robot_identity_t *id,
+                               UA_DataValue *dv);
 
 /* The side's maker of node contexts: robot r's variable of `kind` on
  * field `path` (NULL for UA_VIEW_NONE and UA_VIEW_VERSION), whose value

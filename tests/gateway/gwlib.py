@@ -555,6 +555,16 @@ def closed_by_peer(sock, seconds=10):
 
 # ---- an independent EtherNet/IP explicit reader --------------------------------
 
+def drcli_identity(sim):
+    """drcli identity --json against drsim itself: its Identity object
+    ({"vendor", "device_type", "product_code", "revision", "status",
+    "serial", "product_name"})."""
+    out = subprocess.run([str(DRCLI), "-H", SIM_ADDR, "--port", str(sim.tcp), "identity",
+                          "--json"], capture_output=True, text=True, timeout=timeout(30),
+                         check=True).stdout
+    return json.loads(out)["identity"]
+
+
 class EnipReader:
     """RegisterSession + SendRRData Get_Attribute_Single(class 4, instance,
     attribute 3): the robot's own view of an assembly, read beside the

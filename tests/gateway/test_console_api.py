@@ -18,7 +18,7 @@ import time
 import pytest
 
 import gwlib
-from gwlib import DRGATEWAYD, GW_ADDR, Drsim, Gateway, free_port, wait_for
+from gwlib import DRGATEWAYD, GW_ADDR, Drsim, Gateway, drcli_identity, free_port, wait_for
 from test_http import down_robot, get, get_json
 
 STATE_NAMES = {0: "INITIALIZING", 1: "STANDBY", 2: "OPERATING"}  # drsim's (dr_robot_state_name)
@@ -149,6 +149,59 @@ def test_robot_identity(gw):
     assert down["host"] == gwlib.SIM_ADDR and down["tcp_port"] > 0
     assert [r["name"] for r in get_json(gw.http, "/api/v1/robots")] == ["r0", "down"]
     assert get_json(gw.http, "/api/v1/robots")[0]["host"] == r0["host"]
+
+
+def test_robots_identity_object(gw):
+    """The robot's Identity object, as the link read it after its session
+    was registered: the members drcli identity --json prints for the same
+    robot, with the vendor's name; "waiting" for a robot never reached.
+    drgatewayd status says it on a line of its own below the robot's."""
+    want = drcli_identity(gw.sim)
+    want.pop("status")  # the robot's state now (its connections), not who it is
+    ident = wait_for(lambda: (lambda i: i if i["state"] == "known" else None)(
+        get_json(gw.http, "/api/v1/robots/r0")["identity"]), 20, "r0's identity")
+    assert ident == dict(want, state="known", vendor_name="vendor %d" % want["vendor"])
+    assert get_json(gw.http, "/api/v1/robots/down")["identity"] == {"state": "waiting"}
+    p = subprocess.run([str(DRGATEWAYD), "status", "-c", str(gw.conf)], capture_output=True,
+                       text=True, timeout=gwlib.timeout(30))
+    line = "identity: vendor %d, '%s' (product code %d, revision %s, serial 0x%08x)" % (
+        want["vendor"], want["product_name"], want["product_code"], want["revision"],
+        want["serial"])
+    assert re.search(r"^\s+r0\s+linked \(.*\n\s+%s\n" % re.escape(line), p.stdout, re.M), \
+        p.stdout
+    assert p.stdout.count("identity: ") == 1, p.stdout
+
+
+def test_identity_refused_leaves_the_link_alone():
+    """A robot that refuses Get_Attributes_All on its Identity: the link
+    comes up all the same, the refusal is logged once, and the identity
+    stays unknown ("refused", with the robot's answer)."""
+    sim = Drsim("console_api_noident", "--still", "--refuse-identity", "-v").start()  # -vv
+    port = free_port(GW_ADDR, udp=False)
+    g = Gateway("console_api_noident", sim, extra="\n[http]\nport = %d\n" % port)
+    words = ("robot r0: Identity object (Get_Attributes_All, class 1, instance 1): CIP 0x08 "
+             "service not supported; the robot's identity stays unknown (the link is not "
+             "affected)")
+    try:
+        g.start()
+        wait_for(lambda: g.listening(port), 10, "the console to listen")
+        g.log_wait(words, 20)
+        r0 = get_json(port, "/api/v1/robots/r0")
+        assert r0["link"] == "up"
+        assert r0["identity"] == {"state": "refused", "reason": "CIP 0x08 service not supported"}
+        # a new session (drsim restarted) asks again: refused again, not logged again
+        sim.kill()
+        wait_for(lambda: get_json(port, "/api/v1/robots/r0")["link"] != "up", 20, "link down")
+        mark = len(g.log())
+        sim.start(same_ports=True)
+        g.log_wait("robot r0 (%s): link up" % gwlib.SIM_ADDR, 30, mark)
+        asked = "request 0x01 class 0x01 instance 1 attribute -1"  # drsim -vv
+        wait_for(lambda: sim.log().count(asked) == 2, 20, "the second session's Identity read")
+        assert g.log().count(words) == 1, g.log()
+        assert "identity: " not in g.log()
+    finally:
+        g.kill()
+        sim.kill()
 
 
 def test_never_linked_robot_is_not_shown_as_the_robots_data(gw):

@@ -11,7 +11,7 @@ import pytest
 from asyncua import ua
 
 import ualib
-from gwlib import DRGATEWAYD, EXIT_CONFIG, EXIT_OK, LOGDIR, timeout, wait_for
+from gwlib import DRGATEWAYD, EXIT_CONFIG, EXIT_OK, LOGDIR, drcli_identity, timeout, wait_for
 from ualib import O2T, T2O, client, drcli_get, f32, gateway, node, ns_of, read, run
 
 JOINTS = ["joint_state.position[%d]" % i for i in range(1, 7)]
@@ -278,6 +278,10 @@ def test_no_data_yet():
                         for p in (JOINTS[0], "io_state.robot_state", "int_in[0]")]
         assert run(look()) == [ua.StatusCodes.BadNoCommunication,
                                ua.StatusCodes.BadNoCommunication, ua.StatusCodes.Good]
+        # who the robot is: not known until its Identity answers
+        for where in IDENTIFIED:
+            assert identification(g.url, where) == {
+                p: (ua.StatusCodes.BadWaitingForInitialData, None) for p in IDENT}, where
 
 
 def check_config(name, opcua):
@@ -413,8 +417,8 @@ def test_robotics_view(still):
     out, rb = run(look())
     assert out["system_type"] == ua.NodeId(1002, rb)  # MotionDeviceSystemType
     assert out["md_type"] == ua.NodeId(1004, rb)      # MotionDeviceType
-    for p in ("Manufacturer", "Model", "ProductCode", "SerialNumber"):
-        assert out[p] == ua.StatusCodes.BadNotSupported, p
+    for p in IDENT:  # the robot's Identity (test_identity_equals_drcli)
+        assert out[p] == ua.StatusCodes.Good, p
     assert out["category"] == 1  # ARTICULATED_ROBOT
     assert out["speed"] == ua.StatusCodes.BadNotSupported
     for i, (ty, pos, dt, unit, temp) in enumerate(out["axes"], 1):
@@ -429,3 +433,113 @@ def test_robotics_view(still):
     assert out["estop"] == robot["io_state.emergency_stopped"]
     assert out["pstop"] == robot["io_state.safety_stopped"]
     assert out["mode"] == ua.StatusCodes.BadNotSupported
+
+
+# ---- the robot's Identity ---------------------------------------------------------
+
+IDENT = ("Manufacturer", "Model", "ProductCode", "SerialNumber")
+# the objects of the Robotics view that carry the robot's Identity
+IDENTIFIED = ("MotionDevices/Manipulator", "Controllers/Controller")
+
+
+def identification(url, where="MotionDevices/Manipulator"):
+    """DI's identification of r0's object `where` in the Robotics view:
+    {name: (status code, value)}, LocalizedTexts by their text."""
+    async def look():
+        async with client(url) as c:
+            out = {}
+            for p in IDENT:
+                dv = await read(c, "r0", "rb/%s/%s" % (where, p))
+                v = dv.Value.Value if dv.Value is not None else None
+                out[p] = (dv.StatusCode.value, v.Text if isinstance(v, ua.LocalizedText) else v)
+            return out
+    return run(look())
+
+
+def expected(ident, vendor_name):
+    """The identification the robot's Identity (drcli's) makes, as DI types
+    it: LocalizedText Manufacturer and Model, String ProductCode and
+    SerialNumber (the serial as drcli identity prints it)."""
+    good = ua.StatusCodes.Good
+    return {"Manufacturer": (good, vendor_name), "Model": (good, ident["product_name"]),
+            "ProductCode": (good, str(ident["product_code"])),
+            "SerialNumber": (good, "0x%08x" % ident["serial"])}
+
+
+def test_identity_equals_drcli(still):
+    """MotionDevice's and Controller's Manufacturer, Model, ProductCode and
+    SerialNumber are the robot's Identity object as drcli identity reads
+    it; a vendor ID ODVA gives no name the gateway knows is "vendor N"
+    (drsim's 65535). Before: BadNotSupported."""
+    want = expected(drcli_identity(still.sim), "vendor 65535")
+    for where in IDENTIFIED:
+        wait_for(lambda: identification(still.url, where) == want, 20,
+                 "%s's identification: %s" % (where, want))
+
+
+def test_identity_follows_the_robot():
+    """Doosan Robotics' vendor ID (1573) gives its name; a robot restarted
+    behind the same address with another serial number is read again
+    after the new session, and its identity is logged."""
+    with gateway("ua_ident", sim_args=("--still", "--vendor-id", "1573")) as g:
+        first = drcli_identity(g.sim)
+        wait_for(lambda: identification(g.url) == expected(first, "Doosan Robotics"), 20,
+                 "the first robot's identification")
+        g.sim.kill()
+        g.wait_link(False, seconds=30)
+        g.sim.extra += ["--seed", "5"]  # another serial number
+        g.sim.start(same_ports=True)
+        g.wait_link(True, seconds=60)
+        second = drcli_identity(g.sim)
+        assert second["serial"] != first["serial"]
+        wait_for(lambda: identification(g.url) == expected(second, "Doosan Robotics"), 20,
+                 "the second robot's identification")
+        assert g.log().count("robot r0: identity: Doosan Robotics, '%s' (product code %d, "
+                             "revision %s, serial 0x%08x)" % (
+                                 second["product_name"], second["product_code"],
+                                 second["revision"], second["serial"])) == 1
+
+
+def test_identity_refused():
+    """A robot that refuses Get_Attributes_All on its Identity: the four
+    read BadNotSupported, the link is up and its data Good."""
+    with gateway("ua_noident", sim_args=("--still", "--refuse-identity")) as g:
+        g.log_wait("Identity object (Get_Attributes_All, class 1, instance 1): CIP 0x08", 20)
+        for where in IDENTIFIED:
+            assert identification(g.url, where) == {
+                p: (ua.StatusCodes.BadNotSupported, None) for p in IDENT}, where
+
+        async def joint():
+            async with client(g.url) as c:
+                return (await read(c, "r0", JOINTS[0])).StatusCode.value
+        assert run(joint()) == ua.StatusCodes.Good
+        assert "link down" not in g.log()
+
+
+# ---- SafetyStates -----------------------------------------------------------------
+
+def safety(url):
+    """(EmergencyStop, ProtectiveStop) of r0's SafetyState and the flat
+    view's io_state.robot_state."""
+    async def look():
+        async with client(url) as c:
+            ps = "rb/SafetyStates/SafetyState/ParameterSet/"
+            return tuple([(await read(c, "r0", ps + p)).Value.Value
+                          for p in ("EmergencyStop", "ProtectiveStop")] +
+                         [(await read(c, "r0", "io_state.robot_state")).Value.Value])
+    return run(look())
+
+
+def test_safety_states_follow_the_robot():
+    """drsim's emergency stop (SIGUSR1) and protective stop (SIGUSR2), raised
+    and cleared: SafetyState's EmergencyStop and ProtectiveStop follow the
+    robot's emergency_stopped and safety_stopped flags, and the flat view's
+    robot_state agrees (6 EMERGENCY_STOP, 5 SAFE_STOP, 2 OPERATING)."""
+    with gateway("ua_safety") as g:
+        wait_for(lambda: safety(g.url) == (False, False, 2), 30, "the robot operating")
+        for sig, raised in ((signal.SIGUSR1, (True, False, 6)),
+                            (signal.SIGUSR2, (False, True, 5))):
+            g.sim.proc.send_signal(sig)
+            wait_for(lambda: safety(g.url) == raised, 20, "%s raised: %s" % (sig.name, raised))
+            g.sim.proc.send_signal(sig)
+            wait_for(lambda: safety(g.url) == (False, False, 2), 20, "%s cleared" % sig.name)

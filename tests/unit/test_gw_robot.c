@@ -76,6 +76,79 @@ static void test_carry_over(void **state)
     assert_int_equal(next.img[DR_ASM_IO_STATE][0], 0);
 }
 
+/* The link's Identity read (link.c asks, robot.c takes the answer): a
+ * reply with the seven attributes makes it known, with a printable name;
+ * a refusal or a reply too short for them makes it refused and forgets
+ * what was known; no answer (a timeout, the session lost) changes nothing,
+ * for the next session to ask again. */
+static void test_identity(void **state)
+{
+    (void)state;
+    /* vendor 1573, device type 12, product code 7, revision 2.12, status
+     * 0x0030, serial 0x0012ABCD, "M1013\x01ctl", then attribute 8 */
+    static const uint8_t reply[] = {0x25, 0x06, 0x0C, 0x00, 0x07, 0x00, 0x02, 0x0C, 0x30,
+                                    0x00, 0xCD, 0xAB, 0x12, 0x00, 0x09, 'M',  '1',  '0',
+                                    '1',  '3',  0x01, 'c',  't',  'l',  0x03};
+    char text[200];
+    assert_int_equal(R.identity.state, GW_IDENTITY_WAITING);
+    gw_robot_identity_text(&R.identity, text, sizeof text);
+    assert_string_equal(text, "not read yet");
+    /* no answer before the first: still waiting */
+    assert_int_equal(gw_robot_identity_answer(&R, DR_ETIMEDOUT, NULL, 0), DR_ETIMEDOUT);
+    assert_int_equal(R.identity.state, GW_IDENTITY_WAITING);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, sizeof reply), DR_OK);
+    assert_int_equal(R.identity.state, GW_IDENTITY_KNOWN);
+    assert_int_equal(R.identity.vendor_id, 1573);
+    assert_int_equal(R.identity.device_type, 12);
+    assert_int_equal(R.identity.product_code, 7);
+    assert_int_equal(R.identity.rev_major, 2);
+    assert_int_equal(R.identity.rev_minor, 12);
+    assert_int_equal(R.identity.serial, 0x0012ABCDu);
+    assert_string_equal(R.identity.product_name, "M1013?ctl"); /* no control bytes */
+    gw_robot_identity_text(&R.identity, text, sizeof text);
+    assert_string_equal(text, "Doosan Robotics, 'M1013?ctl' (product code 7, revision 2.12, "
+                              "serial 0x0012abcd)");
+    gw_identity_vendor_text(0xFFFF, text, sizeof text);
+    assert_string_equal(text, "vendor 65535");
+    /* the session lost with the request out: what was known stays */
+    assert_int_equal(gw_robot_identity_answer(&R, DR_ESESSION, NULL, 0), DR_ESESSION);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_ECLOSED, NULL, 0), DR_ECLOSED);
+    assert_int_equal(R.identity.state, GW_IDENTITY_KNOWN);
+    assert_int_equal(R.identity.serial, 0x0012ABCDu);
+    /* a reply that is not one (its CIP header, another service's) */
+    assert_int_equal(gw_robot_identity_answer(&R, DR_EMALFORMED, NULL, 0), DR_EMALFORMED);
+    assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, sizeof reply), DR_OK);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_EMISMATCH, NULL, 0), DR_EMISMATCH);
+    assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, sizeof reply), DR_OK);
+    /* refused (another robot behind the address now): nothing known */
+    assert_int_equal(gw_robot_identity_answer(&R, DR_CIP(0x08, 0), NULL, 0), DR_CIP(0x08, 0));
+    assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
+    assert_int_equal(R.identity.serial, 0);
+    assert_string_equal(R.identity.product_name, "");
+    gw_robot_identity_text(&R.identity, text, sizeof text);
+    assert_string_equal(text, "refused: CIP 0x08 service not supported");
+    /* a reply too short for the six fixed attributes and the name's length */
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, 14), DR_ESHORT);
+    assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
+    gw_robot_identity_refusal(&R.identity, text, sizeof text);
+    assert_string_equal(text, "a reply too short for an Identity");
+    /* known again, then a reply whose name runs past its end */
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, sizeof reply), DR_OK);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, reply, 20), DR_ESHORT);
+    assert_int_equal(R.identity.state, GW_IDENTITY_REFUSED);
+    assert_int_equal(R.identity.why, DR_ESHORT);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, NULL, 0), DR_ESHORT);
+    /* a name longer than the Identity allows (32) is cut, not refused */
+    uint8_t longer[15 + 40];
+    memcpy(longer, reply, 14);
+    longer[14] = 40;
+    memset(longer + 15, 'x', 40);
+    assert_int_equal(gw_robot_identity_answer(&R, DR_OK, longer, sizeof longer), DR_OK);
+    assert_int_equal(strlen(R.identity.product_name), GW_IDENTITY_NAME - 1);
+}
+
 static void test_record_error(void **state)
 {
     (void)state;
@@ -203,6 +276,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup(test_init, setup),
         cmocka_unit_test_setup(test_carry_over, setup),
+        cmocka_unit_test_setup(test_identity, setup),
         cmocka_unit_test_setup(test_record_error, setup),
         cmocka_unit_test_setup(test_error_text, setup),
         cmocka_unit_test_setup(test_clear_while_down, setup),

@@ -167,6 +167,24 @@ static void test_set_o2t_and_echo(void **state)
     assert_int_equal(io.cb_do, 0xA5A5);
 }
 
+/* --refuse-identity: Get_Attributes_All refused with 0x08, the single
+ * attributes still answer; --vendor-id: the vendor it says. */
+static void test_identity_refused(void **state)
+{
+    (void)state;
+    static fx_t f;
+    drsim_config_t cfg;
+    drsim_config_default(&cfg);
+    cfg.refuse_identity = true;
+    cfg.vendor_id = 1573;
+    fx_init(&f, &cfg);
+    fx_register(&f);
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTES_ALL, 1, 1, -1, NULL, 0),
+                     DR_CIP(0x08, 0));
+    assert_int_equal(fx_req(&f, DR_CIP_SVC_GET_ATTRIBUTE_SINGLE, 1, 1, 1, NULL, 0), DR_OK);
+    assert_int_equal(dr_get_le16(f.rsp.data), 1573);
+}
+
 static void test_no_echo(void **state)
 {
     (void)state;
@@ -322,6 +340,7 @@ int main(void)
         cmocka_unit_test(test_no_echo),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_identity),
+        cmocka_unit_test(test_identity_refused),
         cmocka_unit_test(test_unconnected_send),
         cmocka_unit_test(test_instance_override),
     };

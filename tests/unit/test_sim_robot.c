@@ -39,6 +39,49 @@ static void test_boot_sequence(void **state)
     assert_false(io.emergency_stopped);
 }
 
+/* The safety stops raised from outside: the flags and robot_state as the
+ * controller shows them, the arm held where it stopped, and the motion
+ * going on from there (no jump) when they are cleared. */
+static void test_safety_stops(void **state)
+{
+    (void)state;
+    drsim_robot_init(&robot, 0, 3, true, &img);
+    dr_joint_state_t before, held, after;
+    drsim_robot_update(&robot, 10 * S, &img);
+    assert_int_equal(dr_joint_state_decode(img.buf[DR_ASM_JOINT_STATE], 144, &before), DR_OK);
+    drsim_robot_safety(&robot, true, false, 10 * S, &img);
+    dr_io_state_t io = io_at(11 * S);
+    assert_int_equal(io.robot_state, DR_ROBOT_EMERGENCY_STOP);
+    assert_true(io.emergency_stopped);
+    assert_false(io.safety_stopped);
+    assert_false(io.servo_on);
+    assert_int_equal(dr_joint_state_decode(img.buf[DR_ASM_JOINT_STATE], 144, &held), DR_OK);
+    for (int j = 0; j < 6; j++) {
+        assert_true(held.position[j] == before.position[j]);
+        assert_true(held.velocity[j] == 0.0f);
+    }
+    /* both: the emergency stop shows; then the protective stop alone */
+    drsim_robot_safety(&robot, true, true, 12 * S, &img);
+    assert_int_equal(io_at(12 * S).robot_state, DR_ROBOT_EMERGENCY_STOP);
+    drsim_robot_safety(&robot, false, true, 13 * S, &img);
+    io = io_at(14 * S);
+    assert_int_equal(io.robot_state, DR_ROBOT_SAFE_STOP);
+    assert_true(io.safety_stopped);
+    assert_false(io.emergency_stopped);
+    assert_true(io.servo_on);
+    drsim_robot_safety(&robot, false, false, 15 * S, &img);
+    io = io_at(15 * S);
+    assert_int_equal(io.robot_state, DR_ROBOT_OPERATING);
+    assert_false(io.safety_stopped || io.emergency_stopped);
+    /* where it stood, moving on */
+    assert_int_equal(dr_joint_state_decode(img.buf[DR_ASM_JOINT_STATE], 144, &after), DR_OK);
+    for (int j = 0; j < 6; j++)
+        assert_true(fabsf(after.position[j] - before.position[j]) < 0.01f);
+    drsim_robot_update(&robot, 16 * S, &img);
+    assert_int_equal(dr_joint_state_decode(img.buf[DR_ASM_JOINT_STATE], 144, &after), DR_OK);
+    assert_true(after.position[0] != before.position[0]);
+}
+
 /* Velocities agree with the change of position; everything is finite and
  * in a plausible range. */
 static void test_joint_motion(void **state)
@@ -127,6 +170,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_boot_sequence),
         cmocka_unit_test(test_joint_motion),
+        cmocka_unit_test(test_safety_stops),
         cmocka_unit_test(test_task_state),
         cmocka_unit_test(test_inputs),
     };
