@@ -9,10 +9,12 @@
  * its own; that set's descriptor is itself pollable (readable while one of
  * its sockets is), so it goes into the daemon's epoll set, and when it is
  * readable UA_Server_run_iterate(server, false) runs the server's
- * callbacks without waiting. What the server has to do on time (publishing
- * subscriptions, sampling, session timeouts) is its next cyclic time, which
- * run_iterate returns: our deadline. open62541 gives no accessor for that
- * descriptor, so it is found as the one epoll descriptor the process
+ * callbacks without waiting. What the server has to do on time (session
+ * timeouts and the like) is its next cyclic time: our deadline.
+ * Publishing and sampling go with the robots' packets, and requests wait
+ * for them while they come ("the server's clock" below). open62541 gives
+ * no accessor for the descriptor, so it is found as the one epoll
+ * descriptor the process
  * gained while the server started (/proc/self/fd); should that ever fail,
  * the side polls the server every UA_POLL_MS instead (logged), which is
  * no busy loop either.
