@@ -75,6 +75,14 @@ def cpu_s(pid):
     return (int(f[11]) + int(f[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def switches(pid):
+    """(voluntary, involuntary) context switches: the wake-ups, and the
+    times another process took the CPU from it."""
+    st = dict(line.split(":", 1) for line in Path("/proc/%d/status" % pid).read_text()
+              .splitlines() if ":" in line)
+    return int(st["voluntary_ctxt_switches"]), int(st["nonvoluntary_ctxt_switches"])
+
+
 # ---- the clients ------------------------------------------------------------------
 
 class Clients:
@@ -261,13 +269,14 @@ def window(g, seconds, cap):
     """The daemon's CPU (% of a core) over the window and its Class 1 figures."""
     pid = g.proc.pid
     cap.ports = (g.local_udp[0], g.sim.udp)
-    c0, m0, r0 = cpu_s(pid), time.monotonic(), time.time_ns()
+    c0, m0, r0, s0 = cpu_s(pid), time.monotonic(), time.time_ns(), switches(pid)
     time.sleep(seconds)
-    c1, m1, r1 = cpu_s(pid), time.monotonic(), time.time_ns()
+    c1, m1, r1, s1 = cpu_s(pid), time.monotonic(), time.time_ns(), switches(pid)
     dev, react, n_dev, n_react = class1(cap.between(r0, r1))
     cap.clear()
     return {"cpu": (c1 - c0) / (m1 - m0) * 100.0, "dev": dev, "react": react,
-            "n": n_dev, "n_react": n_react}
+            "n": n_dev, "n_react": n_react, "wake": (s1[0] - s0[0]) / (m1 - m0),
+            "preempt": (s1[1] - s0[1]) / (m1 - m0)}
 
 
 def links_lost(g):
@@ -317,8 +326,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
     ap.add_argument("--samples", type=int, default=300)
-    ap.add_argument("--rounds", type=int, default=3)
-    ap.add_argument("--window", type=float, default=8.0)
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--window", type=float, default=10.0)
     ap.add_argument("--quick", action="store_true", help="100 samples, 2 rounds of 4 s")
     ap.add_argument("--write-doc", action="store_true", help="(accepted; figures are printed)")
     args = ap.parse_args()
@@ -358,18 +367,19 @@ def main():
           "| %s | %s | %s |" % (ms(pct(server, 50)), ms(pct(server, 99)), ms(max(server))))
     print()
     print("| (b), (c) daemon, medians of %d rounds of %g s | CPU %% of a core | O->T interval "
-          "deviation p99 us | T->O -> O->T reaction p99 us | O->T packets | notifications/s |"
-          % (args.rounds, args.window))
-    print("| --- | --- | --- | --- | --- | --- |")
+          "deviation p99 us | T->O -> O->T reaction p99 us | O->T packets | notifications/s "
+          "| wake-ups/s (preempted/s) |" % (args.rounds, args.window))
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     labels = {"off": "without [opcua]", "idle": "[opcua], no client",
               "clients": "[opcua], %d clients x %d joints at %d ms" % (CLIENTS, len(JOINTS),
                                                                        RPI_MS)}
     for key, label in labels.items():
         ws = res[key]
         notif = "%.0f" % med(ws, "notif") if key == "clients" else "-"
-        print("| %s | %.2f (%s) | %.0f | %.0f | %d | %s |" % (
+        print("| %s | %.2f (%s) | %.0f | %.0f | %d | %s | %.0f (%.0f) |" % (
             label, med(ws, "cpu"), ", ".join("%.2f" % w["cpu"] for w in ws), med(ws, "dev"),
-            med(ws, "react"), sum(w["n"] for w in ws), notif))
+            med(ws, "react"), sum(w["n"] for w in ws), notif, med(ws, "wake"),
+            med(ws, "preempt")))
     for n in notes:
         print("NOTE: " + n)
     print()
