@@ -14,10 +14,9 @@
  * Publishing and sampling go with the robots' packets, and requests wait
  * for them while they come ("the server's clock" below). open62541 gives
  * no accessor for the descriptor, so it is found as the one epoll
- * descriptor the process
- * gained while the server started (/proc/self/fd); should that ever fail,
- * the side polls the server every UA_POLL_MS instead (logged), which is
- * no busy loop either.
+ * descriptor the process gained while the server started
+ * (/proc/self/fd); should that ever fail, the side polls the server every
+ * UA_POLL_MS instead (logged), which is no busy loop either.
  *
  * The flat view (docs/opcua.md): Objects/drgate/<robot>/<path>, one
  * variable per field element by its canonical path (the names of drcli,
@@ -664,8 +663,10 @@ static int new_epoll_fd(const uint8_t *before)
  *   the images and they are due within half an RPI, and on their own time
  *   only when no packet comes (half an RPI after it, so that a packet late
  *   by less still takes them along).
- * - A burst has ended in the first turn of the daemon's loop that reads no
- *   more robot data: the turn that read it sends its O->T packets first.
+ * - A robot's burst has ended when every T->O assembly of its plan has
+ *   come (or a quarter RPI after the first of it), in the first turn of
+ *   the daemon's loop that reads no more robot data: the turn that read it
+ *   sends its O->T packets first.
  * - While packets come, the server's descriptor is out of the daemon's
  *   loop once a request has woken it: requests (a client's next Publish
  *   among them) are served with the next burst, within UA_DEFER_MAX_US at
@@ -734,7 +735,7 @@ static UA_StatusCode cyc_add(UA_EventLoop *el, UA_Callback cb, void *app, void *
     if (t == NULL)
         return UA_STATUSCODE_BADINTERNALERROR;
     /* a base time asks for a phase of its own */
-    if (cb == NULL || base != NULL || !(ms < UA_CYC_MAX_MS) || !cyc_aligned(t, ms))
+    if (cb == NULL || base != NULL || !(ms > 0.0 && ms < UA_CYC_MAX_MS) || !cyc_aligned(t, ms))
         return t->el_add(el, cb, app, data, ms, base, policy, id);
     if (t->cyc_count == t->cyc_cap) {
         size_t cap = t->cyc_cap > 0 ? t->cyc_cap * 2u : 16u;
