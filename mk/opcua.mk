@@ -41,3 +41,22 @@ check-opcua-asan:
 	    $(B)/asan/drgatewayd $(B)/asan/drsim $(B)/asan/drcli || exit 1; \
 	$(call GW_TEST_RUN,$(B)/asan,OPC UA side end to end (tests/opcua) [asan],\
 	    $(OPCUA_ENV) GW_TIMEOUT_SCALE=3 ASAN_OPTIONS=detect_leaks=1:abort_on_error=0,tests/opcua)
+
+# `make bench-opcua` (in make bench): issue 34's goals for the side
+# (bench/opcua_bench.py, docs/opcua.md "Performance"): a subscriber's
+# latency against a 1 ms Modbus poll, the daemon's CPU with ten clients
+# subscribed to the joints, Class 1 timing with them. It takes the Class 1
+# datagrams from an AF_PACKET socket (root) and asyncua from
+# $(GW_BENCH_PY); SKIPPED with a banner without open62541 or root. In the
+# trixie root: make B=build/trixie bench-opcua GW_BENCH_PY=/root/venv/bin/python
+BENCH_STEPS += bench-opcua
+.PHONY: bench-opcua
+OPCUA_BENCH_NOLIB = this drgatewayd is built without open62541 (Debian 13's libopen62541-1.4-dev)
+OPCUA_BENCH_NOROOT = not root (the Class 1 datagrams come from an AF_PACKET socket)
+bench-opcua: $(GW_BIN) $(SIM_BIN)
+	@if [ -z "$(OPCUA_VERSION)" ]; then sh tests/skip.sh $@ "$(OPCUA_BENCH_NOLIB)"; exit $$?; fi; \
+	if [ "$$(id -u)" != 0 ]; then sh tests/skip.sh $@ "$(OPCUA_BENCH_NOROOT)"; exit $$?; fi; \
+	if ! $(GW_BENCH_PY) -c 'import asyncua, pytest' 2>/dev/null; then \
+	    echo "$@: no asyncua or pytest in $(GW_BENCH_PY) (run make test-deps)"; exit 1; fi; \
+	PYTHONDONTWRITEBYTECODE=1 timeout -k 10 900 $(GW_BENCH_PY) bench/opcua_bench.py \
+	    --build $(B) $(GW_BENCH_ARGS)

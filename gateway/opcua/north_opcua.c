@@ -9,13 +9,14 @@
  * its own; that set's descriptor is itself pollable (readable while one of
  * its sockets is), so it goes into the daemon's epoll set, and when it is
  * readable UA_Server_run_iterate(server, false) runs the server's
- * callbacks without waiting. What the server has to do on time (publishing
- * subscriptions, sampling, session timeouts) is its next cyclic time, which
- * run_iterate returns: our deadline. open62541 gives no accessor for that
- * descriptor, so it is found as the one epoll descriptor the process
- * gained while the server started (/proc/self/fd); should that ever fail,
- * the side polls the server every UA_POLL_MS instead (logged), which is
- * no busy loop either.
+ * callbacks without waiting. What the server has to do on time (session
+ * timeouts and the like) is its next cyclic time: our deadline.
+ * Publishing and sampling go with the robots' packets, and requests wait
+ * for them while they come ("the server's clock" below). open62541 gives
+ * no accessor for the descriptor, so it is found as the one epoll
+ * descriptor the process gained while the server started
+ * (/proc/self/fd); should that ever fail, the side polls the server every
+ * UA_POLL_MS instead (logged), which is no busy loop either.
  *
  * The flat view (docs/opcua.md): Objects/drgate/<robot>/<path>, one
  * variable per field element by its canonical path (the names of drcli,
@@ -61,11 +62,30 @@
 #define UA_NS_FLAT "urn:drgate:robots"
 #define UA_POLICY_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
 #define UA_POLL_MS 10u          /* without the event loop's descriptor */
+#define UA_WAIT_MAX_MS 60000u   /* the longest wait for the server's next cyclic time */
 #define UA_FD_SCAN 4096         /* descriptors looked at for it */
 #define UA_LOG_KINDS 16u        /* open62541's log categories (UA_LogCategory) */
 #define UA_LOGIN_WAIT_US 10000000u /* a login's check, at most (core/auth.h's worker) */
 
 typedef struct ua ua_t;
+
+/* A cyclic callback of the server that the side runs: see "the server's
+ * clock". */
+typedef struct {
+    UA_UInt64 id; /* UA_CYC_ID | n: the event loop's own ids count from 1 */
+    UA_Callback cb; /* NULL: removed while running */
+    void *app, *data;
+    uint64_t interval_us, next_us;
+    bool aligned; /* a multiple of the RPI: runs with the robots' packets */
+} ua_cyclic_t;
+#define UA_CYC_ID (1ull << 63)
+
+typedef UA_StatusCode (*ua_el_add_fn)(UA_EventLoop *el, UA_Callback cb, void *app, void *data,
+                                      UA_Double interval_ms, UA_DateTime *base,
+                                      UA_TimerPolicy policy, UA_UInt64 *id);
+typedef UA_StatusCode (*ua_el_modify_fn)(UA_EventLoop *el, UA_UInt64 id, UA_Double interval_ms,
+                                         UA_DateTime *base, UA_TimerPolicy policy);
+typedef void (*ua_el_remove_fn)(UA_EventLoop *el, UA_UInt64 id);
 
 /* What a variable of the flat view is: the robot (its index) and the
  * field element. */
@@ -93,6 +113,26 @@ struct ua {
     bool started;           /* UA_Server_run_startup succeeded */
     uint64_t next_us;       /* the server's next cyclic time */
     UA_UInt16 ns;           /* urn:drgate:robots */
+    /* The server's cyclic callbacks at a multiple of the RPI, run by the
+     * side (aligned to the robots' packets): see "the server's clock". */
+    UA_EventLoop *el;
+    ua_el_add_fn el_add;    /* the event loop's own functions */
+    ua_el_modify_fn el_modify;
+    ua_el_remove_fn el_remove;
+    ua_cyclic_t *cyc;
+    size_t cyc_count, cyc_cap;
+    bool cyc_running;       /* in cyc_run: removals only mark */
+    UA_UInt64 cyc_ids;
+    uint64_t rpi_us;        /* the fastest robot's RPI */
+    uint64_t burst_us;      /* when the last burst of robot packets ended */
+    unsigned data_seq, tick_seq; /* on_data calls, and as the last tick saw them */
+    bool fresh;             /* robot data since the server last ran */
+    bool complete;          /* a robot's burst has come whole */
+    uint64_t fresh_us;      /* when the first of that data came */
+    unsigned burst_want[GW_MAX_ROBOTS]; /* the T->O assemblies of a robot's burst */
+    unsigned burst_got[GW_MAX_ROBOTS];  /* ... as they came since its last burst */
+    bool muted;             /* the server's descriptor taken out of the loop */
+    uint64_t run_by;        /* muted: the server runs by then at the latest */
     ua_node_t *nodes;       /* robot_count * dr_leaf_count() */
     ua_node_t *view;        /* the Robotics view's: robot_count * UA_VIEW_NODES */
     size_t view_used;
@@ -723,18 +763,273 @@ static int new_epoll_fd(const uint8_t *before)
     return count == 1 ? found : -1;
 }
 
+/* ---- the server's clock ---------------------------------------------------------------
+ *
+ * A subscription publishes, and samples what it monitors, from a cyclic
+ * callback of the server's event loop, each at a phase of its own: ten
+ * clients at the RPI were ten more wake-ups of the daemon per RPI, each
+ * sampling values up to an RPI old, and each client's next Publish request
+ * one more. So the side runs the server itself, on the robots' time:
+ *
+ * - The callbacks whose interval is a multiple of the fastest robot's RPI
+ *   are the side's (the event loop's functions that add, change and remove
+ *   cyclic callbacks are replaced by ours: the UA_EventLoop plugin
+ *   interface is a table of function pointers; every other callback stays
+ *   with the loop). They run when a burst of robot packets has gone into
+ *   the images and they are due within half an RPI, and on their own time
+ *   only when no packet comes (half an RPI after it, so that a packet late
+ *   by less still takes them along).
+ * - A robot's burst has ended when every T->O assembly of its plan has
+ *   come (or a quarter RPI after the first of it), in the first turn of
+ *   the daemon's loop that reads no more robot data: the turn that read it
+ *   sends its O->T packets first.
+ * - While packets come, the server's descriptor is out of the daemon's
+ *   loop once a request has woken it: requests (a client's next Publish
+ *   among them) are served with the next burst, within UA_DEFER_MAX_US at
+ *   the latest; when no packet comes for that long it is watched again.
+ *
+ * The replaced functions are given the event loop only: ua_loops maps it
+ * to its side (one server at a time; two while a reload replaces it). */
+
+#define UA_LOOPS 2
+#define UA_DEFER_MAX_US 15000u /* a request waits for the next burst this long at most */
+#define UA_CYC_MAX_MS 3.6e6    /* longer intervals stay with the event loop */
+
+static struct {
+    UA_EventLoop *el;
+    ua_t *t;
+} ua_loops[UA_LOOPS];
+
+static ua_t *loop_side(const UA_EventLoop *el)
+{
+    for (unsigned i = 0; i < UA_LOOPS; i++)
+        if (ua_loops[i].el == el && el != NULL)
+            return ua_loops[i].t;
+    return NULL;
+}
+
+static uint64_t ms_to_us(UA_Double ms)
+{
+    return (uint64_t)(ms * 1000.0 + 0.5);
+}
+
+/* An interval the side runs in step with the packets. */
+static bool cyc_aligned(const ua_t *t, UA_Double ms)
+{
+    uint64_t us = ms_to_us(ms);
+    return t->rpi_us > 0 && us >= t->rpi_us && us % t->rpi_us == 0;
+}
+
+/* When c runs at the latest without packets. */
+static uint64_t cyc_due(const ua_t *t, const ua_cyclic_t *c)
+{
+    return c->aligned ? c->next_us + t->rpi_us / 2u : c->next_us;
+}
+
+static void cyc_compact(ua_t *t)
+{
+    size_t kept = 0;
+    for (size_t i = 0; i < t->cyc_count; i++)
+        if (t->cyc[i].cb != NULL)
+            t->cyc[kept++] = t->cyc[i];
+    t->cyc_count = kept;
+}
+
+static ua_cyclic_t *cyc_find(ua_t *t, UA_UInt64 id)
+{
+    for (size_t i = 0; i < t->cyc_count; i++)
+        if (t->cyc[i].id == id && t->cyc[i].cb != NULL)
+            return &t->cyc[i];
+    return NULL;
+}
+
+static UA_StatusCode cyc_add(UA_EventLoop *el, UA_Callback cb, void *app, void *data,
+                             UA_Double ms, UA_DateTime *base, UA_TimerPolicy policy,
+                             UA_UInt64 *id)
+{
+    ua_t *t = loop_side(el);
+    if (t == NULL)
+        return UA_STATUSCODE_BADINTERNALERROR;
+    /* a base time asks for a phase of its own */
+    if (cb == NULL || base != NULL || !(ms > 0.0 && ms < UA_CYC_MAX_MS) || !cyc_aligned(t, ms))
+        return t->el_add(el, cb, app, data, ms, base, policy, id);
+    if (t->cyc_count == t->cyc_cap) {
+        size_t cap = t->cyc_cap > 0 ? t->cyc_cap * 2u : 16u;
+        ua_cyclic_t *more = realloc(t->cyc, cap * sizeof *more);
+        if (more == NULL)
+            return UA_STATUSCODE_BADOUTOFMEMORY;
+        t->cyc = more;
+        t->cyc_cap = cap;
+    }
+    ua_cyclic_t *c = &t->cyc[t->cyc_count++];
+    *c = (ua_cyclic_t){UA_CYC_ID | ++t->cyc_ids, cb, app, data, ms_to_us(ms), 0, true};
+    c->next_us = ev_now_us() + c->interval_us;
+    if (id != NULL)
+        *id = c->id;
+    return UA_STATUSCODE_GOOD;
+}
+
+static UA_StatusCode cyc_modify(UA_EventLoop *el, UA_UInt64 id, UA_Double ms, UA_DateTime *base,
+                                UA_TimerPolicy policy)
+{
+    ua_t *t = loop_side(el);
+    if (t == NULL)
+        return UA_STATUSCODE_BADINTERNALERROR;
+    if (!(id & UA_CYC_ID))
+        return t->el_modify(el, id, ms, base, policy);
+    ua_cyclic_t *c = cyc_find(t, id);
+    if (c == NULL)
+        return UA_STATUSCODE_BADNOTFOUND;
+    if (!(ms > 0.0 && ms < UA_CYC_MAX_MS))
+        return UA_STATUSCODE_BADINTERNALERROR;
+    /* the event loop's rule without a base time: the next run an interval
+     * from now; an interval that is no multiple of the RPI keeps it */
+    c->interval_us = ms_to_us(ms);
+    c->next_us = ev_now_us() + c->interval_us;
+    c->aligned = cyc_aligned(t, ms);
+    return UA_STATUSCODE_GOOD;
+}
+
+static void cyc_remove(UA_EventLoop *el, UA_UInt64 id)
+{
+    ua_t *t = loop_side(el);
+    if (t == NULL)
+        return;
+    if (!(id & UA_CYC_ID)) {
+        t->el_remove(el, id);
+        return;
+    }
+    ua_cyclic_t *c = cyc_find(t, id);
+    if (c == NULL)
+        return;
+    c->cb = NULL; /* cyc_run may be on its way through the table */
+    if (!t->cyc_running)
+        cyc_compact(t);
+}
+
+/* The side's callbacks that are due: with a burst of packets, the aligned
+ * ones due within half an RPI (and the next run an interval from now,
+ * which keeps them in step); else each on its own time. A callback may add
+ * or remove others (the table may move). */
+static void cyc_run(ua_t *t, uint64_t now, bool burst)
+{
+    t->cyc_running = true;
+    for (size_t i = 0; i < t->cyc_count; i++) {
+        ua_cyclic_t *c = &t->cyc[i];
+        if (c->cb == NULL)
+            continue;
+        bool early = burst && c->aligned && c->next_us <= now + t->rpi_us / 2u;
+        if (!early && cyc_due(t, c) > now)
+            continue;
+        c->next_us += c->interval_us;
+        if (early || c->next_us <= now)
+            c->next_us = now + c->interval_us;
+        UA_Callback cb = c->cb;
+        void *app = c->app, *data = c->data;
+        cb(app, data);
+    }
+    t->cyc_running = false;
+    cyc_compact(t);
+}
+
+static uint64_t cyc_deadline(const ua_t *t)
+{
+    uint64_t d = UINT64_MAX;
+    for (size_t i = 0; i < t->cyc_count; i++) {
+        uint64_t x = cyc_due(t, &t->cyc[i]);
+        if (x < d)
+            d = x;
+    }
+    return d;
+}
+
+/* The server's event loop with our cyclic callbacks (false: the table of
+ * loops is full, and the loop keeps them all). */
+static bool hook_loop(ua_t *t)
+{
+    UA_EventLoop *el = UA_Server_getConfig(t->server)->eventLoop;
+    for (unsigned i = 0; i < UA_LOOPS; i++) {
+        if (ua_loops[i].el != NULL)
+            continue;
+        ua_loops[i].el = el;
+        ua_loops[i].t = t;
+        t->el = el;
+        t->el_add = el->addCyclicCallback;
+        t->el_modify = el->modifyCyclicCallback;
+        t->el_remove = el->removeCyclicCallback;
+        el->addCyclicCallback = cyc_add;
+        el->modifyCyclicCallback = cyc_modify;
+        el->removeCyclicCallback = cyc_remove;
+        return true;
+    }
+    return false;
+}
+
+static void unhook_loop(ua_t *t)
+{
+    for (unsigned i = 0; i < UA_LOOPS; i++)
+        if (ua_loops[i].t == t) {
+            ua_loops[i].el = NULL;
+            ua_loops[i].t = NULL;
+        }
+    free(t->cyc);
+    t->cyc = NULL;
+    t->cyc_count = t->cyc_cap = 0;
+}
+
+/* The server's callbacks that are due and its sockets that are ready;
+ * then its next cyclic time, to the microsecond. (run_iterate's return
+ * value is in whole milliseconds, rounded down: a callback due in 0.9 ms
+ * would be "due now" and the loop would spin until it is.) */
 static void iterate(ua_t *t)
 {
-    UA_UInt16 ms = UA_Server_run_iterate(t->server, false);
-    if (t->polled && ms > UA_POLL_MS)
-        ms = UA_POLL_MS;
-    t->next_us = ev_now_us() + (uint64_t)ms * 1000u;
+    (void)UA_Server_run_iterate(t->server, false);
+    UA_EventLoop *el = UA_Server_getConfig(t->server)->eventLoop;
+    UA_DateTime left = el->nextCyclicTime(el) - el->dateTime_nowMonotonic(el);
+    uint64_t cap_us = (t->polled ? UA_POLL_MS : UA_WAIT_MAX_MS) * 1000u;
+    uint64_t us = left <= 0 ? 0 : ((uint64_t)left + UA_DATETIME_USEC - 1) / UA_DATETIME_USEC;
+    t->next_us = ev_now_us() + (us < cap_us ? us : cap_us);
+}
+
+static uint64_t defer_us(const ua_t *t)
+{
+    uint64_t us = t->rpi_us * 3u / 2u;
+    return us < UA_DEFER_MAX_US ? us : UA_DEFER_MAX_US;
+}
+
+/* The server's turn: the side's callbacks (publishing, with a client's
+ * Publish request that came before), then the requests that came since
+ * (a Publish request for a subscription that had none is answered at
+ * once, with what was just sampled: a client that keeps one request out
+ * gets each burst's values with that burst, not one burst late). */
+static void serve(ua_t *t, uint64_t now, bool burst)
+{
+    cyc_run(t, now, burst);
+    iterate(t);
+    if (!t->muted)
+        return;
+    if (burst) {
+        t->run_by = now + defer_us(t);
+    } else if (ev_watch(t->env->epfd, &t->ev, t->ev.fd, EPOLLIN)) {
+        t->muted = false; /* no packets: requests wake the loop again */
+    } else {
+        t->run_by = now + defer_us(t); /* tried again then */
+    }
 }
 
 static void on_ready(void *obj, uint32_t events)
 {
+    ua_t *t = obj;
+    uint64_t now = ev_now_us();
     (void)events;
-    iterate(obj);
+    /* packets come: the request waits for the next burst */
+    if (t->burst_us != 0 && now - t->burst_us < defer_us(t) &&
+        ev_watch(t->env->epfd, &t->ev, t->ev.fd, 0)) {
+        t->muted = true;
+        t->run_by = now + defer_us(t);
+        return;
+    }
+    serve(t, now, false);
 }
 
 /* The server up and listening, in the loop. */
@@ -753,6 +1048,9 @@ static bool ua_start(ua_t *t, char *err, size_t errlen)
         snprintf(err, errlen, "cannot create the server");
         return false;
     }
+    if (!hook_loop(t))
+        gw_log(GW_LOG_WARNING, "opcua: subscriptions keep the server's own time (not the "
+               "robots' packets)");
     t->ns = UA_Server_addNamespace(t->server, UA_NS_FLAT);
     size_t n = (size_t)t->robot_count * dr_leaf_count();
     t->nodes = calloc(n > 0 ? n : 1, sizeof *t->nodes);
@@ -802,6 +1100,7 @@ static void ua_free(ua_t *t)
             (void)UA_Server_run_shutdown(t->server);
         UA_Server_delete(t->server);
     }
+    unhook_loop(t);
     free(t->nodes);
     free(t->view);
     gw_auth_free(t->auth);
@@ -846,8 +1145,16 @@ static ua_t *ua_new(const gw_config_t *cfg, const gw_north_env_t *env, char *err
     t->logger.log = ua_log;
     t->logger.context = t;
     t->robot_count = cfg->robot_count;
-    for (unsigned r = 0; r < cfg->robot_count; r++)
+    for (unsigned r = 0; r < cfg->robot_count; r++) {
         snprintf(t->robot_name[r], sizeof t->robot_name[r], "%s", cfg->robot[r].name);
+        uint64_t us = (uint64_t)cfg->robot[r].rpi_ms * 1000u;
+        if (t->rpi_us == 0 || us < t->rpi_us)
+            t->rpi_us = us;
+        for (unsigned a = 0; a < DR_ASM_COUNT; a++)
+            if (dr_asm_info((dr_asm_t)a)->dir == DR_DIR_T2O &&
+                gw_robot_reads(&cfg->robot[r], (dr_asm_t)a))
+                t->burst_want[r] |= 1u << a;
+    }
     return t;
 }
 
@@ -979,14 +1286,39 @@ static void *op_commit(void *self, void *out, const gw_north_env_t *env)
 static void op_tick(void *self, uint64_t now)
 {
     ua_t *t = self;
-    if (t->server != NULL && now >= t->next_us)
-        iterate(t);
+    if (t->server == NULL)
+        return;
+    if (t->fresh) {
+        if (t->data_seq != t->tick_seq) { /* read in this turn: O->T first */
+            t->tick_seq = t->data_seq;
+            return;
+        }
+        if (!t->complete && now < t->fresh_us + t->rpi_us / 4u)
+            return; /* the rest of the burst is on its way */
+        t->fresh = t->complete = false;
+        t->burst_us = now;
+        serve(t, now, true);
+        return;
+    }
+    if (t->muted && now >= t->run_by)
+        serve(t, now, false);
+    else if (now >= t->next_us || now >= cyc_deadline(t))
+        serve(t, now, false);
 }
 
 static uint64_t op_deadline(const void *self)
 {
     const ua_t *t = self;
-    return t->server != NULL ? t->next_us : UINT64_MAX;
+    if (t->server == NULL)
+        return UINT64_MAX;
+    if (t->fresh) /* the next turn, without waiting, or the rest of the burst: op_tick */
+        return t->complete ? 0 : t->fresh_us + t->rpi_us / 4u;
+    uint64_t d = cyc_deadline(t);
+    if (t->next_us < d)
+        d = t->next_us;
+    if (t->muted && t->run_by < d)
+        d = t->run_by;
+    return d;
 }
 
 static void op_on_data(void *self, unsigned robot, dr_asm_t a)
@@ -996,6 +1328,17 @@ static void op_on_data(void *self, unsigned robot, dr_asm_t a)
         return;
     t->seen[robot] |= 1u << a;
     t->at[robot][a] = UA_DateTime_now();
+    if (!t->fresh)
+        t->fresh_us = ev_now_us();
+    t->fresh = true;
+    t->data_seq++;
+    /* a burst is whole when every T->O assembly of the robot's plan has
+     * come: one that came in two reads is served once, after the second */
+    t->burst_got[robot] |= 1u << a;
+    if ((t->burst_got[robot] & t->burst_want[robot]) == t->burst_want[robot]) {
+        t->complete = true;
+        t->burst_got[robot] = 0;
+    }
 }
 
 static void op_on_link(void *self, unsigned robot, bool up)
