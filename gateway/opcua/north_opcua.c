@@ -205,10 +205,11 @@ static bool login_wait(ua_t *t, ua_verdict_t *v)
 {
     int fd = gw_auth_fd(t->auth);
     uint64_t until = ev_now_us() + UA_LOGIN_WAIT_US;
+    /* the server's descriptor muted (events 0), as it was after */
+    uint32_t events = t->ev.events;
     bool watched = t->ev.fd >= 0;
-    int ev_fd = t->ev.fd;
-    if (watched)
-        ev_unwatch(t->env->epfd, &t->ev);
+    if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, 0))
+        return false; /* the loop would run the server inside itself */
     t->in_login = true;
     while (!v->done && ev_now_us() < until) {
         bool ready;
@@ -223,7 +224,7 @@ static bool login_wait(ua_t *t, ua_verdict_t *v)
         gw_auth_collect(t->auth, ev_now_us(), login_done, t);
     }
     t->in_login = false;
-    if (watched && !ev_watch(t->env->epfd, &t->ev, ev_fd, EPOLLIN)) {
+    if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, events)) {
         t->polled = true; /* iterated every UA_POLL_MS from now on */
         gw_log(GW_LOG_WARNING, "opcua: cannot watch the server's descriptor again: polling it");
     }
@@ -1022,6 +1023,8 @@ static void on_ready(void *obj, uint32_t events)
     ua_t *t = obj;
     uint64_t now = ev_now_us();
     (void)events;
+    if (t->in_login) /* (muted then: an error or hang-up event only) */
+        return;
     /* packets come: the request waits for the next burst */
     if (t->burst_us != 0 && now - t->burst_us < defer_us(t) &&
         ev_watch(t->env->epfd, &t->ev, t->ev.fd, 0)) {
