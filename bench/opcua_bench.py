@@ -26,8 +26,9 @@ docs/opcua.md "Performance"): drsim moving at RPI 10 ms, drgatewayd with
     daemon's O->T intervals (p99 of |interval - RPI| over its connections)
     and its reaction (from the robot's T->O packet to the daemon's next
     O->T, which it sends with the T->O arrivals: p99). Goal: each p99 with
-    the clients at most 1.5x the one without the side (ratio of the
-    rounds' medians; why 1.5: docs/opcua.md "Performance").
+    the clients at most 1.5x the one without the side (the p99 of every
+    round's samples pooled: one VM stall in one window moves that round's
+    p99 by up to 2x; why 1.5: docs/opcua.md "Performance").
 
 Prints every figure and a PASS/FAIL line per goal; exits 1 on a FAIL.
 
@@ -281,7 +282,7 @@ class Capture:
 
 
 def class1(pkts):
-    """(O->T interval deviation p99, reaction p99, both us; counts)."""
+    """The O->T interval deviations and the reactions, us each."""
     last, devs, react, t2o_at = {}, [], [], None
     rpi_ns = RPI_MS * 1000000
     for ts, kind, conn in sorted(pkts):
@@ -293,7 +294,7 @@ def class1(pkts):
         last[conn] = ts
         if t2o_at is not None and ts - t2o_at < rpi_ns // 2:
             react.append((ts - t2o_at) / 1000.0)
-    return pct(devs, 99), pct(react, 99), len(devs), len(react)
+    return devs, react
 
 
 # ---- (b) and (c): the windows -----------------------------------------------------
@@ -305,10 +306,11 @@ def window(g, seconds, cap):
     c0, m0, r0, s0 = cpu_s(pid), time.monotonic(), time.time_ns(), switches(pid)
     time.sleep(seconds)
     c1, m1, r1, s1 = cpu_s(pid), time.monotonic(), time.time_ns(), switches(pid)
-    dev, react, n_dev, n_react = class1(cap.between(r0, r1))
+    devs, reacts = class1(cap.between(r0, r1))
     cap.clear()
-    return {"cpu": (c1 - c0) / (m1 - m0) * 100.0, "dev": dev, "react": react,
-            "n": n_dev, "n_react": n_react, "wake": (s1[0] - s0[0]) / (m1 - m0),
+    return {"cpu": (c1 - c0) / (m1 - m0) * 100.0, "devs": devs, "reacts": reacts,
+            "dev": pct(devs, 99), "react": pct(reacts, 99), "n": len(devs),
+            "n_react": len(reacts), "wake": (s1[0] - s0[0]) / (m1 - m0),
             "preempt": (s1[1] - s0[1]) / (m1 - m0)}
 
 
@@ -346,6 +348,12 @@ def rounds(args, cap):
 
 def med(ws, key):
     return statistics.median(w[key] for w in ws)
+
+
+def pooled(ws, key):
+    """The p99 of every round's samples together: one VM stall in one
+    10 s window moves a round's p99, much less the pooled one's."""
+    return pct([x for w in ws for x in w[key]], 99)
 
 
 def goal(name, value, limit, fmt="%.2f"):
@@ -400,7 +408,7 @@ def main():
           "| %s | %s | %s |" % (ms(pct(server, 50)), ms(pct(server, 99)), ms(max(server))))
     print()
     print("| (b), (c) daemon, medians of %d rounds of %g s | CPU %% of a core | O->T interval "
-          "deviation p99 us | T->O -> O->T reaction p99 us | O->T packets | notifications/s "
+          "deviation p99 us, pooled (per round) | T->O -> O->T reaction p99 us, pooled | O->T packets | notifications/s "
           "| wake-ups/s (preempted/s) |" % (args.rounds, args.window))
     print("| --- | --- | --- | --- | --- | --- | --- |")
     labels = {"off": "without [opcua]", "idle": "[opcua], no client",
@@ -409,10 +417,10 @@ def main():
     for key, label in labels.items():
         ws = res[key]
         notif = "%.0f" % med(ws, "notif") if key == "clients" else "-"
-        print("| %s | %.2f (%s) | %.0f | %.0f | %d | %s | %.0f (%.0f) |" % (
-            label, med(ws, "cpu"), ", ".join("%.2f" % w["cpu"] for w in ws), med(ws, "dev"),
-            med(ws, "react"), sum(w["n"] for w in ws), notif, med(ws, "wake"),
-            med(ws, "preempt")))
+        print("| %s | %.2f (%s) | %.0f (%s) | %.0f | %d | %s | %.0f (%.0f) |" % (
+            label, med(ws, "cpu"), ", ".join("%.2f" % w["cpu"] for w in ws),
+            pooled(ws, "devs"), ", ".join("%.0f" % w["dev"] for w in ws), pooled(ws, "reacts"),
+            sum(w["n"] for w in ws), notif, med(ws, "wake"), med(ws, "preempt")))
     for n in notes:
         print("NOTE: " + n)
     print()
@@ -422,9 +430,9 @@ def main():
     ok &= goal("(b) daemon CPU rise with %d clients, %% of a core" % CLIENTS,
                med(res["clients"], "cpu") - med(res["off"], "cpu"), GOAL_CPU_RISE)
     ok &= goal("(c) O->T interval deviation p99, with the clients / without [opcua]",
-               med(res["clients"], "dev") / med(res["off"], "dev"), GOAL_CLASS1)
+               pooled(res["clients"], "devs") / pooled(res["off"], "devs"), GOAL_CLASS1)
     ok &= goal("(c) T->O -> O->T reaction p99, with the clients / without [opcua]",
-               med(res["clients"], "react") / med(res["off"], "react"), GOAL_CLASS1)
+               pooled(res["clients"], "reacts") / pooled(res["off"], "reacts"), GOAL_CLASS1)
     print("bench-opcua: %s" % ("all goals met" if ok else "a goal missed"))
     return 0 if ok else 1
 
