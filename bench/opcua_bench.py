@@ -374,7 +374,7 @@ def credentials(d):
     """The server's and a client's certificates, and auth_file: user plant
     with a yescrypt hash at the hash policy's most memory (64 MiB, some
     80 ms of crypt here: the costliest check auth_file may ask for)."""
-    import ctypes
+    from gwlib import yescrypt
     uri = "urn:drgate:bench:drgatewayd"
     for name, u in (("server", uri), ("client", "urn:example.org:FreeOpcUa:opcua-asyncio")):
         subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout",
@@ -384,12 +384,7 @@ def credentials(d):
                         "keyEncipherment,dataEncipherment,keyCertSign",
                         "-addext", "extendedKeyUsage=serverAuth,clientAuth"],
                        cwd=d, check=True, capture_output=True)
-    lc = ctypes.CDLL("libcrypt.so.1")
-    lc.crypt_gensalt.restype = ctypes.c_char_p
-    lc.crypt_gensalt.argtypes = [ctypes.c_char_p, ctypes.c_ulong, ctypes.c_char_p, ctypes.c_int]
-    lc.crypt.restype = ctypes.c_char_p
-    lc.crypt.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
-    h = lc.crypt(b"s3cret", lc.crypt_gensalt(b"$y$", 7, None, 0)).decode()
+    h = yescrypt("s3cret", 7)
     users = Path(d) / "users"
     users.write_text("plant:%s\n" % h)
     users.chmod(0o600)

@@ -802,6 +802,19 @@ def in_netns(path):
         os.close(theirs)
 
 
+def yescrypt(password, cost=0):
+    """A yescrypt hash of password by libcrypt itself (Python 3.13 has no
+    crypt module): cost 0 is libcrypt's default ($y$j9T$, 16 MiB, as
+    `mkpasswd -m yescrypt` makes it), 7 the hash policy's most memory
+    (64 MiB, core/passwd.h: some 80 ms a check here)."""
+    lc = ctypes.CDLL("libcrypt.so.1")
+    lc.crypt_gensalt.restype = ctypes.c_char_p
+    lc.crypt_gensalt.argtypes = [ctypes.c_char_p, ctypes.c_ulong, ctypes.c_char_p, ctypes.c_int]
+    lc.crypt.restype = ctypes.c_char_p
+    lc.crypt.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
+    return lc.crypt(password.encode(), lc.crypt_gensalt(b"$y$", cost, None, 0)).decode()
+
+
 class NetnsCell:
     """A network namespace of its own, held by a sleeping process, with
     loopback up and `addresses` (/32 each) on it: no route out, so nothing

@@ -14,7 +14,6 @@ the namespace.
   /metrics still answer, streams bounded;
 - TLS 1.0 and 1.1 (and CBC suites) refused."""
 import base64
-import ctypes
 import http.client
 import os
 import re
@@ -28,23 +27,11 @@ import time
 import pytest
 
 from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, RawModbus, in_netns, skip, timeout,
-                   wait_for)
+                   wait_for, yescrypt)
 
 GW_IP = "10.9.1.1"
 ATTACKERS = ["10.9.1.%d" % i for i in range(2, 40)]
 MODBUS_PORT, HTTPS_PORT, STATUS_PORT, PLAIN_PORT = 1502, 8443, 8080, 8090
-
-
-def yescrypt(password):
-    """A yescrypt hash of password as `mkpasswd -m yescrypt` makes it
-    (libcrypt's default cost: $y$j9T$, 16 MiB)."""
-    lc = ctypes.CDLL("libcrypt.so.1")
-    lc.crypt_gensalt.restype = ctypes.c_char_p
-    lc.crypt_gensalt.argtypes = [ctypes.c_char_p, ctypes.c_ulong, ctypes.c_char_p, ctypes.c_int]
-    lc.crypt.restype = ctypes.c_char_p
-    lc.crypt.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
-    setting = lc.crypt_gensalt(b"$y$", 0, None, 0)
-    return lc.crypt(password.encode(), setting).decode()
 
 
 def openssl(*args, cwd):

@@ -7,7 +7,6 @@ user reads the robot, and a flood of wrong passwords does not reach the
 robot's link. The server's certificate is DER, its key PEM (both
 forms the side reads); the users file is the console's format."""
 import asyncio
-import ctypes
 import shutil
 import signal
 import subprocess
@@ -16,7 +15,8 @@ import time
 import pytest
 from asyncua import Client, ua
 
-from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, in_netns, skip, timeout, wait_for)
+from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, in_netns, skip, timeout, wait_for,
+                   yescrypt)
 from ualib import run
 
 UA_IP = "10.9.2.1"
@@ -41,19 +41,6 @@ def cert(d, name, uri, extra_san=""):
                        "dataEncipherment,keyCertSign",
             "-addext", "extendedKeyUsage=serverAuth,clientAuth", cwd=d)
     openssl("x509", "-in", name + ".pem", "-outform", "der", "-out", name + ".der", cwd=d)
-
-
-def yescrypt(password, cost=7):
-    """A yescrypt hash of password at the hash policy's most memory (cost
-    7: 64 MiB, core/passwd.h): the costliest check auth_file may ask for,
-    some 80 ms of crypt here. By libcrypt itself (Python 3.13 has no crypt
-    module)."""
-    lc = ctypes.CDLL("libcrypt.so.1")
-    lc.crypt_gensalt.restype = ctypes.c_char_p
-    lc.crypt_gensalt.argtypes = [ctypes.c_char_p, ctypes.c_ulong, ctypes.c_char_p, ctypes.c_int]
-    lc.crypt.restype = ctypes.c_char_p
-    lc.crypt.argtypes = [ctypes.c_char_p, ctypes.c_char_p]
-    return lc.crypt(password.encode(), lc.crypt_gensalt(b"$y$", cost, None, 0)).decode()
 
 
 class Cell(NetnsCell):
@@ -90,7 +77,7 @@ def cell(tmp_path_factory):
     cert(d, "server", APP_URI, ",IP:" + UA_IP)
     cert(d, "client", CLIENT_URI)
     cert(d, "other", "urn:example.org:other-client")
-    (d / "users").write_text("# plant clients\nplant:%s\n" % yescrypt("s3cret"))
+    (d / "users").write_text("# plant clients\nplant:%s\n" % yescrypt("s3cret", 7))
     (d / "users").chmod(0o600)
     c = Cell(d)
     try:
