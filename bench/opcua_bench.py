@@ -359,15 +359,9 @@ def rounds(args, cap):
 
 def modbus_p99(g, seconds):
     """The p99 of a Modbus read of the status block (IR 0-30), every 2 ms."""
-    lat = []
+    from gwlib import status_read_latencies
     with g.raw() as m:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            t0 = time.perf_counter()
-            m.read(4, 0, 31)
-            lat.append(time.perf_counter() - t0)
-            time.sleep(0.002)
-    return pct(lat, 99)
+        return pct(status_read_latencies(m, seconds), 99)
 
 
 def credentials(d):

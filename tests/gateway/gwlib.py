@@ -802,6 +802,20 @@ def in_netns(path):
         os.close(theirs)
 
 
+def status_read_latencies(m, seconds):
+    """Seconds per Modbus read of the status block (IR 0-30) on the open
+    RawModbus m, one every 2 ms for `seconds`, sorted: how long a PLC's
+    poll waits while something else loads the daemon."""
+    lat = []
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        t0 = time.perf_counter()
+        m.read(4, 0, 31)
+        lat.append(time.perf_counter() - t0)
+        time.sleep(0.002)
+    return sorted(lat)
+
+
 def yescrypt(password, cost=0):
     """A yescrypt hash of password by libcrypt itself (Python 3.13 has no
     crypt module): cost 0 is libcrypt's default ($y$j9T$, 16 MiB, as

@@ -27,7 +27,7 @@ import time
 import pytest
 
 from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, RawModbus, in_netns, skip, timeout,
-                   wait_for, yescrypt)
+                   status_read_latencies, wait_for, yescrypt)
 
 GW_IP = "10.9.1.1"
 ATTACKERS = ["10.9.1.%d" % i for i in range(2, 40)]
@@ -128,15 +128,8 @@ def read_answer(s):
 
 
 def modbus_latencies(cell, seconds):
-    lat = []
     with cell.modbus() as m:
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            t0 = time.perf_counter()
-            m.read(4, 0, 31)
-            lat.append(time.perf_counter() - t0)
-            time.sleep(0.002)
-    lat.sort()
+        lat = status_read_latencies(m, seconds)
     return lat[int(len(lat) * 0.99)], len(lat)
 
 
