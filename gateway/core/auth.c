@@ -469,6 +469,9 @@ gw_auth_result_t gw_auth_check(gw_auth_t *a, const char *user, const char *pass,
         if (e != NULL && e->ok)
             return GW_AUTH_OK;
     }
+    const gw_user_t *u = readable ? gw_passwd_find(&a->users, user) : NULL;
+    if (a->per_user) /* the user is the source; names that are no user's, together */
+        from = u != NULL ? user : "(unknown user)";
     const client_t *c = client_of(a, from, now_us, false);
     if (e != NULL || !readable || (c != NULL && c->until_us > now_us)) {
         /* refused before, unreadable, or the source is waiting: no check */
@@ -477,7 +480,6 @@ gw_auth_result_t gw_auth_check(gw_auth_t *a, const char *user, const char *pass,
             *until = c->until_us;
         return GW_AUTH_REFUSED;
     }
-    const gw_user_t *u = gw_passwd_find(&a->users, user);
     gw_auth_result_t r = GW_AUTH_BUSY;
     (void)pthread_mutex_lock(&a->mu);
     for (unsigned i = 0; i < GW_AUTH_QUEUE; i++) {

@@ -60,8 +60,10 @@ typedef struct {
 
 /* For the users (copied): the worker thread started, the key drawn. NULL
  * with err. crypt: libcrypt's crypt_r, or a test's. label: the side, as
- * its log lines start ("http"); per: what a source is ("address", "user":
- * a user source is not repeated in the refusal's line). */
+ * its log lines start ("http"); per: what a source is: "address" (the
+ * caller's `from`), or "user" (the user name if it is a user's, else all
+ * unknown names together; `from` is not used, and the refusal's line does
+ * not repeat it). */
 gw_auth_t *gw_auth_new(const gw_users_t *users, gw_crypt_fn crypt, const char *label,
                        const char *per, char *err, size_t errlen);
 /* Stops and joins the worker; pending checks are dropped. NULL: nothing. */
@@ -71,7 +73,7 @@ int gw_auth_fd(const gw_auth_t *a);
 
 /* A login: user and pass as the client gave them (user NULL: credentials
  * that could not be read, refused and counted as user "?"), from its
- * source (GW_AUTH_FROM_MAX), cookie what collect hands back for a
+ * source (GW_AUTH_FROM_MAX; NULL with per "user"), cookie what collect hands back for a
  * PENDING one (the request, the session). *until: when to answer a
  * REFUSED one (now: at once; later while its source waits). */
 gw_auth_result_t gw_auth_check(gw_auth_t *a, const char *user, const char *pass,

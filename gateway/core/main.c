@@ -226,12 +226,18 @@ static void metrics(void *user, gw_prom_t *m)
 
 /* ---- status block and timers ------------------------------------------------- */
 
+/* Side i waits in wait_aside: not ticked, refreshed or asked its deadline. */
+static bool aside(const gw_t *g, unsigned i)
+{
+    return g->aside != NULL && g->side[i] == g->aside;
+}
+
 static void tick(gw_t *g, uint64_t now, bool busy)
 {
     for (unsigned r = 0; r < g->cfg.robot_count; r++)
         gw_link_tick(g->links[r], now, busy);
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
-        if (g->side[i] != g->aside || g->aside == NULL)
+        if (!aside(g, i))
             gw_north_sides[i]->tick(g->side[i], now);
     if (now < g->next_tick_us)
         return;
@@ -241,7 +247,7 @@ static void tick(gw_t *g, uint64_t now, bool busy)
     if (beat)
         g->next_beat_us = now + 1000000u;
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++)
-        if (g->side[i] != g->aside || g->aside == NULL)
+        if (!aside(g, i))
             gw_north_sides[i]->refresh(g->side[i]);
     if (beat && g->notify)
         notify_status(g); /* once a second, and only for systemd */
@@ -263,7 +269,7 @@ static uint64_t next_deadline(const gw_t *g)
             d = x;
     }
     for (unsigned i = 0; i < GW_NORTH_SIDES; i++) {
-        if (g->side[i] == g->aside && g->aside != NULL)
+        if (aside(g, i))
             continue;
         uint64_t x = gw_north_sides[i]->deadline(g->side[i]);
         if (x < d)

@@ -104,7 +104,8 @@ typedef struct {
      * meanwhile and must unwatch its own descriptors first; its on_data,
      * on_link, on_fault and the console's calls (report, metrics) still
      * come, and must not call back into what is waiting. One side at a
-     * time (false at once for a second). NULL: none (tests). */
+     * time (false at once for a second). NULL: none (tests; a side then
+     * refuses what would wait). */
     bool (*wait_aside)(void *user, const void *self, int fd, uint64_t until_us);
 } gw_north_env_t;
 

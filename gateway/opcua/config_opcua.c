@@ -186,28 +186,70 @@ gw_opcua_trust_kind_t gw_opcua_trust_kind(const char *name)
     return GW_OPCUA_TRUST_UNKNOWN;
 }
 
-/* One file of trust_dir: readable, DER or PEM. */
-static bool check_trust_file(gw_cfg_ctx_t *c, const char *dir, const char *name)
+bool gw_opcua_trust_each(const char *dir,
+                         bool (*fn)(void *ctx, const char *path, const char *name,
+                                    gw_opcua_trust_kind_t kind),
+                         void *ctx)
+{
+    DIR *d = opendir(dir);
+    if (d == NULL)
+        return false;
+    for (struct dirent *e; (e = readdir(d)) != NULL;) {
+        gw_opcua_trust_kind_t k = gw_opcua_trust_kind(e->d_name);
+        char path[512];
+        if (k == GW_OPCUA_TRUST_SKIP)
+            continue;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        if (!fn(ctx, path, e->d_name, k))
+            break;
+    }
+    (void)closedir(d);
+    return true;
+}
+
+typedef struct {
+    gw_cfg_ctx_t *c;
+    const char *dir;
+    unsigned line, files, certs;
+    bool ok;
+} trust_check_t;
+
+/* One file of trust_dir: a known kind, within the count, readable, DER or
+ * PEM. */
+static bool check_trust_file(void *ctx, const char *path, const char *name,
+                             gw_opcua_trust_kind_t k)
 {
     static char text[UA_PEM_FILE_MAX];
     static uint8_t der[UA_PEM_FILE_MAX];
-    char path[512];
-    snprintf(path, sizeof path, "%s/%s", dir, name);
+    trust_check_t *tc = ctx;
+    (void)name;
+    tc->ok = false;
+    if (k == GW_OPCUA_TRUST_UNKNOWN) {
+        gw_cfg_fail(tc->c, tc->line, "[opcua] trust_dir %s: not a certificate (.der, .pem, "
+                    ".crt) or revocation list (.crl)", path);
+        return false;
+    }
+    if (++tc->files > GW_OPCUA_TRUST_MAX) {
+        gw_cfg_fail(tc->c, tc->line, "[opcua] trust_dir %s: over %u files", tc->dir,
+                    GW_OPCUA_TRUST_MAX);
+        return false;
+    }
+    tc->certs += k == GW_OPCUA_TRUST_CERT;
     FILE *f = fopen(path, "rb");
     if (f == NULL) {
-        gw_cfg_fail(c, key_line(c, "trust_dir"), "[opcua] trust_dir %s: %s", path,
-                    strerror(errno));
+        gw_cfg_fail(tc->c, tc->line, "[opcua] trust_dir %s: %s", path, strerror(errno));
         return false;
     }
     size_t n = fread(text, 1, sizeof text, f);
     bool big = n == sizeof text;
     (void)fclose(f);
     if (big || ua_pem_to_der(text, n, der, sizeof der) == 0) {
-        gw_cfg_fail(c, key_line(c, "trust_dir"),
+        gw_cfg_fail(tc->c, tc->line,
                     "[opcua] trust_dir %s: not a certificate or revocation list in DER or PEM%s",
                     path, big ? " (over 64 KiB)" : "");
         return false;
     }
+    tc->ok = true;
     return true;
 }
 
@@ -215,42 +257,22 @@ static bool check_trust_file(gw_cfg_ctx_t *c, const char *dir, const char *name)
  * lists, nothing else, with a secure policy to use them. */
 static bool check_trust_dir(gw_cfg_ctx_t *c, const gw_opcua_config_t *u)
 {
-    unsigned line = key_line(c, "trust_dir"), certs = 0, files = 0;
+    trust_check_t tc = {c, u->trust_dir, key_line(c, "trust_dir"), 0, 0, true};
     if (!(u->policies & GW_OPCUA_POLICY_SECURE)) {
-        gw_cfg_fail(c, line, "[opcua] trust_dir needs a secure security_policies (client "
+        gw_cfg_fail(c, tc.line, "[opcua] trust_dir needs a secure security_policies (client "
                     "certificates come only with Basic256Sha256, ...)");
         return false;
     }
-    DIR *d = opendir(u->trust_dir);
-    if (d == NULL) {
-        gw_cfg_fail(c, line, "[opcua] trust_dir %s: %s", u->trust_dir, strerror(errno));
+    if (!gw_opcua_trust_each(u->trust_dir, check_trust_file, &tc)) {
+        gw_cfg_fail(c, tc.line, "[opcua] trust_dir %s: %s", u->trust_dir, strerror(errno));
         return false;
     }
-    bool ok = true;
-    for (struct dirent *e; ok && (e = readdir(d)) != NULL;) {
-        gw_opcua_trust_kind_t k = gw_opcua_trust_kind(e->d_name);
-        if (k == GW_OPCUA_TRUST_SKIP)
-            continue;
-        if (k == GW_OPCUA_TRUST_UNKNOWN) {
-            gw_cfg_fail(c, line, "[opcua] trust_dir %s/%s: not a certificate (.der, .pem, "
-                        ".crt) or revocation list (.crl)", u->trust_dir, e->d_name);
-            ok = false;
-        } else if (++files > GW_OPCUA_TRUST_MAX) {
-            gw_cfg_fail(c, line, "[opcua] trust_dir %s: over %u files", u->trust_dir,
-                        GW_OPCUA_TRUST_MAX);
-            ok = false;
-        } else {
-            certs += k == GW_OPCUA_TRUST_CERT;
-            ok = check_trust_file(c, u->trust_dir, e->d_name);
-        }
-    }
-    (void)closedir(d);
-    if (ok && certs == 0) {
-        gw_cfg_fail(c, line, "[opcua] trust_dir %s holds no certificate: no client could "
+    if (tc.ok && tc.certs == 0) {
+        gw_cfg_fail(c, tc.line, "[opcua] trust_dir %s holds no certificate: no client could "
                     "connect", u->trust_dir);
-        ok = false;
+        tc.ok = false;
     }
-    return ok;
+    return tc.ok;
 }
 
 /* Is the side in this build (make: pkg-config found open62541)? */

@@ -56,4 +56,13 @@ typedef enum { GW_OPCUA_TRUST_SKIP, GW_OPCUA_TRUST_CERT, GW_OPCUA_TRUST_CRL,
  * certificate; .crl a revocation list; anything else unknown (refused). */
 gw_opcua_trust_kind_t gw_opcua_trust_kind(const char *name);
 
+/* fn(ctx, path, name, kind) for each file of trust_dir dir that is not
+ * skipped (unknown kinds included), until fn returns false. False (errno
+ * set) if dir cannot be read. The configuration's check, the server's
+ * trust list and its reload's digest all walk it so. */
+bool gw_opcua_trust_each(const char *dir,
+                         bool (*fn)(void *ctx, const char *path, const char *name,
+                                    gw_opcua_trust_kind_t kind),
+                         void *ctx);
+
 #endif /* DRGATE_GW_OPCUA_CONFIG_H */

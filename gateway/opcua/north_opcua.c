@@ -37,7 +37,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <poll.h>
 #include <sys/epoll.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -136,10 +135,8 @@ struct ua {
     ua_node_t *nodes;       /* robot_count * dr_leaf_count() */
     ua_node_t *view;        /* the Robotics view's: robot_count * UA_VIEW_NODES */
     size_t view_used;
-    gw_users_t users;  /* auth_file */
-    gw_auth_t *auth;   /* its logins, checked off the loop */
-    gw_users_t next_users; /* auth_file read again by a reload's prepare, */
-    gw_auth_t *next_auth;  /* and their checker */
+    gw_auth_t *auth;       /* auth_file's logins, checked off the loop */
+    gw_auth_t *next_auth;  /* auth_file read again by a reload's prepare */
     uint64_t trust;        /* trust_digest of trust_dir when the server was built */
     bool in_login;     /* waiting for a login's check (wait_aside) */
     /* Per robot: the T->O assemblies received since the side started, and
@@ -208,21 +205,14 @@ static bool login_wait(ua_t *t, ua_verdict_t *v)
     /* the server's descriptor muted (events 0), as it was after */
     uint32_t events = t->ev.events;
     bool watched = t->ev.fd >= 0;
+    if (t->env->wait_aside == NULL) /* a daemon without one (tests): no wait in the loop */
+        return false;
     if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, 0))
         return false; /* the loop would run the server inside itself */
     t->in_login = true;
-    while (!v->done && ev_now_us() < until) {
-        bool ready;
-        if (t->env->wait_aside != NULL) {
-            ready = t->env->wait_aside(t->env->user, t, fd, until);
-        } else { /* a daemon without one (tests): the check's own wait */
-            struct pollfd p = {fd, POLLIN, 0};
-            ready = poll(&p, 1, (int)((until - ev_now_us()) / 1000u) + 1) > 0;
-        }
-        if (!ready)
-            break;
+    while (!v->done && ev_now_us() < until &&
+           t->env->wait_aside(t->env->user, t, fd, until))
         gw_auth_collect(t->auth, ev_now_us(), login_done, t);
-    }
     t->in_login = false;
     if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, events)) {
         t->polled = true; /* iterated every UA_POLL_MS from now on */
@@ -241,7 +231,7 @@ static UA_StatusCode ua_login(const UA_String *user, const UA_ByteString *pass, 
                               const UA_UsernamePasswordLogin *list, void **sctx, void *lctx)
 {
     ua_t *t = lctx;
-    char name[GW_USER_MAX], word[GW_AUTH_PASS_MAX], from[GW_AUTH_FROM_MAX];
+    char name[GW_USER_MAX], word[GW_AUTH_PASS_MAX];
     (void)n;
     (void)list;
     (void)sctx;
@@ -258,12 +248,10 @@ static UA_StatusCode ua_login(const UA_String *user, const UA_ByteString *pass, 
         t->logins_refused++;
         return UA_STATUSCODE_BADUSERACCESSDENIED;
     }
-    snprintf(from, sizeof from, "%s",
-             readable && gw_passwd_find(&t->users, name) != NULL ? name : "(unknown user)");
     ua_verdict_t v = {false, false};
     uint64_t until;
     gw_auth_result_t r = gw_auth_check(t->auth, readable ? name : NULL, readable ? word : NULL,
-                                       from, &v, ev_now_us(), &until);
+                                       NULL, &v, ev_now_us(), &until);
     memset(word, 0, sizeof word);
     bool ok = r == GW_AUTH_OK || (r == GW_AUTH_PENDING && login_wait(t, &v));
     if (!ok) {
@@ -551,76 +539,84 @@ static void drop_x509_tokens(UA_AccessControl *ac)
     ac->userTokenPoliciesSize = kept;
 }
 
+/* trust_dir's files as they are loaded (set_trust). */
+typedef struct {
+    UA_ByteString cert[GW_OPCUA_TRUST_MAX], crl[GW_OPCUA_TRUST_MAX];
+    size_t ncert, ncrl;
+    char *err;
+    size_t errlen;
+    bool ok;
+} trust_load_t;
+
+static bool trust_load(void *ctx, const char *path, const char *name, gw_opcua_trust_kind_t k)
+{
+    trust_load_t *l = ctx;
+    (void)name;
+    if (k == GW_OPCUA_TRUST_UNKNOWN) /* refused by the configuration's check */
+        return true;
+    if (l->ncert + l->ncrl == GW_OPCUA_TRUST_MAX)
+        return false;
+    UA_ByteString *to = k == GW_OPCUA_TRUST_CERT ? &l->cert[l->ncert++] : &l->crl[l->ncrl++];
+    l->ok = ua_pem_load(path, to, l->err, l->errlen);
+    if (!l->ok)
+        *to = UA_BYTESTRING_NULL;
+    return l->ok;
+}
+
 /* trust_dir's certificates and revocation lists as the server's trust
  * list, for secure channels and sessions alike. */
 static bool set_trust(const ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
 {
-    UA_ByteString cert[GW_OPCUA_TRUST_MAX], crl[GW_OPCUA_TRUST_MAX];
-    size_t ncert = 0, ncrl = 0;
-    bool ok = true;
-    DIR *d = opendir(t->cfg.trust_dir);
-    if (d == NULL) {
+    static trust_load_t l; /* 64 byte strings each: not on the stack */
+    memset(&l, 0, sizeof l);
+    l.err = err;
+    l.errlen = errlen;
+    l.ok = true;
+    if (!gw_opcua_trust_each(t->cfg.trust_dir, trust_load, &l)) {
         snprintf(err, errlen, "trust_dir %s: %s", t->cfg.trust_dir, strerror(errno));
         return false;
     }
-    for (struct dirent *e; ok && (e = readdir(d)) != NULL;) {
-        gw_opcua_trust_kind_t k = gw_opcua_trust_kind(e->d_name);
-        char path[512];
-        if (k == GW_OPCUA_TRUST_SKIP || k == GW_OPCUA_TRUST_UNKNOWN)
-            continue; /* unknown ones: refused by the configuration's check */
-        if (ncert + ncrl == GW_OPCUA_TRUST_MAX)
-            break;
-        snprintf(path, sizeof path, "%s/%s", t->cfg.trust_dir, e->d_name);
-        UA_ByteString *to = k == GW_OPCUA_TRUST_CERT ? &cert[ncert++] : &crl[ncrl++];
-        ok = ua_pem_load(path, to, err, errlen);
-        if (!ok)
-            *to = UA_BYTESTRING_NULL;
-    }
-    (void)closedir(d);
     UA_StatusCode st = UA_STATUSCODE_GOOD;
-    if (ok) {
+    if (l.ok) {
         c->secureChannelPKI.clear(&c->secureChannelPKI);
-        st = UA_CertificateVerification_Trustlist(&c->secureChannelPKI, cert, ncert, NULL, 0,
-                                                  crl, ncrl);
+        st = UA_CertificateVerification_Trustlist(&c->secureChannelPKI, l.cert, l.ncert, NULL,
+                                                  0, l.crl, l.ncrl);
         c->sessionPKI.clear(&c->sessionPKI);
         if (st == UA_STATUSCODE_GOOD)
-            st = UA_CertificateVerification_Trustlist(&c->sessionPKI, cert, ncert, NULL, 0, crl,
-                                                      ncrl);
+            st = UA_CertificateVerification_Trustlist(&c->sessionPKI, l.cert, l.ncert, NULL, 0,
+                                                      l.crl, l.ncrl);
         if (st != UA_STATUSCODE_GOOD)
             snprintf(err, errlen, "trust_dir %s: %s (a certificate or revocation list that "
                      "does not parse?)", t->cfg.trust_dir, UA_StatusCode_name(st));
     }
-    for (size_t i = 0; i < ncert; i++)
-        UA_ByteString_clear(&cert[i]);
-    for (size_t i = 0; i < ncrl; i++)
-        UA_ByteString_clear(&crl[i]);
-    return ok && st == UA_STATUSCODE_GOOD;
+    for (size_t i = 0; i < l.ncert; i++)
+        UA_ByteString_clear(&l.cert[i]);
+    for (size_t i = 0; i < l.ncrl; i++)
+        UA_ByteString_clear(&l.crl[i]);
+    return l.ok && st == UA_STATUSCODE_GOOD;
+}
+
+/* A file's part of trust_digest: its name, size and times. */
+static bool trust_hash(void *ctx, const char *path, const char *name, gw_opcua_trust_kind_t k)
+{
+    uint64_t *h = ctx, part = 1469598103934665603ull; /* FNV-1a */
+    struct stat st;
+    (void)k;
+    for (const char *p = name; *p != '\0'; p++)
+        part = (part ^ (uint8_t)*p) * 1099511628211ull;
+    if (stat(path, &st) == 0)
+        part ^= (uint64_t)st.st_size * 31u ^ (uint64_t)st.st_mtim.tv_sec * 1000003u ^
+                (uint64_t)st.st_mtim.tv_nsec;
+    *h ^= part * 1099511628211ull; /* the order readdir gives does not count */
+    return true;
 }
 
 /* What trust_dir holds, as a digest of its files' names, sizes and times
  * (0: no trust_dir): a reload that finds another builds a new server. */
 static uint64_t trust_digest(const char *dir)
 {
-    uint64_t h = 1469598103934665603ull; /* FNV-1a */
-    DIR *d = dir[0] != '\0' ? opendir(dir) : NULL;
-    if (d == NULL)
-        return 0;
-    for (struct dirent *e; (e = readdir(d)) != NULL;) {
-        char path[512];
-        struct stat st;
-        if (gw_opcua_trust_kind(e->d_name) == GW_OPCUA_TRUST_SKIP)
-            continue;
-        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
-        uint64_t part = 1469598103934665603ull;
-        for (const char *p = e->d_name; *p != '\0'; p++)
-            part = (part ^ (uint8_t)*p) * 1099511628211ull;
-        if (stat(path, &st) == 0)
-            part ^= (uint64_t)st.st_size * 31u ^ (uint64_t)st.st_mtim.tv_sec * 1000003u ^
-                    (uint64_t)st.st_mtim.tv_nsec;
-        h ^= part * 1099511628211ull; /* the order readdir gives does not count */
-    }
-    (void)closedir(d);
-    return h;
+    uint64_t h = 1469598103934665603ull;
+    return dir[0] != '\0' && gw_opcua_trust_each(dir, trust_hash, &h) ? h : 0;
 }
 
 /* The security policies and their endpoints, the users. */
@@ -1161,20 +1157,20 @@ static ua_t *ua_new(const gw_config_t *cfg, const gw_north_env_t *env, char *err
     return t;
 }
 
-/* auth_file's users and their logins' checker (its worker thread) into
- * *users and *auth; nothing without auth_file. */
-static bool load_users(const ua_t *t, gw_users_t *users, gw_auth_t **auth, char *err,
-                       size_t errlen)
+/* auth_file's users' logins checker (its worker thread) into *auth;
+ * nothing without auth_file. */
+static bool load_users(const ua_t *t, gw_auth_t **auth, char *err, size_t errlen)
 {
+    static gw_users_t users; /* 8 KiB; gw_auth_new keeps its own copy */
     char why[400];
     *auth = NULL;
     if (t->cfg.auth_file[0] == '\0')
         return true;
-    if (!gw_passwd_load(t->cfg.auth_file, users, why, sizeof why)) {
+    if (!gw_passwd_load(t->cfg.auth_file, &users, why, sizeof why)) {
         snprintf(err, errlen, "opcua: auth_file %s", why);
         return false;
     }
-    *auth = gw_auth_new(users, crypt_r, "opcua", "user", err, errlen);
+    *auth = gw_auth_new(&users, crypt_r, "opcua", "user", err, errlen);
     return *auth != NULL;
 }
 
@@ -1186,7 +1182,7 @@ static void *op_create(const gw_north_env_t *env, char *err, size_t errlen)
     ua_t *t = ua_new(env->cfg, env, err, errlen);
     if (t == NULL || !t->cfg.enabled)
         return t;
-    if (!load_users(t, &t->users, &t->auth, err, errlen)) {
+    if (!load_users(t, &t->auth, err, errlen)) {
         ua_free(t);
         return NULL;
     }
@@ -1235,7 +1231,7 @@ static gw_north_reload_t op_prepare(void *self, const gw_config_t *next, const g
         trust_digest(t->cfg.trust_dir) == t->trust) {
         /* the same server; auth_file read again (its users may change) */
         gw_auth_free(t->next_auth);
-        if (!load_users(t, &t->next_users, &t->next_auth, err, errlen))
+        if (!load_users(t, &t->next_auth, err, errlen))
             return GW_NORTH_REFUSED;
         *out = t;
         return GW_NORTH_OK;
@@ -1243,7 +1239,7 @@ static gw_north_reload_t op_prepare(void *self, const gw_config_t *next, const g
     ua_t *n = ua_new(next, env, err, errlen);
     if (n == NULL)
         return GW_NORTH_REFUSED;
-    if (n->cfg.enabled && !load_users(n, &n->users, &n->auth, err, errlen)) {
+    if (n->cfg.enabled && !load_users(n, &n->auth, err, errlen)) {
         ua_free(n);
         return GW_NORTH_REFUSED;
     }
@@ -1266,7 +1262,6 @@ static void *op_commit(void *self, void *out, const gw_north_env_t *env)
     char why[400];
     if (n == t) {
         if (t->next_auth != NULL) { /* the users as the file says now; logins checked again */
-            t->users = t->next_users;
             gw_auth_free(t->auth);
             t->auth = t->next_auth;
             t->next_auth = NULL;
