@@ -31,10 +31,12 @@ docs/opcua.md "Performance"): drsim moving at RPI 10 ms, drgatewayd with
     p99 by up to 2x; why 1.5: docs/opcua.md "Performance").
 (d) Logins off the loop. The daemon with a Basic256Sha256 endpoint and
     auth_file (yescrypt at the hash policy's most memory, 64 MiB: some
-    80 ms of crypt a check), six python asyncua clients (bench/ua_flood.py)
-    trying wrong passwords as fast as they are answered: Modbus p99
-    during the flood against without it, goal 1.5x (bench-console's for
-    the console's logins), and the robot's link never lost.
+    80 ms of crypt a check), six python asyncua clients (bench/ua_flood.py,
+    in the idle class: machines of their own) trying wrong passwords as
+    fast as they are answered, paused and resumed in turn: Modbus p99
+    during the flood against without it (medians of the rounds), goal
+    1.5x (bench-console's for the console's logins), and the robot's link
+    never lost.
 
 Prints every figure and a PASS/FAIL line per goal; exits 1 on a FAIL.
 
@@ -63,6 +65,7 @@ GOAL_CPU_RISE = 2.0  # % of one core
 GOAL_CLASS1 = 1.5    # p99 with the clients / p99 without the side
 GOAL_FLOOD = 1.5     # Modbus p99 during an OPC UA wrong-password flood / none (bench-console's)
 FLOODERS = 6
+FLOOD_WINDOW = 4.0   # s, each of (d)'s windows (2000 Modbus reads)
 
 
 def setup_env(build):
@@ -387,23 +390,33 @@ def credentials(d):
             % (d, d, users, uri))
 
 
-def login_flood(seconds):
-    """Modbus p99 without and during FLOODERS clients' wrong passwords;
-    refused logins; the robot link's losses."""
+def login_flood(rounds, seconds):
+    """Modbus p99s without and during FLOODERS clients' wrong passwords,
+    `rounds` windows of each in turn (the flood paused between: SIGSTOP);
+    refused logins; the robot link's losses. The flood runs in Linux's
+    idle class, standing in for machines of its own (bench-console's flood
+    is at nice 19 for the same reason): six python clients doing RSA take
+    most of this machine's CPU, which a remote attacker would not."""
     from ualib import gateway
+    quiet, during = [], []
     with tempfile.TemporaryDirectory() as d:
         with gateway("bench_ua_flood", sim_args=(), robot="rpi_ms = %d" % RPI_MS,
                      opcua=credentials(d)) as g:
-            time.sleep(1.0)
-            quiet = modbus_p99(g, seconds)
-            flood = subprocess.Popen([sys.executable, str(TOP / "bench" / "ua_flood.py"), g.url,
+            flood = subprocess.Popen(["chrt", "--idle", "0", sys.executable,
+                                      str(TOP / "bench" / "ua_flood.py"), g.url,
                                       str(FLOODERS), d, "plant"], stdout=subprocess.PIPE,
                                      text=True)
             try:
                 flood.stdout.readline()  # ready
-                time.sleep(1.0)
-                during = modbus_p99(g, seconds)
+                for _ in range(rounds):
+                    flood.send_signal(signal.SIGSTOP)
+                    time.sleep(0.5)
+                    quiet.append(modbus_p99(g, seconds))
+                    flood.send_signal(signal.SIGCONT)
+                    time.sleep(0.5)
+                    during.append(modbus_p99(g, seconds))
             finally:
+                flood.send_signal(signal.SIGCONT)
                 flood.send_signal(signal.SIGTERM)
                 out, _ = flood.communicate(timeout=60)
             tries = int(out.split()[-1]) if out.split() else 0
@@ -430,10 +443,12 @@ def goal(name, value, limit, fmt="%.2f"):
 def flood_goals(flood, seconds):
     """(d)'s figures and goals: 0 if met, 1 if not."""
     quiet, during, tries, lost = flood
-    print("(d) Modbus p99 without / during %d clients' wrong passwords (yescrypt 64 MiB): "
-          "%.2f / %.2f ms; %d logins refused in %g s; robot link lost %d time(s)"
-          % (FLOODERS, quiet * 1e3, during * 1e3, tries, seconds, lost))
-    ok = goal("(d) Modbus p99 during the flood / without", during / quiet, GOAL_FLOOD)
+    ms = lambda xs: ", ".join("%.2f" % (x * 1e3) for x in xs)
+    print("(d) Modbus p99 ms without (%s) / during (%s) %d clients' wrong passwords "
+          "(yescrypt 64 MiB), %d rounds of %g s in turn; %d logins refused; robot link lost "
+          "%d time(s)" % (ms(quiet), ms(during), FLOODERS, len(quiet), seconds, tries, lost))
+    ok = goal("(d) Modbus p99 during the flood / without (medians)",
+              statistics.median(during) / statistics.median(quiet), GOAL_FLOOD)
     ok &= goal("(d) robot link lost during the flood", lost, 0, "%d")
     return 0 if ok else 1
 
@@ -460,7 +475,7 @@ def main():
     print("bench-opcua: drsim moving at RPI %d ms, %d CPUs, load %s" % (
         RPI_MS, os.cpu_count(), " ".join(open("/proc/loadavg").read().split()[:3])), flush=True)
     if args.flood_only:
-        return flood_goals(login_flood(args.window), args.window)
+        return flood_goals(login_flood(args.rounds, FLOOD_WINDOW), FLOOD_WINDOW)
     with gateway("bench_ua_lat", sim_args=(), robot="rpi_ms = %d" % RPI_MS,
                  opcua="writes = yes") as g:
         print("(a) latency: %d writes of int_in[0] echoed to int_out[0]" % args.samples,
@@ -473,9 +488,9 @@ def main():
         res, notes = rounds(args, cap)
     finally:
         cap.close()
-    print("(d) a flood of wrong passwords: %d clients, %g s" % (FLOODERS, args.window),
-          flush=True)
-    flood = login_flood(args.window)
+    print("(d) a flood of wrong passwords: %d clients, %d rounds of %g s" % (
+        FLOODERS, args.rounds, FLOOD_WINDOW), flush=True)
+    flood = login_flood(args.rounds, FLOOD_WINDOW)
 
     ms = lambda x: "%.1f" % (x * 1000.0)
     print()
@@ -514,7 +529,7 @@ def main():
                pooled(res["clients"], "devs") / pooled(res["off"], "devs"), GOAL_CLASS1)
     ok &= goal("(c) T->O -> O->T reaction p99, with the clients / without [opcua]",
                pooled(res["clients"], "reacts") / pooled(res["off"], "reacts"), GOAL_CLASS1)
-    ok &= flood_goals(flood, args.window) == 0
+    ok &= flood_goals(flood, FLOOD_WINDOW) == 0
     print("bench-opcua: %s" % ("all goals met" if ok else "a goal missed"))
     return 0 if ok else 1
 

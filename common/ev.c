@@ -2,6 +2,8 @@
 /* The event loop of drsim and drgatewayd (ev.h). */
 #define _GNU_SOURCE /* signalfd, timerfd, syscall */
 #include <errno.h>
+#include <pthread.h>
+#include <sched.h>
 #include <signal.h>
 #include <string.h>
 #include <sys/epoll.h>
@@ -154,6 +156,15 @@ static void on_signalfd(void *obj, uint32_t events)
     (void)events;
     while (read(L->sig.fd, &si, sizeof si) == (ssize_t)sizeof si)
         L->on_signal(L->sig_obj, (int)si.ssi_signo);
+}
+
+bool ev_worker_start(const char *name)
+{
+    struct sched_param p = {.sched_priority = 0};
+    (void)pthread_setname_np(pthread_self(), name); /* a name too long: left as it was */
+    int e = pthread_setschedparam(pthread_self(), SCHED_IDLE, &p);
+    errno = e;
+    return e == 0;
 }
 
 bool ev_open(ev_loop_t *L, ev_timing_t timing)

@@ -13,6 +13,7 @@
 
 #include <crypt.h>
 
+#include "common/ev.h"
 #include "core/log.h"
 
 #define PASS_MAX GW_AUTH_PASS_MAX
@@ -196,6 +197,9 @@ static void *worker(void *arg)
     gw_auth_t *a = arg;
     struct crypt_data *cd = calloc(1, sizeof *cd); /* 32 kB: not on the stack */
     job_t j;
+    char name[16];
+    snprintf(name, sizeof name, "%.9s-login", a->label);
+    (void)ev_worker_start(name); /* best effort: the loop first */
     for (;;) {
         int at = -1;
         (void)pthread_mutex_lock(&a->mu);

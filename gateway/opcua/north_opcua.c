@@ -33,6 +33,7 @@
 #include <crypt.h>
 #include <dirent.h>
 #include <errno.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -52,8 +53,7 @@
 #include "core/log.h"
 #include "core/passwd.h"
 #include "core/write.h"
-#include "core/auth.h"
-#include "core/passwd.h"
+#include "opcua/ua_crypto.h"
 #include "opcua/ua_model.h"
 #include "opcua/ua_pem.h"
 #include "opcua/ua_robotics.h"
@@ -65,6 +65,7 @@
 #define UA_FD_SCAN 4096         /* descriptors looked at for it */
 #define UA_LOG_KINDS 16u        /* open62541's log categories (UA_LogCategory) */
 #define UA_LOGIN_WAIT_US 10000000u /* a login's check, at most (core/auth.h's worker) */
+#define UA_CRYPTO_WAIT_US 10000000u /* a public-key operation's turn (ua_crypto.h), at most */
 
 typedef struct ua ua_t;
 
@@ -138,7 +139,13 @@ struct ua {
     gw_auth_t *auth;       /* auth_file's logins, checked off the loop */
     gw_auth_t *next_auth;  /* auth_file read again by a reload's prepare */
     uint64_t trust;        /* trust_digest of trust_dir when the server was built */
-    bool in_login;     /* waiting for a login's check (wait_aside) */
+    ua_crypto_t *crypto;   /* the policies' public-key operations, off the loop */
+    bool aside;            /* waiting aside for a login's check or a crypto operation */
+    pthread_t loop_thread; /* the daemon's loop: open62541 logs from the worker too */
+    /* a line open62541 logged on the crypto worker, logged when the wait ends */
+    char late_line[512];
+    gw_log_level_t late_level;
+    UA_LogCategory late_cat;
     /* Per robot: the T->O assemblies received since the side started, and
      * when each last came (UA_DateTime), the O->T ones when last written. */
     unsigned seen[GW_MAX_ROBOTS];
@@ -156,6 +163,17 @@ struct ua {
  * refused login, an unknown certificate), so each of those categories
  * is held to one line per 10 s, the rest counted (core/log.h): a client
  * cannot flood the log. The server's own lines are not held back. */
+static void ua_log_line(ua_t *t, gw_log_level_t lv, UA_LogCategory cat, const char *line)
+{
+    bool per_client = cat == UA_LOGCATEGORY_NETWORK || cat == UA_LOGCATEGORY_SECURECHANNEL ||
+                      cat == UA_LOGCATEGORY_SESSION || cat == UA_LOGCATEGORY_SECURITYPOLICY ||
+                      cat == UA_LOGCATEGORY_USERLAND || cat == UA_LOGCATEGORY_CLIENT;
+    if (t != NULL && per_client && (unsigned)cat < UA_LOG_KINDS)
+        gw_log_limited(lv, &t->ua_log_limit[cat], "opcua: %s", line);
+    else
+        gw_log(lv, "opcua: %s", line);
+}
+
 static void ua_log(void *ctx, UA_LogLevel level, UA_LogCategory cat, const char *msg, va_list ap)
 {
     ua_t *t = ctx;
@@ -169,13 +187,17 @@ static void ua_log(void *ctx, UA_LogLevel level, UA_LogCategory cat, const char 
     gw_log_level_t lv = level >= UA_LOGLEVEL_ERROR     ? GW_LOG_ERROR
                         : level >= UA_LOGLEVEL_WARNING ? GW_LOG_WARNING
                                                        : GW_LOG_DEBUG;
-    bool per_client = cat == UA_LOGCATEGORY_NETWORK || cat == UA_LOGCATEGORY_SECURECHANNEL ||
-                      cat == UA_LOGCATEGORY_SESSION || cat == UA_LOGCATEGORY_SECURITYPOLICY ||
-                      cat == UA_LOGCATEGORY_USERLAND || cat == UA_LOGCATEGORY_CLIENT;
-    if (t != NULL && per_client && (unsigned)cat < UA_LOG_KINDS)
-        gw_log_limited(lv, &t->ua_log_limit[cat], "opcua: %s", line);
-    else
-        gw_log(lv, "opcua: %s", line);
+    /* From the crypto worker (the loop waits aside meanwhile): the log is
+     * the loop's, so the first such line waits for the wait's end. */
+    if (t != NULL && !pthread_equal(pthread_self(), t->loop_thread)) {
+        if (t->late_line[0] == '\0') {
+            snprintf(t->late_line, sizeof t->late_line, "%s", line);
+            t->late_level = lv;
+            t->late_cat = cat;
+        }
+        return;
+    }
+    ua_log_line(t, lv, cat, line);
 }
 
 /* ---- logins ------------------------------------------------------------------- */
@@ -193,34 +215,72 @@ static void login_done(void *user, void *cookie, bool ok, uint64_t until)
     v->ok = ok;
 }
 
-/* A check on core/auth.h's worker, waited for with the loop going on for
- * the robots and the other sides (env->wait_aside): open62541 wants the
- * verdict before this callback returns, and crypt must not run in the
- * loop. The server's own descriptor is out of the loop meanwhile, so
- * that its other clients wait (only they: docs/opcua.md "Security"). */
-static bool login_wait(ua_t *t, ua_verdict_t *v)
+/* Waits aside (env->wait_aside: the loop turns for the robots and the
+ * other sides) until fd is readable and ready(t, arg) says so, or until
+ * `until`. open62541 wants a login's verdict and a signature before its
+ * callback returns, and neither crypt nor RSA may run in the loop. The
+ * server's descriptor is out of the loop meanwhile, so that open62541 is
+ * not run inside itself: its other clients wait (only they:
+ * docs/opcua.md "Security"). false: could not wait, or not ready. */
+static bool wait_ready(ua_t *t, int fd, uint64_t until, bool (*ready)(ua_t *t, void *arg),
+                       void *arg)
 {
-    int fd = gw_auth_fd(t->auth);
-    uint64_t until = ev_now_us() + UA_LOGIN_WAIT_US;
-    /* the server's descriptor muted (events 0), as it was after */
     uint32_t events = t->ev.events;
-    bool watched = t->ev.fd >= 0;
-    if (t->env->wait_aside == NULL) /* a daemon without one (tests): no wait in the loop */
+    bool watched = t->ev.fd >= 0, ok = false;
+    if (t->env->wait_aside == NULL || t->aside) /* a daemon without one (tests); a wait in a wait */
         return false;
     if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, 0))
         return false; /* the loop would run the server inside itself */
-    t->in_login = true;
-    while (!v->done && ev_now_us() < until &&
-           t->env->wait_aside(t->env->user, t, fd, until))
-        gw_auth_collect(t->auth, ev_now_us(), login_done, t);
-    t->in_login = false;
+    t->aside = true;
+    while (ev_now_us() < until && t->env->wait_aside(t->env->user, t, fd, until))
+        if ((ok = ready(t, arg)))
+            break;
+    t->aside = false;
     if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, events)) {
         t->polled = true; /* iterated every UA_POLL_MS from now on */
         gw_log(GW_LOG_WARNING, "opcua: cannot watch the server's descriptor again: polling it");
     }
+    return ok;
+}
+
+static bool login_ready(ua_t *t, void *arg)
+{
+    const ua_verdict_t *v = arg;
+    gw_auth_collect(t->auth, ev_now_us(), login_done, t);
+    return v->done;
+}
+
+/* A check on core/auth.h's worker, waited for aside. */
+static bool login_wait(ua_t *t, ua_verdict_t *v)
+{
+    (void)wait_ready(t, gw_auth_fd(t->auth), ev_now_us() + UA_LOGIN_WAIT_US, login_ready, v);
     if (!v->done)
         gw_auth_cancel(t->auth, v);
     return v->done && v->ok;
+}
+
+static bool crypto_ready(ua_t *t, void *arg)
+{
+    (void)t;
+    (void)arg;
+    return true; /* its eventfd is written when the operation is done */
+}
+
+/* ua_crypto_wait_fn: an RSA operation on ua_crypto's worker, waited for
+ * aside; then the line open62541 logged meanwhile, if any. False only if
+ * the loop cannot wait aside (the daemon stops): ua_crypto then blocks for
+ * the rest of the operation (ms). */
+static bool crypto_wait(void *user, int fd)
+{
+    ua_t *t = user;
+    uint64_t until = ev_now_us() + UA_CRYPTO_WAIT_US;
+    /* not done by then (a machine too busy for the worker): waited again */
+    bool ok = wait_ready(t, fd, until, crypto_ready, NULL) || ev_now_us() >= until;
+    if (t->late_line[0] != '\0') {
+        ua_log_line(t, t->late_level, t->late_cat, t->late_line);
+        t->late_line[0] = '\0';
+    }
+    return ok;
 }
 
 /* user:password against auth_file's hash (the console's format), the
@@ -244,7 +304,7 @@ static UA_StatusCode ua_login(const UA_String *user, const UA_ByteString *pass, 
         memcpy(word, pass->data, pass->length);
         word[pass->length] = '\0';
     }
-    if (t->auth == NULL || t->in_login) { /* no auth_file; or a login in a login */
+    if (t->auth == NULL || t->aside) { /* no auth_file; or a login in a wait */
         t->logins_refused++;
         return UA_STATUSCODE_BADUSERACCESSDENIED;
     }
@@ -908,8 +968,11 @@ static void cyc_remove(UA_EventLoop *el, UA_UInt64 id)
  * ones due within half an RPI (and the next run an interval from now,
  * which keeps them in step); else each on its own time. A callback may add
  * or remove others (the table may move). */
-static void cyc_run(ua_t *t, uint64_t now, bool burst)
+/* The callbacks that are due (with a burst: those aligned to the RPI and
+ * due within half of it); how many ran. */
+static unsigned cyc_run(ua_t *t, uint64_t now, bool burst)
 {
+    unsigned ran = 0;
     t->cyc_running = true;
     for (size_t i = 0; i < t->cyc_count; i++) {
         ua_cyclic_t *c = &t->cyc[i];
@@ -924,9 +987,11 @@ static void cyc_run(ua_t *t, uint64_t now, bool burst)
         UA_Callback cb = c->cb;
         void *app = c->app, *data = c->data;
         cb(app, data);
+        ran++;
     }
     t->cyc_running = false;
     cyc_compact(t);
+    return ran;
 }
 
 static uint64_t cyc_deadline(const ua_t *t)
@@ -1001,7 +1066,12 @@ static uint64_t defer_us(const ua_t *t)
  * gets each burst's values with that burst, not one burst late). */
 static void serve(ua_t *t, uint64_t now, bool burst)
 {
-    cyc_run(t, now, burst);
+    /* A burst with nothing for the server (no callback of its ran, no
+     * request waits, its own time has not come): its event loop is not
+     * turned, which would only look at its sockets and timers (an idle
+     * server: 100 turns a second at RPI 10 ms for nothing). */
+    if (cyc_run(t, now, burst) == 0 && burst && !t->muted && now < t->next_us)
+        return;
     iterate(t);
     if (!t->muted)
         return;
@@ -1019,7 +1089,7 @@ static void on_ready(void *obj, uint32_t events)
     ua_t *t = obj;
     uint64_t now = ev_now_us();
     (void)events;
-    if (t->in_login) /* (muted then: an error or hang-up event only) */
+    if (t->aside) /* (muted then: an error or hang-up event only) */
         return;
     /* packets come: the request waits for the next burst */
     if (t->burst_us != 0 && now - t->burst_us < defer_us(t) &&
@@ -1029,6 +1099,33 @@ static void on_ready(void *obj, uint32_t events)
         return;
     }
     serve(t, now, false);
+}
+
+/* No object per session in the address space (nor, below it, per
+ * subscription). open62541 makes one for each CreateSession, before any
+ * login: a SessionDiagnosticsObjectType instance, some 60 nodes built and
+ * later deleted in the loop, 1-2 ms each time; a flood of anonymous
+ * CreateSession requests thus held the loop (bench-opcua (d): Modbus p99
+ * 0.7-1.0 ms with them, 0.2-0.5 ms without). Without the type's children
+ * the object it makes is one node. The same figures stay readable, every
+ * session's in one place: Server/ServerDiagnostics/SessionsDiagnosticsSummary
+ * SessionDiagnosticsArray and SessionSecurityDiagnosticsArray, and
+ * ServerDiagnostics' SubscriptionDiagnosticsArray (docs/opcua.md). */
+static bool drop_session_objects(UA_Server *s, char *err, size_t errlen)
+{
+    static const UA_UInt32 child[] = {
+        UA_NS0ID_SESSIONDIAGNOSTICSOBJECTTYPE_SESSIONDIAGNOSTICS,
+        UA_NS0ID_SESSIONDIAGNOSTICSOBJECTTYPE_SESSIONSECURITYDIAGNOSTICS,
+        UA_NS0ID_SESSIONDIAGNOSTICSOBJECTTYPE_SUBSCRIPTIONDIAGNOSTICSARRAY};
+    for (size_t i = 0; i < sizeof child / sizeof child[0]; i++) {
+        UA_StatusCode st = UA_Server_deleteNode(s, UA_NODEID_NUMERIC(0, child[i]), true);
+        if (st != UA_STATUSCODE_GOOD && st != UA_STATUSCODE_BADNODEIDUNKNOWN) {
+            snprintf(err, errlen, "cannot leave out the sessions' diagnostics objects: %s",
+                     UA_StatusCode_name(st));
+            return false;
+        }
+    }
+    return true;
 }
 
 /* The server up and listening, in the loop. */
@@ -1047,9 +1144,16 @@ static bool ua_start(ua_t *t, char *err, size_t errlen)
         snprintf(err, errlen, "cannot create the server");
         return false;
     }
+    UA_ServerConfig *sc = UA_Server_getConfig(t->server);
+    t->crypto = ua_crypto_new(crypto_wait, t, err, errlen);
+    if (t->crypto == NULL ||
+        !ua_crypto_wrap(t->crypto, sc->securityPolicies, sc->securityPoliciesSize, err, errlen))
+        return false;
     if (!hook_loop(t))
         gw_log(GW_LOG_WARNING, "opcua: subscriptions keep the server's own time (not the "
                "robots' packets)");
+    if (!drop_session_objects(t->server, err, errlen))
+        return false;
     t->ns = UA_Server_addNamespace(t->server, UA_NS_FLAT);
     size_t n = (size_t)t->robot_count * dr_leaf_count();
     t->nodes = calloc(n > 0 ? n : 1, sizeof *t->nodes);
@@ -1099,6 +1203,7 @@ static void ua_free(ua_t *t)
             (void)UA_Server_run_shutdown(t->server);
         UA_Server_delete(t->server);
     }
+    ua_crypto_free(t->crypto); /* after the server: its policies call the worker */
     unhook_loop(t);
     free(t->nodes);
     free(t->view);
@@ -1143,6 +1248,7 @@ static ua_t *ua_new(const gw_config_t *cfg, const gw_north_env_t *env, char *err
     t->ev.fd = -1;
     t->logger.log = ua_log;
     t->logger.context = t;
+    t->loop_thread = pthread_self();
     t->robot_count = cfg->robot_count;
     for (unsigned r = 0; r < cfg->robot_count; r++) {
         snprintf(t->robot_name[r], sizeof t->robot_name[r], "%s", cfg->robot[r].name);
@@ -1379,9 +1485,10 @@ static void op_report(const void *self, gw_json_t *j)
     gw_json_quote(j, text, strlen(text));
     snprintf(text, sizeof text,
              ",\"reads\":%llu,\"writes\":{\"enabled\":%s,\"accepted\":%llu,"
-             "\"refused\":%llu},\"logins\":{\"accepted\":%llu,\"refused\":%llu}}",
+             "\"refused\":%llu},\"logins\":{\"accepted\":%llu,\"refused\":%llu},"
+             "\"crypto_ops\":%llu}",
              t->reads, t->cfg.writes ? "true" : "false", t->writes, t->refused, t->logins,
-             t->logins_refused);
+             t->logins_refused, ua_crypto_jobs(t->crypto));
     gw_json_str(j, text);
 }
 

@@ -48,6 +48,37 @@ def test_browse_flat_view(still):
     assert names == want
 
 
+def test_sessions_in_the_summary_arrays_only(still):
+    """No object per session (nor per subscription) in the address space:
+    open62541 builds some 60 nodes for each CreateSession, before any
+    login, in the daemon's loop (docs/opcua.md "Security"). A session's
+    object is there without children; the session's diagnostics are read
+    from SessionsDiagnosticsSummary's SessionDiagnosticsArray, and its
+    subscription from ServerDiagnostics' SubscriptionDiagnosticsArray."""
+    O = ua.ObjectIds
+
+    async def look():
+        async with client(still.url) as c:
+            sub = await c.create_subscription(100, None)
+            summary = c.get_node(O.Server_ServerDiagnostics_SessionsDiagnosticsSummary)
+            arrays = {O.Server_ServerDiagnostics_SessionsDiagnosticsSummary_SessionDiagnosticsArray,
+                      O.Server_ServerDiagnostics_SessionsDiagnosticsSummary_SessionSecurityDiagnosticsArray}
+            objects = [n for n in await summary.get_children()
+                       if n.nodeid.Identifier not in arrays or n.nodeid.NamespaceIndex != 0]
+            children = [len(await n.get_children()) for n in objects]
+            sessions = await c.get_node(
+                O.Server_ServerDiagnostics_SessionsDiagnosticsSummary_SessionDiagnosticsArray
+            ).read_value()
+            subs = await c.get_node(
+                O.Server_ServerDiagnostics_SubscriptionDiagnosticsArray).read_value()
+            await sub.delete()
+            return children, sessions, subs, sub.subscription_id
+    children, sessions, subs, sub_id = run(look())
+    assert children and all(n == 0 for n in children), children
+    assert len(sessions) == len(children) >= 1
+    assert any(s.SubscriptionId == sub_id for s in subs)
+
+
 def test_types_units_enum_access(still):
     """Boolean, Byte, Int32, Float by the field's kind; EngineeringUnits
     (UNECE codes) on fields with a unit; robot_state's EnumStrings; T->O

@@ -7,10 +7,12 @@ user reads the robot, and a flood of wrong passwords does not reach the
 robot's link. The server's certificate is DER, its key PEM (both
 forms the side reads); the users file is the console's format."""
 import asyncio
+import os
 import shutil
 import signal
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 from asyncua import Client, ua
@@ -171,6 +173,45 @@ def test_sign_and_encrypt_with_the_right_user(cell):
              "a login with the right password")
     # a second time: the login remembered, the same answer
     assert connect_error(cell, SECURE, "plant", "s3cret") is None
+
+
+def thread_of(pid, name):
+    """The id of the daemon's thread called name, or None."""
+    for t in Path("/proc/%d/task" % pid).iterdir():
+        try:
+            if (t / "comm").read_text().strip() == name:
+                return int(t.name)
+        except OSError:  # (a thread that ended meanwhile)
+            pass
+    return None
+
+
+def cpu_ns(pid, tid):
+    return int(Path("/proc/%d/task/%d/schedstat" % (pid, tid)).read_text().split()[0])
+
+
+def test_handshakes_on_the_crypto_worker(cell):
+    """The RSA of a client's handshakes (OpenSecureChannel, CreateSession,
+    the password's decryption: some ms each) runs on the daemon's
+    "opcua-crypto" thread, and the passwords' crypt on "opcua-login", both
+    in Linux's idle scheduling class, never in the loop (gateway/opcua/
+    ua_crypto.h): the worker's CPU time grows with Sign&Encrypt logins.
+    Before, there was no such thread, and a flood of logins held the loop
+    for some ms at a time (bench-opcua (d))."""
+    pid = cell.gw.pid
+    names = sorted((t / "comm").read_text().strip() for t in Path("/proc/%d/task" % pid).iterdir())
+    crypto, login = thread_of(pid, "opcua-crypto"), thread_of(pid, "opcua-login")
+    assert crypto is not None and login is not None, names
+    assert os.sched_getscheduler(crypto) == os.SCHED_IDLE
+    assert os.sched_getscheduler(login) == os.SCHED_IDLE
+    assert os.sched_getscheduler(pid) == os.SCHED_OTHER  # the loop's thread
+    before = cpu_ns(pid, crypto)
+    for _ in range(3):
+        wait_for(lambda: connect_error(cell, SECURE, "plant", "s3cret") is None, 20,
+                 "a login with the right password")
+    used = cpu_ns(pid, crypto) - before
+    print("\nopcua-crypto: %.1f ms of CPU for three Sign&Encrypt logins" % (used / 1e6))
+    assert used >= 1e6  # three logins' RSA private-key operations: ms each
 
 
 def link_faults(gw):

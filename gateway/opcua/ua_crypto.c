@@ -1,0 +1,282 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * open62541's public-key operations on a worker thread (ua_crypto.h).
+ *
+ * One operation at a time: the caller (open62541, in the loop's thread)
+ * hands it over and waits until it is done, so the worker never has more
+ * than one and open62541 runs on one thread at a time. The hand-over is a
+ * mutex and a condition; the end is written to an eventfd that the loop
+ * watches while it waits aside.
+ */
+#include "opcua/ua_crypto.h"
+
+#include <errno.h>
+#include <pthread.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include "common/ev.h"
+
+#define UA_CRYPTO_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
+
+typedef enum { OP_SIGN, OP_VERIFY, OP_ENCRYPT, OP_DECRYPT } op_t;
+
+/* A wrapped policy's own functions, as they were. */
+typedef struct {
+    ua_crypto_t *k; /* NULL: free */
+    UA_SecurityPolicySignatureAlgorithm sig;
+    UA_SecurityPolicyEncryptionAlgorithm enc;
+} slot_t;
+
+/* One call: its arguments as open62541 gave them, and its result. */
+typedef struct {
+    op_t op;
+    unsigned slot;
+    void *cc;                   /* the channel's context */
+    const UA_ByteString *msg;   /* sign, verify: what is signed */
+    const UA_ByteString *sig;   /* verify: the signature */
+    UA_ByteString *out;         /* sign: the signature; encrypt, decrypt: the data */
+    UA_StatusCode result;
+    /* the functions to call, copied from the slot in the loop's thread */
+    UA_SecurityPolicySignatureAlgorithm fsig;
+    UA_SecurityPolicyEncryptionAlgorithm fenc;
+} job_t;
+
+struct ua_crypto {
+    ua_crypto_wait_fn wait;
+    void *user;
+    bool calling;               /* a call is being waited for (loop's thread) */
+    unsigned long long jobs;
+    int efd;
+    pthread_t worker;
+    /* shared with the worker, under mu */
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    job_t *job;                 /* handed over, not done yet */
+    bool done, stop;
+};
+
+/* Touched in the loop's thread only (wrap, free, the calls' start). */
+static slot_t slots[UA_CRYPTO_SLOTS];
+
+static UA_StatusCode run(const job_t *j)
+{
+    switch (j->op) {
+    case OP_SIGN:
+        return j->fsig.sign(j->cc, j->msg, j->out);
+    case OP_VERIFY:
+        return j->fsig.verify(j->cc, j->msg, j->sig);
+    case OP_ENCRYPT:
+        return j->fenc.encrypt(j->cc, j->out);
+    case OP_DECRYPT:
+        return j->fenc.decrypt(j->cc, j->out);
+    }
+    return UA_STATUSCODE_BADINTERNALERROR;
+}
+
+static void *worker(void *arg)
+{
+    ua_crypto_t *k = arg;
+    (void)ev_worker_start("opcua-crypto"); /* best effort: the loop first */
+    (void)pthread_mutex_lock(&k->mu);
+    for (;;) {
+        while (!k->stop && k->job == NULL)
+            (void)pthread_cond_wait(&k->cv, &k->mu);
+        if (k->stop)
+            break;
+        job_t *j = k->job;
+        (void)pthread_mutex_unlock(&k->mu);
+        j->result = run(j);
+        (void)pthread_mutex_lock(&k->mu);
+        k->job = NULL;
+        k->done = true;
+        (void)pthread_cond_broadcast(&k->cv);
+        uint64_t one = 1;
+        while (write(k->efd, &one, sizeof one) < 0 && errno == EINTR)
+            ;
+    }
+    (void)pthread_mutex_unlock(&k->mu);
+    return NULL;
+}
+
+static bool job_done(ua_crypto_t *k)
+{
+    (void)pthread_mutex_lock(&k->mu);
+    bool done = k->done;
+    (void)pthread_mutex_unlock(&k->mu);
+    return done;
+}
+
+/* The call on the worker, waited for aside; in the caller's thread if the
+ * slot's owner is gone or a call is already waited for (not expected:
+ * the server is out of the loop meanwhile). */
+static UA_StatusCode call(job_t *j)
+{
+    const slot_t *s = &slots[j->slot];
+    ua_crypto_t *k = s->k;
+    j->fsig = s->sig;
+    j->fenc = s->enc;
+    if (k == NULL || k->calling)
+        return run(j);
+    k->calling = true;
+    (void)pthread_mutex_lock(&k->mu);
+    k->job = j;
+    k->done = false;
+    (void)pthread_cond_broadcast(&k->cv);
+    (void)pthread_mutex_unlock(&k->mu);
+    while (!job_done(k))
+        if (!k->wait(k->user, k->efd)) {
+            (void)pthread_mutex_lock(&k->mu);
+            while (!k->done)
+                (void)pthread_cond_wait(&k->cv, &k->mu);
+            (void)pthread_mutex_unlock(&k->mu);
+        }
+    uint64_t n;
+    (void)!read(k->efd, &n, sizeof n); /* nonblocking: drained */
+    k->calling = false;
+    k->jobs++;
+    return j->result;
+}
+
+/* Each slot's own four functions: they know their slot by their name. */
+#define UA_CRYPTO_SLOT(i)                                                                    \
+    static UA_StatusCode sign_##i(void *cc, const UA_ByteString *m, UA_ByteString *s)        \
+    {                                                                                        \
+        job_t j = {.op = OP_SIGN, .slot = i, .cc = cc, .msg = m, .out = s};                  \
+        return call(&j);                                                                     \
+    }                                                                                        \
+    static UA_StatusCode verify_##i(void *cc, const UA_ByteString *m, const UA_ByteString *s) \
+    {                                                                                        \
+        job_t j = {.op = OP_VERIFY, .slot = i, .cc = cc, .msg = m, .sig = s};                \
+        return call(&j);                                                                     \
+    }                                                                                        \
+    static UA_StatusCode encrypt_##i(void *cc, UA_ByteString *d)                             \
+    {                                                                                        \
+        job_t j = {.op = OP_ENCRYPT, .slot = i, .cc = cc, .out = d};                         \
+        return call(&j);                                                                     \
+    }                                                                                        \
+    static UA_StatusCode decrypt_##i(void *cc, UA_ByteString *d)                             \
+    {                                                                                        \
+        job_t j = {.op = OP_DECRYPT, .slot = i, .cc = cc, .out = d};                         \
+        return call(&j);                                                                     \
+    }
+UA_CRYPTO_SLOT(0)
+UA_CRYPTO_SLOT(1)
+UA_CRYPTO_SLOT(2)
+UA_CRYPTO_SLOT(3)
+UA_CRYPTO_SLOT(4)
+UA_CRYPTO_SLOT(5)
+UA_CRYPTO_SLOT(6)
+UA_CRYPTO_SLOT(7)
+
+static const struct {
+    UA_StatusCode (*sign)(void *, const UA_ByteString *, UA_ByteString *);
+    UA_StatusCode (*verify)(void *, const UA_ByteString *, const UA_ByteString *);
+    UA_StatusCode (*encrypt)(void *, UA_ByteString *);
+    UA_StatusCode (*decrypt)(void *, UA_ByteString *);
+} wrappers[] = {
+#define UA_CRYPTO_FNS(i) {sign_##i, verify_##i, encrypt_##i, decrypt_##i}
+    UA_CRYPTO_FNS(0), UA_CRYPTO_FNS(1), UA_CRYPTO_FNS(2), UA_CRYPTO_FNS(3),
+    UA_CRYPTO_FNS(4), UA_CRYPTO_FNS(5), UA_CRYPTO_FNS(6), UA_CRYPTO_FNS(7),
+};
+typedef char ua_crypto_slots_named[sizeof wrappers / sizeof wrappers[0] == UA_CRYPTO_SLOTS ? 1 : -1];
+
+ua_crypto_t *ua_crypto_new(ua_crypto_wait_fn wait, void *user, char *err, size_t errlen)
+{
+    ua_crypto_t *k = calloc(1, sizeof *k);
+    if (k == NULL) {
+        snprintf(err, errlen, "out of memory");
+        return NULL;
+    }
+    k->wait = wait;
+    k->user = user;
+    k->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    int e = k->efd < 0 ? errno : pthread_mutex_init(&k->mu, NULL);
+    if (e == 0 && (e = pthread_cond_init(&k->cv, NULL)) != 0)
+        (void)pthread_mutex_destroy(&k->mu);
+    if (e == 0 && (e = pthread_create(&k->worker, NULL, worker, k)) != 0) {
+        (void)pthread_cond_destroy(&k->cv);
+        (void)pthread_mutex_destroy(&k->mu);
+    }
+    if (e != 0) {
+        snprintf(err, errlen, "cannot start the public-key worker: %s", strerror(e));
+        if (k->efd >= 0)
+            (void)close(k->efd);
+        free(k);
+        return NULL;
+    }
+    return k;
+}
+
+static bool has_keys(const UA_SecurityPolicy *p)
+{
+    static const UA_String none = UA_STRING_STATIC(UA_CRYPTO_NONE_URI);
+    const UA_SecurityPolicyCryptoModule *m = &p->asymmetricModule.cryptoModule;
+    return !UA_String_equal(&p->policyUri, &none) && m->signatureAlgorithm.sign != NULL &&
+           m->signatureAlgorithm.verify != NULL && m->encryptionAlgorithm.encrypt != NULL &&
+           m->encryptionAlgorithm.decrypt != NULL;
+}
+
+static bool is_wrapped(const UA_SecurityPolicy *p)
+{
+    for (unsigned i = 0; i < UA_CRYPTO_SLOTS; i++)
+        if (p->asymmetricModule.cryptoModule.signatureAlgorithm.sign == wrappers[i].sign)
+            return true;
+    return false;
+}
+
+bool ua_crypto_wrap(ua_crypto_t *k, UA_SecurityPolicy *policies, size_t n, char *err,
+                    size_t errlen)
+{
+    size_t want = 0, free_slots = 0;
+    for (size_t p = 0; p < n; p++)
+        want += has_keys(&policies[p]) && !is_wrapped(&policies[p]);
+    for (unsigned i = 0; i < UA_CRYPTO_SLOTS; i++)
+        free_slots += slots[i].k == NULL;
+    if (want > free_slots) {
+        snprintf(err, errlen, "%zu security policies, room for %zu more (UA_CRYPTO_SLOTS)",
+                 want, free_slots);
+        return false;
+    }
+    unsigned i = 0;
+    for (size_t p = 0; p < n; p++) {
+        UA_SecurityPolicyCryptoModule *m = &policies[p].asymmetricModule.cryptoModule;
+        if (!has_keys(&policies[p]) || is_wrapped(&policies[p]))
+            continue;
+        while (slots[i].k != NULL)
+            i++;
+        slots[i] = (slot_t){k, m->signatureAlgorithm, m->encryptionAlgorithm};
+        m->signatureAlgorithm.sign = wrappers[i].sign;
+        m->signatureAlgorithm.verify = wrappers[i].verify;
+        m->encryptionAlgorithm.encrypt = wrappers[i].encrypt;
+        m->encryptionAlgorithm.decrypt = wrappers[i].decrypt;
+    }
+    return true;
+}
+
+void ua_crypto_free(ua_crypto_t *k)
+{
+    if (k == NULL)
+        return;
+    (void)pthread_mutex_lock(&k->mu);
+    k->stop = true;
+    (void)pthread_cond_broadcast(&k->cv);
+    (void)pthread_mutex_unlock(&k->mu);
+    (void)pthread_join(k->worker, NULL);
+    (void)pthread_cond_destroy(&k->cv);
+    (void)pthread_mutex_destroy(&k->mu);
+    (void)close(k->efd);
+    for (unsigned i = 0; i < UA_CRYPTO_SLOTS; i++)
+        if (slots[i].k == k)
+            slots[i] = (slot_t){0};
+    free(k);
+}
+
+unsigned long long ua_crypto_jobs(const ua_crypto_t *k)
+{
+    return k != NULL ? k->jobs : 0;
+}
