@@ -219,7 +219,11 @@ BINS        := $(CLI_BIN) $(SIM_BIN) $(GW_BIN)
 # ---- tests -----------------------------------------------------------------
 CMOCKA_CFLAGS := $(call pc,--cflags,cmocka)
 CMOCKA_LIBS   := $(call pc,--libs,cmocka)
-TEST_SRC      := $(wildcard tests/unit/test_*.c)
+# The OPC UA side's own unit tests (tests/unit/test_gw_ua_*.c) need
+# open62541: built where the side is (OPCUA_ONLY_SRC), left out elsewhere.
+OPCUA_TEST_SRC := $(wildcard tests/unit/test_gw_ua_*.c)
+NO_TEST_SRC   := $(if $(OPCUA_VERSION),,$(OPCUA_TEST_SRC))
+TEST_SRC      := $(filter-out $(NO_TEST_SRC),$(wildcard tests/unit/test_*.c))
 TEST_BIN      := $(TEST_SRC:%.c=$(B)/%)
 TEST_SUPPORT  := $(wildcard tests/support/*.c)
 TEST_SUPPORT_OBJ := $(TEST_SUPPORT:%.c=$(B)/%.o)
@@ -231,8 +235,8 @@ TEST_CFLAGS    = $(ALL_CPPFLAGS) $(PRIV_CPPFLAGS) -Itests $(CMOCKA_CFLAGS) $(ALL
 # loop, takes the place of the archive member that would define it). Only
 # the libraries of what the tests reach are linked (no libgpiod, no
 # libsystemd), so that check-be links them for s390x too.
-GW_TEST_SRC   := $(sort $(wildcard tests/unit/test_gw_*.c tests/gpio/test_*.c \
-                                   tests/gpio/gateway/test_*.c))
+GW_TEST_SRC   := $(filter-out $(NO_TEST_SRC),$(sort $(wildcard tests/unit/test_gw_*.c \
+                   tests/gpio/test_*.c tests/gpio/gateway/test_*.c)))
 GW_TEST_BIN   := $(GW_TEST_SRC:%.c=$(B)/%)
 GW_TEST_FAKES := tests/gpio/gpio_fake.c
 GW_TEST_FAKE_OBJ := $(GW_TEST_FAKES:%.c=$(B)/%.o)

@@ -60,7 +60,7 @@ STATIC_SRC_tests_gw   = $(GW_TEST_SRC) $(GW_TEST_FAKES)
 STATIC_FLAGS_tests_gw = $(GW_TEST_CFLAGS)
 
 STATIC_GROUPS += tests
-STATIC_SRC_tests   = $(filter-out $(STATIC_SRC_tests_sim) $(STATIC_SRC_tests_gw), \
+STATIC_SRC_tests   = $(filter-out $(STATIC_SRC_tests_sim) $(STATIC_SRC_tests_gw) $(NO_TEST_SRC), \
                        $(sort $(wildcard tests/unit/*.c tests/support/*.c)))
 STATIC_FLAGS_tests = $(TEST_CFLAGS)
 

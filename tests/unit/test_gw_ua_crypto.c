@@ -8,7 +8,8 @@
  * caller blocks for it); None is left alone; slots run out with a clear
  * error and nothing half-wrapped, and come back when freed. The policies
  * are stand-ins that record the thread they ran on (open62541's own run
- * in tests/opcua, through the daemon).
+ * in tests/opcua, through the daemon). Built only with open62541 (the
+ * Makefile's OPCUA_TEST_SRC).
  */
 #include <stdarg.h>
 #include <stddef.h>
@@ -16,7 +17,6 @@
 #include <stdint.h>
 #include <cmocka.h>
 
-#ifdef GW_HAVE_OPCUA
 #include <poll.h>
 #include <pthread.h>
 #include <string.h>
@@ -233,19 +233,3 @@ int main(void)
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
-
-#else /* a build without open62541 (Debian 12): nothing to test */
-
-static void test_built_without_open62541(void **state)
-{
-    (void)state;
-    skip();
-}
-
-int main(void)
-{
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_built_without_open62541)};
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
-
-#endif
