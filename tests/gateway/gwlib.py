@@ -891,3 +891,14 @@ def skip(name, reason):
     if os.environ.get("CI"):
         pytest.fail("skipped in CI: %s" % reason)
     pytest.skip(reason)
+
+
+def thread_of(pid, name):
+    """The id of process pid's thread called name (its comm), or None."""
+    for t in Path("/proc/%d/task" % pid).iterdir():
+        try:
+            if (t / "comm").read_text().strip() == name:
+                return int(t.name)
+        except OSError:  # (a thread that ended meanwhile)
+            pass
+    return None

@@ -26,8 +26,8 @@ import time
 
 import pytest
 
-from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, RawModbus, in_netns, skip, timeout,
-                   status_read_latencies, wait_for, yescrypt)
+from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, RawModbus, in_netns, skip,
+                   status_read_latencies, thread_of, timeout, wait_for, yescrypt)
 
 GW_IP = "10.9.1.1"
 ATTACKERS = ["10.9.1.%d" % i for i in range(2, 40)]
@@ -147,6 +147,10 @@ def test_wrong_password_flood(cell):
     machine's stalls are no attack's."""
     p = cell.gateway("flood", tls_http(cell, cell.dir))
     try:
+        # the passwords' crypt on its worker, in the idle scheduling class:
+        # the loop's thread takes a CPU from it whenever it wakes
+        login = thread_of(p.pid, "http-login")
+        assert login is not None and os.sched_getscheduler(login) == os.SCHED_IDLE
         quiet, n_quiet = modbus_latencies(cell, 3)
         faults0 = link_faults(cell, p)
         stop = threading.Event()

@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 from asyncua import Client, ua
 
-from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, in_netns, skip, timeout, wait_for,
-                   yescrypt)
+from gwlib import (DRGATEWAYD, DRSIM, LOGDIR, NetnsCell, in_netns, skip, thread_of, timeout,
+                   wait_for, yescrypt)
 from ualib import run
 
 UA_IP = "10.9.2.1"
@@ -173,17 +173,6 @@ def test_sign_and_encrypt_with_the_right_user(cell):
              "a login with the right password")
     # a second time: the login remembered, the same answer
     assert connect_error(cell, SECURE, "plant", "s3cret") is None
-
-
-def thread_of(pid, name):
-    """The id of the daemon's thread called name, or None."""
-    for t in Path("/proc/%d/task" % pid).iterdir():
-        try:
-            if (t / "comm").read_text().strip() == name:
-                return int(t.name)
-        except OSError:  # (a thread that ended meanwhile)
-            pass
-    return None
 
 
 def cpu_ns(pid, tid):
