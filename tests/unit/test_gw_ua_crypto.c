@@ -128,14 +128,21 @@ static ua_crypto_t *crypto(void)
     return k;
 }
 
+/* A worker with one Basic256Sha256 stand-in wrapped into *p. */
+static ua_crypto_t *wrapped(UA_SecurityPolicy *p)
+{
+    char err[128];
+    ua_crypto_t *k = crypto();
+    fake_policy(p, BASIC);
+    assert_true(ua_crypto_wrap(k, p, 1, err, sizeof err));
+    return k;
+}
+
 static void test_operations_run_on_the_worker(void **state)
 {
     (void)state;
-    ua_crypto_t *k = crypto();
     UA_SecurityPolicy p;
-    char err[128];
-    fake_policy(&p, BASIC);
-    assert_true(ua_crypto_wrap(k, &p, 1, err, sizeof err));
+    ua_crypto_t *k = wrapped(&p);
     const UA_SecurityPolicyCryptoModule *m = &p.asymmetricModule.cryptoModule;
     assert_ptr_not_equal(m->signatureAlgorithm.sign, fake_sign);
 
@@ -162,11 +169,8 @@ static void test_operations_run_on_the_worker(void **state)
 static void test_refused_wait_still_ends_with_the_result(void **state)
 {
     (void)state;
-    ua_crypto_t *k = crypto();
     UA_SecurityPolicy p;
-    char err[128];
-    fake_policy(&p, BASIC);
-    assert_true(ua_crypto_wrap(k, &p, 1, err, sizeof err));
+    ua_crypto_t *k = wrapped(&p);
     refuse_waits = true; /* the daemon stops: no wait aside */
     UA_Byte d[2] = {7, 8};
     UA_ByteString b = {sizeof d, d};
