@@ -185,6 +185,27 @@ static const struct {
 };
 typedef char ua_crypto_slots_named[sizeof wrappers / sizeof wrappers[0] == UA_CRYPTO_SLOTS ? 1 : -1];
 
+/* k's eventfd, lock and worker: 0, or an errno value (the eventfd, if
+ * made, left for the caller to close). */
+static int start(ua_crypto_t *k)
+{
+    k->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (k->efd < 0)
+        return errno;
+    int e = pthread_mutex_init(&k->mu, NULL);
+    if (e != 0)
+        return e;
+    e = pthread_cond_init(&k->cv, NULL);
+    if (e == 0) {
+        e = pthread_create(&k->worker, NULL, worker, k);
+        if (e != 0)
+            (void)pthread_cond_destroy(&k->cv);
+    }
+    if (e != 0)
+        (void)pthread_mutex_destroy(&k->mu);
+    return e;
+}
+
 ua_crypto_t *ua_crypto_new(ua_crypto_wait_fn wait, void *user, char *err, size_t errlen)
 {
     ua_crypto_t *k = calloc(1, sizeof *k);
@@ -194,14 +215,7 @@ ua_crypto_t *ua_crypto_new(ua_crypto_wait_fn wait, void *user, char *err, size_t
     }
     k->wait = wait;
     k->user = user;
-    k->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    int e = k->efd < 0 ? errno : pthread_mutex_init(&k->mu, NULL);
-    if (e == 0 && (e = pthread_cond_init(&k->cv, NULL)) != 0)
-        (void)pthread_mutex_destroy(&k->mu);
-    if (e == 0 && (e = pthread_create(&k->worker, NULL, worker, k)) != 0) {
-        (void)pthread_cond_destroy(&k->cv);
-        (void)pthread_mutex_destroy(&k->mu);
-    }
+    int e = start(k);
     if (e != 0) {
         snprintf(err, errlen, "cannot start the public-key worker: %s", strerror(e));
         if (k->efd >= 0)
