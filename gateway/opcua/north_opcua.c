@@ -141,6 +141,7 @@ struct ua {
     uint64_t trust;        /* trust_digest of trust_dir when the server was built */
     ua_crypto_t *crypto;   /* the policies' public-key operations, off the loop */
     bool aside;            /* waiting aside for a login's check or a crypto operation */
+    bool serving;          /* in serve(), called from the daemon's turn: may wait aside */
     pthread_t loop_thread; /* the daemon's loop: open62541 logs from the worker too */
     /* a line open62541 logged on the crypto worker, logged when the wait ends */
     char late_line[512];
@@ -227,7 +228,10 @@ static bool wait_ready(ua_t *t, int fd, uint64_t until, bool (*ready)(ua_t *t, v
 {
     uint32_t events = t->ev.events;
     bool watched = t->ev.fd >= 0, ok = false;
-    if (t->env->wait_aside == NULL || t->aside) /* a daemon without one (tests); a wait in a wait */
+    /* Only from serve(), which the daemon's turn calls: not while the side
+     * is being made or reloaded (ua_start's first turns of the server, a
+     * client already knocking), when the daemon's turn is not to be run. */
+    if (t->env->wait_aside == NULL || t->aside || !t->serving)
         return false;
     if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, 0))
         return false; /* the loop would run the server inside itself */
@@ -1070,9 +1074,11 @@ static void serve(ua_t *t, uint64_t now, bool burst)
      * request waits, its own time has not come): its event loop is not
      * turned, which would only look at its sockets and timers (an idle
      * server: 100 turns a second at RPI 10 ms for nothing). */
-    if (cyc_run(t, now, burst) == 0 && burst && !t->muted && now < t->next_us)
-        return;
-    iterate(t);
+    t->serving = true;
+    bool idle = cyc_run(t, now, burst) == 0 && burst && !t->muted && now < t->next_us;
+    if (!idle)
+        iterate(t);
+    t->serving = false;
     if (!t->muted)
         return;
     if (burst) {
