@@ -111,16 +111,19 @@ static bool job_done(ua_crypto_t *k)
     return done;
 }
 
-/* The call on the worker, waited for aside; in the caller's thread if the
- * slot's owner is gone or a call is already waited for (not expected:
- * the server is out of the loop meanwhile). */
+/* The call on the worker, waited for aside; in the caller's thread if a
+ * call is already waited for (not expected: the server is out of the loop
+ * meanwhile). Refused if the slot's worker is gone (its policy outlived
+ * it, which ua_crypto_free's caller must not let happen). */
 static UA_StatusCode call(job_t *j)
 {
     const slot_t *s = &slots[j->slot];
     ua_crypto_t *k = s->k;
+    if (k == NULL)
+        return UA_STATUSCODE_BADINTERNALERROR;
     j->fsig = s->sig;
     j->fenc = s->enc;
-    if (k == NULL || k->calling)
+    if (k->calling)
         return run(j);
     k->calling = true;
     (void)pthread_mutex_lock(&k->mu);

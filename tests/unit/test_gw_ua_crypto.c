@@ -215,6 +215,11 @@ static void test_slots_run_out_and_come_back(void **state)
     assert_non_null(k2);
     assert_false(ua_crypto_wrap(k2, &p[UA_CRYPTO_SLOTS], 1, err, sizeof err));
     ua_crypto_free(k); /* its server gone: its slots free */
+    UA_Byte z[1] = {0};
+    UA_ByteString bz = {1, z}; /* a policy that outlived its worker: refused, not run */
+    assert_int_equal(p[0].asymmetricModule.cryptoModule.encryptionAlgorithm.encrypt(&ran, &bz),
+                     UA_STATUSCODE_BADINTERNALERROR);
+    assert_int_equal(z[0], 0);
     assert_true(ua_crypto_wrap(k2, &p[UA_CRYPTO_SLOTS], 1, err, sizeof err));
     UA_Byte d[1] = {0};
     UA_ByteString b = {1, d};
