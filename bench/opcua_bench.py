@@ -18,7 +18,11 @@ docs/opcua.md "Performance"): drsim moving at RPI 10 ms, drgatewayd with
     with [opcua] off, on and idle, and on with 10 clients each subscribed
     to the six joint positions (joint_state.position[1..6]) at the RPI.
     Rounds alternate the three; medians. Goal: with the clients, less
-    than 2 % of a core above the daemon without the side.
+    than 2 % of a core above the daemon without the side. The clients run
+    in a network namespace behind a veth pair, on the CPUs but the
+    daemon's (pinned to CPU 0 in all three), with their receiving steered
+    there (ClientNet): on loopback the daemon's sendto did their TCP
+    receiving too, work that a network leaves to the clients' machines.
 (c) Class 1 timing, in the same windows as (b) without the side and with
     the 10 clients: every Class 1 datagram on the loopback, taken with
     the kernel's timestamp of its sending (an AF_PACKET socket, so the
@@ -98,14 +102,100 @@ def switches(pid):
 
 # ---- the clients ------------------------------------------------------------------
 
+ALL_CPUS = set(range(os.cpu_count() or 1))
+OTHER_CPUS = ALL_CPUS - {0}
+
+
+def on(pid, cpus):
+    """Every thread of pid on cpus (those it makes later follow theirs)."""
+    for t in Path("/proc/%d/task" % pid).iterdir():
+        try:
+            os.sched_setaffinity(int(t.name), cpus)
+        except OSError:  # (a thread that ended meanwhile)
+            pass
+
+
+def apart(g):
+    """Two machines' worth on one: the daemon alone on CPU 0; the robot
+    (drsim), this bench (its capture, its Modbus client) and what it
+    starts after this on the other CPUs, so that what is measured is the
+    daemon, not a neighbour on its CPU. Nothing with one CPU."""
+    if OTHER_CPUS:
+        on(g.proc.pid, {0})
+        on(g.sim.proc.pid, OTHER_CPUS)
+        on(os.getpid(), OTHER_CPUS)
+
+
+class ClientNet:
+    """Where (b)'s and (c)'s clients run: a network namespace of their own
+    behind a veth pair (ADDR here, PEER there), on every CPU but the
+    daemon's. On loopback, and on a plain veth, the sender's system call
+    also does the receiver's work (its TCP receiving and wake-up, in the
+    sender's softirq): with the 10 clients more than half of the daemon's
+    sendto, 0.8 % of a core, was the clients' receiving, which a network
+    leaves to the clients' machines. Here the daemon runs alone on CPU 0
+    (apart: drsim, the clients and this bench on the others), and the
+    veth's receiving side in the namespace is steered by RPS to the other
+    CPUs: as a NIC and other machines would have it. The namespace has no route out.
+    None if it cannot be made."""
+
+    ADDR, PEER, DEV = "10.9.5.1", "10.9.5.2", "uabench0"
+
+    @classmethod
+    def make(cls):
+        if (os.cpu_count() or 1) < 2:
+            return None
+        try:
+            return cls()
+        except (OSError, subprocess.CalledProcessError):
+            return None
+
+    def __init__(self):
+        self.cpus = OTHER_CPUS
+        self.holder = subprocess.Popen(["unshare", "-n", "sleep", "100000"])
+        self.ns = "/proc/%d/ns/net" % self.holder.pid
+        mask = "%x" % sum(1 << c for c in self.cpus)
+        try:
+            time.sleep(0.2)
+            self.ip("link", "add", self.DEV, "type", "veth", "peer", "name", "uabench1", "netns",
+                    str(self.holder.pid))
+            self.ip("addr", "add", self.ADDR + "/24", "dev", self.DEV)
+            self.ip("link", "set", self.DEV, "up")
+            subprocess.run(["nsenter", "--net=" + self.ns, "unshare", "-m", "--propagation",
+                            "unchanged", "sh", "-c",
+                            "ip link set lo up && ip addr add %s/24 dev uabench1 && "
+                            "ip link set uabench1 up && mount -t sysfs sysfs /sys && "
+                            "echo %s > /sys/class/net/uabench1/queues/rx-0/rps_cpus"
+                            % (self.PEER, mask)], check=True, capture_output=True)
+        except BaseException:
+            self.close()
+            raise
+
+    @staticmethod
+    def ip(*args):
+        subprocess.run(["ip"] + list(args), check=True, capture_output=True)
+
+    def close(self):
+        subprocess.run(["ip", "link", "del", self.DEV], capture_output=True)
+        self.holder.kill()
+        self.holder.wait()
+
+
 class Clients:
     """bench/ua_clients.py: n asyncua clients subscribed to paths."""
 
-    def __init__(self, url, n, paths, show=False, nice=0):
+    def __init__(self, url, n, paths, show=False, nice=0, net=None):
         argv = [sys.executable, str(TOP / "bench" / "ua_clients.py"), url, str(n), str(RPI_MS)]
         argv += list(paths) + (["--print"] if show else [])
+        if net is not None:  # in ClientNet's namespace, on its CPUs
+            argv = ["nsenter", "--net=" + net.ns] + argv
+
+        def start():
+            os.nice(nice)
+            if net is not None:
+                os.sched_setaffinity(0, net.cpus)
         self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                  text=True, preexec_fn=lambda: os.nice(nice))
+                                  text=True, preexec_fn=start)
         self.lines = []
         self.lock = threading.Lock()
         self.ready = threading.Event()
@@ -330,20 +420,25 @@ def links_lost(g):
     return g.log().count("link down")
 
 
-def rounds(args, cap):
-    from gwlib import running
+def rounds(args, cap, net):
+    from gwlib import GW_ADDR, running
     from ualib import gateway
     res = {"off": [], "idle": [], "clients": []}
     notes = []
+    pin = apart if net is not None else (lambda g: None)
+    ua = {"opcua": "insecure = yes", "listen": net.ADDR} if net is not None else {
+        "opcua": "", "listen": GW_ADDR}
     for k in range(args.rounds):
         print("round %d/%d" % (k + 1, args.rounds), flush=True)
         with running("bench_ua_off", robot="rpi_ms = %d" % RPI_MS) as g:
+            pin(g)
             time.sleep(2.0)
             res["off"].append(window(g, args.window, cap))
-        with gateway("bench_ua_on", sim_args=(), opcua="", robot="rpi_ms = %d" % RPI_MS) as g:
+        with gateway("bench_ua_on", sim_args=(), robot="rpi_ms = %d" % RPI_MS, **ua) as g:
+            pin(g)
             time.sleep(2.0)
             res["idle"].append(window(g, args.window, cap))
-            load = Clients(g.url, CLIENTS, JOINTS, nice=19)
+            load = Clients(g.url, CLIENTS, JOINTS, nice=19, net=net)
             try:
                 time.sleep(2.0)
                 n0, t0 = load.mark(), time.monotonic()
@@ -393,15 +488,18 @@ def credentials(d):
 def login_flood(rounds, seconds):
     """Modbus p99s without and during FLOODERS clients' wrong passwords,
     `rounds` windows of each in turn (the flood paused between: SIGSTOP);
-    refused logins; the robot link's losses. The flood runs in Linux's
-    idle class, standing in for machines of its own (bench-console's flood
-    is at nice 19 for the same reason): six python clients doing RSA take
-    most of this machine's CPU, which a remote attacker would not."""
+    refused logins; the robot link's losses. The flood stands in for
+    machines of its own: on the CPUs apart from the daemon's, in Linux's
+    idle class (bench-console's flood is at nice 19 for the same reason):
+    six python clients doing RSA take most of this machine's CPU, which a
+    remote attacker would not. The daemon's own workers (the RSA, the
+    passwords) share CPU 0 with its loop: a gateway of one core."""
     from ualib import gateway
     quiet, during = [], []
     with tempfile.TemporaryDirectory() as d:
         with gateway("bench_ua_flood", sim_args=(), robot="rpi_ms = %d" % RPI_MS,
                      opcua=credentials(d)) as g:
+            apart(g)
             flood = subprocess.Popen(["chrt", "--idle", "0", sys.executable,
                                       str(TOP / "bench" / "ua_flood.py"), g.url,
                                       str(FLOODERS), d, "plant"], stdout=subprocess.PIPE,
@@ -419,6 +517,7 @@ def login_flood(rounds, seconds):
                 flood.send_signal(signal.SIGCONT)
                 flood.send_signal(signal.SIGTERM)
                 out, _ = flood.communicate(timeout=60)
+                on(os.getpid(), ALL_CPUS)
             tries = int(out.split()[-1]) if out.split() else 0
             return quiet, during, tries, links_lost(g)
 
@@ -482,12 +581,22 @@ def main():
               flush=True)
         ua, mb, server = latency(g, args.samples)
     cap = Capture()
+    net = ClientNet.make()
     try:
         print("(b), (c): %d rounds of %g s windows: without [opcua], with it idle, with %d "
-              "clients x %d joints" % (args.rounds, args.window, CLIENTS, len(JOINTS)), flush=True)
-        res, notes = rounds(args, cap)
+              "clients x %d joints %s" % (
+                  args.rounds, args.window, CLIENTS, len(JOINTS),
+                  "(the daemon on CPU 0, the clients behind a veth on the others)" if net
+                  else "(on loopback: no second CPU or no namespace)"), flush=True)
+        res, notes = rounds(args, cap, net)
+        if net is None:
+            notes.append("(b) measured with the clients on loopback: their TCP receiving is "
+                         "charged to the daemon (ClientNet)")
     finally:
+        on(os.getpid(), ALL_CPUS)
         cap.close()
+        if net is not None:
+            net.close()
     print("(d) a flood of wrong passwords: %d clients, %d rounds of %g s" % (
         FLOODERS, args.rounds, FLOOD_WINDOW), flush=True)
     flood = login_flood(args.rounds, FLOOD_WINDOW)

@@ -23,27 +23,28 @@ def run(coro, seconds=60):
     return asyncio.run(asyncio.wait_for(coro, timeout(seconds)))
 
 
-def opcua_section(port, extra=""):
-    return "\n[opcua]\nlisten = %s\nport = %d\n%s\n" % (GW_ADDR, port, extra)
+def opcua_section(port, extra="", listen=GW_ADDR):
+    return "\n[opcua]\nlisten = %s\nport = %d\n%s\n" % (listen, port, extra)
 
 
 @contextlib.contextmanager
-def gateway(name, sim_args=("--still",), opcua="writes = yes", sim_start=True, **gw_kw):
+def gateway(name, sim_args=("--still",), opcua="writes = yes", sim_start=True, listen=GW_ADDR,
+            **gw_kw):
     """drsim NAME and a gateway in front of it with [opcua] (opcua: its
-    extra keys) on a free port; g.ua_port, g.url; both killed on the way
-    out. sim_start False: drsim's ports are taken but it is not started
-    (a robot that never answers)."""
+    extra keys) on a free port of `listen`; g.ua_port, g.url; both killed
+    on the way out. sim_start False: drsim's ports are taken but it is not
+    started (a robot that never answers)."""
     sim = Drsim(name, *sim_args)
     if sim_start:
         sim.start()
     else:
         sim.tcp = free_port(SIM_ADDR)
         sim.udp = free_port(SIM_ADDR, tcp=False)
-    port = free_port(GW_ADDR, udp=False)
-    extra = gw_kw.pop("extra", "") + opcua_section(port, opcua)
+    port = free_port(listen, udp=False)
+    extra = gw_kw.pop("extra", "") + opcua_section(port, opcua, listen)
     g = Gateway(name, sim, extra=extra, **gw_kw)
     g.sim, g.ua_port = sim, port
-    g.url = "opc.tcp://%s:%d" % (GW_ADDR, port)
+    g.url = "opc.tcp://%s:%d" % (listen, port)
     try:
         g.start(wait_link=sim_start)
         g.log_wait("opcua: listening on", 20)
