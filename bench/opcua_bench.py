@@ -556,7 +556,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
     ap.add_argument("--samples", type=int, default=300)
-    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--rounds", type=int, default=10)
     ap.add_argument("--window", type=float, default=10.0)
     ap.add_argument("--quick", action="store_true", help="100 samples, 2 rounds of 4 s")
     ap.add_argument("--write-doc", action="store_true", help="(accepted; figures are printed)")
