@@ -59,7 +59,6 @@
 #include "opcua/ua_robotics.h"
 
 #define UA_NS_FLAT "urn:drgate:robots"
-#define UA_POLICY_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
 #define UA_POLL_MS 10u          /* without the event loop's descriptor */
 #define UA_WAIT_MAX_MS 60000u   /* the longest wait for the server's next cyclic time */
 #define UA_FD_SCAN 4096         /* descriptors looked at for it */
@@ -217,7 +216,8 @@ static void login_done(void *user, void *cookie, bool ok, uint64_t until)
 }
 
 /* Waits aside (env->wait_aside: the loop turns for the robots and the
- * other sides) until fd is readable and ready(t, arg) says so, or until
+ * other sides) until fd is readable and ready(t, arg) says so (NULL:
+ * readable is enough), or until
  * `until`. open62541 wants a login's verdict and a signature before its
  * callback returns, and neither crypt nor RSA may run in the loop. The
  * server's descriptor is out of the loop meanwhile, so that open62541 is
@@ -237,7 +237,7 @@ static bool wait_ready(ua_t *t, int fd, uint64_t until, bool (*ready)(ua_t *t, v
         return false; /* the loop would run the server inside itself */
     t->aside = true;
     while (ev_now_us() < until && t->env->wait_aside(t->env->user, t, fd, until))
-        if ((ok = ready(t, arg)))
+        if ((ok = ready == NULL || ready(t, arg)))
             break;
     t->aside = false;
     if (watched && !ev_watch(t->env->epfd, &t->ev, t->ev.fd, events)) {
@@ -263,13 +263,6 @@ static bool login_wait(ua_t *t, ua_verdict_t *v)
     return v->done && v->ok;
 }
 
-static bool crypto_ready(ua_t *t, void *arg)
-{
-    (void)t;
-    (void)arg;
-    return true; /* its eventfd is written when the operation is done */
-}
-
 /* ua_crypto_wait_fn: an RSA operation on ua_crypto's worker, waited for
  * aside; then the line open62541 logged meanwhile, if any. False only if
  * the loop cannot wait aside (the daemon stops): ua_crypto then blocks for
@@ -279,7 +272,8 @@ static bool crypto_wait(void *user, int fd)
     ua_t *t = user;
     uint64_t until = ev_now_us() + UA_CRYPTO_WAIT_US;
     /* not done by then (a machine too busy for the worker): waited again */
-    bool ok = wait_ready(t, fd, until, crypto_ready, NULL) || ev_now_us() >= until;
+    /* (the worker writes its eventfd when the operation is done) */
+    bool ok = wait_ready(t, fd, until, NULL, NULL) || ev_now_us() >= until;
     if (t->late_line[0] != '\0') {
         ua_log_line(t, t->late_level, t->late_cat, t->late_line);
         t->late_line[0] = '\0';
@@ -971,9 +965,7 @@ static void cyc_remove(UA_EventLoop *el, UA_UInt64 id)
 /* The side's callbacks that are due: with a burst of packets, the aligned
  * ones due within half an RPI (and the next run an interval from now,
  * which keeps them in step); else each on its own time. A callback may add
- * or remove others (the table may move). */
-/* The callbacks that are due (with a burst: those aligned to the RPI and
- * due within half of it); how many ran. */
+ * or remove others (the table may move). How many ran. */
 static unsigned cyc_run(ua_t *t, uint64_t now, bool burst)
 {
     unsigned ran = 0;

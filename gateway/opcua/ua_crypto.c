@@ -21,8 +21,6 @@
 
 #include "common/ev.h"
 
-#define UA_CRYPTO_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
-
 typedef enum { OP_SIGN, OP_VERIFY, OP_ENCRYPT, OP_DECRYPT } op_t;
 
 /* A wrapped policy's own functions, as they were. */
@@ -231,19 +229,22 @@ ua_crypto_t *ua_crypto_new(ua_crypto_wait_fn wait, void *user, char *err, size_t
 
 static bool has_keys(const UA_SecurityPolicy *p)
 {
-    static const UA_String none = UA_STRING_STATIC(UA_CRYPTO_NONE_URI);
+    static const UA_String none = UA_STRING_STATIC(UA_POLICY_NONE_URI);
     const UA_SecurityPolicyCryptoModule *m = &p->asymmetricModule.cryptoModule;
     return !UA_String_equal(&p->policyUri, &none) && m->signatureAlgorithm.sign != NULL &&
            m->signatureAlgorithm.verify != NULL && m->encryptionAlgorithm.encrypt != NULL &&
            m->encryptionAlgorithm.decrypt != NULL;
 }
 
-static bool is_wrapped(const UA_SecurityPolicy *p)
+/* A policy with keys whose functions are still its own. */
+static bool to_wrap(const UA_SecurityPolicy *p)
 {
+    if (!has_keys(p))
+        return false;
     for (unsigned i = 0; i < UA_CRYPTO_SLOTS; i++)
         if (p->asymmetricModule.cryptoModule.signatureAlgorithm.sign == wrappers[i].sign)
-            return true;
-    return false;
+            return false;
+    return true;
 }
 
 bool ua_crypto_wrap(ua_crypto_t *k, UA_SecurityPolicy *policies, size_t n, char *err,
@@ -251,7 +252,7 @@ bool ua_crypto_wrap(ua_crypto_t *k, UA_SecurityPolicy *policies, size_t n, char 
 {
     size_t want = 0, free_slots = 0;
     for (size_t p = 0; p < n; p++)
-        want += has_keys(&policies[p]) && !is_wrapped(&policies[p]);
+        want += to_wrap(&policies[p]);
     for (unsigned i = 0; i < UA_CRYPTO_SLOTS; i++)
         free_slots += slots[i].k == NULL;
     if (want > free_slots) {
@@ -262,7 +263,7 @@ bool ua_crypto_wrap(ua_crypto_t *k, UA_SecurityPolicy *policies, size_t n, char 
     unsigned i = 0;
     for (size_t p = 0; p < n; p++) {
         UA_SecurityPolicyCryptoModule *m = &policies[p].asymmetricModule.cryptoModule;
-        if (!has_keys(&policies[p]) || is_wrapped(&policies[p]))
+        if (!to_wrap(&policies[p]))
             continue;
         while (slots[i].k != NULL)
             i++;

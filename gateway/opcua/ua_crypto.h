@@ -36,6 +36,10 @@
  * builds the new server before the old one goes), and room. */
 #define UA_CRYPTO_SLOTS 8
 
+/* SecurityPolicy#None's URI (open62541 does not export it): a policy
+ * without keys, left alone. */
+#define UA_POLICY_NONE_URI "http://opcfoundation.org/UA/SecurityPolicy#None"
+
 typedef struct ua_crypto ua_crypto_t;
 
 /* Waits until fd is readable with the loop going on (not for this

@@ -101,7 +101,7 @@ static void fake_policy(UA_SecurityPolicy *p, const char *uri)
 }
 
 #define BASIC "http://opcfoundation.org/UA/SecurityPolicy#Basic256Sha256"
-#define NONE "http://opcfoundation.org/UA/SecurityPolicy#None"
+#define NONE UA_POLICY_NONE_URI
 
 static unsigned waits;
 static bool refuse_waits;
