@@ -234,6 +234,10 @@ static bool read_field(ps_t *ps, char *buf)
                     if (c == 'n' || c == 't')
                         c = ' ';
                 }
+                /* A tab kept would reach a message or a name shown on a
+                 * terminal as it is: one space, as the escape gives. */
+                if (c == '\t')
+                    c = ' ';
                 if (c != '\r')
                     put(buf, &n, c);
             }

@@ -124,12 +124,14 @@ t err_decode_use '"$DRCLI" decode io_control a b'
 
 # ---- eds -----------------------------------------------------------------------
 # A vendor-style EDS (one input, one output, a configuration assembly, RPI
-# limits) into its plan; malformed ones refused with FILE:LINE; drsim's
-# EDS written and read back.
+# limits) into its plan; malformed ones refused with FILE:LINE (a tab in a
+# quoted value shown as a space, never raw); drsim's EDS written and read
+# back.
 cp "$here"/eds/*.eds "$tmp/work/"
 t eds_vendor      '"$DRCLI" eds -H 192.168.137.100 vendor_robot.eds'
 t eds_malformed   '"$DRCLI" eds malformed.eds'
 t eds_unclosed    '"$DRCLI" eds unclosed.eds'
+t eds_tab_string  '"$DRCLI" eds tab_in_string.eds'
 t eds_roundtrip   '"$DRCLI" eds --write > drsim.eds && "$DRCLI" eds drsim.eds'
 t eds_combined    '"$DRCLI" eds --write --layout combined > c.eds && "$DRCLI" eds c.eds | tail -9'
 t eds_gpr_only    '"$DRCLI" eds --write --layout gpr_only > g.eds && "$DRCLI" eds g.eds | tail -9'
