@@ -1122,6 +1122,10 @@ static void gen_sparkplug(void)
     static const uint8_t unknown_dev[] = {
         0x09, 0x08, 0x01, 0x12, 0x0f, 0x0a, 0x09, 'i', 'n', 't', '_', 'i', 'n', '[', '0', ']',
         0x20, 0x03, 0x50, 0x2a};
+    /* bit_in[5] = 42: out of the field's range (found by the fuzzer once) */
+    static const uint8_t out_of_range[] = {
+        0x05, 0x08, 0x01, 0x12, 0x0f, 0x0a, 0x09, 'b', 'i', 't', '_', 'i', 'n', '[', '5', ']',
+        0x20, 0x03, 0x50, 0x2a};
     static const char state_off[] = "\x0f{\"online\":false,\"timestamp\":1}";
     put("sparkplug", "ncmd_rebirth", rebirth, sizeof rebirth);
     put("sparkplug", "dcmd_int", write_int, sizeof write_int);
@@ -1130,7 +1134,31 @@ static void gen_sparkplug(void)
     put("sparkplug", "dcmd_alias_readonly", alias_ro, sizeof alias_ro);
     put("sparkplug", "dcmd_writes_off", writes_off, sizeof writes_off);
     put("sparkplug", "dcmd_unknown_device", unknown_dev, sizeof unknown_dev);
+    put("sparkplug", "dcmd_out_of_range", out_of_range, sizeof out_of_range);
     put("sparkplug", "state_offline", (const uint8_t *)state_off, sizeof state_off - 1);
+}
+
+/* ---- fuzz_http: path '\0' host '\0' authorization '\0' [port] [address] -- */
+
+static void http_seed(const char *name, const char *text, size_t len)
+{
+    put("http", name, (const uint8_t *)text, len);
+}
+
+#define HTTP_SEED(name, text) http_seed(name, text, sizeof text - 1)
+
+static void gen_http(void)
+{
+    /* admin:good (the fake crypt's good password) */
+    HTTP_SEED("good_login", "/api/v1/status\0localhost:8080\0Basic YWRtaW46Z29vZA==\0\0\x02");
+    /* admin:wrong */
+    HTTP_SEED("wrong_password",
+              "/robot/r0\n7.0.0.1:8080\0Basic YWRtaW46d3Jvbmc=\0\0\x03");
+    /* a user name with a line break and text that looks like an escape */
+    HTTP_SEED("forged_user", "/api/v1/events?robot=r\xc3\xa9\0evil.example\0"
+                             "Basic eApcbjwwPmZvcmdlZDpwdw==\0\0\x04");
+    HTTP_SEED("no_auth", "/x\n<0>y\0\0\0");
+    HTTP_SEED("not_basic", "/\0[::1]:8080\0Bearer x\0\0\x05");
 }
 
 /* ---- fuzz_eds: the test EDS files (the first byte sizes the error
@@ -1160,5 +1188,6 @@ int main(int argc, char **argv)
     gen_cli();
     gen_sparkplug();
     gen_eds();
+    gen_http();
     return failed;
 }
