@@ -5,8 +5,10 @@
 #include <pthread.h>
 #include <sched.h>
 #include <signal.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/epoll.h>
+#include <sys/eventfd.h>
 #include <sys/prctl.h>
 #include <sys/signalfd.h>
 #include <sys/syscall.h>
@@ -158,13 +160,58 @@ static void on_signalfd(void *obj, uint32_t events)
         L->on_signal(L->sig_obj, (int)si.ssi_signo);
 }
 
-bool ev_worker_start(const char *name)
+/* ---- a worker beside the loop ----------------------------------------------------- */
+
+static void *worker_main(void *arg)
 {
+    ev_worker_t *w = arg;
     struct sched_param p = {.sched_priority = 0};
-    (void)pthread_setname_np(pthread_self(), name); /* a name too long: left as it was */
-    int e = pthread_setschedparam(pthread_self(), SCHED_IDLE, &p);
-    errno = e;
-    return e == 0;
+    (void)pthread_setname_np(pthread_self(), w->name); /* a name too long: left as it was */
+    (void)pthread_setschedparam(pthread_self(), SCHED_IDLE, &p);
+    return w->fn(w->arg);
+}
+
+int ev_worker_open(ev_worker_t *w, const char *name, void *(*fn)(void *), void *arg)
+{
+    w->stop = false;
+    w->fn = fn;
+    w->arg = arg;
+    snprintf(w->name, sizeof w->name, "%s", name);
+    w->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (w->efd < 0)
+        return errno;
+    int e = pthread_mutex_init(&w->mu, NULL);
+    if (e == 0 && (e = pthread_cond_init(&w->cv, NULL)) != 0)
+        (void)pthread_mutex_destroy(&w->mu);
+    if (e == 0 && (e = pthread_create(&w->thread, NULL, worker_main, w)) != 0) {
+        (void)pthread_cond_destroy(&w->cv);
+        (void)pthread_mutex_destroy(&w->mu);
+    }
+    if (e != 0) {
+        (void)close(w->efd);
+        w->efd = -1;
+    }
+    return e;
+}
+
+void ev_worker_close(ev_worker_t *w)
+{
+    (void)pthread_mutex_lock(&w->mu);
+    w->stop = true;
+    (void)pthread_cond_broadcast(&w->cv);
+    (void)pthread_mutex_unlock(&w->mu);
+    (void)pthread_join(w->thread, NULL);
+    (void)pthread_cond_destroy(&w->cv);
+    (void)pthread_mutex_destroy(&w->mu);
+    (void)close(w->efd);
+    w->efd = -1;
+}
+
+void ev_worker_done(ev_worker_t *w)
+{
+    uint64_t one = 1;
+    while (write(w->efd, &one, sizeof one) < 0 && errno == EINTR)
+        ;
 }
 
 bool ev_open(ev_loop_t *L, ev_timing_t timing)

@@ -25,6 +25,7 @@
 #ifndef DRGATE_EV_H
 #define DRGATE_EV_H
 
+#include <pthread.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -80,17 +81,42 @@ int ev_run(ev_loop_t *L, uint64_t deadline_ns);
 bool ev_watch(int epfd, ev_t *ev, int fd, uint32_t events);
 void ev_unwatch(int epfd, ev_t *ev);
 
-/* For a worker thread beside the loop (a password's crypt, an RSA
- * operation), first thing: the calling thread, and only it, takes `name`
- * (at most 15 characters: ps -L, top -H) and runs in Linux's SCHED_IDLE
- * class, so that the loop's thread, asleep most of the time, takes a CPU
- * from it the moment it wakes, even when every CPU is busy with workers.
- * Measured without it: the loop waited up to 4.5 ms for an RSA
- * signature's thread to leave the CPU (bench-opcua (d)); at nice 19 still
- * up to 4 ms. The worker gets every CPU time nothing else wants; the side
- * that waits for it waits aside (never blocking the loop), however long
- * that is. False (errno set) if the class is refused. */
-bool ev_worker_start(const char *name);
+/* A worker thread beside the loop, for what takes too long to run in it
+ * (a password's crypt, an RSA operation): the thread, the mutex and
+ * condition its owner and it hand jobs over with, `stop` (under mu: the
+ * thread's function returns once it sees it), and an eventfd the worker
+ * writes when a job is done (ev_worker_done), which the loop watches. The
+ * jobs themselves are the owner's.
+ *
+ * The thread first takes `name` (at most 15 characters: ps -L, top -H)
+ * and goes into Linux's SCHED_IDLE class, so that the loop's thread,
+ * asleep most of the time, takes a CPU from it the moment it wakes, even
+ * when every CPU is busy with workers. Measured without it: the loop
+ * waited up to 4.5 ms for an RSA signature's thread to leave the CPU
+ * (bench-opcua (d)); at nice 19 still up to 4 ms. The worker gets every CPU
+ * time nothing else wants; the side that waits for it waits aside (never
+ * blocking the loop), however long that is. A class refused is left as
+ * it is (best effort: the work is done either way). */
+typedef struct {
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    bool stop;
+    int efd;       /* nonblocking; read it empty after each wake */
+    pthread_t thread;
+    char name[16];
+    void *(*fn)(void *);
+    void *arg;
+} ev_worker_t;
+
+/* Start w's thread running fn(arg). 0, or an errno value with nothing
+ * left open. */
+int ev_worker_open(ev_worker_t *w, const char *name, void *(*fn)(void *), void *arg);
+
+/* Set stop, wake the thread, wait for it to return, and free the rest. */
+void ev_worker_close(ev_worker_t *w);
+
+/* From the worker: one more job done (w->efd readable). */
+void ev_worker_done(ev_worker_t *w);
 
 /* The monotonic clock, in nanoseconds and in microseconds. */
 uint64_t ev_now_ns(void);

@@ -8,7 +8,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <crypt.h>
@@ -183,13 +182,8 @@ struct gw_auth {
     gw_log_limit_t flood; /* beyond ten addresses' lines in 10 s */
     uint64_t lines_since_us;
     unsigned lines;
-    /* shared with the worker, under mu */
-    pthread_mutex_t mu;
-    pthread_cond_t cv;
+    ev_worker_t w; /* the jobs are shared with it, under w.mu */
     job_t job[GW_AUTH_QUEUE];
-    bool stop;
-    int efd;
-    pthread_t worker;
 };
 
 static void *worker(void *arg)
@@ -197,38 +191,33 @@ static void *worker(void *arg)
     gw_auth_t *a = arg;
     struct crypt_data *cd = calloc(1, sizeof *cd); /* 32 kB: not on the stack */
     job_t j;
-    char name[16];
-    snprintf(name, sizeof name, "%.9s-login", a->label);
-    (void)ev_worker_start(name); /* best effort: the loop first */
     for (;;) {
         int at = -1;
-        (void)pthread_mutex_lock(&a->mu);
-        while (!a->stop) {
+        (void)pthread_mutex_lock(&a->w.mu);
+        while (!a->w.stop) {
             for (int i = 0; i < GW_AUTH_QUEUE && at < 0; i++)
                 if (a->job[i].used && !a->job[i].done)
                     at = i;
             if (at >= 0)
                 break;
-            (void)pthread_cond_wait(&a->cv, &a->mu);
+            (void)pthread_cond_wait(&a->w.cv, &a->w.mu);
         }
-        if (a->stop || cd == NULL) {
-            if (cd == NULL && !a->stop && at >= 0) {
+        if (a->w.stop || cd == NULL) {
+            if (cd == NULL && !a->w.stop && at >= 0) {
                 a->job[at].ok = false; /* no memory: refused, not stuck */
                 a->job[at].done = true;
             }
-            bool stop = a->stop;
-            (void)pthread_mutex_unlock(&a->mu);
+            bool stop = a->w.stop;
+            (void)pthread_mutex_unlock(&a->w.mu);
             if (stop) {
                 free(cd);
                 return NULL;
             }
-            uint64_t one = 1;
-            if (write(a->efd, &one, sizeof one) < 0 && errno != EAGAIN)
-                return NULL;
+            ev_worker_done(&a->w);
             continue;
         }
         j = a->job[at];
-        (void)pthread_mutex_unlock(&a->mu);
+        (void)pthread_mutex_unlock(&a->w.mu);
         /* The unknown user: the first user's hash, so that the answer takes
          * as long; the result is a refusal whatever it says. */
         const char *hash = a->users.user[j.user >= 0 ? j.user : 0].hash;
@@ -242,14 +231,12 @@ static void *worker(void *arg)
         }
         memset(cd, 0, sizeof *cd);
         memset(j.pass, 0, sizeof j.pass);
-        (void)pthread_mutex_lock(&a->mu);
+        (void)pthread_mutex_lock(&a->w.mu);
         memset(a->job[at].pass, 0, sizeof a->job[at].pass);
         a->job[at].ok = ok;
         a->job[at].done = true;
-        (void)pthread_mutex_unlock(&a->mu);
-        uint64_t one = 1;
-        while (write(a->efd, &one, sizeof one) < 0 && errno == EINTR)
-            ;
+        (void)pthread_mutex_unlock(&a->w.mu);
+        ev_worker_done(&a->w);
     }
 }
 
@@ -265,8 +252,7 @@ gw_auth_t *gw_auth_new(const gw_users_t *users, gw_crypt_fn crypt, const char *l
     a->per_user = strcmp(per, "user") == 0;
     a->users = *users;
     a->crypt = crypt;
-    a->efd = -1;
-    int rnd = open("/dev/urandom", O_RDONLY | O_CLOEXEC);
+        int rnd = open("/dev/urandom", O_RDONLY | O_CLOEXEC);
     bool keyed = rnd >= 0 && read(rnd, a->secret, sizeof a->secret) == (ssize_t)sizeof a->secret;
     if (rnd >= 0)
         (void)close(rnd);
@@ -276,21 +262,11 @@ gw_auth_t *gw_auth_new(const gw_users_t *users, gw_crypt_fn crypt, const char *l
         free(a);
         return NULL;
     }
-    a->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (a->efd < 0 || pthread_mutex_init(&a->mu, NULL) != 0) {
-        snprintf(err, errlen, "%s: eventfd: %s", label, strerror(errno));
-        if (a->efd >= 0)
-            (void)close(a->efd);
-        free(a);
-        return NULL;
-    }
-    int e = pthread_cond_init(&a->cv, NULL);
-    if (e == 0 && (e = pthread_create(&a->worker, NULL, worker, a)) != 0)
-        (void)pthread_cond_destroy(&a->cv);
+    char name[16];
+    snprintf(name, sizeof name, "%.9s-login", label);
+    int e = ev_worker_open(&a->w, name, worker, a);
     if (e != 0) {
         snprintf(err, errlen, "%s: cannot start the login worker: %s", label, strerror(e));
-        (void)pthread_mutex_destroy(&a->mu);
-        (void)close(a->efd);
         free(a);
         return NULL;
     }
@@ -302,14 +278,7 @@ void gw_auth_free(gw_auth_t *a)
 {
     if (a == NULL)
         return;
-    (void)pthread_mutex_lock(&a->mu);
-    a->stop = true;
-    (void)pthread_cond_signal(&a->cv);
-    (void)pthread_mutex_unlock(&a->mu);
-    (void)pthread_join(a->worker, NULL);
-    (void)pthread_cond_destroy(&a->cv);
-    (void)pthread_mutex_destroy(&a->mu);
-    (void)close(a->efd);
+    ev_worker_close(&a->w);
     for (unsigned i = 0; i < GW_AUTH_CLIENTS; i++)
         if (a->client[i].from[0] != '\0')
             gw_log_limit_end(&a->client[i].log);
@@ -320,7 +289,7 @@ void gw_auth_free(gw_auth_t *a)
 
 int gw_auth_fd(const gw_auth_t *a)
 {
-    return a->efd;
+    return a->w.efd;
 }
 
 gw_auth_stats_t gw_auth_stats(const gw_auth_t *a)
@@ -485,7 +454,7 @@ gw_auth_result_t gw_auth_check(gw_auth_t *a, const char *user, const char *pass,
         return GW_AUTH_REFUSED;
     }
     gw_auth_result_t r = GW_AUTH_BUSY;
-    (void)pthread_mutex_lock(&a->mu);
+    (void)pthread_mutex_lock(&a->w.mu);
     for (unsigned i = 0; i < GW_AUTH_QUEUE; i++) {
         job_t *j = &a->job[i];
         if (j->used)
@@ -498,11 +467,11 @@ gw_auth_result_t gw_auth_check(gw_auth_t *a, const char *user, const char *pass,
         memcpy(j->key, key, 32);
         snprintf(j->name, sizeof j->name, "%s", user);
         snprintf(j->pass, sizeof j->pass, "%s", pass);
-        (void)pthread_cond_signal(&a->cv);
+        (void)pthread_cond_signal(&a->w.cv);
         r = GW_AUTH_PENDING;
         break;
     }
-    (void)pthread_mutex_unlock(&a->mu);
+    (void)pthread_mutex_unlock(&a->w.mu);
     if (r == GW_AUTH_BUSY)
         a->stats.busy++;
     else
@@ -515,19 +484,19 @@ void gw_auth_collect(gw_auth_t *a, uint64_t now_us,
                           void *user)
 {
     uint64_t n;
-    while (read(a->efd, &n, sizeof n) < 0 && errno == EINTR)
+    while (read(a->w.efd, &n, sizeof n) < 0 && errno == EINTR)
         ;
     for (;;) {
         job_t j;
         bool got = false;
-        (void)pthread_mutex_lock(&a->mu);
+        (void)pthread_mutex_lock(&a->w.mu);
         for (unsigned i = 0; i < GW_AUTH_QUEUE && !got; i++)
             if (a->job[i].used && a->job[i].done) {
                 j = a->job[i];
                 a->job[i].used = false;
                 got = true;
             }
-        (void)pthread_mutex_unlock(&a->mu);
+        (void)pthread_mutex_unlock(&a->w.mu);
         if (!got)
             return;
         cache_put(a, j.key, j.ok, now_us);
@@ -543,9 +512,9 @@ void gw_auth_collect(gw_auth_t *a, uint64_t now_us,
 
 void gw_auth_cancel(gw_auth_t *a, const void *cookie)
 {
-    (void)pthread_mutex_lock(&a->mu);
+    (void)pthread_mutex_lock(&a->w.mu);
     for (unsigned i = 0; i < GW_AUTH_QUEUE; i++)
         if (a->job[i].used && a->job[i].cookie == cookie)
             a->job[i].cookie = NULL; /* still checked and counted */
-    (void)pthread_mutex_unlock(&a->mu);
+    (void)pthread_mutex_unlock(&a->w.mu);
 }

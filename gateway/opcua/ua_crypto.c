@@ -10,13 +10,11 @@
  */
 #include "opcua/ua_crypto.h"
 
-#include <errno.h>
 #include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include "common/ev.h"
@@ -49,13 +47,10 @@ struct ua_crypto {
     void *user;
     bool calling;               /* a call is being waited for (loop's thread) */
     unsigned long long jobs;
-    int efd;
-    pthread_t worker;
-    /* shared with the worker, under mu */
-    pthread_mutex_t mu;
-    pthread_cond_t cv;
+    ev_worker_t w;
+    /* shared with the worker, under w.mu */
     job_t *job;                 /* handed over, not done yet */
-    bool done, stop;
+    bool done;
 };
 
 /* Touched in the loop's thread only (wrap, free, the calls' start). */
@@ -79,33 +74,33 @@ static UA_StatusCode run(const job_t *j)
 static void *worker(void *arg)
 {
     ua_crypto_t *k = arg;
-    (void)ev_worker_start("opcua-crypto"); /* best effort: the loop first */
-    (void)pthread_mutex_lock(&k->mu);
+    (void)pthread_mutex_lock(&k->w.mu);
     for (;;) {
-        while (!k->stop && k->job == NULL)
-            (void)pthread_cond_wait(&k->cv, &k->mu);
-        if (k->stop)
+        while (!k->w.stop && k->job == NULL)
+            (void)pthread_cond_wait(&k->w.cv, &k->w.mu);
+        if (k->w.stop)
             break;
         job_t *j = k->job;
-        (void)pthread_mutex_unlock(&k->mu);
+        (void)pthread_mutex_unlock(&k->w.mu);
         j->result = run(j);
-        (void)pthread_mutex_lock(&k->mu);
+        (void)pthread_mutex_lock(&k->w.mu);
         k->job = NULL;
         k->done = true;
-        (void)pthread_cond_broadcast(&k->cv);
-        uint64_t one = 1;
-        while (write(k->efd, &one, sizeof one) < 0 && errno == EINTR)
-            ;
+        (void)pthread_cond_broadcast(&k->w.cv);
+        /* under the lock: a caller that sees done finds the eventfd
+         * written, and drains it (else its next wait would wake at once,
+         * again and again, until that job was done) */
+        ev_worker_done(&k->w);
     }
-    (void)pthread_mutex_unlock(&k->mu);
+    (void)pthread_mutex_unlock(&k->w.mu);
     return NULL;
 }
 
 static bool job_done(ua_crypto_t *k)
 {
-    (void)pthread_mutex_lock(&k->mu);
+    (void)pthread_mutex_lock(&k->w.mu);
     bool done = k->done;
-    (void)pthread_mutex_unlock(&k->mu);
+    (void)pthread_mutex_unlock(&k->w.mu);
     return done;
 }
 
@@ -124,20 +119,20 @@ static UA_StatusCode call(job_t *j)
     if (k->calling)
         return run(j);
     k->calling = true;
-    (void)pthread_mutex_lock(&k->mu);
+    (void)pthread_mutex_lock(&k->w.mu);
     k->job = j;
     k->done = false;
-    (void)pthread_cond_broadcast(&k->cv);
-    (void)pthread_mutex_unlock(&k->mu);
+    (void)pthread_cond_broadcast(&k->w.cv);
+    (void)pthread_mutex_unlock(&k->w.mu);
     while (!job_done(k))
-        if (!k->wait(k->user, k->efd)) {
-            (void)pthread_mutex_lock(&k->mu);
+        if (!k->wait(k->user, k->w.efd)) {
+            (void)pthread_mutex_lock(&k->w.mu);
             while (!k->done)
-                (void)pthread_cond_wait(&k->cv, &k->mu);
-            (void)pthread_mutex_unlock(&k->mu);
+                (void)pthread_cond_wait(&k->w.cv, &k->w.mu);
+            (void)pthread_mutex_unlock(&k->w.mu);
         }
     uint64_t n;
-    (void)!read(k->efd, &n, sizeof n); /* nonblocking: drained */
+    (void)!read(k->w.efd, &n, sizeof n); /* nonblocking: drained */
     k->calling = false;
     k->jobs++;
     return j->result;
@@ -186,27 +181,6 @@ static const struct {
 };
 typedef char ua_crypto_slots_named[sizeof wrappers / sizeof wrappers[0] == UA_CRYPTO_SLOTS ? 1 : -1];
 
-/* k's eventfd, lock and worker: 0, or an errno value (the eventfd, if
- * made, left for the caller to close). */
-static int start(ua_crypto_t *k)
-{
-    k->efd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (k->efd < 0)
-        return errno;
-    int e = pthread_mutex_init(&k->mu, NULL);
-    if (e != 0)
-        return e;
-    e = pthread_cond_init(&k->cv, NULL);
-    if (e == 0) {
-        e = pthread_create(&k->worker, NULL, worker, k);
-        if (e != 0)
-            (void)pthread_cond_destroy(&k->cv);
-    }
-    if (e != 0)
-        (void)pthread_mutex_destroy(&k->mu);
-    return e;
-}
-
 ua_crypto_t *ua_crypto_new(ua_crypto_wait_fn wait, void *user, char *err, size_t errlen)
 {
     ua_crypto_t *k = calloc(1, sizeof *k);
@@ -216,11 +190,9 @@ ua_crypto_t *ua_crypto_new(ua_crypto_wait_fn wait, void *user, char *err, size_t
     }
     k->wait = wait;
     k->user = user;
-    int e = start(k);
+    int e = ev_worker_open(&k->w, "opcua-crypto", worker, k);
     if (e != 0) {
         snprintf(err, errlen, "cannot start the public-key worker: %s", strerror(e));
-        if (k->efd >= 0)
-            (void)close(k->efd);
         free(k);
         return NULL;
     }
@@ -280,14 +252,7 @@ void ua_crypto_free(ua_crypto_t *k)
 {
     if (k == NULL)
         return;
-    (void)pthread_mutex_lock(&k->mu);
-    k->stop = true;
-    (void)pthread_cond_broadcast(&k->cv);
-    (void)pthread_mutex_unlock(&k->mu);
-    (void)pthread_join(k->worker, NULL);
-    (void)pthread_cond_destroy(&k->cv);
-    (void)pthread_mutex_destroy(&k->mu);
-    (void)close(k->efd);
+    ev_worker_close(&k->w);
     for (unsigned i = 0; i < UA_CRYPTO_SLOTS; i++)
         if (slots[i].k == k)
             slots[i] = (slot_t){0};
