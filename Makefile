@@ -168,7 +168,8 @@ OPCUA_LIBS    := $(patsubst -l/%,/%,$(call pc,--libs,open62541)) -lcrypt
 endif
 # What only a build with open62541 compiles, and what one without does
 # instead (the side that has nothing to do).
-OPCUA_ONLY_SRC := gateway/opcua/north_opcua.c gateway/opcua/ua_crypto.c gateway/opcua/ua_model.c gateway/opcua/ua_robotics.c
+OPCUA_ONLY_SRC := gateway/opcua/north_opcua.c gateway/opcua/ua_crypto.c gateway/opcua/ua_model.c gateway/opcua/ua_robotics.c \
+                  gateway/opcua/ua_sessions.c
 OPCUA_NONE_SRC := gateway/opcua/north_opcua_none.c
 GW_SRC      := $(filter-out $(GPIO_ALL_SRC) $(if $(OPCUA_VERSION),$(OPCUA_NONE_SRC),$(OPCUA_ONLY_SRC)),\
                  $(sort $(wildcard gateway/*/*.c)))

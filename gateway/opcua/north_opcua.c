@@ -57,6 +57,7 @@
 #include "opcua/ua_model.h"
 #include "opcua/ua_pem.h"
 #include "opcua/ua_robotics.h"
+#include "opcua/ua_sessions.h"
 
 #define UA_NS_FLAT "urn:drgate:robots"
 #define UA_POLL_MS 10u          /* without the event loop's descriptor */
@@ -139,6 +140,7 @@ struct ua {
     gw_auth_t *next_auth;  /* auth_file read again by a reload's prepare */
     uint64_t trust;        /* trust_digest of trust_dir when the server was built */
     ua_crypto_t *crypto;   /* the policies' public-key operations, off the loop */
+    ua_sessions_t sessions; /* logins counted, sessions without one closed */
     bool aside;            /* waiting aside for a login's check or a crypto operation */
     bool serving;          /* in serve(), called from the daemon's turn: may wait aside */
     pthread_t loop_thread; /* the daemon's loop: open62541 logs from the worker too */
@@ -768,8 +770,9 @@ static bool set_config(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
         (void)UA_ApplicationDescription_copy(ad, &c->endpoints[i].server);
     }
     c->tcpReuseAddr = true;
-    c->maxSessions = (UA_UInt16)t->cfg.max_sessions;
-    c->maxSecureChannels = (UA_UInt16)(t->cfg.max_sessions + 2u);
+    /* room for as many sessions in the making as logged in (ua_sessions.h) */
+    c->maxSessions = (UA_UInt16)(2u * t->cfg.max_sessions);
+    c->maxSecureChannels = (UA_UInt16)(2u * t->cfg.max_sessions + 2u);
     c->maxSubscriptionsPerSession = t->cfg.max_subscriptions;
     double ms = fastest_rpi_ms(t->env->cfg);
     c->samplingIntervalLimits.min = ms;
@@ -1046,7 +1049,11 @@ static void iterate(ua_t *t)
     UA_DateTime left = el->nextCyclicTime(el) - el->dateTime_nowMonotonic(el);
     uint64_t cap_us = (t->polled ? UA_POLL_MS : UA_WAIT_MAX_MS) * 1000u;
     uint64_t us = left <= 0 ? 0 : ((uint64_t)left + UA_DATETIME_USEC - 1) / UA_DATETIME_USEC;
-    t->next_us = ev_now_us() + (us < cap_us ? us : cap_us);
+    uint64_t now = ev_now_us();
+    t->next_us = now + (us < cap_us ? us : cap_us);
+    uint64_t sweep = ua_sessions_sweep(&t->sessions, t->server, now);
+    if (sweep < t->next_us)
+        t->next_us = sweep;
 }
 
 static uint64_t defer_us(const ua_t *t)
@@ -1150,7 +1157,8 @@ static bool ua_start(ua_t *t, char *err, size_t errlen)
     if (!hook_loop(t))
         gw_log(GW_LOG_WARNING, "opcua: subscriptions keep the server's own time (not the "
                "robots' packets)");
-    if (!drop_session_objects(t->server, err, errlen))
+    if (!drop_session_objects(t->server, err, errlen) ||
+        !ua_sessions_hook(&t->sessions, t->server, t->cfg.max_sessions, err, errlen))
         return false;
     t->ns = UA_Server_addNamespace(t->server, UA_NS_FLAT);
     size_t n = (size_t)t->robot_count * dr_leaf_count();
@@ -1201,6 +1209,7 @@ static void ua_free(ua_t *t)
             (void)UA_Server_run_shutdown(t->server);
         UA_Server_delete(t->server);
     }
+    ua_sessions_unhook(&t->sessions); /* after the server: closing its sessions calls it */
     ua_crypto_free(t->crypto); /* after the server: its policies call the worker */
     unhook_loop(t);
     free(t->nodes);
@@ -1484,9 +1493,11 @@ static void op_report(const void *self, gw_json_t *j)
     snprintf(text, sizeof text,
              ",\"reads\":%llu,\"writes\":{\"enabled\":%s,\"accepted\":%llu,"
              "\"refused\":%llu},\"logins\":{\"accepted\":%llu,\"refused\":%llu},"
-             "\"crypto_ops\":%llu}",
+             "\"sessions\":{\"logged_in\":%u,\"refused_full\":%llu,"
+             "\"closed_without_login\":%llu},\"crypto_ops\":%llu}",
              t->reads, t->cfg.writes ? "true" : "false", t->writes, t->refused, t->logins,
-             t->logins_refused, ua_crypto_jobs(t->crypto));
+             t->logins_refused, t->sessions.n_active, t->sessions.refused, t->sessions.closed,
+             ua_crypto_jobs(t->crypto));
     gw_json_str(j, text);
 }
 

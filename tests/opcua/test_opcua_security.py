@@ -299,3 +299,71 @@ def test_trust_dir(cell):
                  "a login with the trusted certificate")
     finally:
         reload_with([], base)
+
+
+
+def test_held_sessions_do_not_lock_out(cell):
+    """Sessions that never log in (OpenSecureChannel with a certificate of
+    one's own, CreateSession, no ActivateSession: no password needed) do
+    not keep the plant's clients out (gateway/opcua/ua_sessions.h).
+    open62541 counted them against max_sessions (10 here) until their
+    timeout (the client asks: up to an hour), so ten held every session
+    and a client with the right password got BadTooManySessions: so it
+    failed before. Now the oldest of those not logged in is closed when
+    the server is full: 25 held, the right password logs in at once. And
+    max_sessions still counts the logins: ten clients logged in, the
+    eleventh is refused with BadTooManySessions until one leaves."""
+    sec = SECURE % {"d": cell.dir}
+    mark = len(cell.gw.log.read_text())
+
+    def client():
+        c = Client(URL, timeout=timeout(10))
+        return c
+
+    async def hold():
+        c = client()
+        await c.set_security_string(sec)
+        await c.connect_socket()
+        await c.send_hello()
+        await c.open_secure_channel()
+        try:
+            await c.create_session()
+        except ua.UaStatusCodeError as e:
+            return c, e.code
+        return c, None
+
+    async def login():
+        c = client()
+        await c.set_security_string(sec)
+        c.set_user("plant")
+        c.set_password("s3cret")
+        await c.connect()
+        return c
+
+    async def go():
+        held = [await hold() for _ in range(25)]
+        try:
+            good = await login()  # failed here before: BadTooManySessions
+            await good.disconnect()
+            refused_holds = sum(code is not None for _, code in held)
+            # ten logged in at once, the eleventh refused, then room again
+            logged = [await login() for _ in range(10)]
+            try:
+                with pytest.raises(ua.UaStatusCodeError) as e:
+                    await login()
+                assert e.value.code == ua.StatusCodes.BadTooManySessions
+                await logged.pop().disconnect()
+                logged.append(await login())
+            finally:
+                for c in logged:
+                    await c.disconnect()
+        finally:
+            for c, _ in held:
+                c.disconnect_socket()
+        return refused_holds
+
+    with in_netns(cell.ns):
+        refused_holds = run(go(), 180)
+    assert refused_holds == 0  # room for each: the oldest not logged in closed instead
+    wait_for(lambda: "closed without a login" in cell.gw.log.read_text()[mark:], 10,
+             "the closings in the log")
