@@ -31,6 +31,7 @@ typedef struct {
     char trust_dir[256];        /* trusted client certificates ("": any) */
     unsigned max_sessions;      /* default 10 */
     unsigned max_subscriptions; /* per session, default 10 */
+    unsigned max_monitored_items; /* of all sessions, default 10000 */
     bool insecure;              /* off loopback without security, knowingly */
     bool writes;                /* O->T nodes writable, default yes */
     unsigned line;              /* the section's line */

@@ -66,6 +66,9 @@
 #define UA_LOG_KINDS 16u        /* open62541's log categories (UA_LogCategory) */
 #define UA_LOGIN_WAIT_US 10000000u /* a login's check, at most (core/auth.h's worker) */
 #define UA_CRYPTO_WAIT_US 10000000u /* a public-key operation's turn (ua_crypto.h), at most */
+#define UA_MAX_MESSAGE (2u << 20) /* bytes of a message, either way: set_limits */
+#define UA_MAX_PER_CALL 1000u     /* nodes of a Read, Write, Browse, ... call */
+#define UA_MAX_RETRANSMIT 64u     /* notifications kept per subscription for Republish */
 
 typedef struct ua ua_t;
 
@@ -732,6 +735,27 @@ static bool set_security(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
     return true;
 }
 
+/* What one client may ask of the daemon's loop at once. open62541 runs a
+ * request whole, in the loop, and by default limits neither a message's
+ * size nor the nodes of a call: one Read of 100000 nodes held the loop
+ * some 30 ms (robot packets wait meanwhile); a message of any size was
+ * taken in and decrypted before any login; a client that never
+ * acknowledged its notifications grew their queue without end. Clients
+ * read the limits (Server/ServerCapabilities/OperationLimits) and split
+ * their calls, or get BadTooManyOperations. */
+static void set_limits(const ua_t *t, UA_ServerConfig *c)
+{
+    c->tcpMaxMsgSize = UA_MAX_MESSAGE;
+    c->maxNodesPerRead = c->maxNodesPerWrite = c->maxNodesPerBrowse = UA_MAX_PER_CALL;
+    c->maxNodesPerRegisterNodes = c->maxNodesPerTranslateBrowsePathsToNodeIds = UA_MAX_PER_CALL;
+    c->maxNodesPerMethodCall = c->maxNodesPerNodeManagement = UA_MAX_PER_CALL;
+    c->maxMonitoredItemsPerCall = UA_MAX_PER_CALL;
+    c->maxReferencesPerNode = UA_MAX_PER_CALL; /* more: a continuation point */
+    c->maxMonitoredItems = t->cfg.max_monitored_items;
+    c->maxRetransmissionQueueSize = UA_MAX_RETRANSMIT;
+    c->maxPublishReqPerSession = 2u * t->cfg.max_subscriptions;
+}
+
 static bool set_config(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
 {
     char url[128], host[80];
@@ -774,6 +798,7 @@ static bool set_config(ua_t *t, UA_ServerConfig *c, char *err, size_t errlen)
     c->maxSessions = (UA_UInt16)(2u * t->cfg.max_sessions);
     c->maxSecureChannels = (UA_UInt16)(2u * t->cfg.max_sessions + 2u);
     c->maxSubscriptionsPerSession = t->cfg.max_subscriptions;
+    set_limits(t, c);
     double ms = fastest_rpi_ms(t->env->cfg);
     c->samplingIntervalLimits.min = ms;
     c->publishingIntervalLimits.min = ms;
@@ -1319,6 +1344,7 @@ static bool same_section(const gw_opcua_config_t *a, const gw_opcua_config_t *b)
            strcmp(a->cert_file, b->cert_file) == 0 && strcmp(a->key_file, b->key_file) == 0 &&
            strcmp(a->trust_dir, b->trust_dir) == 0 &&
            a->max_sessions == b->max_sessions && a->max_subscriptions == b->max_subscriptions &&
+           a->max_monitored_items == b->max_monitored_items &&
            a->writes == b->writes && a->insecure == b->insecure;
 }
 

@@ -574,3 +574,97 @@ def test_safety_states_follow_the_robot():
             wait_for(lambda: safety(g.url) == raised, 20, "%s raised: %s" % (sig.name, raised))
             g.sim.proc.send_signal(sig)
             wait_for(lambda: safety(g.url) == (False, False, 2), 20, "%s cleared" % sig.name)
+
+
+def hello_ack(url, port):
+    """A raw OPC UA Hello asking for no limits; the Acknowledge's
+    (receive buffer, send buffer, max message size, max chunk count)."""
+    import socket
+    import struct
+    endpoint = url.encode()
+    body = struct.pack("<IIIII", 0, 65536, 65536, 0, 0) + struct.pack("<i", len(endpoint)) + endpoint
+    with socket.create_connection(("127.0.0.1", port), timeout=timeout(10)) as s:
+        s.sendall(b"HELF" + struct.pack("<I", 8 + len(body)) + body)
+        head = b""
+        while len(head) < 8:
+            head += s.recv(8 - len(head))
+        assert head[:4] == b"ACKF", head
+        rest = b""
+        while len(rest) < struct.unpack("<I", head[4:])[0] - 8:
+            rest += s.recv(64)
+    return struct.unpack("<IIIII", rest[:20])[1:]
+
+
+def test_limits(still):
+    """What one client may ask of the daemon's loop at once (docs/opcua.md
+    "Limits"): open62541 runs a request whole in the loop and by default
+    limited neither a message's size nor a call's nodes (one Read of
+    100000 nodes held the loop some 30 ms). The server acknowledges a
+    Hello with a 2 MiB message limit; OperationLimits say 1000 nodes a
+    call; a Read of 1001 is refused with BadTooManyOperations, of 1000
+    answered; the robot's link stays up."""
+    recv, send, max_msg, chunks = hello_ack(still.url, still.ua_port)
+    assert max_msg == 2 << 20, max_msg
+    O = ua.ObjectIds
+
+    async def go():
+        async with client(still.url) as c:
+            lim = {}
+            for name in ("MaxNodesPerRead", "MaxNodesPerWrite", "MaxNodesPerBrowse",
+                         "MaxMonitoredItemsPerCall"):
+                lim[name] = await c.get_node(
+                    getattr(O, "Server_ServerCapabilities_OperationLimits_" + name)).read_value()
+            ns = await ns_of(c)
+
+            def params(n):
+                p = ua.ReadParameters()
+                for i in range(n):
+                    rv = ua.ReadValueId()
+                    rv.NodeId = ua.NodeId("r0/" + JOINTS[i % 6], ns)
+                    rv.AttributeId = ua.AttributeIds.Value
+                    p.NodesToRead.append(rv)
+                return p
+            got = await c.uaclient.read(params(1000))
+            with pytest.raises(ua.UaStatusCodeError) as e:
+                await c.uaclient.read(params(1001))
+            return lim, got, e.value.code
+    lim, got, code = run(go())
+    assert lim == {"MaxNodesPerRead": 1000, "MaxNodesPerWrite": 1000, "MaxNodesPerBrowse": 1000,
+                   "MaxMonitoredItemsPerCall": 1000}, lim
+    assert len(got) == 1000 and all(dv.StatusCode.is_good() for dv in got)
+    assert code == ua.StatusCodes.BadTooManyOperations
+    assert "link up" in still.log_path.read_text()
+    assert "no packet from the robot" not in still.log_path.read_text()
+
+
+def test_max_monitored_items():
+    """max_monitored_items counts the items of every session together (each
+    is sampled in the daemon's loop): 20 items in two sessions, the next
+    one refused with BadTooManyMonitoredItems, room again when one goes."""
+    with gateway("ua_items", opcua="max_monitored_items = 20") as g:
+        async def go():
+            async with client(g.url) as a, client(g.url) as b:
+                ns = await ns_of(a)
+                sa = await a.create_subscription(100, None)
+                sb = await b.create_subscription(100, None)
+                nodes_a = [a.get_node(ua.NodeId("r0/" + JOINTS[i % 6], ns)) for i in range(12)]
+                nodes_b = [b.get_node(ua.NodeId("r0/" + JOINTS[i % 6], ns)) for i in range(9)]
+                handles = await sa.subscribe_data_change(nodes_a)
+                assert all(isinstance(h, int) for h in handles), handles
+                got = await sb.create_monitored_items([
+                    ua.MonitoredItemCreateRequest(
+                        ItemToMonitor=ua.ReadValueId(NodeId=n.nodeid,
+                                                     AttributeId=ua.AttributeIds.Value),
+                        MonitoringMode=ua.MonitoringMode.Reporting,
+                        RequestedParameters=ua.MonitoringParameters(
+                            ClientHandle=100 + i, SamplingInterval=100, QueueSize=1,
+                            DiscardOldest=True))
+                    for i, n in enumerate(nodes_b)])
+                codes = [r if isinstance(r, ua.StatusCode) else None for r in got]
+                await sa.unsubscribe(handles[0])
+                again = await sb.subscribe_data_change(nodes_b[-1])
+                return codes, again
+        codes, again = run(go())
+    assert codes[:8] == [None] * 8, codes  # 12 + 8 = 20
+    assert codes[8] is not None and codes[8].value == ua.StatusCodes.BadTooManyMonitoredItems
+    assert isinstance(again, int)
