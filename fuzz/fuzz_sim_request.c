@@ -64,19 +64,20 @@ static void check_conns(void)
 }
 
 /* drsim_run's sender: every T->O packet parses and is for an open
- * connection, with its assembly's size. */
+ * connection, with its assembly's size. (The originator picks a T->O
+ * connection ID, so connections may share one: one of them fits.) */
 static void io_send(void *ctx, const dr_sockaddr_t *to, const uint8_t *buf, size_t len)
 {
     (void)ctx;
     (void)to;
     dr_io_frame_t f;
     FUZZ_CHECK(dr_io_frame_parse(buf, len, false, &f) == DR_OK);
-    const drsim_conn_t *c = NULL;
-    for (unsigned i = 0; i < DRSIM_MAX_CONNS && c == NULL; i++)
-        if (sim.conn[i].used && sim.conn[i].t2o_cid == f.cid)
-            c = &sim.conn[i];
-    FUZZ_CHECK(c != NULL);
-    FUZZ_CHECK(f.data_len == dr_asm_info(c->t2o_asm)->size);
+    bool fits = false;
+    for (unsigned i = 0; i < DRSIM_MAX_CONNS && !fits; i++) {
+        const drsim_conn_t *c = &sim.conn[i];
+        fits = c->used && c->t2o_cid == f.cid && f.data_len == dr_asm_info(c->t2o_asm)->size;
+    }
+    FUZZ_CHECK(fits);
 }
 
 /* A SendRRData reply with status 0, to the request body `req`. */

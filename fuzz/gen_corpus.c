@@ -794,7 +794,7 @@ static void gen_config(void)
                   "application_uri = urn:x:y\ncert_file = /nonexistent.der\n"
                   "key_file = /nonexistent.key\nauth_file = /nonexistent\ntrust_dir = /nonexistent.d\n"
                   "writes = yes\n"
-                  "max_sessions = 5\nmax_subscriptions = 3\ninsecure = no\n"},
+                  "max_sessions = 5\nmax_subscriptions = 3\nmax_monitored_items = 500\ninsecure = no\n"},
     };
     for (size_t k = 0; k < sizeof s / sizeof s[0]; k++)
         put("config", s[k].name, (const uint8_t *)s[k].text, strlen(s[k].text));
@@ -875,11 +875,14 @@ static void sim_register(buf_t *b, uint8_t op)
     sim_frame(b, op, DR_ENCAP_REGISTER_SESSION, reg, sizeof reg);
 }
 
-static size_t sim_fwd_open(uint8_t *req, size_t cap, bool large, uint16_t o2t_point,
-                           uint16_t t2o_point, uint16_t o2t_size, uint16_t t2o_size,
-                           uint8_t *path, size_t path_cap)
+/* A Forward Open of connection serial `serial` (fwd_open's T->O ID, vendor
+ * and originator serial: connections differ by their serial only). */
+static size_t sim_fwd_open_serial(uint8_t *req, size_t cap, bool large, uint16_t o2t_point,
+                                  uint16_t t2o_point, uint16_t o2t_size, uint16_t t2o_size,
+                                  uint8_t *path, size_t path_cap, uint16_t serial)
 {
     dr_fwd_open_t fo = fwd_open(large, path, 0);
+    fo.conn_serial = serial;
     fo.path_len = dr_conn_path_write(path, path_cap, 1, o2t_point, t2o_point);
     fo.o2t = (dr_netparams_t){o2t_size, DR_CONN_TYPE_P2P, 2, false, false};
     fo.t2o = (dr_netparams_t){t2o_size, DR_CONN_TYPE_P2P, 2, false, false};
@@ -891,6 +894,14 @@ static size_t sim_fwd_open(uint8_t *req, size_t cap, bool large, uint16_t o2t_po
     if (w.overflow)
         failed = 1;
     return w.len;
+}
+
+static size_t sim_fwd_open(uint8_t *req, size_t cap, bool large, uint16_t o2t_point,
+                           uint16_t t2o_point, uint16_t o2t_size, uint16_t t2o_size,
+                           uint8_t *path, size_t path_cap)
+{
+    return sim_fwd_open_serial(req, cap, large, o2t_point, t2o_point, o2t_size, t2o_size, path,
+                               path_cap, 0x42);
 }
 
 /* Record: op 2 | 4 (connection number 0's ID filled in) + a Class 1 packet. */
@@ -979,6 +990,20 @@ static void gen_sim_request(void)
     b_u8(&b, 0x03);
     b_u8(&b, 200);
     put("sim_request", "heartbeats_timeout", b.b, b.n);
+
+    /* Two connections with the same T->O connection ID (the originator
+     * picks it: fwd_open's), of two sizes, producing (the harness once took
+     * a packet of one for the other's). */
+    b.n = 0;
+    b_u8(&b, 0x12);
+    sim_register(&b, 0x00);
+    n = sim_fwd_open_serial(req, sizeof req, false, 198, 102, 6, 144 + 2, path, sizeof path, 0x42);
+    sim_rr(&b, req, n, true);
+    n = sim_fwd_open_serial(req, sizeof req, false, 198, 101, 6, 36 + 2, path, sizeof path, 0x43);
+    sim_rr(&b, req, n, true);
+    b_u8(&b, 0x03);
+    b_u8(&b, 30);
+    put("sim_request", "shared_t2o_id", b.b, b.n);
 
     /* Unconnected Send around a Set_Attribute_Single of io_control. */
     b.n = 0;
