@@ -1510,7 +1510,7 @@ static void op_free(void *self)
 static void op_report(const void *self, gw_json_t *j)
 {
     const ua_t *t = self;
-    char text[320];
+    char text[512]; /* every counter at its widest: 8 numbers, some 180 bytes of names */
     if (!t->cfg.enabled)
         return;
     gw_json_str(j, "\"opcua\":{\"endpoint\":");
