@@ -1522,7 +1522,7 @@ static void op_report(const void *self, gw_json_t *j)
              "\"sessions\":{\"logged_in\":%u,\"refused_full\":%llu,"
              "\"closed_without_login\":%llu},\"crypto_ops\":%llu}",
              t->reads, t->cfg.writes ? "true" : "false", t->writes, t->refused, t->logins,
-             t->logins_refused, t->sessions.n_active, t->sessions.refused, t->sessions.closed,
+             t->logins_refused, ua_sessions_logged_in(&t->sessions), t->sessions.refused, t->sessions.closed,
              ua_crypto_jobs(t->crypto));
     gw_json_str(j, text);
 }

@@ -23,34 +23,47 @@ static ua_sessions_t *find(const UA_AccessControl *ac)
     return NULL;
 }
 
-static int active_index(const ua_sessions_t *s, const UA_NodeId *id)
+static int session_index(const ua_sessions_t *s, const UA_NodeId *id)
 {
-    for (unsigned i = 0; i < s->n_active; i++)
-        if (UA_NodeId_equal(&s->active[i], id))
+    for (unsigned i = 0; i < s->n; i++)
+        if (UA_NodeId_equal(&s->session[i].id, id))
             return (int)i;
     return -1;
 }
 
-static int pending_index(const ua_sessions_t *s, const UA_NodeId *id)
+/* id known, from now on: NULL if there is no room (not expected: as many
+ * as the server's maxSessions). */
+static ua_session_t *add(ua_sessions_t *s, const UA_NodeId *id)
 {
-    for (unsigned i = 0; i < s->n_pending; i++)
-        if (UA_NodeId_equal(&s->pending[i].id, id))
-            return (int)i;
-    return -1;
+    int i = session_index(s, id);
+    if (i >= 0)
+        return &s->session[i];
+    if (s->n >= sizeof s->session / sizeof s->session[0])
+        return NULL;
+    ua_session_t *e = &s->session[s->n];
+    if (UA_NodeId_copy(id, &e->id) != UA_STATUSCODE_GOOD)
+        return NULL;
+    e->created_us = ev_now_us();
+    e->active = false;
+    s->n++;
+    return e;
 }
 
 static void forget(ua_sessions_t *s, const UA_NodeId *id)
 {
-    int i = active_index(s, id);
+    int i = session_index(s, id);
     if (i >= 0) {
-        UA_NodeId_clear(&s->active[i]);
-        s->active[i] = s->active[--s->n_active];
+        UA_NodeId_clear(&s->session[i].id);
+        s->session[i] = s->session[--s->n];
     }
-    i = pending_index(s, id);
-    if (i >= 0) {
-        UA_NodeId_clear(&s->pending[i].id);
-        s->pending[i] = s->pending[--s->n_pending];
-    }
+}
+
+unsigned ua_sessions_logged_in(const ua_sessions_t *s)
+{
+    unsigned n = 0;
+    for (unsigned i = 0; i < s->n; i++)
+        n += s->session[i].active;
+    return n;
 }
 
 /* ---- what open62541 calls ------------------------------------------------- */
@@ -65,21 +78,16 @@ static UA_StatusCode activate(UA_Server *server, UA_AccessControl *ac,
     ua_sessions_t *s = find(ac);
     if (s == NULL)
         return UA_STATUSCODE_BADINTERNALERROR;
-    bool known = active_index(s, id) >= 0;
-    if (!known && s->n_active >= s->max_active) {
+    int i = session_index(s, id);
+    bool known = i >= 0 && s->session[i].active;
+    if (!known && ua_sessions_logged_in(s) >= s->max_active) {
         s->refused++;
         return UA_STATUSCODE_BADTOOMANYSESSIONS;
     }
     UA_StatusCode st = s->activate(server, ac, ep, cert, id, token, sctx);
-    if (st != UA_STATUSCODE_GOOD || known)
-        return st;
-    int i = pending_index(s, id);
-    if (i >= 0) {
-        s->active[s->n_active++] = s->pending[i].id; /* (a GUID: nothing held) */
-        s->pending[i] = s->pending[--s->n_pending];
-    } else if (UA_NodeId_copy(id, &s->active[s->n_active]) == UA_STATUSCODE_GOOD) {
-        s->n_active++;
-    }
+    ua_session_t *e = st == UA_STATUSCODE_GOOD && !known ? add(s, id) : NULL;
+    if (e != NULL)
+        e->active = true;
     return st;
 }
 
@@ -103,9 +111,7 @@ static UA_StatusCode made(UA_Server *server, const UA_NodeId *sid, void *sctx,
     (void)sctx;
     (void)type;
     (void)nctx;
-    if (s->n_pending < sizeof s->pending / sizeof s->pending[0] && pending_index(s, id) < 0 &&
-        UA_NodeId_copy(id, &s->pending[s->n_pending].id) == UA_STATUSCODE_GOOD)
-        s->pending[s->n_pending++].created_us = ev_now_us();
+    (void)add(s, id);
     s->created = true;
     return UA_STATUSCODE_GOOD;
 }
@@ -162,11 +168,9 @@ void ua_sessions_unhook(ua_sessions_t *s)
     for (unsigned i = 0; i < UA_SESSIONS_SERVERS; i++)
         if (hooked[i] == s)
             hooked[i] = NULL;
-    for (unsigned i = 0; i < s->n_active; i++)
-        UA_NodeId_clear(&s->active[i]);
-    for (unsigned i = 0; i < s->n_pending; i++)
-        UA_NodeId_clear(&s->pending[i].id);
-    s->n_active = s->n_pending = 0;
+    for (unsigned i = 0; i < s->n; i++)
+        UA_NodeId_clear(&s->session[i].id);
+    s->n = 0;
     gw_log_limit_end(&s->log);
 }
 
@@ -202,27 +206,29 @@ uint64_t ua_sessions_sweep(ua_sessions_t *s, UA_Server *server, uint64_t now_us)
         return s->next_us;
     s->created = false;
     s->next_us = UINT64_MAX;
-    enum { N = sizeof s->pending / sizeof s->pending[0] };
+    enum { N = sizeof s->session / sizeof s->session[0] };
+    /* the sessions not logged in: their ages, and their ids (GUIDs: the
+     * copies hold nothing; closing one takes it out of the list, gone) */
     int64_t age[N] = {0};
     bool close[N] = {false};
-    UA_NodeId doomed[N];
-    size_t n = s->n_pending, k = 0;
-    for (size_t i = 0; i < n; i++)
-        age[i] = (int64_t)((now_us - s->pending[i].created_us) / 1000u);
+    UA_NodeId id[N];
+    size_t n = 0;
+    for (unsigned i = 0; i < s->n; i++)
+        if (!s->session[i].active) {
+            age[n] = (int64_t)((now_us - s->session[i].created_us) / 1000u);
+            id[n++] = s->session[i].id;
+        }
     int64_t next_ms;
     size_t limit = UA_Server_getConfig(server)->maxSessions;
-    size_t marked = ua_sessions_pick(age, close, n, s->n_active, limit, UA_LOGIN_WINDOW_MS,
+    size_t marked = ua_sessions_pick(age, close, n, s->n - n, limit, UA_LOGIN_WINDOW_MS,
                                      &next_ms);
-    /* their ids first (GUIDs: copies hold nothing): closing one takes it
-     * out of pending (gone) */
-    for (size_t i = 0; i < n; i++)
-        if (close[i])
-            doomed[k++] = s->pending[i].id;
-    for (size_t i = 0; i < k; i++) {
-        if (UA_Server_closeSession(server, &doomed[i]) == UA_STATUSCODE_GOOD)
+    for (size_t i = 0; i < n; i++) {
+        if (!close[i])
+            continue;
+        if (UA_Server_closeSession(server, &id[i]) == UA_STATUSCODE_GOOD)
             s->closed++;
         else
-            forget(s, &doomed[i]); /* gone already */
+            forget(s, &id[i]); /* gone already */
     }
     if (marked > 0)
         gw_log_limited(GW_LOG_WARNING, &s->log,

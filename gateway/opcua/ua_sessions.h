@@ -43,19 +43,17 @@
 #define UA_LOGIN_WINDOW_MS 10000 /* from CreateSession to a login, at most */
 #define UA_SESSIONS_MAX 100      /* [opcua] max_sessions' upper bound */
 
+/* A session the side knows of: made (CreateSession), or logged in. */
 typedef struct {
     UA_NodeId id;
     uint64_t created_us; /* ev_now_us */
-} ua_session_pending_t;
+    bool active;         /* logged in: the access control said yes */
+} ua_session_t;
 
 typedef struct {
     unsigned max_active;
-    /* the sessions logged in (the access control said yes), and those
-     * made and not logged in yet */
-    UA_NodeId active[UA_SESSIONS_MAX];
-    unsigned n_active;
-    ua_session_pending_t pending[2 * UA_SESSIONS_MAX];
-    unsigned n_pending;
+    ua_session_t session[2 * UA_SESSIONS_MAX]; /* open62541's maxSessions at most */
+    unsigned n;
     /* the access control's own functions, and its context: the key the
      * wrappers find this by */
     UA_StatusCode (*activate)(UA_Server *, UA_AccessControl *, const UA_EndpointDescription *,
@@ -77,6 +75,9 @@ typedef struct {
  * server's maxSessions should be twice that). false with err. */
 bool ua_sessions_hook(ua_sessions_t *s, UA_Server *server, unsigned max_sessions, char *err,
                       size_t errlen);
+
+/* The sessions logged in now. */
+unsigned ua_sessions_logged_in(const ua_sessions_t *s);
 
 /* Forgets s: after the server is deleted (deleting it closes its sessions
  * through the hooks). Never hooked (zeroed): nothing. */

@@ -5,6 +5,8 @@ own view comes from drcli get against drsim, not from the gateway."""
 import asyncio
 import datetime
 import signal
+import socket
+import struct
 import subprocess
 
 import pytest
@@ -579,8 +581,6 @@ def test_safety_states_follow_the_robot():
 def hello_ack(url, port):
     """A raw OPC UA Hello asking for no limits; the Acknowledge's
     (receive buffer, send buffer, max message size, max chunk count)."""
-    import socket
-    import struct
     endpoint = url.encode()
     body = struct.pack("<IIIII", 0, 65536, 65536, 0, 0) + struct.pack("<i", len(endpoint)) + endpoint
     with socket.create_connection(("127.0.0.1", port), timeout=timeout(10)) as s:

@@ -301,7 +301,6 @@ def test_trust_dir(cell):
         reload_with([], base)
 
 
-
 def test_held_sessions_do_not_lock_out(cell):
     """Sessions that never log in (OpenSecureChannel with a certificate of
     one's own, CreateSession, no ActivateSession: no password needed) do
@@ -316,12 +315,8 @@ def test_held_sessions_do_not_lock_out(cell):
     sec = SECURE % {"d": cell.dir}
     mark = len(cell.gw.log.read_text())
 
-    def client():
-        c = Client(URL, timeout=timeout(10))
-        return c
-
     async def hold():
-        c = client()
+        c = Client(URL, timeout=timeout(10))
         await c.set_security_string(sec)
         await c.connect_socket()
         await c.send_hello()
@@ -333,7 +328,7 @@ def test_held_sessions_do_not_lock_out(cell):
         return c, None
 
     async def login():
-        c = client()
+        c = Client(URL, timeout=timeout(10))
         await c.set_security_string(sec)
         c.set_user("plant")
         c.set_password("s3cret")
